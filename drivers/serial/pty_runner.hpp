@@ -70,6 +70,12 @@ class PtyRunner {
     std::lock_guard<std::mutex> lock{mutex_};
     return f(*device_);
   }
+  // Runs `f()` under the runner's lock: for a caller that holds its own typed reference to the model.
+  template <class F>
+  auto locked(F&& f) {
+    std::lock_guard<std::mutex> lock{mutex_};
+    return f();
+  }
 
   // "Unplug": closes the pty, the host sees EIO/hang-up, the symlink disappears. The device model keeps
   // running; whatever it sends meanwhile is dropped.
