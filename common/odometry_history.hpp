@@ -1,4 +1,4 @@
-// A fixed-capacity ring of odometry samples (time, planar pose in the map frame) and the pose at any
+// A fixed-capacity ring of odometry samples (time, planar pose of the robot) and the pose at any
 // time inside it: each laser beam is placed with the pose at its own time (DESIGN.md "Frames, units,
 // time"). Header-only and firmware-clean: no heap, no exceptions, faults as Result values.
 #pragma once
@@ -25,7 +25,7 @@ inline constexpr Duration kDefaultMaxExtrapolation = 100ms;
 
 struct OdometrySample {
   Time stamp;             // CLOCK_REALTIME of the pose (the SIP's arrival, back-dated)
-  Pose2 map_from_robot;   // odometry already registered in the map frame
+  Pose2 pose;             // planar robot pose (odometry frame; the map frame when the registration is identity)
 };
 
 template <std::size_t Capacity = kOdometryHistoryDepth>
@@ -37,7 +37,7 @@ class OdometryHistory {
   // newest one is refused (returns false, counted in rejected()) so the ring stays sorted. When the
   // ring is full the oldest sample is overwritten (counted in overwritten()); that is the normal
   // steady state and still returns true.
-  bool push(Time stamp, const Pose2& map_from_robot) {
+  bool push(Time stamp, const Pose2& pose) {
     if (size_ > 0 && stamp <= newest().stamp) {
       ++rejected_;
       return false;
@@ -47,7 +47,7 @@ class OdometryHistory {
       --size_;
       ++overwritten_;
     }
-    samples_[(head_ + size_) % Capacity] = OdometrySample{stamp, map_from_robot};
+    samples_[(head_ + size_) % Capacity] = OdometrySample{stamp, pose};
     ++size_;
     return true;
   }
@@ -68,13 +68,13 @@ class OdometryHistory {
     if (t < first.stamp) {
       const Duration gap = first.stamp - t;
       if (gap > max_extrapolation) return Error{"odometry: time before history", 0, static_cast<long>(gap.count() / 1000)};
-      if (size_ == 1) return first.map_from_robot;
+      if (size_ == 1) return first.pose;
       return between(first, at(1), t);
     }
     if (t > last.stamp) {
       const Duration gap = t - last.stamp;
       if (gap > max_extrapolation) return Error{"odometry: time after history", 0, static_cast<long>(gap.count() / 1000)};
-      if (size_ == 1) return last.map_from_robot;
+      if (size_ == 1) return last.pose;
       return between(at(size_ - 2), last, t);
     }
     // Binary search for the first sample at or after t; the ring is sorted by push().
@@ -83,7 +83,7 @@ class OdometryHistory {
       const std::size_t mid = lo + (hi - lo) / 2;
       if (at(mid).stamp < t) lo = mid + 1; else hi = mid;
     }
-    if (at(lo).stamp == t || lo == 0) return at(lo).map_from_robot;
+    if (at(lo).stamp == t || lo == 0) return at(lo).pose;
     return between(at(lo - 1), at(lo), t);
   }
 
@@ -103,7 +103,7 @@ class OdometryHistory {
   // Linear in time through a and b (a.stamp < b.stamp); s outside [0, 1] extrapolates.
   static Pose2 between(const OdometrySample& a, const OdometrySample& b, Time t) {
     const double s = static_cast<double>((t - a.stamp).count()) / static_cast<double>((b.stamp - a.stamp).count());
-    return teamscan::interpolate(a.map_from_robot, b.map_from_robot, s);
+    return teamscan::interpolate(a.pose, b.pose, s);
   }
 
   std::array<OdometrySample, Capacity> samples_{};
