@@ -21,54 +21,17 @@
 #include "tests/hil/serial/pty_test_util.hpp"
 #include "tests/unit/serial/scripted_endpoint.hpp"
 
-extern char** environ;
-
 namespace teamscan::serial {
 namespace {
 
 using testing::ScriptedEndpoint;
+using testing::spawn;
+using testing::teamscan_binary;
+using testing::wait_exit;
+using testing::wait_for_path;
 using testing::TempDir;
 using Bytes = std::vector<std::uint8_t>;
 using namespace std::chrono_literals;
-
-std::string teamscan_binary() {
-  const char* dir = std::getenv("TEAMSCAN_BINARY_DIR");
-  return std::string{dir != nullptr ? dir : "."} + "/tools/teamscan/teamscan";
-}
-
-pid_t spawn(const std::vector<std::string>& args) {
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = -1;
-  if (::posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return -1;
-  return pid;
-}
-
-// The child's exit code, or -1 if it did not exit within `timeout` (then it is killed).
-int wait_exit(pid_t pid, Duration timeout) {
-  const Time deadline = now_monotonic() + timeout;
-  for (;;) {
-    int status = 0;
-    const pid_t r = ::waitpid(pid, &status, WNOHANG);
-    if (r == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    if (now_monotonic() > deadline) {
-      ::kill(pid, SIGKILL);
-      ::waitpid(pid, &status, 0);
-      return -1;
-    }
-    std::this_thread::sleep_for(5ms);
-  }
-}
-
-bool wait_for_path(const std::string& path, Duration timeout) {
-  const Time deadline = now_monotonic() + timeout;
-  while (now_monotonic() < deadline) {
-    if (std::filesystem::exists(path)) return true;
-    std::this_thread::sleep_for(5ms);
-  }
-  return false;
-}
 
 // The scripted protocol: frames [len, payload...]. The device answers [len, payload ^ 0x5A]; the
 // payload {0x20, 0x01} asks for 38400 baud: the device answers {0x01, 0x06} at the old rate, then
