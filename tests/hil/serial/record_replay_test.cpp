@@ -169,6 +169,40 @@ TEST(RecordReplayTest, RecordedSessionReplaysAndDivergenceIsCaught) {
   }
 }
 
+TEST(RecordReplayTest, ReplayKeepsTheCapturedDelayScaledBySpeed) {
+  // The device answered 300 ms after the host's request; a device-first greeting opens the capture.
+  TempDir dir;
+  const std::string cap_path = (dir.path / "timed.cap").string();
+  std::FILE* f = std::fopen(cap_path.c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  std::fputs("#teamscan-capture 1\n#device arcos\n#baud 0 9600\n20000 rx 55\n1000000 tx 01 02\n1300000 rx 06\n", f);
+  std::fclose(f);
+  for (const char* speed : {"1", "3"}) {
+    SCOPED_TRACE(speed);
+    const std::string link = (dir.path / (std::string{"ttyT"} + speed)).string();
+    const pid_t replay = spawn({teamscan_binary(), "replay", cap_path, "--link", link, "--speed", speed, "--quiet"});
+    ASSERT_GT(replay, 0);
+    ASSERT_TRUE(wait_for_path(link, 5s));
+    auto port = SerialPort::open(link.c_str(), 9600);
+    ASSERT_TRUE(port.ok());
+    std::uint8_t buf[4];
+    auto greeting = port->read(buf, 3s);
+    ASSERT_TRUE(greeting.ok());
+    ASSERT_EQ(*greeting, 1u);
+    EXPECT_EQ(buf[0], 0x55);
+    const Time asked = now_monotonic();
+    ASSERT_TRUE(port->write_all(Bytes{0x01, 0x02}, 1s).ok());
+    auto answer = port->read(buf, 3s);
+    const Duration took = now_monotonic() - asked;
+    ASSERT_TRUE(answer.ok());
+    ASSERT_EQ(*answer, 1u);
+    EXPECT_EQ(buf[0], 0x06);
+    // Never earlier than the captured 300 ms, scaled by 1/speed (a lower bound only).
+    EXPECT_GE(took, std::string{speed} == "1" ? Duration{300ms} : Duration{100ms});
+    EXPECT_EQ(wait_exit(replay, 10s), 0);
+  }
+}
+
 TEST(RecordReplayTest, RecordReportsAMissingDeviceAndReplayAMalformedCapture) {
   TempDir dir;
   const pid_t rec = spawn({teamscan_binary(), "record", "--device", (dir.path / "nothing").string(), "--link",
