@@ -107,9 +107,9 @@ void PioneerEmulator::integrate(Time now) {
   right_enc_ += (trans_mm_s_ + half_diff_mm_s) * dt_s * opt_.ticks_per_mm;
 }
 
-SipPacket PioneerEmulator::make_sip(Time now) {
+bool PioneerEmulator::make_sip(Time now, SipPacket& sip) {
   integrate(now);
-  SipPacket sip;
+  sip = SipPacket{};
   sip.tail_fields = static_cast<std::uint8_t>(SipField::kFaultFlags) + 1;  // as ARCOS/AMRISim (§1.8)
   sip.battery_dv = opt_.battery_dv;
   sip.battery_x10 = opt_.battery_dv;
@@ -118,8 +118,7 @@ SipPacket PioneerEmulator::make_sip(Time now) {
   sip.control = 0;
   const double half_diff_mm_s = rot_rad_s_ / params_.diff_conv_rad_per_mm;
   fill_sip_motion(sip, params_, x_mm_, y_mm_, th_rad_, trans_mm_s_ - half_diff_mm_s, trans_mm_s_ + half_diff_mm_s);
-  if (source_ != nullptr && !source_->fill_sip(now, sip)) sip.sonar_count = 0xFF;  // marker: skip
-  return sip;
+  return source_ == nullptr || source_->fill_sip(now, sip);
 }
 
 Time PioneerEmulator::next_deadline() const {
@@ -137,8 +136,8 @@ void PioneerEmulator::on_tick(Time now) {
     stop_motion();
   }
   if (now >= next_sip_) {
-    SipPacket sip = make_sip(now);
-    if (sip.sonar_count != 0xFF) {
+    SipPacket sip;
+    if (make_sip(now, sip)) {
       send(encode_sip(sip));
       ++stats_.sips_sent;
     }

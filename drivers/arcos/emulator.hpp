@@ -74,8 +74,14 @@ class PioneerEmulator final : public serial::SerialEndpoint {
   [[nodiscard]] Time next_deadline() const override;
 
   void set_sip_source(SipSource* source) { source_ = source; }
-  // The SIP that would go out at `now`: own state (or the source's fill) — for the simulator.
-  [[nodiscard]] SipPacket make_sip(Time now);
+  // The SIP that would go out at `now`: own state, then the source's fill — for the simulator.
+  // Returns false when the source chose to skip this cycle (the packet is filled anyway).
+  bool make_sip(Time now, SipPacket& sip);
+  [[nodiscard]] SipPacket make_sip(Time now) {
+    SipPacket s;
+    (void)make_sip(now, s);
+    return s;
+  }
 
   // Sets the emulator's own odometry (mm, rad), e.g. to place the robot.
   void set_pose(double x_mm, double y_mm, double th_rad);

@@ -355,3 +355,28 @@ TEST(PioneerEmulator, SipSourceDrivesTheSipContentWithFifteenBitWrap) {
 
 }  // namespace
 }  // namespace teamscan::arcos
+
+namespace teamscan::arcos {
+namespace {
+
+struct SkippingSource final : SipSource {
+  int calls = 0;
+  bool fill_sip(Time, SipPacket&) override { return ++calls % 2 == 0; }  // every other cycle
+};
+
+TEST(PioneerEmulator, SipSourceCanSkipACycle) {
+  SkippingSource src;
+  PioneerEmulator e;
+  e.set_sip_source(&src);
+  Time t = Time::from_seconds(1);
+  for (auto c : {Command::kSync0, Command::kSync1, Command::kSync2, Command::kOpen}) e.on_rx(make_command(c).span(), t);
+  for (int i = 0; i < 1000; ++i) {
+    t += 1ms;
+    e.on_tick(t);
+  }
+  EXPECT_EQ(src.calls, 11);  // at OPEN, then every 100 ms up to and including t + 1 s
+  EXPECT_EQ(e.statistics().sips_sent, 5U);
+}
+
+}  // namespace
+}  // namespace teamscan::arcos
