@@ -184,17 +184,25 @@ void LmsEmulator::on_rx(std::span<const std::uint8_t> bytes, Time now) {
     while (parser_.next(e)) {
       if (!powered_) continue;  // booting or resetting: the LMS does not listen
       switch (e.kind) {
-        case LmsEvent::Kind::telegram: handle_telegram(TelegramView{e.bytes}); break;
+        case LmsEvent::Kind::telegram:
+          nak_armed_ = true;
+          handle_telegram(TelegramView{e.bytes});
+          break;
         case LmsEvent::Kind::bad_crc:
         case LmsEvent::Kind::bad_length:
-          // §2.2: a telegram that was not accepted is answered by a lone NAK.
-          queue_byte(kNak);
-          ++stats_.naks_sent;
+          // §2.2: a telegram that was not accepted is answered by a lone NAK — one per broken
+          // telegram, not one per false header the re-scan finds inside it.
+          if (nak_armed_) {
+            queue_byte(kNak);
+            ++stats_.naks_sent;
+            nak_armed_ = false;
+          }
           break;
         default: break;
       }
     }
   }
+  if (parser_.buffered() == 0) nak_armed_ = true;  // the broken telegram is behind us
 }
 
 void LmsEmulator::handle_telegram(const TelegramView& t) {

@@ -126,6 +126,7 @@ class LmsEmulator final : public serial::SerialEndpoint {
   std::uint32_t permanent_baud_;
   std::uint32_t pending_baud_ = 0;  // applied once the ACK and 0xA0 have left the line
   OperatingMode mode_ = OperatingMode::polled;
+  bool nak_armed_ = true;           // one NAK per rejected telegram
   bool setup_ = false;
   LaserVariant variant_;
   std::array<std::uint8_t, kMaxConfigBytes> config_{};
