@@ -107,7 +107,9 @@ class LmsEmulator final : public serial::SerialEndpoint {
  private:
   void handle_telegram(const TelegramView& t);
   void handle_mode(std::span<const std::uint8_t> data);
-  void queue(std::span<const std::uint8_t> bytes);
+  // Appends to the transmit queue; an idle line starts sending at max(earliest, line free).
+  void queue(std::span<const std::uint8_t> bytes, Time earliest);
+  void queue(std::span<const std::uint8_t> bytes) { queue(bytes, now_); }
   void queue_byte(std::uint8_t b) { queue(std::span{&b, 1}); }
   void queue_scan(Time sweep_end);
   void load_defaults();
