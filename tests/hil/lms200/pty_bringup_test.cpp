@@ -14,6 +14,7 @@
 #include "drivers/lms200/client.hpp"
 #include "drivers/lms200/emulator_pty.hpp"
 #include "drivers/serial/serial_port.hpp"
+#include "tools/teamscan/decode.hpp"
 
 namespace teamscan::lms200 {
 namespace {
@@ -93,6 +94,45 @@ class HostLoop {
   Time next_open_{};
 };
 
+int count(const std::string& text, const std::string& part) {
+  int n = 0;
+  for (std::size_t at = text.find(part); at != std::string::npos; at = text.find(part, at + 1)) ++n;
+  return n;
+}
+
+// The session the runner recorded decodes cleanly with `teamscan decode --device lms200`: both
+// directions, the baud headers respected, every scan the client got present.
+void check_recorded_session(const std::string& path, int client_scans) {
+  auto cap = load_capture(path);
+  ASSERT_TRUE(cap.ok()) << cap.error().what << " line " << cap.error().detail;
+  tool::DecodeInput in;
+  std::uint32_t baud = 9600;
+  for (const auto& r : cap->records) {
+    if (r.kind == CaptureRecord::Kind::baud) {
+      baud = r.baud;
+      continue;
+    }
+    in.chunks.push_back(tool::DecodeChunk{r.time_us, r.direction, baud, r.bytes});
+  }
+  char* buf = nullptr;
+  std::size_t size = 0;
+  std::FILE* f = open_memstream(&buf, &size);
+  EXPECT_EQ(tool::decode_lms200(in, f), 0);
+  std::fclose(f);
+  const std::string out{buf, size};
+  std::free(buf);
+  // Recording stopped mid-stream: at most the telegram then on the line is cut off, nothing else.
+  EXPECT_EQ(count(out, "\"error\""), count(out, "\"reason\":\"truncated\",\"dir\":\"rx\""));
+  EXPECT_LE(count(out, "\"error\""), 1);
+  EXPECT_NE(out.find("\"naks\":0,\"bad_crc\":0,\"bad_length\":0,"), std::string::npos);
+  EXPECT_NE(out.find("\"resyncs\":0,"), std::string::npos);
+  EXPECT_GE(count(out, "\"name\":\"measured_values\""), client_scans);
+  EXPECT_EQ(count(out, "\"new_baud\":500000"), 1);             // the switch, sent at 9600
+  EXPECT_GE(count(out, "\"baud\":500000"), client_scans);      // the stream, received at 500k
+  EXPECT_EQ(count(out, "\"name\":\"write_config\",\"dir\":\"tx\""), 1);
+  EXPECT_GE(count(out, "\"units\":\"mm\""), 2);              // the 0x77 and its 0xF7 echo
+}
+
 TEST(LmsHil, BringUpStreamUnplugReplugShutdown) {
   const auto dir = std::filesystem::temp_directory_path() / ("teamscan-lms200-hil-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
@@ -108,6 +148,8 @@ TEST(LmsHil, BringUpStreamUnplugReplugShutdown) {
   co.variant = {180, 50};
   co.silence_timeout = 1s;  // a loaded shared machine may stall the runner for a while
   HostLoop host{ro.link_path, co};
+  const std::string cap_path = (dir / "session.cap").string();
+  ASSERT_TRUE((*emu)->runner().record(cap_path, DeviceKind::lms200).ok());
   host.start();
 
   ASSERT_TRUE(host.run_until([&] { return host.client.streaming(); }, 30s)) << host.client.state_name() << " "
@@ -123,6 +165,8 @@ TEST(LmsHil, BringUpStreamUnplugReplugShutdown) {
   EXPECT_EQ(host.bad_scans, 0);
   EXPECT_EQ(host.bad_beams, 0);
   std::printf("streamed %d scans of 361 values in 3 s at 500000 baud\n", host.scans);
+  ASSERT_TRUE((*emu)->runner().stop_recording().ok());
+  check_recorded_session(cap_path, host.scans);
 
   // Unplug: the host's reads fail, the client reports the loss.
   (*emu)->unplug();
