@@ -1,5 +1,5 @@
 // A 5x7 bitmap font (ASCII letters, digits, common punctuation) for legends, titles and scale bars, so pictures need no font package.
-// Each glyph is 7 rows of 5 columns ('#' = ink); glyphs advance 6 font pixels.
+// Each glyph is 7 rows of 5 columns ('#' = ink), plus a descender row for g j p q y; glyphs advance 6 font pixels.
 #include "tools/render/render.hpp"
 
 namespace teamscan::render {
@@ -7,7 +7,7 @@ namespace {
 
 struct Glyph {
   char c;
-  const char* rows[7];
+  const char* rows[8];  // the eighth row, below the baseline, only for descenders (g j p q y)
 };
 
 constexpr Glyph kGlyphs[] = {
@@ -43,17 +43,17 @@ constexpr Glyph kGlyphs[] = {
     {'d', {"    #", "    #", " ####", "#   #", "#   #", "#   #", " ####"}},
     {'e', {"     ", "     ", " ### ", "#   #", "#####", "#    ", " ####"}},
     {'f', {"  ## ", " #   ", "#### ", " #   ", " #   ", " #   ", " #   "}},
-    {'g', {"     ", "     ", " ####", "#   #", " ####", "    #", " ### "}},
+    {'g', {"     ", "     ", " ####", "#   #", "#   #", " ####", "    #", " ### "}},
     {'h', {"#    ", "#    ", "#### ", "#   #", "#   #", "#   #", "#   #"}},
     {'i', {"  #  ", "     ", " ##  ", "  #  ", "  #  ", "  #  ", " ### "}},
-    {'j', {"   # ", "     ", "  ## ", "   # ", "   # ", "#  # ", " ##  "}},
+    {'j', {"   # ", "     ", "  ## ", "   # ", "   # ", "   # ", "#  # ", " ##  "}},
     {'k', {"#    ", "#    ", "#  # ", "# #  ", "##   ", "# #  ", "#  # "}},
     {'l', {" ##  ", "  #  ", "  #  ", "  #  ", "  #  ", "  #  ", " ### "}},
     {'m', {"     ", "     ", "## # ", "# # #", "# # #", "# # #", "#   #"}},
     {'n', {"     ", "     ", "#### ", "#   #", "#   #", "#   #", "#   #"}},
     {'o', {"     ", "     ", " ### ", "#   #", "#   #", "#   #", " ### "}},
-    {'p', {"     ", "     ", "#### ", "#   #", "#### ", "#    ", "#    "}},
-    {'q', {"     ", "     ", " ####", "#   #", " ####", "    #", "    #"}},
+    {'p', {"     ", "     ", "#### ", "#   #", "#   #", "#### ", "#    ", "#    "}},
+    {'q', {"     ", "     ", " ####", "#   #", "#   #", " ####", "    #", "    #"}},
     {'r', {"     ", "     ", "# ## ", "##  #", "#    ", "#    ", "#    "}},
     {'s', {"     ", "     ", " ####", "#    ", " ### ", "    #", "#### "}},
     {'t', {" #   ", " #   ", "#### ", " #   ", " #   ", " #  #", "  ## "}},
@@ -61,7 +61,7 @@ constexpr Glyph kGlyphs[] = {
     {'v', {"     ", "     ", "#   #", "#   #", "#   #", " # # ", "  #  "}},
     {'w', {"     ", "     ", "#   #", "#   #", "# # #", "# # #", " # # "}},
     {'x', {"     ", "     ", "#   #", " # # ", "  #  ", " # # ", "#   #"}},
-    {'y', {"     ", "     ", "#   #", "#   #", " ####", "    #", " ### "}},
+    {'y', {"     ", "     ", "#   #", "#   #", "#   #", " ####", "    #", " ### "}},
     {'z', {"     ", "     ", "#####", "   # ", "  #  ", " #   ", "#####"}},
     {'0', {" ### ", "#   #", "#  ##", "# # #", "##  #", "#   #", " ### "}},
     {'1', {"  #  ", " ##  ", "  #  ", "  #  ", "  #  ", "  #  ", " ### "}},
@@ -108,7 +108,7 @@ void draw_text(Image& image, int x, int y, std::string_view text, Rgb colour, in
   for (const char c : text) {
     const Glyph* g = c == ' ' ? nullptr : find_glyph(c);
     if (c != ' ' && g == nullptr) g = find_glyph('?');
-    for (int row = 0; g != nullptr && row < 7; ++row)
+    for (int row = 0; g != nullptr && row < 8 && g->rows[row] != nullptr; ++row)
       for (int col = 0; col < 5; ++col) {
         if (g->rows[row][col] != '#') continue;
         for (int dy = 0; dy < scale; ++dy)
