@@ -307,7 +307,8 @@ void OnboardDaemon::tick(Time now) {
   }
   take_scans(now);
   if (now >= next_team_poll_) {
-    while (publisher_.take_team(team_msg_)) pipeline_.on_team(team_msg_);
+    // take_team gives the newest state since the last call: one call per poll is enough.
+    if (publisher_.take_team(team_msg_)) pipeline_.on_team(team_msg_);
     next_team_poll_ = now + options_.team_poll_period;
   }
   log_state_changes();
