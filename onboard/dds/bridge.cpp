@@ -272,6 +272,13 @@ bool DdsBridge::take_team(TeamSnapshot& out) {
   return got;
 }
 
+Status DdsBridge::wait_for_scan_acks(Duration timeout) {
+  if (scan_writer_ <= 0 || participant_ <= 0) return Error{"dds: bridge not created"};
+  const dds_return_t rc = dds_wait_for_acks(scan_writer_, static_cast<dds_duration_t>(timeout.count()));
+  if (rc < 0) return dds_error("dds: scans not acknowledged in time", rc);
+  return ok_status();
+}
+
 std::uint32_t DdsBridge::scan_subscribers() const {
   if (scan_writer_ <= 0 || participant_ <= 0) return 0;
   dds_publication_matched_status_t st{};

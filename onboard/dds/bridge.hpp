@@ -68,6 +68,10 @@ class DdsBridge {
   // The newest team state received since the last call, if any. Never blocks, never allocates.
   [[nodiscard]] bool take_team(TeamSnapshot& out);
 
+  // Blocks until every matched reader acknowledged every scan written so far, or `timeout` (for an
+  // orderly stop: SIGTERM flushes the last sweeps before the participant goes away). Not a data-path call.
+  [[nodiscard]] Status wait_for_scan_acks(Duration timeout);
+
   // Number of ground stations (readers) currently matched to the scan writer.
   [[nodiscard]] std::uint32_t scan_subscribers() const;
   [[nodiscard]] const DdsBridgeCounters& counters() const { return counters_; }
