@@ -15,6 +15,10 @@ TEST(DdsCodec, IdlConstantsMatchCapacities) {
   EXPECT_EQ(teamscan_msg_POINT_DIRECTION_FILTERED, kPointDirectionFiltered);
   EXPECT_EQ(teamscan_msg_POINT_INVALID, kPointInvalid);
   EXPECT_EQ(teamscan_msg_POINT_DAZZLED, kPointDazzled);
+  EXPECT_EQ(teamscan_msg_POINT_POSITION_FILTERED, kPointPositionFiltered);
+  EXPECT_EQ(teamscan_msg_POINT_OUT_OF_RANGE, kPointOutOfRange);
+  EXPECT_EQ(teamscan_msg_POINT_NO_POSE, kPointNoPose);
+  EXPECT_EQ(teamscan_msg_POINT_TEAM_STALE, kPointTeamStale);
   EXPECT_EQ(sizeof(teamscan_msg_ScanPoints::points) / sizeof(teamscan_msg_ScanPoint), kMaxBeams);
 }
 
