@@ -193,9 +193,11 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
   cloud.reserve(dataset.points.size());
   for (const LabelledPoint& p : dataset.points) cloud.push_back({p.x, p.y, p.z});
 
+  if (options.progress) options.progress("table 1 (floor plane with and without the ghosts)");
   report.table1 = table1(dataset.points, cloud, options.ransac);
   report.plane_before = report.table1.with_ghosts;
   for (const MethodSpec& m : options.methods) {
+    if (options.progress) options.progress(m.name);
     std::unique_ptr<Filter> filter = make_filter(m.method, m.options);
     TEAMSCAN_EXPECTS(filter != nullptr);
     MethodResult r;

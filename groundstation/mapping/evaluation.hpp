@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -59,6 +60,8 @@ struct EvalOptions {
   std::vector<MethodSpec> methods;
   RansacOptions ransac;
   TrackerOptions tracker;
+  // Called before each stage ("table 1", each method name) so long runs can show progress.
+  std::function<void(const std::string&)> progress;
 };
 
 struct MethodResult {
