@@ -13,6 +13,7 @@
 
 #include "groundstation/mapping/dynamicmap_export.hpp"
 #include "groundstation/mapping/evaluation.hpp"
+#include "tests/bench/mapping/synthetic_survey.hpp"
 
 namespace teamscan::mapping {
 namespace {
@@ -225,6 +226,90 @@ TEST(DynamicMapExport, WritesOnePcdPerScanWithViewpointAndALabelledGroundTruth) 
     ASSERT_EQ(label, d.points[i].is_ghost() ? 1.0f : 0.0f) << i;
   }
   std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace teamscan::mapping
+
+// ---- properties on a ray-cast survey (tests/bench/mapping/synthetic_survey.hpp) ----
+namespace teamscan::mapping {
+namespace {
+
+const Dataset& survey() {
+  static const Dataset d = [] {
+    bench::SurveyOptions o;
+    o.duration_s = 8.0;
+    return bench::synthetic_survey(o);
+  }();
+  return d;
+}
+
+std::vector<std::uint8_t> removed_by(const std::string& method, const MethodOptions& options) {
+  const PreparedDataset p = prepare_dataset(survey(), {});
+  auto f = make_filter(method, options);
+  return run_offline(p, *f);
+}
+
+TEST(SurveyProperties, SurveyHasGhostsAndEveryClass) {
+  const RemovalMetrics m = removal_metrics(survey().points, std::vector<std::uint8_t>(survey().points.size(), 0));
+  EXPECT_GT(m.ghosts, 50u);
+  for (PointClass c : {PointClass::floor, PointClass::wall, PointClass::ceiling, PointClass::furniture})
+    EXPECT_GT(m.by_class[static_cast<std::size_t>(c)].total, 0u) << static_cast<int>(c);
+}
+
+TEST(SurveyProperties, VisibilityKeepsExactlyEachColumnsLowestVoxel) {
+  MethodOptions o;
+  o.visibility.resolution_m = 0.1;
+  const auto removed = removed_by("visibility", o);
+  VoxelMap map(0.1);
+  for (const LabelledPoint& p : survey().points) map.insert({p.x, p.y, p.z});
+  for (std::size_t i = 0; i < removed.size(); ++i) {
+    const LabelledPoint& p = survey().points[i];
+    const VoxelKey k = map.key_of({p.x, p.y, p.z});
+    ASSERT_EQ(removed[i] != 0, *map.column_lowest_z(k.x, k.y) < k.z) << i;
+  }
+}
+
+TEST(SurveyProperties, FrequencyRemovesExactlyTheVoxelsBelowTheMean) {
+  MethodOptions o;
+  o.frequency.resolution_m = 0.05;
+  const auto removed = removed_by("frequency", o);
+  VoxelMap map(0.05);
+  for (const LabelledPoint& p : survey().points) map.insert({p.x, p.y, p.z});
+  // Mean recomputed here by a plain pass over the voxels (not the map's running sums).
+  double sum = 0;
+  std::size_t n = 0;
+  map.for_each_voxel([&](VoxelKey, std::uint32_t c) { sum += c; ++n; });
+  const double mean = sum / static_cast<double>(n);
+  for (std::size_t i = 0; i < removed.size(); ++i) {
+    const LabelledPoint& p = survey().points[i];
+    ASSERT_EQ(removed[i] != 0, static_cast<double>(map.count_at({p.x, p.y, p.z})) < mean) << i;
+  }
+}
+
+TEST(SurveyProperties, CombinedRemovesEverythingDirectionRemovesAndMore) {
+  MethodOptions o;
+  const auto direction = removed_by("direction", o);  // 7° default
+  const auto combined = removed_by("combined", o);
+  std::size_t extra = 0;
+  for (std::size_t i = 0; i < direction.size(); ++i) {
+    if (direction[i]) {
+      ASSERT_TRUE(combined[i]) << i;
+    }
+    if (combined[i] && !direction[i]) ++extra;
+  }
+  EXPECT_GT(extra, 0u);
+}
+
+TEST(SurveyProperties, WiderConeRemovesASuperset) {
+  MethodOptions five, seven;
+  five.direction.half_angle_rad = 5.0 * kPi / 180.0;
+  seven.direction.half_angle_rad = 7.0 * kPi / 180.0;
+  const auto a = removed_by("direction", five), b = removed_by("direction", seven);
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (a[i]) {
+      ASSERT_TRUE(b[i]) << i;
+    }
 }
 
 }  // namespace
