@@ -160,7 +160,8 @@ Result<std::vector<MethodSpec>> parse_methods(const std::string& list, std::opti
   }
   if (names.empty()) return Error{"no method given"};
   if (resolution_m && !(*resolution_m > 0.0)) return Error{"resolution must be > 0"};
-  if (half_angle_deg && !(*half_angle_deg > 0.0 && *half_angle_deg < 90.0)) return Error{"half-angle must be in (0, 90) degrees"};
+  if (half_angle_deg && !(*half_angle_deg > 0.0 && *half_angle_deg <= 60.0))
+    return Error{"half-angle must be in (0, 60] degrees (the onboard fixed-point filter's domain)"};
   std::vector<MethodSpec> out;
   for (const std::string& m : names) {
     // Paper settings (PAPER_NOTES table): frequency/visibility at 0.05 and 0.1 m, position at

@@ -6,25 +6,20 @@
 
 #include "common/dataset/dataset.hpp"
 #include "common/result.hpp"
+#include "onboard/core/direction_filter.hpp"
 
 namespace teamscan::mapping {
 
-bool direction_cone_contains(const DirectionOptions& options, Vec2 self_m, Vec2 other_m, Vec3 p_m) {
-  // PAPER_NOTES eq. 7, horizontal: L from R1 (self) to R2 (other); p_L the foot of p on L;
-  // d_r(p_L) the distance R1→p_L along L, d_p(p, L) the distance of p from L.
-  const Vec2 line = other_m - self_m;
-  const double line_length_m = line.norm();
-  if (line_length_m <= 0.0) return false;  // teammate on top of us: no direction
-  const Vec2 u = (1.0 / line_length_m) * line;
-  const Vec2 v{p_m.x - self_m.x, p_m.y - self_m.y};
-  const double along_m = v.x * u.x + v.y * u.y;  // d_r(p_L)
-  if (along_m <= 0.0) return false;              // not ahead of R1 along L
-  const double across_m = std::abs(v.x * u.y - v.y * u.x);  // d_p(p, L)
-  if (!(across_m < along_m * std::tan(options.half_angle_rad))) return false;
-  if (options.range_gate_beyond_m > 0.0 && along_m > line_length_m + options.range_gate_beyond_m) return false;
-  if (options.height_gate_m > 0.0 && !(p_m.z < options.height_gate_m)) return false;
-  return true;
+namespace {
+// Map-frame metres to the wire's int32 millimetres (DESIGN.md "Frames, units, time"), rounded to
+// nearest and clamped; the onboard filter leaves anything beyond ±2^21 mm alone.
+std::int32_t to_mm(double m) {
+  const double mm = std::nearbyint(m * 1000.0);
+  if (!(mm > -2.0e9)) return -2'000'000'000;
+  if (mm > 2.0e9) return 2'000'000'000;
+  return static_cast<std::int32_t>(mm);
 }
+}  // namespace
 
 FilterParams FrequencyFilter::params() const { return {{"resolution_m", options_.resolution_m}, {"k", options_.k}}; }
 
@@ -60,10 +55,28 @@ void PositionFilter::classify(const ScanView& scan, std::span<std::uint8_t> remo
 }
 
 FilterParams DirectionFilter::params() const {
-  return {{"half_angle_deg", rad_to_deg(options_.half_angle_rad)},
-          {"from_flags", options_.source == DirectionSource::flags ? 1.0 : 0.0},
-          {"range_gate_beyond_m", options_.range_gate_beyond_m},
-          {"height_gate_m", options_.height_gate_m}};
+  FilterParams p{{"half_angle_deg", rad_to_deg(options_.half_angle_rad)},
+                 {"from_flags", options_.source == DirectionSource::flags ? 1.0 : 0.0}};
+  if (options_.range_gate) p.emplace_back("range_gate_margin_m", options_.range_gate_margin_m);
+  if (options_.height_gate) p.emplace_back("height_gate_margin_m", options_.height_gate_margin_m);
+  if (options_.range_gate || options_.height_gate) {
+    p.emplace_back("body_radius_m", options_.body_radius_m);
+    p.emplace_back("height_m", options_.height_m);
+  }
+  return p;
+}
+
+bool DirectionFilter::cone_contains(Vec2 self_m, Vec2 other_m, const MapPoint& p) const {
+  onboard::DirectionFilterParams params;
+  params.half_angle_deg = rad_to_deg(options_.half_angle_rad);
+  params.range_gate = options_.range_gate;
+  params.range_gate_margin_m = options_.range_gate_margin_m;
+  params.height_gate = options_.height_gate;
+  params.height_gate_margin_m = options_.height_gate_margin_m;
+  const onboard::Teammate mate{0, to_mm(other_m.x), to_mm(other_m.y), to_mm(options_.body_radius_m), to_mm(options_.height_m)};
+  onboard::ConeFixed cone;
+  if (!onboard::prepare_cone(to_mm(self_m.x), to_mm(self_m.y), mate, options_.half_angle_rad, params, cone)) return false;
+  return onboard::cone_contains(cone, to_mm(p.x), to_mm(p.y), to_mm(p.z));
 }
 
 void DirectionFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
@@ -76,12 +89,23 @@ void DirectionFilter::classify(const ScanView& scan, std::span<std::uint8_t> rem
     return;
   }
   if (!scan.team) return;
-  const Vec2 self{scan.map_from_robot.x_m, scan.map_from_robot.y_m};
+  onboard::DirectionFilterParams params;
+  params.half_angle_deg = rad_to_deg(options_.half_angle_rad);
+  params.range_gate = options_.range_gate;
+  params.range_gate_margin_m = options_.range_gate_margin_m;
+  params.height_gate = options_.height_gate;
+  params.height_gate_margin_m = options_.height_gate_margin_m;
+  const std::int32_t apex_x_mm = to_mm(scan.map_from_robot.x_m), apex_y_mm = to_mm(scan.map_from_robot.y_m);
   for (const RobotEstimate& other : scan.team->robots) {
     if (other.robot == scan.robot || !other.valid) continue;
+    // The cone is prepared once per teammate and scan, exactly as the daemon does (PAPER_NOTES 7).
+    const onboard::Teammate mate{other.robot, to_mm(other.position_m.x), to_mm(other.position_m.y),
+                                 to_mm(options_.body_radius_m), to_mm(options_.height_m)};
+    onboard::ConeFixed cone;
+    if (!onboard::prepare_cone(apex_x_mm, apex_y_mm, mate, options_.half_angle_rad, params, cone)) continue;
     for (std::size_t i = 0; i < scan.points.size(); ++i) {
       const MapPoint& p = scan.points[i];
-      if (direction_cone_contains(options_, self, other.position_m, {p.x, p.y, p.z})) removed[i] = 1;
+      if (onboard::cone_contains(cone, to_mm(p.x), to_mm(p.y), to_mm(p.z))) removed[i] = 1;
     }
   }
 }

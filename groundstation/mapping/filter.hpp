@@ -75,20 +75,23 @@ enum class DirectionSource : std::uint8_t {
 };
 
 // Eq. 7: filter p if it lies ahead of R1 along the horizontal line L from R1 to R2 and
-// d_p(p, L) < d_r(p_L)·tan(ha). Gates ≤ 0 are off (the paper's rule, unchanged).
+// d_p(p, L) < d_r(p_L)·tan(ha). Recomputed offline with the robot's own fixed-point code
+// (onboard/core/direction_filter.hpp: prepare_cone + cone_contains on int32 mm), so offline and live
+// decisions are the same arithmetic. Gates off = the paper's rule, unchanged.
 struct DirectionOptions {
-  double half_angle_rad = 0.12217304763960307;  // 7°
+  double half_angle_rad = 0.12217304763960307;  // 7° (paper: 5° and 7°); the onboard code caps it at 60°
   DirectionSource source = DirectionSource::recompute;
-  // Project's variant (off by default): only up to this far beyond R2 along L (m).
-  double range_gate_beyond_m = 0.0;
-  // Project's variant (off by default): only points lower than this above the floor (m).
-  double height_gate_m = 0.0;
+  // Project's variant, range gate: only points whose distance along L is within
+  // body_radius_m + range_gate_margin_m of the teammate's distance.
+  bool range_gate = false;
+  double range_gate_margin_m = 0.3;
+  // Project's variant, height gate: only points no higher than height_m + height_gate_margin_m.
+  bool height_gate = false;
+  double height_gate_margin_m = 0.1;
+  // The teammate's body (Pioneer 3-AT half-diagonal and height with the laser), as the onboard default.
+  double body_radius_m = 0.36;
+  double height_m = 0.5;
 };
-
-// The pure eq. 7 test in double precision, shared by every caller offline. The onboard daemon's
-// fixed-point filter (onboard/core/direction_filter.hpp) implements the same rule; see
-// docs/evaluation.md for when the two are switched.
-[[nodiscard]] bool direction_cone_contains(const DirectionOptions& options, Vec2 self_m, Vec2 other_m, Vec3 p_m);
 
 // ---- the filters --------------------------------------------------------------------------------
 
@@ -144,6 +147,8 @@ class DirectionFilter final : public Filter {
   void observe(const ScanView&) override {}
   void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
   void reset() override {}
+  // The decision for one point against one teammate, as the robot computes it (int32 mm, fixed point).
+  [[nodiscard]] bool cone_contains(Vec2 self_m, Vec2 other_m, const MapPoint& p) const;
 
  private:
   DirectionOptions options_;

@@ -36,8 +36,10 @@ struct EvalArgs {
   double sigma_m = 0.35;
   double n_sigma = 1.0;
   std::string direction_source = "recompute";
-  double range_gate_m = 0.0;
-  double height_gate_m = 0.0;
+  bool range_gate = false;
+  double range_gate_margin_m = 0.3;
+  bool height_gate = false;
+  double height_gate_margin_m = 0.1;
   double ransac_threshold_m = 0.02;
   int ransac_iterations = 500;
   double floor_max_tilt_deg = 15.0;
@@ -66,8 +68,8 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.sigma_m != d.sigma_m) o << " --sigma " << number(a.sigma_m);
   if (a.n_sigma != d.n_sigma) o << " --n " << number(a.n_sigma);
   if (a.direction_source != d.direction_source) o << " --direction-source " << a.direction_source;
-  if (a.range_gate_m != d.range_gate_m) o << " --range-gate " << number(a.range_gate_m);
-  if (a.height_gate_m != d.height_gate_m) o << " --height-gate " << number(a.height_gate_m);
+  if (a.range_gate) o << " --range-gate --range-gate-margin " << number(a.range_gate_margin_m);
+  if (a.height_gate) o << " --height-gate --height-gate-margin " << number(a.height_gate_margin_m);
   if (a.ransac_threshold_m != d.ransac_threshold_m) o << " --ransac-threshold " << number(a.ransac_threshold_m);
   if (a.ransac_iterations != d.ransac_iterations) o << " --ransac-iterations " << a.ransac_iterations;
   if (a.floor_max_tilt_deg != d.floor_max_tilt_deg) o << " --floor-max-tilt " << number(a.floor_max_tilt_deg);
@@ -92,21 +94,12 @@ std::string write_pictures(const EvalReport&, const std::string&) {
          "`teamscan eval` yet); `teamscan render` draws the data set.\n";
 }
 
-// The data set reader lives in common/dataset (another engineer's library); a build without it says so.
 std::string describe(const Error& e) {
   std::string s = e.what;
   if (e.detail != 0) s += " (line " + std::to_string(e.detail) + ")";
   return s;
 }
 
-Result<Dataset> load_dataset(const std::string& dir) {
-#ifdef TEAMSCAN_HAVE_DATASET_IO
-  return read_dataset(dir);
-#else
-  (void)dir;
-  return Error{"this build has no data set reader (the common/dataset library is missing)"};
-#endif
-}
 
 int run_eval(const EvalArgs& a) {
   MethodOptions base;
@@ -114,8 +107,10 @@ int run_eval(const EvalArgs& a) {
   base.position.sigma_m = a.sigma_m;
   base.position.n = a.n_sigma;
   base.direction.source = a.direction_source == "flags" ? DirectionSource::flags : DirectionSource::recompute;
-  base.direction.range_gate_beyond_m = a.range_gate_m;
-  base.direction.height_gate_m = a.height_gate_m;
+  base.direction.range_gate = a.range_gate;
+  base.direction.range_gate_margin_m = a.range_gate_margin_m;
+  base.direction.height_gate = a.height_gate;
+  base.direction.height_gate_margin_m = a.height_gate_margin_m;
   auto methods = mapping::parse_methods(a.methods, a.resolution_m, a.half_angle_deg, base);
   if (!methods) {
     std::fprintf(stderr, "teamscan eval: --method %s: %s\n", a.methods.c_str(), methods.error().what);
@@ -138,7 +133,7 @@ int run_eval(const EvalArgs& a) {
   int status = 0;
   for (const std::string& dir : a.dirs) {
     std::fprintf(stderr, "teamscan eval: reading %s\n", dir.c_str());
-    Result<Dataset> dataset = load_dataset(dir);
+    Result<Dataset> dataset = read_dataset(dir);
     if (!dataset) {
       std::fprintf(stderr, "teamscan eval: %s: %s\n", dir.c_str(), describe(dataset.error()).c_str());
       status = 1;
@@ -191,7 +186,7 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
   app.add_option("--resolution", a->resolution_m, "Voxel size in metres for the map-based methods (paper: 0.05, 0.1)")
       ->check(CLI::PositiveNumber);
   app.add_option("--half-angle", a->half_angle_deg, "Direction-filter cone half-angle ha in degrees (paper: 5, 7)")
-      ->check(CLI::Range(0.0, 90.0));
+      ->check(CLI::Range(0.0, 60.0));
   app.add_option("--seed", a->seed, "RANSAC seed (the report is deterministic for a seed)")->capture_default_str();
   app.add_option("--json", a->json_path, "Write the JSON report to FILE");
   app.add_option("--out", a->out_dir, "Write report.md and report.json (and pictures) into REPORTDIR");
@@ -203,10 +198,13 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
                  "Direction filter: 'recompute' (eq. 7 from the tracked team) or 'flags' (the onboard decisions)")
       ->check(CLI::IsMember({"recompute", "flags"}))
       ->capture_default_str();
-  app.add_option("--range-gate", a->range_gate_m, "Direction filter variant: only up to this far beyond the teammate (m, 0 = off, paper)")
-      ->capture_default_str();
-  app.add_option("--height-gate", a->height_gate_m, "Direction filter variant: only below this height (m, 0 = off, paper)")
-      ->capture_default_str();
+  app.add_flag("--range-gate", a->range_gate,
+               "Direction filter variant (off = the paper's rule): only points within body radius 0.36 m + margin of "
+               "the teammate's distance along L");
+  app.add_option("--range-gate-margin", a->range_gate_margin_m, "Range gate margin (m)")->capture_default_str();
+  app.add_flag("--height-gate", a->height_gate,
+               "Direction filter variant (off = the paper's rule): only points below the teammate's height 0.5 m + margin");
+  app.add_option("--height-gate-margin", a->height_gate_margin_m, "Height gate margin (m)")->capture_default_str();
   app.add_option("--ransac-threshold", a->ransac_threshold_m, "RANSAC inlier distance (m)")->capture_default_str();
   app.add_option("--ransac-iterations", a->ransac_iterations, "RANSAC iterations")->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--floor-max-tilt", a->floor_max_tilt_deg, "Floor plane: normal within this angle of +z (deg, 0 = any plane)")

@@ -23,17 +23,9 @@ std::string describe(const Error& e) {
   return s;
 }
 
-Result<Dataset> load_dataset(const std::string& dir) {
-#ifdef TEAMSCAN_HAVE_DATASET_IO
-  return read_dataset(dir);
-#else
-  (void)dir;
-  return Error{"this build has no data set reader (the common/dataset library is missing)"};
-#endif
-}
 
 int run_export(const ExportArgs& a) {
-  Result<Dataset> dataset = load_dataset(a.dir);
+  Result<Dataset> dataset = read_dataset(a.dir);
   if (!dataset) {
     std::fprintf(stderr, "teamscan export: %s: %s\n", a.dir.c_str(), describe(dataset.error()).c_str());
     return 1;

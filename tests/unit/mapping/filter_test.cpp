@@ -2,10 +2,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <vector>
 
 #include "common/dataset/dataset.hpp"
 #include "groundstation/mapping/filter.hpp"
+#include "onboard/core/direction_reference.hpp"
 
 namespace teamscan::mapping {
 namespace {
@@ -143,17 +145,53 @@ TEST(DirectionFilter, ConeFollowsTheOwnPoseAndAnyDirection) {
   EXPECT_EQ(classify(f, make_scan(1, pts, &team, Pose2{1.0, 1.0, 0.3})), (std::vector<std::uint8_t>{1, 0}));
 }
 
-TEST(DirectionFilter, RangeAndHeightGatesAreOffByDefaultAndWorkWhenSet) {
+TEST(DirectionFilter, RangeAndHeightGatesWorkWhenSet) {
+  // Onboard variant: range gate |along − |R1R2|| ≤ body radius 0.36 + margin 0.3 = 0.66 m;
+  // height gate z ≤ height 0.5 + margin 0.1 = 0.6 m.
   DirectionOptions o;
   o.half_angle_rad = 7.0 * kPi / 180.0;
-  o.range_gate_beyond_m = 0.5;
-  o.height_gate_m = 1.0;
+  o.range_gate = true;
+  o.height_gate = true;
   DirectionFilter f(o);
   const TeamState team = team_with(2, {2.0, 0.0});
-  const std::vector<MapPoint> pts{{2.2f, 0.0f, 0.3f},   // on R2: removed
-                                  {2.6f, 0.0f, 0.3f},   // 0.6 m beyond R2: gated out
-                                  {2.2f, 0.0f, 1.5f}};  // above the height gate
-  EXPECT_EQ(classify(f, make_scan(1, pts, &team)), (std::vector<std::uint8_t>{1, 0, 0}));
+  const std::vector<MapPoint> pts{{2.2f, 0.0f, 0.3f},    // on R2: removed
+                                  {2.6f, 0.0f, 0.55f},   // 0.6 m beyond, 0.55 high: inside both gates
+                                  {2.7f, 0.0f, 0.3f},    // 0.7 m beyond R2: gated out
+                                  {1.3f, 0.0f, 0.3f},    // 0.7 m before R2: gated out
+                                  {2.2f, 0.0f, 0.65f}};  // above the height gate
+  EXPECT_EQ(classify(f, make_scan(1, pts, &team)), (std::vector<std::uint8_t>{1, 1, 0, 0, 0}));
+  // Without the gates (the paper's rule) every one of them is in the cone.
+  DirectionFilter paper(DirectionOptions{});
+  EXPECT_EQ(classify(paper, make_scan(1, pts, &team)), (std::vector<std::uint8_t>{1, 1, 1, 1, 1}));
+}
+
+TEST(DirectionFilter, AgreesWithTheOnboardDoublePrecisionReferenceAwayFromTheBoundary) {
+  // The ground station evaluates eq. 7 with the robot's fixed-point code; compare it with the paper's
+  // formula in double precision (onboard/core/direction_reference.hpp) on random points.
+  DirectionOptions o;
+  o.half_angle_rad = 5.0 * kPi / 180.0;
+  DirectionFilter f(o);
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> u(-6.0, 6.0);
+  int compared = 0, inside = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vec2 self{u(rng), u(rng)}, other{u(rng), u(rng)};
+    const MapPoint p{static_cast<float>(u(rng)), static_cast<float>(u(rng)), 0.2f};
+    onboard::ConeReference ref;
+    ref.apex_x_m = std::nearbyint(self.x * 1000) / 1000;
+    ref.apex_y_m = std::nearbyint(self.y * 1000) / 1000;
+    ref.mate_x_m = std::nearbyint(other.x * 1000) / 1000;
+    ref.mate_y_m = std::nearbyint(other.y * 1000) / 1000;
+    ref.half_angle_rad = o.half_angle_rad;
+    const onboard::ConeDecision d =
+        onboard::cone_reference(ref, std::nearbyint(p.x * 1000.0) / 1000, std::nearbyint(p.y * 1000.0) / 1000, p.z);
+    if (d.boundary_distance_m < 0.002) continue;  // fixed point may differ within a couple of mm of the edge
+    ++compared;
+    inside += d.inside ? 1 : 0;
+    ASSERT_EQ(f.cone_contains(self, other, p), d.inside) << i;
+  }
+  EXPECT_GT(compared, 19000);
+  EXPECT_GT(inside, 100);
 }
 
 TEST(DirectionFilter, FlagsSourceUsesTheOnboardDecision) {

@@ -14,7 +14,7 @@
 
 #include <unistd.h>
 
-#include "groundstation/mapping/dynamicmap_export.hpp"
+#include "common/dataset/pcd.hpp"
 #include "groundstation/mapping/ransac.hpp"
 
 namespace teamscan::mapping {
@@ -159,7 +159,9 @@ TEST(RansacVsPcl, SyntheticRoomFloorAgreesWithSacSegmentation) {
   const std::string dir = ::testing::TempDir() + "/mapping_ransac_" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
   const std::string pcd = dir + "/room.pcd";
-  ASSERT_TRUE(write_pcd_xyzi(pcd, cloud, {}, Viewpoint{}).ok());
+  std::vector<float> xyz;
+  for (const MapPoint& p : cloud) xyz.insert(xyz.end(), {p.x, p.y, p.z});
+  ASSERT_TRUE(write_xyz_pcd(pcd, xyz).ok());  // common/dataset's writer, read by PCL
   expect_agreement(cloud, pcd, 0.02);
   std::filesystem::remove_all(dir);
 }
