@@ -47,6 +47,8 @@ class TeamWorld {
   void place(double t_s, std::vector<PlacedRobot>& out) const;
   // The ray of beam `angle_rad` of robot `index` with the robot at its true pose `map_from_robot`.
   [[nodiscard]] Ray beam_ray(std::size_t index, const Pose2& map_from_robot, double angle_rad) const;
+  // The same with the beam's direction already in the robot frame (mount rotation applied).
+  [[nodiscard]] Ray beam_ray(std::size_t index, const Pose2& map_from_robot, const Vec3& direction_in_robot) const;
 
  private:
   World world_;

@@ -52,16 +52,22 @@ Track Track::waypoints(std::vector<Vec2> points_m, bool closed) {
   return t;
 }
 
-Vec2 Track::point(double u) const {
+void Track::evaluate(double u, Vec2& point_m, Vec2& tangent_m) const {
+  const double sign = reverse_ ? -1.0 : 1.0;
   if (reverse_) u = 1.0 - u;
+  Vec2 p, d;
   switch (kind_) {
     case Kind::oval: {
-      const double a = 2.0 * kPi * u;
-      return map_from_track_.apply({a_ * std::cos(a), b_ * std::sin(a)});
+      const double a = 2.0 * kPi * u, ca = std::cos(a), sa = std::sin(a);
+      p = {a_ * ca, b_ * sa};
+      d = {-a_ * sa, b_ * ca};
+      break;
     }
     case Kind::figure8: {
-      const double a = 2.0 * kPi * u;
-      return map_from_track_.apply({a_ * std::sin(a), b_ * std::sin(a) * std::cos(a)});
+      const double a = 2.0 * kPi * u, ca = std::cos(a), sa = std::sin(a);
+      p = {a_ * sa, b_ * sa * ca};
+      d = {a_ * ca, b_ * (ca * ca - sa * sa)};
+      break;
     }
     case Kind::waypoints: {
       const int n = static_cast<int>(points_.size());
@@ -76,45 +82,19 @@ Vec2 Track::point(double u) const {
         if (i >= n) return 2.0 * points_[static_cast<std::size_t>(n - 1)] - points_[static_cast<std::size_t>(n - 2)];
         return points_[static_cast<std::size_t>(i)];
       };
-      return catmull_rom(at(seg - 1), at(seg), at(seg + 1), at(seg + 2), f);
+      const Vec2 p0 = at(seg - 1), p1 = at(seg), p2 = at(seg + 1), p3 = at(seg + 2);
+      p = catmull_rom(p0, p1, p2, p3, f);
+      d = catmull_rom_d(p0, p1, p2, p3, f);
+      break;
     }
   }
-  return {};
-}
-
-Vec2 Track::tangent(double u) const {
-  const double sign = reverse_ ? -1.0 : 1.0;
-  const double uu = reverse_ ? 1.0 - u : u;
-  const double c = std::cos(map_from_track_.theta_rad), s = std::sin(map_from_track_.theta_rad);
-  auto rotate = [&](Vec2 v) { return Vec2{c * v.x - s * v.y, s * v.x + c * v.y}; };
-  switch (kind_) {
-    case Kind::oval: {
-      const double a = 2.0 * kPi * uu;
-      return sign * rotate({-a_ * std::sin(a), b_ * std::cos(a)});
-    }
-    case Kind::figure8: {
-      const double a = 2.0 * kPi * uu;
-      return sign * rotate({a_ * std::cos(a), b_ * std::cos(2.0 * a)});
-    }
-    case Kind::waypoints: {
-      const int n = static_cast<int>(points_.size());
-      const int segments = closed_ ? n : n - 1;
-      const double x = std::clamp(u, 0.0, 1.0) * segments;
-      const int seg = std::min(static_cast<int>(x), segments - 1);
-      const double f = x - seg;
-      auto at = [&](int i) {
-        if (closed_) return points_[static_cast<std::size_t>(((i % n) + n) % n)];
-        if (i < 0) return 2.0 * points_[0] - points_[1];
-        if (i >= n) return 2.0 * points_[static_cast<std::size_t>(n - 1)] - points_[static_cast<std::size_t>(n - 2)];
-        return points_[static_cast<std::size_t>(i)];
-      };
-      return catmull_rom_d(at(seg - 1), at(seg), at(seg + 1), at(seg + 2), f);
-    }
-  }
-  return {1, 0};
+  point_m = {map_from_track_.x_m + cos_yaw_ * p.x - sin_yaw_ * p.y, map_from_track_.y_m + sin_yaw_ * p.x + cos_yaw_ * p.y};
+  tangent_m = sign * Vec2{cos_yaw_ * d.x - sin_yaw_ * d.y, sin_yaw_ * d.x + cos_yaw_ * d.y};
 }
 
 void Track::build_table() {
+  cos_yaw_ = std::cos(map_from_track_.theta_rad);
+  sin_yaw_ = std::sin(map_from_track_.theta_rad);
   cumulative_m_.assign(kTableSamples + 1, 0.0);
   Vec2 prev = point(0.0);
   for (int k = 1; k <= kTableSamples; ++k) {
@@ -139,9 +119,9 @@ Pose2 Track::pose_at(double s_m) const {
   const double span = cumulative_m_[k + 1] - cumulative_m_[k];
   const double f = span > 0 ? (s_m - cumulative_m_[k]) / span : 0.0;
   const double u = (static_cast<double>(k) + f) / kTableSamples;
-  const Vec2 p = point(u);
-  Vec2 d = tangent(u);
-  if (d.norm() < 1e-12) d = point(std::min(u + 1e-6, 1.0)) - point(std::max(u - 1e-6, 0.0));
+  Vec2 p, d;
+  evaluate(u, p, d);
+  if (d.x * d.x + d.y * d.y < 1e-24) d = point(std::min(u + 1e-6, 1.0)) - point(std::max(u - 1e-6, 0.0));
   return {p.x, p.y, std::atan2(d.y, d.x)};
 }
 

@@ -31,13 +31,19 @@ class Track {
  private:
   Track() = default;
   void build_table();
-  [[nodiscard]] Vec2 point(double u) const;    // u in [0, 1]
-  [[nodiscard]] Vec2 tangent(double u) const;  // d point / du
+  // Point and tangent (d point / du) at u in [0, 1], map frame.
+  void evaluate(double u, Vec2& point_m, Vec2& tangent_m) const;
+  [[nodiscard]] Vec2 point(double u) const {
+    Vec2 p, d;
+    evaluate(u, p, d);
+    return p;
+  }
 
   Kind kind_ = Kind::oval;
   bool closed_ = true;
   bool reverse_ = false;
   Pose2 map_from_track_;
+  double cos_yaw_ = 1, sin_yaw_ = 0;  // of map_from_track_, cached: pose_at runs for every beam
   double a_ = 0, b_ = 0;
   std::vector<Vec2> points_;
   std::vector<double> cumulative_m_;  // arc length at u = k / (size − 1)
