@@ -1,5 +1,6 @@
 // PCD v0.7 reading and writing (the Point Cloud Library's format). The writer produces binary PCD that
 // PCL reads; the reader accepts ascii, binary and binary_compressed (LZF) files with any fields.
+// The format and every field of the data set's points.pcd are documented in docs/formats.md.
 #pragma once
 
 #include <cstdint>
@@ -23,12 +24,50 @@ struct PcdCloud {
   [[nodiscard]] int field(const std::string& name) const;
 };
 
+// One FIELDS entry of a PCD header with its SIZE, TYPE ('F', 'I' or 'U') and COUNT.
+struct PcdField {
+  std::string name;
+  std::uint32_t size = 4;
+  char type = 'F';
+  std::uint32_t count = 1;
+};
+
+enum class PcdData : std::uint8_t { ascii, binary, binary_compressed };
+
+// A parsed PCD header. `data_offset` is the byte offset of the first data byte (after the DATA line).
+struct PcdHeader {
+  std::vector<PcdField> fields;
+  std::uint64_t width = 0, height = 0, points = 0;
+  double viewpoint[7] = {0, 0, 0, 1, 0, 0, 0};  // tx ty tz qw qx qy qz
+  PcdData data = PcdData::ascii;
+  std::size_t data_offset = 0;
+  [[nodiscard]] std::uint64_t point_size_bytes() const;  // sum of size*count
+};
+
+// Parses a header from the start of `bytes`. Errors carry the 1-based header line in `detail`.
+[[nodiscard]] Result<PcdHeader> parse_pcd_header(std::span<const std::uint8_t> bytes);
+// Parses a whole PCD held in memory (pure: no file, no clock). Errors: malformed header (detail = line),
+// truncated data, size mismatch, bad compressed block (detail = byte offset or point index).
+[[nodiscard]] Result<PcdCloud> parse_pcd(std::span<const std::uint8_t> bytes);
 [[nodiscard]] Result<PcdCloud> read_pcd(const std::string& path);
+
+// LZF decompression (liblzf format, as PCL's binary_compressed uses). Returns the number of bytes
+// written, or an Error if the input is malformed or does not fit `out`.
+[[nodiscard]] Result<std::size_t> lzf_decompress(std::span<const std::uint8_t> in, std::span<std::uint8_t> out);
 
 // The data set's points.pcd (fields x y z robot scan beam label hit_robot flags tx ty tz), binary.
 [[nodiscard]] Status write_labelled_pcd(const std::string& path, std::span<const LabelledPoint> points);
+// The same bytes in memory (deterministic: a pure function of the points).
+[[nodiscard]] std::vector<std::uint8_t> encode_labelled_pcd(std::span<const LabelledPoint> points);
+// Reads points.pcd. The fast path is our own binary layout; any other PCD that has the twelve fields
+// (any type, any DATA kind) is read through the generic reader.
 [[nodiscard]] Result<std::vector<LabelledPoint>> read_labelled_pcd(const std::string& path);
+[[nodiscard]] Result<std::vector<LabelledPoint>> parse_labelled_pcd(std::span<const std::uint8_t> bytes);
 // A plain xyz cloud (e.g. the fused model), binary PCD.
 [[nodiscard]] Status write_xyz_pcd(const std::string& path, std::span<const float> xyz);
+[[nodiscard]] std::vector<std::uint8_t> encode_xyz_pcd(std::span<const float> xyz);
+
+// Reads a whole file into memory; Error{"cannot open file", errno} on failure.
+[[nodiscard]] Result<std::vector<std::uint8_t>> read_file_bytes(const std::string& path);
 
 }  // namespace teamscan

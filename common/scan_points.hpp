@@ -1,0 +1,113 @@
+// One LMS 2xx scan -> 3-D points in the map frame: the single definition of the laser geometry,
+// shared by the robot daemon (live) and the simulator (to build the data set), so that both produce
+// the same millimetres for the same beams (DESIGN.md "Frames, units, time"). Firmware-clean: no heap,
+// no exceptions; fixed capacities from common/capacities.hpp.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+
+#include "common/capacities.hpp"
+#include "common/laser_geometry.hpp"
+#include "common/odometry_history.hpp"
+#include "common/pose.hpp"
+#include "common/time.hpp"
+
+namespace teamscan {
+
+// Per-beam status from the scan decoder (input). The LMS reserved distance codes (PROTOCOLS.md 2.7:
+// 0x1FFF not valid, 0x1FFD overflow, 0x1FFB S/N too small, ...) map to kBeamInvalid; 0x1FFE and the
+// dazzle bit 15 (measuring mode 0x00) map to kBeamDazzled.
+inline constexpr std::uint8_t kBeamInvalid = 1u << 0;
+inline constexpr std::uint8_t kBeamDazzled = 1u << 1;
+
+// Per-point flags (output), the same bits on the wire (idl/teamscan.idl POINT_*, teamscan/scan), in the
+// data set's PCD and in the evaluation. kPointInvalid, kPointDazzled and kPointNoPose mean the point
+// has no trustworthy position.
+inline constexpr std::uint16_t kPointDirectionFiltered = 1u << 0;  // direction filter (paper eq. 7): a teammate
+inline constexpr std::uint16_t kPointInvalid = 1u << 1;      // no echo / reserved distance code / range 0
+inline constexpr std::uint16_t kPointDazzled = 1u << 2;      // the scanner reported dazzling
+inline constexpr std::uint16_t kPointPositionFiltered = 1u << 3;  // position filter (paper eq. 6), ground station
+inline constexpr std::uint16_t kPointOutOfRange = 1u << 4;   // range > max_range_mm (position still computed)
+inline constexpr std::uint16_t kPointNoPose = 1u << 5;       // odometry could not place the beam's time
+inline constexpr std::uint16_t kPointTeamStale = 1u << 6;    // direction filter ran widened on, or skipped for, a stale team state
+inline constexpr std::uint16_t kPointUnplaced = kPointInvalid | kPointDazzled | kPointNoPose;
+
+// A decoded scan, as the daemon gets it from the LMS client and the simulator from its ray caster.
+struct ScanBeams {
+  Time stamp;                               // end of the sweep (geometry header), CLOCK_REALTIME
+  LaserVariant variant;                     // fov and resolution: beam angles and beam times
+  std::span<const std::uint32_t> range_mm;  // one per beam, already in mm (cm mode: × 10)
+  std::span<const std::uint8_t> beam_flags; // kBeam*; same length as range_mm (or empty = all valid)
+};
+
+// One point in the map frame: int32 millimetres (wire unit), the beam it came from, kPoint* flags.
+struct ScanPoint {
+  std::int32_t x_mm = 0;
+  std::int32_t y_mm = 0;
+  std::int32_t z_mm = 0;
+  std::uint16_t beam = 0;
+  std::uint16_t flags = 0;
+};
+
+struct ScanPoints {
+  Time stamp;                    // the scan's stamp (end of sweep)
+  std::int32_t origin_x_mm = 0;  // laser centre in the map frame at the stamp
+  std::int32_t origin_y_mm = 0;
+  std::int32_t origin_z_mm = 0;
+  Pose2 map_from_robot;          // robot pose at the stamp (valid only if pose_ok)
+  bool pose_ok = false;
+  std::uint16_t count = 0;       // points[0..count) = beams 0..count-1 in order
+  std::uint16_t unplaced = 0;    // beams with kPointNoPose
+  std::array<ScanPoint, kMaxBeams> points{};
+};
+
+struct ScanPointsOptions {
+  // Valid beams longer than this are flagged kPointOutOfRange (LMS mm mode: 8.182 m useful maximum,
+  // PROTOCOLS.md 2.7; cm mode: 81.82 m).
+  std::uint32_t max_range_mm = 8182;
+  // How far a beam's time may lie outside the odometry history (odometry_history.hpp).
+  Duration max_extrapolation = kDefaultMaxExtrapolation;
+};
+
+// Converts scans of a robot with a fixed laser mount and registration. Holds the beam directions of
+// the current variant in the robot frame, precomputed at construction (recomputed, without
+// allocation, if a scan of another variant arrives).
+//
+// Geometry of beam i with range r (mm), measured at t_i = stamp − variant.beam_age(i):
+//   p_laser = r · (cos a_i, sin a_i, 0),  a_i = variant.beam_angle_rad(i)
+//   p_robot = robot_from_laser · p_laser
+//   p_map   = map_from_odom · odom_from_robot(t_i) · p_robot   (planar poses lifted to 3-D, z = 0)
+// with odom_from_robot(t_i) from OdometryHistory::interpolate. Coordinates are rounded to the nearest
+// millimetre (ties away from zero, std::llround) and saturated to int32.
+//
+// Flags: kBeamInvalid or range 0 -> kPointInvalid, kBeamDazzled -> kPointDazzled; both put the point
+// at the laser centre at t_i (so a consumer that ignores flags sees no phantom far point); a valid
+// range > max_range_mm -> kPointOutOfRange with the measured position; a beam whose time the odometry
+// cannot cover -> kPointNoPose with coordinates 0.
+class ScanProjector {
+ public:
+  ScanProjector(const Pose3& robot_from_laser, const Pose2& map_from_odom, const ScanPointsOptions& options = {});
+
+  // Fills `out` (count = number of beams, at most kMaxBeams; extra beams are a contract violation).
+  void project(const ScanBeams& scan, const OdometryHistory<>& odometry, ScanPoints& out);
+
+  [[nodiscard]] const Pose3& robot_from_laser() const { return robot_from_laser_; }
+  [[nodiscard]] const Pose2& map_from_odom() const { return map_from_odom_; }
+  [[nodiscard]] const ScanPointsOptions& options() const { return options_; }
+
+ private:
+  void prepare(LaserVariant variant);
+
+  Pose3 robot_from_laser_;
+  Pose2 map_from_odom_;
+  ScanPointsOptions options_;
+  LaserVariant variant_{0, 100};  // fov 0: no table yet
+  std::array<Vec3, kMaxBeams> direction_robot_{};  // unit beam direction in the robot frame
+};
+
+// Rounds metres to the nearest millimetre (ties away from zero), saturated to int32.
+[[nodiscard]] std::int32_t metres_to_mm_i32(double metres);
+
+}  // namespace teamscan

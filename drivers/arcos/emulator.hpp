@@ -1,0 +1,124 @@
+// PioneerEmulator: the robot side of the ARCOS link as the firmware behaves (PROTOCOLS.md §1.4-§1.9),
+// a sans-I/O serial::SerialEndpoint for in-process tests, the simulator and `teamscan emulate`.
+// Answers SYNC0/1/2, restarts the handshake on an out-of-sequence SYNC, streams SIPs after OPEN,
+// obeys the motion commands, stops the motors after the watchdog time without commands (§1.6).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string_view>
+
+#include "common/time.hpp"
+#include "drivers/arcos/codec.hpp"
+#include "drivers/arcos/odometry.hpp"
+#include "drivers/arcos/parser.hpp"
+#include "drivers/serial/endpoint.hpp"
+
+namespace teamscan::arcos {
+
+struct PioneerEmulatorOptions {
+  std::string_view name = "teamscan";   // SYNC2 reply strings (§1.4)
+  std::string_view robot_class = "Pioneer";
+  std::string_view subclass = "p3at-sh"; // also selects DistConvFactor for the emulator's own pose
+  std::uint32_t baud = 9600;
+  Duration sip_period = 100ms;           // SipCycle (§1.7)
+  Duration watchdog = 2000ms;            // no command for this long: motors stop (§1.6, AMRISim)
+  bool motors_enabled_at_open = false;   // real robots need ENABLE 1 (§6, p2os#41)
+  std::uint8_t battery_dv = 130;         // 13.0 V
+  double ticks_per_mm = 30.0;            // ENCODERpac counts per mm of wheel travel (approximate)
+};
+
+// Lets code drive the SIP content (the simulator's wheel model). Called once per SIP cycle with the
+// SIP the emulator built from its own state; the source overwrites what it models (XPOS/YPOS/THPOS
+// raw counters, wheel velocities, stall, sonar...). Return false to skip this SIP.
+class SipSource {
+ public:
+  virtual bool fill_sip(Time now, SipPacket& sip) = 0;
+
+ protected:
+  ~SipSource() = default;
+};
+
+// The raw SIP fields for a pose and wheel velocities, with the counters wrapped as on the wire
+// (XPOS/YPOS modulo 2^16 of the DistConv count, read back with 15-bit masking, §1.10).
+void fill_sip_motion(SipPacket& sip, const RobotParams& params, double x_mm, double y_mm, double th_rad,
+                     double left_mm_s, double right_mm_s);
+
+enum class PioneerState : std::uint8_t { kWaitSync0, kWaitSync1, kWaitSync2, kReady, kServerOpen };
+
+struct PioneerEmulatorStatistics {
+  std::uint64_t handshakes = 0;          // SYNC2 replies sent
+  std::uint64_t handshake_restarts = 0;  // out-of-sequence SYNC
+  std::uint64_t opens = 0, closes = 0;
+  std::uint64_t commands = 0;            // decoded commands while the server is open
+  std::uint64_t bad_commands = 0;
+  std::uint64_t ignored_commands = 0;    // understood but not modelled (sonar, gripper, ...)
+  std::uint64_t sips_sent = 0, configs_sent = 0, encoder_packets_sent = 0;
+  std::uint64_t watchdog_stops = 0;
+  std::uint64_t tx_overflows = 0;
+  ArcosParserStatistics parser;
+};
+
+class PioneerEmulator final : public serial::SerialEndpoint {
+ public:
+  explicit PioneerEmulator(const PioneerEmulatorOptions& options = PioneerEmulatorOptions{});
+
+  // serial::SerialEndpoint
+  void on_rx(std::span<const std::uint8_t> bytes, Time now) override;
+  void on_tick(Time now) override;
+  std::size_t take_tx(std::span<std::uint8_t> out) override;
+  [[nodiscard]] std::uint32_t baud() const override { return opt_.baud; }
+  [[nodiscard]] Time next_deadline() const override;
+
+  void set_sip_source(SipSource* source) { source_ = source; }
+  // The SIP that would go out at `now`: own state (or the source's fill) — for the simulator.
+  [[nodiscard]] SipPacket make_sip(Time now);
+
+  // Sets the emulator's own odometry (mm, rad), e.g. to place the robot.
+  void set_pose(double x_mm, double y_mm, double th_rad);
+  // Models a power cycle: the server closes, handshake state and odometry reset.
+  void power_cycle();
+
+  [[nodiscard]] PioneerState state() const { return state_; }
+  [[nodiscard]] bool server_open() const { return state_ == PioneerState::kServerOpen; }
+  [[nodiscard]] bool motors_enabled() const { return motors_enabled_; }
+  [[nodiscard]] double trans_vel_mm_s() const { return trans_mm_s_; }
+  [[nodiscard]] double rot_vel_deg_s() const { return rad_to_deg(rot_rad_s_); }
+  [[nodiscard]] double x_mm() const { return x_mm_; }
+  [[nodiscard]] double y_mm() const { return y_mm_; }
+  [[nodiscard]] double th_rad() const { return th_rad_; }
+  [[nodiscard]] PioneerEmulatorStatistics statistics() const;
+  [[nodiscard]] const RobotParams& params() const { return params_; }
+  [[nodiscard]] Time last_command_time() const { return last_cmd_; }
+
+ private:
+  void on_packet(const PacketView& p, Time now);
+  void server_command(const PacketView& p, Time now);
+  void integrate(Time now);
+  void send(const PacketBuffer& p);
+  void stop_motion();
+
+  PioneerEmulatorOptions opt_;
+  RobotParams params_;
+  PioneerState state_ = PioneerState::kWaitSync0;
+  ArcosParser parser_;
+  PioneerEmulatorStatistics stats_{};
+  SipSource* source_ = nullptr;
+
+  bool motors_enabled_ = false;
+  double trans_mm_s_ = 0, rot_rad_s_ = 0;       // commanded, applied at once (no acceleration model)
+  double x_mm_ = 0, y_mm_ = 0, th_rad_ = 0;     // own odometry
+  double left_enc_ = 0, right_enc_ = 0;         // encoder counts (ticks)
+  bool encoder_stream_ = false;
+  Time last_integrate_;
+  bool have_integrate_time_ = false;
+  Time next_sip_;
+  Time last_cmd_;
+
+  std::array<std::uint8_t, 8 * kMaxArcosPacket> tx_{};
+  std::size_t tx_head_ = 0, tx_size_ = 0;
+};
+
+}  // namespace teamscan::arcos

@@ -1,0 +1,66 @@
+// The robot daemon's configuration (deploy/onboard-*.toml): robot id, serial devices and rates, laser
+// variant and mount, registration in the map frame, direction-filter parameters, DDS and status
+// settings. Parsed once at start-up (allocation allowed there); a malformed or inconsistent file is
+// refused with a message that names the key.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include "common/laser_geometry.hpp"
+#include "common/pose.hpp"
+#include "common/result.hpp"
+#include "common/time.hpp"
+#include "onboard/core/direction_filter.hpp"
+
+namespace teamscan::onboard {
+
+enum class LmsUnits : std::uint8_t { mm, cm };       // LMS measuring units (PROTOCOLS.md 2.7)
+enum class PublishMode : std::uint8_t { all, kept };  // all points with flags, or only unfiltered valid ones
+
+struct LaserMount {
+  // In the file: metres and degrees; robot frame x forward, y left, z up from the floor.
+  double x_m = 0, y_m = 0, z_m = 0;
+  double roll_deg = 0, pitch_deg = 0, yaw_deg = 0;  // positive pitch = nose down (common/pose.hpp)
+  [[nodiscard]] Pose3 robot_from_laser() const;
+};
+
+struct OnboardConfig {
+  std::uint32_t robot_id = 0;  // 1..32
+
+  std::string arcos_device;            // e.g. /dev/ttyS0
+  std::uint32_t arcos_baud = 9600;     // Pioneer 3-AT default; 19200/38400/57600/115200 if configured
+
+  std::string lms_device;              // e.g. /dev/ttyS1
+  std::uint32_t lms_baud = 500000;     // target rate after bring-up at 9600 (9600/19200/38400/500000)
+  LaserVariant lms_variant{180, 50};   // 180°/0.5° = 361 beams
+  LmsUnits lms_units = LmsUnits::mm;   // mm: 8.18 m range, cm: 81.8 m
+  double lms_max_range_m = 8.0;        // longer valid beams are flagged out of range
+
+  LaserMount mount;
+  double registration_x_m = 0, registration_y_m = 0, registration_theta_deg = 0;  // map_from_odom
+
+  bool filter_enabled = true;
+  DirectionFilterParams filter;
+
+  std::uint32_t dds_domain = 0;
+  PublishMode publish = PublishMode::all;
+  std::uint32_t scan_history_depth = 300;  // scans the DDS writer keeps for a restarting ground station
+
+  Duration status_period = 1s;             // teamscan/status and sd_notify STATUS= period
+  Duration odometry_max_extrapolation = kDefaultMaxExtrapolation;
+
+  [[nodiscard]] Pose2 map_from_odom() const;
+  [[nodiscard]] std::uint32_t max_range_mm() const;
+};
+
+// Parses and checks a config. On failure `message` says which key is wrong and why, e.g.
+// "lms.baud: 57600 is not an LMS rate (9600, 19200, 38400, 500000)"; the Error carries the line.
+[[nodiscard]] Result<OnboardConfig> parse_onboard_config(std::string_view toml_text, std::string& message);
+[[nodiscard]] Result<OnboardConfig> load_onboard_config(const std::string& path, std::string& message);
+
+// A human-readable summary (for --check-config and the journal at start-up).
+[[nodiscard]] std::string describe(const OnboardConfig& config);
+
+}  // namespace teamscan::onboard

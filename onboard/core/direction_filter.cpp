@@ -1,0 +1,178 @@
+// The fixed-point direction filter (paper eq. 7) and its stale-team policy; see direction_filter.hpp
+// for the arithmetic's domain and overflow bounds.
+#include "onboard/core/direction_filter.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/fixed_point.hpp"
+#include "common/units.hpp"
+
+namespace teamscan::onboard {
+
+namespace {
+
+bool in_extent(std::int32_t v) { return v <= kDirectionFilterExtentMm && v >= -kDirectionFilterExtentMm; }
+
+// Metres (config) -> whole millimetres, round to nearest.
+std::int32_t to_mm(double m) { return static_cast<std::int32_t>(std::lround(m * 1000.0)); }
+
+// a / b rounded to nearest, ties away from zero (b > 0).
+std::int64_t div_round(std::int64_t a, std::int64_t b) { return a >= 0 ? (a + b / 2) / b : -((-a + b / 2) / b); }
+
+}  // namespace
+
+std::int32_t tan_q16(double angle_rad) {
+  return static_cast<std::int32_t>(std::lround(std::tan(angle_rad) * static_cast<double>(std::int32_t{1} << kTanFractionBits)));
+}
+
+std::int64_t isqrt64(std::int64_t v) {
+  TEAMSCAN_EXPECTS(v >= 0);
+  auto r = static_cast<std::int64_t>(std::sqrt(static_cast<double>(v)));
+  // The double square root may be off by one near large v: correct it exactly in integers.
+  while (r > 0 && r * r > v) --r;
+  while ((r + 1) * (r + 1) <= v) ++r;
+  return r;
+}
+
+bool prepare_cone(std::int32_t apex_x_mm, std::int32_t apex_y_mm, const Teammate& mate, double half_angle_rad,
+                  const DirectionFilterParams& params, ConeFixed& out) {
+  if (!in_extent(apex_x_mm) || !in_extent(apex_y_mm) || !in_extent(mate.x_mm) || !in_extent(mate.y_mm)) return false;
+  out.apex_x_mm = apex_x_mm;
+  out.apex_y_mm = apex_y_mm;
+  out.ux_mm = std::int64_t{mate.x_mm} - apex_x_mm;
+  out.uy_mm = std::int64_t{mate.y_mm} - apex_y_mm;
+  if (out.ux_mm == 0 && out.uy_mm == 0) return false;  // L undefined
+  const double ha = std::clamp(half_angle_rad, 0.0, deg_to_rad(kMaxHalfAngleDeg));
+  out.tan_q16 = tan_q16(ha);
+  out.range_gate = params.range_gate;
+  if (out.range_gate) {
+    // along = |u|·d_along; the gate |u| − g <= d_along <= |u| + g becomes, scaled by 2^16 so that |u| can be
+    // carried to 1/256 mm (ulen_q8 = floor(256·|u|)):
+    //   ulen_q8·(ulen_q8 − 256·g) <= along·2^16 <= ulen_q8·(ulen_q8 + 256·g)
+    // which moves the gate's edges by less than (2 + g/|u|)/256 mm. Bounds: ulen_q8 < 2^30.5, 256·g <= 2^25,
+    // so both products < 2^62; along·2^16 < 2^61.
+    const std::int64_t ulen_q8 = isqrt64((out.ux_mm * out.ux_mm + out.uy_mm * out.uy_mm) << 16);
+    const std::int64_t gate_q8 =
+        std::min<std::int64_t>(std::int64_t{mate.body_radius_mm} + to_mm(params.range_gate_margin_m), kMaxGateMm) << 8;
+    out.along_lo_q16 = ulen_q8 * (ulen_q8 - gate_q8);
+    out.along_hi_q16 = ulen_q8 * (ulen_q8 + gate_q8);
+  }
+  out.height_gate = params.height_gate;
+  out.z_max_mm = mate.height_mm + to_mm(params.height_gate_margin_m);
+  return true;
+}
+
+Result<DirectionFilter> DirectionFilter::create(const DirectionFilterParams& params, std::uint32_t own_robot_id) {
+  if (!(params.half_angle_deg > 0.0 && params.half_angle_deg <= kMaxHalfAngleDeg))
+    return Error{"filter.half_angle_deg must be in (0, 60]"};
+  if (!(params.range_gate_margin_m >= 0.0 && params.range_gate_margin_m * 1000.0 <= kMaxGateMm))
+    return Error{"filter.range_gate_margin_m must be in [0, 131]"};
+  if (!(params.height_gate_margin_m >= -10.0 && params.height_gate_margin_m <= 10.0))
+    return Error{"filter.height_gate_margin_m must be in [-10, 10]"};
+  if (!(params.default_body_radius_m > 0.0 && params.default_body_radius_m <= 10.0))
+    return Error{"filter.body_radius_m must be in (0, 10]"};
+  if (!(params.default_height_m > 0.0 && params.default_height_m <= 10.0))
+    return Error{"filter.height_m must be in (0, 10]"};
+  if (params.max_team_age <= Duration::zero() || params.max_team_age > 60s)
+    return Error{"filter.max_team_age_s must be in (0, 60]"};
+  if (!(params.stale_growth_deg_per_s >= 0.0 && params.stale_growth_deg_per_s <= 3600.0))
+    return Error{"filter.stale_growth_deg_per_s must be in [0, 3600]"};
+  if (own_robot_id == 0 || own_robot_id > kMaxRobots) return Error{"robot_id must be in 1..32"};
+  DirectionFilter f;
+  f.params_ = params;
+  f.own_robot_id_ = own_robot_id;
+  return f;
+}
+
+void DirectionFilter::set_team(const TeamSnapshot& team) {
+  have_team_ = true;
+  mate_count_ = 0;
+  const std::uint32_t n = std::min<std::uint32_t>(team.count, static_cast<std::uint32_t>(kMaxRobots));
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const TeamMemberState& m = team.members[i];
+    if (m.robot_id == own_robot_id_ || m.lost) continue;
+    Mate& out = mates_[mate_count_++];
+    out.mate.robot_id = m.robot_id;
+    out.mate.x_mm = m.x_mm;
+    out.mate.y_mm = m.y_mm;
+    // Body radius: half the footprint's diagonal (the farthest a hit on the body lies from its centre).
+    if (m.length_mm > 0 && m.width_mm > 0) {
+      const std::int64_t l = m.length_mm, w = m.width_mm;
+      std::int64_t diagonal_mm = isqrt64(l * l + w * w);
+      if (diagonal_mm * diagonal_mm < l * l + w * w) ++diagonal_mm;  // ceil: never smaller than the body
+      out.mate.body_radius_mm = static_cast<std::int32_t>((diagonal_mm + 1) / 2);
+    } else {
+      out.mate.body_radius_mm = to_mm(params_.default_body_radius_m);
+    }
+    out.mate.height_mm = m.height_mm > 0 ? std::int32_t{m.height_mm} : to_mm(params_.default_height_m);
+    out.vx_mmps = m.vx_mmps;
+    out.vy_mmps = m.vy_mmps;
+    out.valid = Time::from_ns(m.valid_ns);
+  }
+}
+
+double DirectionFilter::effective_half_angle_rad(Time valid, Time stamp) const {
+  const double ha = deg_to_rad(params_.half_angle_deg);
+  const Duration excess = (stamp - valid) - params_.max_team_age;
+  if (excess <= Duration::zero()) return ha;
+  const double widened = ha + deg_to_rad(params_.stale_growth_deg_per_s * to_seconds(excess));
+  return std::min(widened, deg_to_rad(kMaxHalfAngleDeg));
+}
+
+DirectionFilterStats DirectionFilter::apply(std::int32_t apex_x_mm, std::int32_t apex_y_mm, Time stamp,
+                                            ScanPoint* points, std::uint16_t count) const {
+  DirectionFilterStats stats;
+  std::array<ConeFixed, kMaxRobots> cones;
+  std::uint16_t n_cones = 0;
+  bool stale = !have_team_;
+  for (std::uint16_t i = 0; i < mate_count_; ++i) {
+    const Mate& m = mates_[i];
+    const bool is_fresh = fresh(m.valid, stamp);
+    if (!is_fresh) {
+      stale = true;
+      ++stats.stale_mates;
+      if (params_.stale_policy == StalePolicy::disable) {
+        ++stats.skipped_mates;
+        continue;
+      }
+    }
+    Teammate mate = m.mate;
+    if (params_.extrapolate_team) {
+      // Move the teammate to the scan's time along its reported velocity, over at most max_team_age.
+      const std::int64_t dt_us = std::clamp<std::int64_t>((stamp - m.valid).count() / 1000, 0,
+                                                          params_.max_team_age.count() / 1000);
+      mate.x_mm = saturate_i32(std::int64_t{mate.x_mm} + div_round(std::int64_t{m.vx_mmps} * dt_us, 1'000'000));
+      mate.y_mm = saturate_i32(std::int64_t{mate.y_mm} + div_round(std::int64_t{m.vy_mmps} * dt_us, 1'000'000));
+    }
+    if (!prepare_cone(apex_x_mm, apex_y_mm, mate, effective_half_angle_rad(m.valid, stamp), params_, cones[n_cones])) {
+      ++stats.skipped_mates;
+      continue;
+    }
+    ++n_cones;
+  }
+  stats.cones = n_cones;
+
+  for (std::uint16_t k = 0; k < count; ++k) {
+    ScanPoint& p = points[k];
+    if ((p.flags & kPointUnplaced) != 0) continue;
+    if (stale) {
+      p.flags |= kPointTeamStale;
+      ++stats.stale_points;
+    }
+    if (!in_extent(p.x_mm) || !in_extent(p.y_mm)) {
+      ++stats.out_of_extent;
+      continue;
+    }
+    for (std::uint16_t c = 0; c < n_cones; ++c) {
+      if (cone_contains(cones[c], p.x_mm, p.y_mm, p.z_mm)) {
+        p.flags |= kPointDirectionFiltered;
+        ++stats.filtered;
+        break;
+      }
+    }
+  }
+  return stats;
+}
+
+}  // namespace teamscan::onboard

@@ -1,0 +1,99 @@
+// Plain fixed-size message structs the onboard pipeline hands to the DDS bridge (onboard/dds) and gets
+// back from it: the robot-side mirror of idl/teamscan.idl, free of DDS so the core stays testable.
+// Fixed capacities only (common/capacities.hpp); field layout agreed with the dds branch.
+#pragma once
+
+#include <cstdint>
+
+#include "common/capacities.hpp"
+#include "common/scan_points.hpp"
+
+namespace teamscan::onboard {
+
+// Odometry pose in the map frame (teamscan/pose), one per SIP.
+struct OnboardPose {
+  std::uint32_t robot_id = 0;
+  std::uint32_t seq = 0;
+  std::int64_t stamp_ns = 0;        // CLOCK_REALTIME of the SIP (arrival, back-dated)
+  std::int32_t x_mm = 0;
+  std::int32_t y_mm = 0;
+  std::int32_t yaw_urad = 0;        // heading, microradians, (-pi, pi]
+  std::int32_t vx_mmps = 0;         // map-frame velocity
+  std::int32_t vy_mmps = 0;
+  std::int32_t yaw_rate_mradps = 0;
+};
+
+// Per-point flags: the kPoint* bits of common/scan_points.hpp (same values as teamscan.idl POINT_*:
+// 1 direction-filtered, 2 invalid, 4 dazzled, 8 position-filtered; onboard adds 16 out of range,
+// 32 no pose, 64 team state stale).
+using teamscan::kPointDazzled;
+using teamscan::kPointDirectionFiltered;
+using teamscan::kPointInvalid;
+using teamscan::kPointNoPose;
+using teamscan::kPointOutOfRange;
+using teamscan::kPointPositionFiltered;
+using teamscan::kPointTeamStale;
+
+// One point: {x_mm, y_mm, z_mm (map frame), beam (0 = rightmost), flags (kPoint*)}.
+using OnboardPoint = teamscan::ScanPoint;
+
+// One sweep in the map frame (teamscan/scan).
+struct OnboardScan {
+  std::uint32_t robot_id = 0;
+  std::uint32_t seq = 0;
+  std::int64_t stamp_ns = 0;        // end of the mirror sweep, CLOCK_REALTIME
+  std::int32_t origin_x_mm = 0;     // laser origin in the map frame at stamp_ns
+  std::int32_t origin_y_mm = 0;
+  std::int32_t origin_z_mm = 0;
+  std::uint16_t count = 0;          // valid entries in points
+  OnboardPoint points[kMaxBeams];
+};
+
+// Device states and counters (teamscan/status).
+struct OnboardStatus {
+  std::uint32_t robot_id = 0;
+  std::uint32_t seq = 0;
+  std::int64_t stamp_ns = 0;
+  std::uint8_t arcos_state = 0;     // 0 = down (no port), see onboard/daemon DeviceState
+  std::uint8_t lms_state = 0;
+  bool team_fresh = false;          // the last team state is younger than max_team_age
+  std::uint32_t sip_rate_mhz = 0;   // SIPs per 1000 s
+  std::uint32_t scan_rate_mhz = 0;  // sweeps per 1000 s
+  std::uint32_t arcos_bad_packets = 0;
+  std::uint32_t lms_bad_telegrams = 0;
+  std::uint32_t lms_resyncs = 0;
+  std::uint32_t scans_published = 0;
+  std::uint32_t points_direction_filtered = 0;
+  std::uint32_t dds_write_errors = 0;
+  std::uint32_t uptime_s = 0;
+  // Onboard extras (not yet on the wire; the bridge may ignore them).
+  std::uint32_t arcos_reopens = 0;  // times the Pioneer's port was (re)opened
+  std::uint32_t lms_reopens = 0;
+  std::uint32_t points_team_stale = 0;
+  std::uint32_t points_no_pose = 0;
+  std::uint32_t loop_max_us = 0;    // longest loop iteration since the last status
+};
+
+// One teammate as tracked by the ground station (teamscan/team).
+struct TeamMemberState {
+  std::uint32_t robot_id = 0;
+  std::int32_t x_mm = 0;            // map frame, predicted to valid_ns
+  std::int32_t y_mm = 0;
+  std::int32_t vx_mmps = 0;
+  std::int32_t vy_mmps = 0;
+  float cov_xx = 0.0f;              // mm^2
+  float cov_xy = 0.0f;
+  float cov_yy = 0.0f;
+  std::uint16_t length_mm = 0;      // footprint along the robot's x axis
+  std::uint16_t width_mm = 0;
+  std::uint16_t height_mm = 0;      // top of the robot (with its laser) above the floor
+  std::int64_t valid_ns = 0;        // time the position is predicted to, CLOCK_REALTIME
+  bool lost = false;
+};
+
+struct TeamSnapshot {
+  std::uint32_t count = 0;
+  TeamMemberState members[kMaxRobots];
+};
+
+}  // namespace teamscan::onboard
