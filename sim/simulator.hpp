@@ -3,10 +3,13 @@
 // decodes (range value words, SIP odometry interpolated at each beam's time, registered at the
 // robot's start pose), with the ray cast's truth (class, hit robot, true hit point) per beam.
 //
-// Device-stream seam: this file drives the devices through their *fields* (devices.hpp: SIP
-// odometry counters, LMS value words) in process. When the drivers' emulators and VirtualLink land,
-// the same fields are fed to PioneerEmulator / LmsEmulator hooks and the client-decoded values replace
-// the direct decode; the captures (captures/robotN-*.cap) come from there.
+// Two paths with the same world, motion and noise models:
+//  - device streams (default): per robot a PioneerEmulator and an LmsEmulator (drivers/) fed by the
+//    wheel model and the ray caster, talking to an ArcosClient and an LmsClient over VirtualLinks in
+//    simulated time, bring-up included; both sessions are recorded as captures, and the points are
+//    what RobotReceiver (receiver.hpp) makes of the client-decoded bytes;
+//  - direct (SimOptions::device_streams = false): the same device fields (devices.hpp) decoded in
+//    process without bytes; faster, no captures, for quick experiments.
 #pragma once
 
 #include <cstdint>
@@ -15,6 +18,7 @@
 #include <vector>
 
 #include "common/capacities.hpp"
+#include "common/capture.hpp"
 #include "common/dataset/dataset.hpp"
 #include "common/laser_geometry.hpp"
 #include "sim/devices.hpp"
@@ -62,6 +66,20 @@ struct SimOptions {
   std::optional<double> duration_s;       // overrides the scenario's
   // Called now and then with the fraction done (0..1); for progress on stderr.
   std::function<void(double)> progress;
+  bool device_streams = true;
+  // Device streams: the links start this long before t = 0 so both devices are up when the robots
+  // start to drive (the robots stand still until then).
+  double bringup_s = 5.0;
+};
+
+// The serial sessions of one robot, as the host saw them (captures/robotN-arcos.cap, -lms200.cap).
+struct RobotCaptures {
+  std::uint8_t id = 0;
+  Capture arcos;
+  Capture lms200;
+  std::int64_t start_ns = 0;      // CLOCK_REALTIME of capture time 0
+  bool arcos_connected = false;   // the client reached `connected` before t = 0
+  bool lms_streaming = false;     // the client reached `streaming` before t = 0
 };
 
 struct RobotStats {
@@ -73,13 +91,14 @@ struct RobotStats {
 struct SimOutput {
   Dataset dataset;
   std::vector<RobotStats> stats;
+  std::vector<RobotCaptures> captures;  // device streams only
 };
 
 [[nodiscard]] SimOutput simulate(const Scenario& scenario, const SimOptions& options);
 
 // Odometry history of one robot: decoded SIP poses at their times, linear interpolation between them
 // (laser_geometry.hpp `interpolate`), clamped at the ends.
-class OdometryHistory {
+class PoseHistory {
  public:
   void push(std::int64_t stamp_ns, const Pose2& pose) { samples_.push_back({stamp_ns, pose}); }
   [[nodiscard]] Pose2 at(std::int64_t stamp_ns) const;
