@@ -217,7 +217,9 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
                                            << "[lms]\ndevice = \"" << lms_link.string() << "\"\nbaud = 500000\n"
                                            << "fov_deg = 180\nresolution_deg = 0.5\n"
                                            << "[mount]\nx_m = 0.16\ny_m = 0\nz_m = 0.45\npitch_deg = 15\n"
-                                           << "[status]\nperiod_s = 0.2\n";
+                                           << "[status]\nperiod_s = 0.2\n"
+                                           // A DDS domain of its own: other tests on this host publish teamscan/team.
+                                           << "[dds]\ndomain = " << 100 + ::getpid() % 100 << "\n";
   NotifySocket notify{dir.path / "notify.sock"};
   ASSERT_TRUE(notify.bound());
   const pid_t pid = spawn({daemon_path(), "--config", (dir.path / "onboard.toml").string()},
