@@ -302,6 +302,13 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
   const auto lms_recovery_ms = std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - reset_at).count();
   std::printf("scanner reset (2 s power-on delay) -> streaming again: %lld ms\n", static_cast<long long>(lms_recovery_ms));
 
+  // Resident memory of the running daemon (with Cyclone DDS): a figure for the report, not asserted.
+  {
+    std::ifstream st("/proc/" + std::to_string(pid) + "/status");
+    for (std::string line; std::getline(st, line);)
+      if (line.rfind("VmRSS:", 0) == 0 || line.rfind("VmHWM:", 0) == 0) std::printf("daemon %s\n", line.c_str());
+  }
+
   // SIGTERM: STOPPING=1, the laser stream stopped, the Pioneer closed, exit 0.
   ASSERT_EQ(::kill(pid, SIGTERM), 0);
   EXPECT_TRUE(notify.wait_for([](const std::string& m) { return m == "STOPPING=1"; }, std::chrono::seconds(3)));
