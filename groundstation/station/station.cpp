@@ -102,7 +102,7 @@ Result<std::unique_ptr<Station>> Station::create(const StationOptions& options, 
   d.readers[kPose] = dds_create_reader(d.participant, tp_pose, q, listener);
   d.readers[kStatus] = dds_create_reader(d.participant, tp_status, q, listener);
   dds_delete_qos(q);
-  q = onboard::make_scan_reader_qos(options.scan_history_depth);
+  q = onboard::make_scan_reader_qos();
   d.readers[kScan] = dds_create_reader(d.participant, tp_scan, q, listener);
   dds_delete_qos(q);
   dds_delete_listener(listener);

@@ -95,7 +95,7 @@ void BM_PublishToTakeLatency(benchmark::State& state) {
   }
   const dds_entity_t pp = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
   const dds_entity_t tp = dds_create_topic(pp, &teamscan_msg_ScanPoints_desc, kPongTopic, nullptr, nullptr);
-  dds_qos_t* q = make_scan_reader_qos(8);
+  dds_qos_t* q = make_scan_reader_qos();
   dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
   const dds_entity_t rd = dds_create_reader(pp, tp, q, nullptr);
   dds_delete_qos(q);
@@ -172,7 +172,7 @@ int run_pong() {
   const dds_entity_t pp = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
   const dds_entity_t tp_in = dds_create_topic(pp, &teamscan_msg_ScanPoints_desc, kTopicScan, nullptr, nullptr);
   const dds_entity_t tp_out = dds_create_topic(pp, &teamscan_msg_ScanPoints_desc, kPongTopic, nullptr, nullptr);
-  dds_qos_t* q = make_scan_reader_qos(8);
+  dds_qos_t* q = make_scan_reader_qos();
   dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
   const dds_entity_t rd = dds_create_reader(pp, tp_in, q, nullptr);
   dds_delete_qos(q);

@@ -48,7 +48,7 @@ TEST(DdsRoundTrip, PoseArrivesWithEveryField) {
 }
 
 TEST(DdsRoundTrip, FullScanArrivesPointForPoint) {
-  dds_qos_t* q = make_scan_reader_qos(300);
+  dds_qos_t* q = make_scan_reader_qos();
   DdsTestSubscriber<teamscan_msg_ScanPoints> sub(&teamscan_msg_ScanPoints_desc, kTopicScan, q, 8);
   dds_delete_qos(q);
   ASSERT_TRUE(sub.ok());
@@ -196,7 +196,7 @@ TEST(DdsRoundTrip, LateScanReaderGetsTheWholeHistory) {
     s.seq = seq;
     ASSERT_TRUE(b.publish_scan(s).ok());
   }
-  dds_qos_t* q = make_scan_reader_qos(300);
+  dds_qos_t* q = make_scan_reader_qos();
   DdsTestSubscriber<teamscan_msg_ScanPoints> sub(&teamscan_msg_ScanPoints_desc, kTopicScan, q, 64);
   dds_delete_qos(q);
   std::vector<teamscan_msg_ScanPoints> got;
