@@ -43,9 +43,11 @@ int main(int argc, char** argv) {
   std::string config_path;
   std::string session_dir;
   bool check_only = false;
+  long domain = -2;
   app.add_option("--config", config_path, "ground-station config (TOML), e.g. deploy/groundstation.toml")
       ->check(CLI::ExistingFile);
   app.add_option("--session-dir", session_dir, "store into exactly this folder instead of a new session-<time>");
+  app.add_option("--domain", domain, "DDS domain id (overrides dds.domain_id)")->check(CLI::Range(-1, 232));
   app.add_flag("--check-config", check_only, "parse the config, print the effective values and exit");
   CLI11_PARSE(app, argc, argv);
 
@@ -57,6 +59,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  if (domain >= 0) cfg.station.domain_id = static_cast<std::uint32_t>(domain);
   if (check_only) {
     std::printf("session_root = %s\nscan_history_depth = %u\nteam_rate_hz = %.3f\nsilence_timeout_s = %.3f\n",
                 cfg.session_root.c_str(), cfg.station.scan_history_depth, 1.0 / to_seconds(cfg.station.team_period),
