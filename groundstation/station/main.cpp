@@ -15,6 +15,9 @@
 #include "groundstation/station/station.hpp"
 #include "groundstation/station/team_source.hpp"
 #include "onboard/dds/notify.hpp"
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+#include "groundstation/station/kalman_team_source.hpp"
+#endif
 
 namespace {
 
@@ -79,8 +82,19 @@ int main(int argc, char** argv) {
     return 1;
   }
   log(kInfo, "session folder " + store->dir());
-  LastPoseTeamSource team(cfg.last_pose);
-  auto station = Station::create(cfg.station, *store, team);
+  LastPoseTeamSource last_pose(cfg.last_pose);
+  TeamSource* team = &last_pose;
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+  mapping::TrackerOptions tracker_options;
+  tracker_options.accel_noise_mps2 = cfg.kalman.accel_noise_mps2;
+  tracker_options.position_noise_m = cfg.kalman.position_noise_m;
+  tracker_options.velocity_noise_mps = cfg.kalman.velocity_noise_mps;
+  tracker_options.lost_after_s = cfg.kalman.lost_after_s;
+  KalmanTeamSource kalman(tracker_options, cfg.last_pose.default_body);
+  if (cfg.team_source == TeamSourceKind::kKalman) team = &kalman;
+#endif
+  log(kInfo, std::string("team source: ") + (team == &last_pose ? "last pose" : "Kalman tracker"));
+  auto station = Station::create(cfg.station, *store, *team);
   if (!station) {
     log(kErr, station.error().what);
     return 1;
