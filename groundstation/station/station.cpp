@@ -64,7 +64,10 @@ Station::Station(const StationOptions& options, SessionStore& store, TeamSource&
   for (std::uint32_t i = 0; i <= kMaxRobots; ++i) robots_[i].robot_id = i;
 }
 
-Station::~Station() = default;
+Station::~Station() {
+  // Leave DDS first: a listener callback must not run against members already destroyed.
+  dds_.reset();
+}
 
 Result<std::unique_ptr<Station>> Station::create(const StationOptions& options, SessionStore& store,
                                                  TeamSource& team) {
