@@ -33,6 +33,7 @@ struct EvalArgs {
   std::string out_dir;
   // Named interpretations of the paper (PAPER_NOTES.md), defaults as there.
   double frequency_k = 0.0;
+  double grid_origin_z_m = 0.0;
   double sigma_m = 0.35;
   double n_sigma = 1.0;
   std::string direction_source = "recompute";
@@ -65,6 +66,7 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.half_angle_deg) o << " --half-angle " << number(*a.half_angle_deg);
   o << " --seed " << a.seed;
   if (a.frequency_k != d.frequency_k) o << " --k " << number(a.frequency_k);
+  if (a.grid_origin_z_m != d.grid_origin_z_m) o << " --grid-origin-z " << number(a.grid_origin_z_m);
   if (a.sigma_m != d.sigma_m) o << " --sigma " << number(a.sigma_m);
   if (a.n_sigma != d.n_sigma) o << " --n " << number(a.n_sigma);
   if (a.direction_source != d.direction_source) o << " --direction-source " << a.direction_source;
@@ -104,6 +106,7 @@ std::string describe(const Error& e) {
 int run_eval(const EvalArgs& a) {
   MethodOptions base;
   base.frequency.k = a.frequency_k;
+  base.frequency.grid_origin_z_m = base.visibility.grid_origin_z_m = base.combined_grid_origin_z_m = a.grid_origin_z_m;
   base.position.sigma_m = a.sigma_m;
   base.position.n = a.n_sigma;
   base.direction.source = a.direction_source == "flags" ? DirectionSource::flags : DirectionSource::recompute;
@@ -191,6 +194,10 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
   app.add_option("--json", a->json_path, "Write the JSON report to FILE");
   app.add_option("--out", a->out_dir, "Write report.md and report.json (and pictures) into REPORTDIR");
   app.add_option("--k", a->frequency_k, "Frequency filter: remove if count < mean - k*stddev (paper: no value)")
+      ->capture_default_str();
+  app.add_option("--grid-origin-z", a->grid_origin_z_m,
+                 "Map-based methods: vertical offset of the voxel grid (m; paper 0 puts a z = 0 floor on a voxel boundary, "
+                 "-r/2 centres it in a voxel)")
       ->capture_default_str();
   app.add_option("--sigma", a->sigma_m, "Position filter: robot size sigma in metres")->capture_default_str();
   app.add_option("--n", a->n_sigma, "Position filter: remove within n*sigma of another robot")->capture_default_str();
