@@ -1,0 +1,170 @@
+// Tracks as arc-length tables over analytic curves, and constant-speed motion with pauses (track.hpp).
+#include "sim/track.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace teamscan::sim {
+namespace {
+
+constexpr int kTableSamples = 8192;  // arc-length table resolution: ~2 mm per sample on a 15 m track
+
+Vec2 catmull_rom(Vec2 p0, Vec2 p1, Vec2 p2, Vec2 p3, double t) {
+  const double t2 = t * t, t3 = t2 * t;
+  return 0.5 * (2.0 * p1 + t * (p2 - p0) + t2 * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) +
+                t3 * (-1.0 * p0 + 3.0 * p1 - 3.0 * p2 + p3));
+}
+Vec2 catmull_rom_d(Vec2 p0, Vec2 p1, Vec2 p2, Vec2 p3, double t) {
+  const double t2 = t * t;
+  return 0.5 * ((p2 - p0) + 2.0 * t * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) + 3.0 * t2 * (-1.0 * p0 + 3.0 * p1 - 3.0 * p2 + p3));
+}
+
+}  // namespace
+
+Track Track::oval(Vec2 center_m, double semi_x_m, double semi_y_m, double yaw_rad, bool ccw) {
+  Track t;
+  t.kind_ = Kind::oval;
+  t.a_ = semi_x_m;
+  t.b_ = semi_y_m;
+  t.reverse_ = !ccw;
+  t.map_from_track_ = {center_m.x, center_m.y, yaw_rad};
+  t.build_table();
+  return t;
+}
+
+Track Track::figure8(Vec2 center_m, double half_length_m, double width_m, double yaw_rad, bool ccw) {
+  Track t;
+  t.kind_ = Kind::figure8;
+  t.a_ = half_length_m;
+  t.b_ = width_m;
+  t.reverse_ = !ccw;
+  t.map_from_track_ = {center_m.x, center_m.y, yaw_rad};
+  t.build_table();
+  return t;
+}
+
+Track Track::waypoints(std::vector<Vec2> points_m, bool closed) {
+  Track t;
+  t.kind_ = Kind::waypoints;
+  t.closed_ = closed;
+  t.points_ = std::move(points_m);
+  t.build_table();
+  return t;
+}
+
+void Track::evaluate(double u, Vec2& point_m, Vec2& tangent_m) const {
+  const double sign = reverse_ ? -1.0 : 1.0;
+  if (reverse_) u = 1.0 - u;
+  Vec2 p, d;
+  switch (kind_) {
+    case Kind::oval: {
+      const double a = 2.0 * kPi * u, ca = std::cos(a), sa = std::sin(a);
+      p = {a_ * ca, b_ * sa};
+      d = {-a_ * sa, b_ * ca};
+      break;
+    }
+    case Kind::figure8: {
+      const double a = 2.0 * kPi * u, ca = std::cos(a), sa = std::sin(a);
+      p = {a_ * sa, b_ * sa * ca};
+      d = {a_ * ca, b_ * (ca * ca - sa * sa)};
+      break;
+    }
+    case Kind::waypoints: {
+      const int n = static_cast<int>(points_.size());
+      const int segments = closed_ ? n : n - 1;
+      const double x = std::clamp(u, 0.0, 1.0) * segments;
+      const int seg = std::min(static_cast<int>(x), segments - 1);
+      const double f = x - seg;
+      auto at = [&](int i) {
+        if (closed_) return points_[static_cast<std::size_t>(((i % n) + n) % n)];
+        // Open: reflect the end points so the spline starts and ends on them with a natural tangent.
+        if (i < 0) return 2.0 * points_[0] - points_[1];
+        if (i >= n) return 2.0 * points_[static_cast<std::size_t>(n - 1)] - points_[static_cast<std::size_t>(n - 2)];
+        return points_[static_cast<std::size_t>(i)];
+      };
+      const Vec2 p0 = at(seg - 1), p1 = at(seg), p2 = at(seg + 1), p3 = at(seg + 2);
+      p = catmull_rom(p0, p1, p2, p3, f);
+      d = catmull_rom_d(p0, p1, p2, p3, f);
+      break;
+    }
+  }
+  point_m = {map_from_track_.x_m + cos_yaw_ * p.x - sin_yaw_ * p.y, map_from_track_.y_m + sin_yaw_ * p.x + cos_yaw_ * p.y};
+  tangent_m = sign * Vec2{cos_yaw_ * d.x - sin_yaw_ * d.y, sin_yaw_ * d.x + cos_yaw_ * d.y};
+}
+
+void Track::build_table() {
+  cos_yaw_ = std::cos(map_from_track_.theta_rad);
+  sin_yaw_ = std::sin(map_from_track_.theta_rad);
+  cumulative_m_.assign(kTableSamples + 1, 0.0);
+  Vec2 prev = point(0.0);
+  for (int k = 1; k <= kTableSamples; ++k) {
+    const Vec2 p = point(static_cast<double>(k) / kTableSamples);
+    cumulative_m_[static_cast<std::size_t>(k)] = cumulative_m_[static_cast<std::size_t>(k - 1)] + (p - prev).norm();
+    prev = p;
+  }
+}
+
+Pose2 Track::pose_at(double s_m) const {
+  const double length = length_m();
+  if (closed_) {
+    s_m = std::fmod(s_m, length);
+    if (s_m < 0) s_m += length;
+  } else {
+    s_m = std::clamp(s_m, 0.0, length);
+  }
+  // Index k with cumulative[k] <= s < cumulative[k+1], then linear in u between samples.
+  const auto it = std::upper_bound(cumulative_m_.begin(), cumulative_m_.end(), s_m);
+  const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(std::max<std::ptrdiff_t>(it - cumulative_m_.begin() - 1, 0)),
+                                              kTableSamples - 1);
+  const double span = cumulative_m_[k + 1] - cumulative_m_[k];
+  const double f = span > 0 ? (s_m - cumulative_m_[k]) / span : 0.0;
+  const double u = (static_cast<double>(k) + f) / kTableSamples;
+  Vec2 p, d;
+  evaluate(u, p, d);
+  if (d.x * d.x + d.y * d.y < 1e-24) d = point(std::min(u + 1e-6, 1.0)) - point(std::max(u - 1e-6, 0.0));
+  return {p.x, p.y, std::atan2(d.y, d.x)};
+}
+
+Motion::Motion(Track track, double speed_mps, double start_offset_m, double distance_m, double start_s,
+               std::vector<Pause> pauses)
+    : track_{std::move(track)},
+      speed_mps_{speed_mps},
+      start_offset_m_{start_offset_m},
+      distance_m_{distance_m},
+      start_s_{start_s},
+      pauses_{std::move(pauses)} {
+  std::sort(pauses_.begin(), pauses_.end(), [](const Pause& a, const Pause& b) { return a.at_s < b.at_s; });
+  // Finish time: driving time plus every pause that starts before the robot is done.
+  double finish = start_s_ + (speed_mps_ > 0 ? distance_m_ / speed_mps_ : 0.0);
+  for (const Pause& p : pauses_) {
+    if (p.at_s < finish && p.at_s + p.for_s > start_s_) finish += p.for_s - std::max(0.0, start_s_ - p.at_s);
+  }
+  finish_s_ = finish;
+}
+
+double Motion::moving_time(double t_s) const {
+  double moving = t_s - start_s_;
+  if (moving <= 0) return 0;
+  for (const Pause& p : pauses_) {
+    const double from = std::max(p.at_s, start_s_), to = std::min(p.at_s + p.for_s, t_s);
+    if (to > from) moving -= to - from;
+  }
+  return std::max(moving, 0.0);
+}
+
+double Motion::distance_at(double t_s) const { return std::min(moving_time(t_s) * speed_mps_, distance_m_); }
+
+bool Motion::moving_at(double t_s) const {
+  if (t_s < start_s_ || t_s >= finish_s_) return false;
+  for (const Pause& p : pauses_) {
+    if (t_s >= p.at_s && t_s < p.at_s + p.for_s) return false;
+  }
+  return true;
+}
+
+double Motion::yaw_rate_at(double t_s) const {
+  constexpr double kH = 1e-3;
+  return normalize_angle(pose_at(t_s + kH).theta_rad - pose_at(t_s - kH).theta_rad) / (2.0 * kH);
+}
+
+}  // namespace teamscan::sim

@@ -1,0 +1,85 @@
+// Robot tracks and motion: closed or open planar curves parametrised by arc length (an ellipse for
+// the Lap2 oval, a lemniscate for the Fig8 figure-eight, a Catmull–Rom spline through waypoints),
+// and a motion along a track at constant speed with a start offset and pauses. The true pose is a
+// smooth function of time: position and heading are continuous, heading follows the tangent.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "common/pose.hpp"
+
+namespace teamscan::sim {
+
+class Track {
+ public:
+  enum class Kind : std::uint8_t { oval, figure8, waypoints };
+
+  // Ellipse with semi-axes (a along x, b along y), centred and yawed; ccw = counter-clockwise.
+  static Track oval(Vec2 center_m, double semi_x_m, double semi_y_m, double yaw_rad, bool ccw);
+  // Lemniscate of Gerono: x = a·sin u, y = b·sin u·cos u; lobes reach ±a along x, ±b/2 along y.
+  static Track figure8(Vec2 center_m, double half_length_m, double width_m, double yaw_rad, bool ccw);
+  // Catmull–Rom spline through the points (at least 2); closed joins the last point to the first.
+  static Track waypoints(std::vector<Vec2> points_m, bool closed);
+
+  [[nodiscard]] Kind kind() const { return kind_; }
+  [[nodiscard]] bool closed() const { return closed_; }
+  [[nodiscard]] double length_m() const { return cumulative_m_.back(); }
+  // Pose at arc length s (wraps on a closed track, clamps on an open one); heading = tangent.
+  [[nodiscard]] Pose2 pose_at(double s_m) const;
+
+ private:
+  Track() = default;
+  void build_table();
+  // Point and tangent (d point / du) at u in [0, 1], map frame.
+  void evaluate(double u, Vec2& point_m, Vec2& tangent_m) const;
+  [[nodiscard]] Vec2 point(double u) const {
+    Vec2 p, d;
+    evaluate(u, p, d);
+    return p;
+  }
+
+  Kind kind_ = Kind::oval;
+  bool closed_ = true;
+  bool reverse_ = false;
+  Pose2 map_from_track_;
+  double cos_yaw_ = 1, sin_yaw_ = 0;  // of map_from_track_, cached: pose_at runs for every beam
+  double a_ = 0, b_ = 0;
+  std::vector<Vec2> points_;
+  std::vector<double> cumulative_m_;  // arc length at u = k / (size − 1)
+};
+
+// A stop during the run: at time `at_s` (seconds from the start) the robot stands still for `for_s`.
+struct Pause {
+  double at_s = 0;
+  double for_s = 0;
+};
+
+// Constant-speed motion along a track: starts `start_offset_m` along it at `start_s`, drives
+// `distance_m` (e.g. laps × length), stops during pauses and at the end.
+class Motion {
+ public:
+  Motion(Track track, double speed_mps, double start_offset_m, double distance_m, double start_s,
+         std::vector<Pause> pauses);
+
+  [[nodiscard]] const Track& track() const { return track_; }
+  // Distance driven by time t (seconds from the start of the run).
+  [[nodiscard]] double distance_at(double t_s) const;
+  [[nodiscard]] Pose2 pose_at(double t_s) const { return track_.pose_at(start_offset_m_ + distance_at(t_s)); }
+  [[nodiscard]] bool moving_at(double t_s) const;
+  // Forward speed and yaw rate at t (the yaw rate by a central difference of the heading).
+  [[nodiscard]] double speed_at(double t_s) const { return moving_at(t_s) ? speed_mps_ : 0.0; }
+  [[nodiscard]] double yaw_rate_at(double t_s) const;
+  // Time at which the robot has driven its whole distance.
+  [[nodiscard]] double finish_s() const { return finish_s_; }
+
+ private:
+  [[nodiscard]] double moving_time(double t_s) const;
+
+  Track track_;
+  double speed_mps_, start_offset_m_, distance_m_, start_s_;
+  std::vector<Pause> pauses_;
+  double finish_s_ = 0;
+};
+
+}  // namespace teamscan::sim

@@ -1,0 +1,103 @@
+// Scenario TOML: the shipped files load, defaults apply, and malformed input names the key.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <string>
+
+#include "sim/scenario.hpp"
+
+namespace teamscan::sim {
+namespace {
+
+std::string scenario_dir() {
+  const char* src = std::getenv("TEAMSCAN_SOURCE_DIR");
+  return std::string{src ? src : "."} + "/sim/scenarios/";
+}
+
+TEST(Scenario, ShippedScenariosLoad) {
+  for (const char* name : {"lap2", "fig8", "team3"}) {
+    const ScenarioLoad load = load_scenario_file(scenario_dir() + name + ".toml");
+    ASSERT_TRUE(load.scenario.has_value()) << load.error;
+    EXPECT_EQ(load.scenario->name, name);
+    EXPECT_GE(load.scenario->robots.size(), 2u);
+  }
+  const ScenarioLoad lap2 = load_scenario_file(scenario_dir() + "lap2.toml");
+  ASSERT_TRUE(lap2.scenario);
+  const Scenario& s = *lap2.scenario;
+  ASSERT_EQ(s.robots.size(), 2u);
+  EXPECT_EQ(s.robots[0].role, "down-laser");
+  EXPECT_EQ(s.robots[1].role, "up-laser");
+  EXPECT_GT(s.robots[0].mount_rpy_rad[1], 0.0);  // pitched down
+  EXPECT_LT(s.robots[1].mount_rpy_rad[1], 0.0);  // pitched up
+  ASSERT_TRUE(s.robots[1].start_phase.has_value());
+  EXPECT_DOUBLE_EQ(*s.robots[1].start_phase, 0.5);
+  const ScenarioLoad team3 = load_scenario_file(scenario_dir() + "team3.toml");
+  ASSERT_TRUE(team3.scenario);
+  EXPECT_EQ(team3.scenario->robots.size(), 3u);
+  EXPECT_EQ(team3.scenario->furniture.size(), 3u);
+  EXPECT_EQ(team3.scenario->robots[2].pauses.size(), 2u);
+  EXPECT_EQ(team3.scenario->robots[1].variant.beams(), 361);
+}
+
+TEST(Scenario, MinimalFileGetsDefaults) {
+  const ScenarioLoad load = parse_scenario("[[robot]]\n[robot.track]\nkind = \"oval\"\n", "min.toml");
+  ASSERT_TRUE(load.scenario) << load.error;
+  const RobotSpec& r = load.scenario->robots[0];
+  EXPECT_EQ(r.id, 1);
+  EXPECT_EQ(r.name, "robot1");
+  EXPECT_EQ(r.subclass, "p3at-sh");
+  EXPECT_EQ(r.variant.beams(), 181);
+  EXPECT_EQ(r.lms_baud, 500000u);
+  EXPECT_DOUBLE_EQ(r.range_noise_mm, 5.0);
+  EXPECT_EQ(load.scenario->name, "min");
+}
+
+struct BadCase {
+  const char* toml;
+  const char* key;
+};
+
+TEST(Scenario, MalformedInputNamesTheKey) {
+  const BadCase cases[] = {
+      {"[room]\nsize_m = [9, 7]\n[[robot]]\n[robot.track]\n", "room.size_m"},
+      {"[room]\nsize_m = [20, 7, 3]\n[[robot]]\n[robot.track]\n", "room.size_m"},
+      {"[[robot]]\nspeed_mps = \"fast\"\n[robot.track]\n", "robot[0].speed_mps"},
+      {"[[robot]]\n[robot.track]\n[[robot]]\nsped_mps = 1\n[robot.track]\n", "robot[1].sped_mps"},
+      {"[[robot]]\n[robot.track]\nkind = \"square\"\n", "robot[0].track.kind"},
+      {"[[robot]]\n[robot.track]\n[robot.laser]\nresolution_deg = 0.3\n", "robot[0].laser.resolution_deg"},
+      {"[[robot]]\n[robot.track]\n[robot.laser]\nresolution_deg = 0.25\n", "robot[0].laser.resolution_deg"},
+      {"[[robot]]\n[robot.track]\n[robot.laser]\nbaud = 115200\n", "robot[0].laser.baud"},
+      {"[[robot]]\n[robot.track]\nkind = \"waypoints\"\npoints_m = [[0, 0]]\n", "robot[0].track.points_m"},
+      {"[[robot]]\npauses = [{ at_s = 1 }]\n[robot.track]\n", "robot[0].pauses[0].for_s"},
+      {"[[robot]]\nid = 40\n[robot.track]\n", "robot[0].id"},
+      {"[[robot]]\n", "robot[0].track"},
+      {"[[robot]]\n[robot.track]\n[[robot]]\nid = 1\n[robot.track]\n", "robot[1].id"},
+      {"[[furniture]]\nkind = \"box\"\nsize_m = [1, 1, 1]\n[[robot]]\n[robot.track]\n", "furniture[0].center_m"},
+      {"colour = 3\n[[robot]]\n[robot.track]\n", "colour"},
+      {"seed = 1\n", "robot"},
+  };
+  for (const BadCase& c : cases) {
+    const ScenarioLoad load = parse_scenario(c.toml, "bad.toml");
+    EXPECT_FALSE(load.scenario.has_value()) << c.toml;
+    EXPECT_NE(load.error.find(std::string{c.key} + ":"), std::string::npos) << "error: " << load.error << "\nwanted key " << c.key;
+    EXPECT_NE(load.error.find("bad.toml"), std::string::npos) << load.error;
+  }
+}
+
+TEST(Scenario, SyntaxErrorGivesLineNumber) {
+  const ScenarioLoad load = parse_scenario("name = \"x\"\nseed = = 3\n", "broken.toml");
+  EXPECT_FALSE(load.scenario.has_value());
+  EXPECT_NE(load.error.find("broken.toml:2"), std::string::npos) << load.error;
+}
+
+TEST(Scenario, ResolveByNameAndUnknownName) {
+  const ScenarioLoad byname = resolve_scenario("lap2", "/nonexistent");
+  ASSERT_TRUE(byname.scenario) << byname.error;
+  EXPECT_EQ(byname.scenario->name, "lap2");
+  const ScenarioLoad unknown = resolve_scenario("nosuchscenario", "/nonexistent");
+  EXPECT_FALSE(unknown.scenario);
+  EXPECT_NE(unknown.error.find("nosuchscenario"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace teamscan::sim
