@@ -18,10 +18,12 @@ namespace teamscan {
 // serial and scheduling latency between a SIP and the scan that needs it.
 inline constexpr std::size_t kOdometryHistoryDepth = 64;
 
-// How far past either end of the covered span interpolate() extrapolates by default: at most one
-// missed SIP (100 ms at 10 Hz). A scan that ends after the newest SIP is the normal case (the SIP for
-// that instant has not arrived yet); anything further is a stalled odometry stream and is refused.
-inline constexpr Duration kDefaultMaxExtrapolation = 100ms;
+// How far past either end of the covered span interpolate() extrapolates by default. A scan usually
+// ends after the newest SIP: SIPs come every 100 ms and arrive one transmission late (a 43-byte SIP
+// takes 45 ms at 9600 baud, and its stamp is back-dated by that), so the newest SIP can be ~150 ms
+// older than a scan. 200 ms covers that plus scheduling jitter; anything further is a stalled odometry
+// stream and is refused.
+inline constexpr Duration kDefaultMaxExtrapolation = 200ms;
 
 struct OdometrySample {
   Time stamp;             // CLOCK_REALTIME of the pose (the SIP's arrival, back-dated)

@@ -32,7 +32,7 @@ void fill_sip_motion(SipPacket& sip, const RobotParams& params, double x_mm, dou
   }
 }
 
-PioneerEmulator::PioneerEmulator(const PioneerEmulatorOptions& options) : opt_{options} {
+PioneerEmulator::PioneerEmulator(const PioneerEmulatorOptions& options) : opt_{options}, baud_{options.baud} {
   auto p = params_for_subclass(opt_.subclass);
   params_ = p.ok() ? p.value() : fallback_params(opt_.subclass);
 }
@@ -57,6 +57,10 @@ std::size_t PioneerEmulator::take_tx(std::span<std::uint8_t> out) {
   for (std::size_t i = 0; i < n; ++i) out[i] = tx_[(tx_head_ + i) % tx_.size()];
   tx_head_ = (tx_head_ + n) % tx_.size();
   tx_size_ -= n;
+  if (tx_size_ == 0 && pending_baud_ != 0) {  // the bytes sent at the old rate are out
+    baud_ = pending_baud_;
+    pending_baud_ = 0;
+  }
   return n;
 }
 
@@ -68,6 +72,8 @@ void PioneerEmulator::set_pose(double x_mm, double y_mm, double th_rad) {
 
 void PioneerEmulator::power_cycle() {
   state_ = PioneerState::kWaitSync0;
+  baud_ = opt_.baud;
+  pending_baud_ = 0;
   stop_motion();
   motors_enabled_ = false;
   encoder_stream_ = false;
@@ -101,9 +107,9 @@ void PioneerEmulator::integrate(Time now) {
   right_enc_ += (trans_mm_s_ + half_diff_mm_s) * dt_s * opt_.ticks_per_mm;
 }
 
-SipPacket PioneerEmulator::make_sip(Time now) {
+bool PioneerEmulator::make_sip(Time now, SipPacket& sip) {
   integrate(now);
-  SipPacket sip;
+  sip = SipPacket{};
   sip.tail_fields = static_cast<std::uint8_t>(SipField::kFaultFlags) + 1;  // as ARCOS/AMRISim (§1.8)
   sip.battery_dv = opt_.battery_dv;
   sip.battery_x10 = opt_.battery_dv;
@@ -112,8 +118,7 @@ SipPacket PioneerEmulator::make_sip(Time now) {
   sip.control = 0;
   const double half_diff_mm_s = rot_rad_s_ / params_.diff_conv_rad_per_mm;
   fill_sip_motion(sip, params_, x_mm_, y_mm_, th_rad_, trans_mm_s_ - half_diff_mm_s, trans_mm_s_ + half_diff_mm_s);
-  if (source_ != nullptr && !source_->fill_sip(now, sip)) sip.sonar_count = 0xFF;  // marker: skip
-  return sip;
+  return source_ == nullptr || source_->fill_sip(now, sip);
 }
 
 Time PioneerEmulator::next_deadline() const {
@@ -131,8 +136,8 @@ void PioneerEmulator::on_tick(Time now) {
     stop_motion();
   }
   if (now >= next_sip_) {
-    SipPacket sip = make_sip(now);
-    if (sip.sonar_count != 0xFF) {
+    SipPacket sip;
+    if (make_sip(now, sip)) {
       send(encode_sip(sip));
       ++stats_.sips_sent;
     }
@@ -226,11 +231,30 @@ void PioneerEmulator::server_command(const PacketView& p, Time now) {
     case Command::kPulse:
     case Command::kOpen: return;
     case Command::kClose:
+      // The server stops and the host port returns to its power-up rate: this is why ARIA sends
+      // CLOSE at every rate when the robot is silent (§1.4).
       ++stats_.closes;
       stop_motion();
       encoder_stream_ = false;
       state_ = PioneerState::kWaitSync0;
+      baud_ = opt_.baud;
+      pending_baud_ = 0;
       return;
+    case Command::kHostBaud: {
+      // §1.1: 0..4 = 9600/19200/38400/57600/115200; the new rate holds until CLOSE or power-up.
+      static constexpr std::uint32_t kRates[] = {9600, 19200, 38400, 57600, 115200};
+      if (c.value < 0 || c.value > 4) {
+        ++stats_.bad_commands;
+        return;
+      }
+      pending_baud_ = kRates[c.value];
+      if (tx_size_ == 0) {
+        baud_ = pending_baud_;
+        pending_baud_ = 0;
+      }
+      ++stats_.baud_changes;
+      return;
+    }
     case Command::kEnable:
       motors_enabled_ = c.value != 0;
       if (!motors_enabled_) stop_motion();
@@ -274,7 +298,7 @@ void PioneerEmulator::server_command(const PacketView& p, Time now) {
       return;
     }
     case Command::kEncoder: encoder_stream_ = c.value > 0; return;
-    default: ++stats_.ignored_commands; return;  // HOSTBAUD included: the emulator keeps its rate
+    default: ++stats_.ignored_commands; return;
   }
 }
 

@@ -57,6 +57,7 @@ struct PioneerEmulatorStatistics {
   std::uint64_t ignored_commands = 0;    // understood but not modelled (sonar, gripper, ...)
   std::uint64_t sips_sent = 0, configs_sent = 0, encoder_packets_sent = 0;
   std::uint64_t watchdog_stops = 0;
+  std::uint64_t baud_changes = 0;        // HOSTBAUD obeyed
   std::uint64_t tx_overflows = 0;
   ArcosParserStatistics parser;
 };
@@ -69,12 +70,18 @@ class PioneerEmulator final : public serial::SerialEndpoint {
   void on_rx(std::span<const std::uint8_t> bytes, Time now) override;
   void on_tick(Time now) override;
   std::size_t take_tx(std::span<std::uint8_t> out) override;
-  [[nodiscard]] std::uint32_t baud() const override { return opt_.baud; }
+  [[nodiscard]] std::uint32_t baud() const override { return baud_; }
   [[nodiscard]] Time next_deadline() const override;
 
   void set_sip_source(SipSource* source) { source_ = source; }
-  // The SIP that would go out at `now`: own state (or the source's fill) — for the simulator.
-  [[nodiscard]] SipPacket make_sip(Time now);
+  // The SIP that would go out at `now`: own state, then the source's fill — for the simulator.
+  // Returns false when the source chose to skip this cycle (the packet is filled anyway).
+  bool make_sip(Time now, SipPacket& sip);
+  [[nodiscard]] SipPacket make_sip(Time now) {
+    SipPacket s;
+    (void)make_sip(now, s);
+    return s;
+  }
 
   // Sets the emulator's own odometry (mm, rad), e.g. to place the robot.
   void set_pose(double x_mm, double y_mm, double th_rad);
@@ -103,6 +110,8 @@ class PioneerEmulator final : public serial::SerialEndpoint {
   PioneerEmulatorOptions opt_;
   RobotParams params_;
   PioneerState state_ = PioneerState::kWaitSync0;
+  std::uint32_t baud_;           // HOSTBAUD changes it for the connection; CLOSE restores opt_.baud
+  std::uint32_t pending_baud_ = 0;  // applied once the bytes queued before it have been taken
   ArcosParser parser_;
   PioneerEmulatorStatistics stats_{};
   SipSource* source_ = nullptr;

@@ -240,6 +240,11 @@ void LmsClient::handle_reply(const TelegramView& t, Time now) {
       enter(LmsClientState::confirming_baud, now);
       break;
     case LmsClientState::confirming_baud:
+      // The status reply at the new rate is the confirmation (MRPT); its baud code must agree.
+      if (const auto info = parse_status_data(data); info && info->baud != 0 && info->baud != baud_) {
+        step_failed("status reply reports another baud rate", now);
+        break;
+      }
       last_good_baud_ = baud_;
       enter(LmsClientState::setting_variant, now);
       break;
@@ -344,7 +349,10 @@ void LmsClient::on_rx(std::span<const std::uint8_t> bytes, Time now) {
       last_telegram_ = now;
       const std::uint8_t c = t.code();
       if (c == code(Reply::measured_values)) {
-        handle_scan(t, now);
+        // `now` is when the chunk's last byte arrived; bytes behind this telegram in the same chunk
+        // (still buffered or not yet fed) arrived after its last byte, one byte time each.
+        const auto trailing = static_cast<std::int64_t>(parser_.buffered() + bytes.size());
+        handle_scan(t, now - serial_transmission_time(trailing, baud_));
         if (state_ == LmsClientState::probing) {  // a stream at this rate proves the rate
           last_good_baud_ = baud_;
           enter(LmsClientState::stopping_stream, now);

@@ -71,8 +71,9 @@ enum class LmsClientState : std::uint8_t {
 };
 [[nodiscard]] const char* to_string(LmsClientState state);
 
-// When and how a scan arrived: the receive time of its last byte and what is needed to back-date
-// it by the transmission time (DESIGN.md: a scan's stamp is the end of its sweep).
+// When and how a scan arrived: the receive time of its last byte (the time passed to on_rx, less
+// one byte time for every byte that followed it in that chunk) and what is needed to back-date it by
+// the transmission time (DESIGN.md: a scan's stamp is the end of its sweep).
 struct ScanArrival {
   Time last_byte;
   std::uint16_t telegram_bytes = 0;

@@ -79,10 +79,10 @@ std::size_t LmsEmulator::sendable_now() const {
   return std::min(pending, static_cast<std::size_t>(done));
 }
 
-void LmsEmulator::queue(std::span<const std::uint8_t> bytes) {
+void LmsEmulator::queue(std::span<const std::uint8_t> bytes, Time earliest) {
   if (pending_tx() == 0) {
     tx_begin_ = tx_end_ = 0;
-    burst_start_ = std::max(now_, line_free_at_);
+    burst_start_ = std::max(earliest, line_free_at_);
     burst_sent_ = 0;
   }
   if (tx_.size() - tx_end_ < bytes.size() && tx_begin_ > 0) {
@@ -171,7 +171,8 @@ void LmsEmulator::queue_scan(Time sweep_end) {
       (config_[4] & 0x02) != 0 ? std::optional<std::uint8_t>{static_cast<std::uint8_t>(scan_number_ & 0xFF)}
                                : std::nullopt;
   const std::size_t len = build_scan_reply(scratch_, cw.encode(), std::span{words_}.first(n), rt, options_.status_byte);
-  queue(std::span{scratch_}.first(len));
+  // The scanner starts sending when the sweep ends (or the line frees), not when we were ticked.
+  queue(std::span{scratch_}.first(len), std::min(sweep_end, now_));
   ++scan_number_;
   ++stats_.scans_sent;
 }
@@ -184,17 +185,25 @@ void LmsEmulator::on_rx(std::span<const std::uint8_t> bytes, Time now) {
     while (parser_.next(e)) {
       if (!powered_) continue;  // booting or resetting: the LMS does not listen
       switch (e.kind) {
-        case LmsEvent::Kind::telegram: handle_telegram(TelegramView{e.bytes}); break;
+        case LmsEvent::Kind::telegram:
+          nak_armed_ = true;
+          handle_telegram(TelegramView{e.bytes});
+          break;
         case LmsEvent::Kind::bad_crc:
         case LmsEvent::Kind::bad_length:
-          // §2.2: a telegram that was not accepted is answered by a lone NAK.
-          queue_byte(kNak);
-          ++stats_.naks_sent;
+          // §2.2: a telegram that was not accepted is answered by a lone NAK — one per broken
+          // telegram, not one per false header the re-scan finds inside it.
+          if (nak_armed_) {
+            queue_byte(kNak);
+            ++stats_.naks_sent;
+            nak_armed_ = false;
+          }
           break;
         default: break;
       }
     }
   }
+  if (parser_.buffered() == 0) nak_armed_ = true;  // the broken telegram is behind us
 }
 
 void LmsEmulator::handle_telegram(const TelegramView& t) {

@@ -107,7 +107,9 @@ class LmsEmulator final : public serial::SerialEndpoint {
  private:
   void handle_telegram(const TelegramView& t);
   void handle_mode(std::span<const std::uint8_t> data);
-  void queue(std::span<const std::uint8_t> bytes);
+  // Appends to the transmit queue; an idle line starts sending at max(earliest, line free).
+  void queue(std::span<const std::uint8_t> bytes, Time earliest);
+  void queue(std::span<const std::uint8_t> bytes) { queue(bytes, now_); }
   void queue_byte(std::uint8_t b) { queue(std::span{&b, 1}); }
   void queue_scan(Time sweep_end);
   void load_defaults();
@@ -126,6 +128,7 @@ class LmsEmulator final : public serial::SerialEndpoint {
   std::uint32_t permanent_baud_;
   std::uint32_t pending_baud_ = 0;  // applied once the ACK and 0xA0 have left the line
   OperatingMode mode_ = OperatingMode::polled;
+  bool nak_armed_ = true;           // one NAK per rejected telegram
   bool setup_ = false;
   LaserVariant variant_;
   std::array<std::uint8_t, kMaxConfigBytes> config_{};

@@ -2,6 +2,7 @@
 #include "drivers/serial/pty.hpp"
 
 #include <fcntl.h>
+#include <sys/ioctl.h>
 #include <stdlib.h>
 #include <termios.h>
 #include <unistd.h>
@@ -97,6 +98,28 @@ std::uint32_t PtyPair::slave_baud() const {
   const SysResult r = posix_call([&] { return ::tcgetattr(master_fd_, &tio); });
   if (!r.ok()) return 0;
   return speed_to_baud(::cfgetospeed(&tio));
+}
+
+Result<std::size_t> PtyPair::host_unread_bytes() const {
+  if (slave_fd_ < 0) return Error{"pty is closed", EBADF};
+  int queued = 0;
+  const SysResult r = posix_call([&] { return ::ioctl(slave_fd_, FIONREAD, &queued); });
+  if (!r.ok()) return Error{"FIONREAD on pty slave failed", r.err};
+  return static_cast<std::size_t>(queued < 0 ? 0 : queued);
+}
+
+Status PtyPair::set_slave_baud(std::uint32_t baud) {
+  if (master_fd_ < 0) return Error{"pty is closed", EBADF};
+  const speed_t speed = baud_to_speed(baud);
+  if (speed == 0) return Error{"unsupported baud rate", EINVAL, static_cast<long>(baud)};
+  termios tio{};
+  SysResult r = posix_call([&] { return ::tcgetattr(master_fd_, &tio); });
+  if (!r.ok()) return Error{"tcgetattr on pty master failed", r.err};
+  (void)::cfsetispeed(&tio, speed);
+  (void)::cfsetospeed(&tio, speed);
+  r = posix_call([&] { return ::tcsetattr(master_fd_, TCSANOW, &tio); });
+  if (!r.ok()) return Error{"tcsetattr on pty master failed", r.err};
+  return ok_status();
 }
 
 void PtyPair::close() {

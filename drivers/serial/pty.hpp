@@ -33,6 +33,11 @@ class PtyPair {
   // is tcgetattr(master) (§6 "Baud rate"); the kernel stores the rate but does not enforce it.
   // 0 when closed or when the rate is not one of ours (is_supported_baud).
   [[nodiscard]] std::uint32_t slave_baud() const;
+  // Bytes written on the master that the host has not read yet (FIONREAD on the pair's own slave fd):
+  // a server waits for 0 before closing, or the host would lose them in the hang-up.
+  [[nodiscard]] Result<std::size_t> host_unread_bytes() const;
+  // Sets the slave's rate from the master side (what a host would see before it sets its own).
+  [[nodiscard]] Status set_slave_baud(std::uint32_t baud);
   // "Unplug": closes master and slave fds and removes the symlink; the host sees EIO/hang-up.
   void close();
 

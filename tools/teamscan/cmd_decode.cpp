@@ -41,46 +41,21 @@ bool read_all(const std::string& path, std::string& out) {
   return ok;
 }
 
-// A capture keeps its own records; a #baud record sets the rate of the chunks after it.
-DecodeInput chunks_from_capture(const Capture& cap, std::uint32_t default_baud) {
-  DecodeInput in;
-  std::uint32_t baud = default_baud;
-  for (const auto& r : cap.records) {
-    if (r.kind == CaptureRecord::Kind::baud) {
-      baud = r.baud;
-      continue;
-    }
-    in.chunks.push_back(DecodeChunk{r.time_us, r.direction, baud, r.bytes});
-  }
-  return in;
-}
-
 int run_decode(const DecodeOptions& opt) {
   std::string data;
   if (!read_all(opt.file, data)) {
     std::fprintf(stderr, "teamscan decode: cannot read %s\n", opt.file.c_str());
     return 1;
   }
-  DecodeInput in;
-  if (data.rfind("#teamscan-capture", 0) == 0) {
-    auto cap = parse_capture(data);
-    if (!cap) {
-      std::fprintf(stderr, "teamscan decode: %s: line %ld: %s\n", opt.file.c_str(), cap.error().detail,
-                   cap.error().what);
-      return 1;
-    }
-    if (cap->device != DeviceKind::unknown && std::string{to_string(cap->device)} != opt.device)
-      std::fprintf(stderr, "teamscan decode: warning: capture is from a %s, decoding as %s\n", to_string(cap->device),
-                   opt.device.c_str());
-    in = chunks_from_capture(*cap, opt.baud);
-  } else if (!data.empty()) {
-    DecodeChunk c;
-    c.direction = opt.direction == "tx" ? CaptureDirection::tx : CaptureDirection::rx;
-    c.baud = opt.baud;
-    c.bytes.assign(data.begin(), data.end());
-    in.chunks.push_back(std::move(c));
+  auto in = make_decode_input(data, opt.baud, opt.direction == "tx" ? CaptureDirection::tx : CaptureDirection::rx);
+  if (!in) {
+    std::fprintf(stderr, "teamscan decode: %s: line %ld: %s\n", opt.file.c_str(), in.error().detail, in.error().what);
+    return 1;
   }
-  const int rc = opt.device == "arcos" ? decode_arcos(in, stdout) : decode_lms200(in, stdout);
+  if (in->device != DeviceKind::unknown && std::string{to_string(in->device)} != opt.device)
+    std::fprintf(stderr, "teamscan decode: warning: capture is from a %s, decoding as %s\n", to_string(in->device),
+                 opt.device.c_str());
+  const int rc = opt.device == "arcos" ? decode_arcos(*in, stdout) : decode_lms200(*in, stdout);
   std::fflush(stdout);
   return rc;
 }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/capture.hpp"
+#include "common/result.hpp"
 
 namespace teamscan::tool {
 
@@ -24,7 +25,50 @@ struct DecodeChunk {
 
 struct DecodeInput {
   std::vector<DecodeChunk> chunks;
+  DeviceKind device = DeviceKind::unknown;  // from the capture's #device header; unknown for raw input
 };
+
+// True if `data` is a capture: "#teamscan-capture" first, after any "# " comment or blank lines.
+[[nodiscard]] inline bool looks_like_capture(std::string_view data) {
+  while (!data.empty()) {
+    if (data.rfind("#teamscan-capture", 0) == 0) return true;
+    const bool skippable = data.rfind("# ", 0) == 0 || data[0] == '\n' || data.rfind("\r\n", 0) == 0;
+    if (!skippable) return false;
+    const std::size_t nl = data.find('\n');
+    if (nl == std::string_view::npos) return false;
+    data.remove_prefix(nl + 1);
+  }
+  return false;
+}
+
+// Builds the decoder input from a whole file: a capture gives one chunk per record, each with the
+// rate of the last #baud before it (`baud` until the first); raw bytes give one chunk in
+// `raw_direction` at `baud`. A malformed capture is an Error whose detail is the line number.
+[[nodiscard]] inline Result<DecodeInput> make_decode_input(std::string_view data, std::uint32_t baud,
+                                                           CaptureDirection raw_direction = CaptureDirection::rx) {
+  DecodeInput in;
+  if (!looks_like_capture(data)) {
+    if (!data.empty()) {
+      DecodeChunk c;
+      c.direction = raw_direction;
+      c.baud = baud;
+      c.bytes.assign(data.begin(), data.end());
+      in.chunks.push_back(std::move(c));
+    }
+    return in;
+  }
+  auto cap = parse_capture(data);
+  if (!cap) return cap.error();
+  in.device = cap->device;
+  for (auto& r : cap->records) {
+    if (r.kind == CaptureRecord::Kind::baud) {
+      baud = r.baud;
+      continue;
+    }
+    in.chunks.push_back(DecodeChunk{r.time_us, r.direction, baud, std::move(r.bytes)});
+  }
+  return in;
+}
 
 // Implemented by the device engineers in tools/teamscan/support_decode_arcos.cpp and
 // support_decode_lms200.cpp. Print one JSON object per packet/telegram/ACK/NAK and per bad input

@@ -52,6 +52,7 @@ inline std::vector<std::uint8_t> frame(std::span<const std::uint8_t> body) {
 // when the link direction is up and both sides use the same rate (otherwise they are lost, as
 // a UART at the wrong rate would garble them).
 struct Loop {
+  Loop(serial::SerialEndpoint& h, serial::SerialEndpoint& d) : host{h}, device{d} {}
   serial::SerialEndpoint& host;
   serial::SerialEndpoint& device;
   Time now = Time::from_seconds(1000.0);

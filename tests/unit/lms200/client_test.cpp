@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <cstdlib>
@@ -80,6 +81,10 @@ class Bench {
     for (const auto& sw : ranges.sweeps)
       if (sw.sweep_end <= sweep_end + 2 * kStep && sweep_end <= sw.sweep_end + 3 * kStep + late_send_allowance)
         match = &sw;
+    if (match != nullptr) {
+      const Duration err = sweep_end - match->sweep_end;
+      max_backdate_error = std::max(max_backdate_error, err < Duration{0} ? -err : err);
+    }
     if (match == nullptr) {
       if (std::getenv("LMS_DEBUG") != nullptr) {
         std::fprintf(stderr, "unmatched: last_byte %lld est %lld bytes %d baud %u; sweeps:", (long long)a.last_byte.ns() / 1000,
@@ -116,6 +121,7 @@ class Bench {
   int scans = 0;
   int unmatched = 0;
   int range_mismatches = 0;
+  Duration max_backdate_error{0};
   ScanTelegram last_scan{};
   ScanArrival last_arrival{};
 };
@@ -153,6 +159,10 @@ TEST(LmsClient, FullBringUpTo500kHalfDegreeMillimetres) {
   EXPECT_EQ(b.last_arrival.telegram_bytes, 732);
   EXPECT_EQ(b.emulator.statistics().scans_skipped, 0u);
   EXPECT_EQ(b.client.parser_statistics().bad_crc, 0u);
+  // Back-dating the last byte by the 14.64 ms transmission time finds the sweep end to within the
+  // 1 ms at which this simulated line hands bytes over (a reader cannot see when, inside one read,
+  // a telegram's last byte came if the line then went idle) plus one byte time.
+  EXPECT_LE(b.max_backdate_error, Bench::kStep + 20us);
 }
 
 TEST(LmsClient, EveryVariantStreamsItsBeamCount) {

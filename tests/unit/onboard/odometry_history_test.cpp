@@ -22,9 +22,11 @@ TEST(OdometryHistory, SingleSampleHeldWithinLimit) {
   ASSERT_TRUE(r.ok());
   EXPECT_DOUBLE_EQ(r->x_m, 1.0);
   EXPECT_DOUBLE_EQ(r->theta_rad, 0.5);
-  EXPECT_FALSE(h.interpolate(ms(1101)).ok());
-  EXPECT_TRUE(h.interpolate(ms(1100)).ok());  // the limit is inclusive
-  EXPECT_FALSE(h.interpolate(ms(899)).ok());
+  EXPECT_FALSE(h.interpolate(ms(1000) + kDefaultMaxExtrapolation + 1ms).ok());
+  EXPECT_TRUE(h.interpolate(ms(1000) + kDefaultMaxExtrapolation).ok());  // the limit is inclusive
+  EXPECT_FALSE(h.interpolate(ms(1000) - kDefaultMaxExtrapolation - 1ms).ok());
+  EXPECT_FALSE(h.interpolate(ms(1101), 100ms).ok());  // an explicit limit
+  EXPECT_TRUE(h.interpolate(ms(1100), 100ms).ok());
 }
 
 TEST(OdometryHistory, InterpolatesLinearlyInside) {
@@ -65,11 +67,11 @@ TEST(OdometryHistory, ExtrapolatesAtConstantVelocityBothEnds) {
   r = h.interpolate(ms(-50));
   ASSERT_TRUE(r.ok());
   EXPECT_NEAR(r->x_m, -0.05, 1e-12);
-  const auto late = h.interpolate(ms(201));
+  const auto late = h.interpolate(ms(201), 100ms);
   ASSERT_FALSE(late.ok());
   EXPECT_STREQ(late.error().what, "odometry: time after history");
   EXPECT_EQ(late.error().detail, 101000);  // µs past the newest sample
-  const auto early = h.interpolate(ms(-101));
+  const auto early = h.interpolate(ms(-101), 100ms);
   ASSERT_FALSE(early.ok());
   EXPECT_STREQ(early.error().what, "odometry: time before history");
   EXPECT_TRUE(h.interpolate(ms(400), 300ms).ok());  // the limit is the caller's
@@ -91,8 +93,8 @@ TEST(OdometryHistory, FullRingOverwritesOldest) {
   EXPECT_EQ(h.overwritten(), 2u);
   EXPECT_EQ(h.at(0).stamp, ms(200));
   EXPECT_EQ(h.newest().stamp, ms(400));
-  // Samples 0 and 1 are gone: 99 ms lies 101 ms before the oldest kept sample, beyond the limit.
-  EXPECT_FALSE(h.interpolate(ms(99)).ok());
+  // Samples 0 and 1 are gone: 99 ms lies 101 ms before the oldest kept sample, beyond a 100 ms limit.
+  EXPECT_FALSE(h.interpolate(ms(99), 100ms).ok());
   const auto r = h.interpolate(ms(350));
   ASSERT_TRUE(r.ok());
   EXPECT_NEAR(r->x_m, 3.5, 1e-12);

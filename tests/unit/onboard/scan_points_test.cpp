@@ -180,7 +180,7 @@ TEST(ScanPoints, StaleOdometryOnlyCoversRecentBeams) {
   OdometryHistory<> odom;
   ASSERT_TRUE(odom.push(Time::from_ns(0), {}));
   ASSERT_TRUE(odom.push(Time::from_ns(10'000'000), {}));
-  ScanProjector proj{Pose3{}, Pose2{}};
+  ScanProjector proj{Pose3{}, Pose2{}, ScanPointsOptions{8182, 100ms}};
   const Scan s = uniform(1000);
   ScanPoints out;
   proj.project(s.beams(Time::from_ns(113'000'000)), odom, out);

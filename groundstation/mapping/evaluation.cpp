@@ -1,0 +1,369 @@
+// Offline evaluation: data set → time-ordered scans with team states → each method → metrics.
+#include "groundstation/mapping/evaluation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <sstream>
+#include <tuple>
+
+#include "common/units.hpp"
+
+namespace teamscan::mapping {
+
+ScanView PreparedDataset::view(std::size_t scan_index) const {
+  const PreparedScan& s = scans[scan_index];
+  ScanView v;
+  v.robot = s.record.robot;
+  v.scan = s.record.scan;
+  v.stamp_ns = s.record.stamp_ns;
+  v.origin_m = s.record.origin;
+  v.map_from_robot = s.record.pose;
+  v.points = std::span<const MapPoint>(points).subspan(s.first, s.count);
+  v.flags = std::span<const std::uint16_t>(flags).subspan(s.first, s.count);
+  v.team = &teams[s.team];
+  return v;
+}
+
+PreparedDataset prepare_dataset(const Dataset& dataset, const TrackerOptions& tracker_options) {
+  PreparedDataset out;
+  // Group the points by (robot, scan), keeping their order within a scan.
+  std::map<std::pair<std::uint8_t, std::uint32_t>, std::vector<std::size_t>> by_scan;
+  for (std::size_t i = 0; i < dataset.points.size(); ++i)
+    by_scan[{dataset.points[i].robot, dataset.points[i].scan}].push_back(i);
+
+  std::vector<ScanRecord> records;
+  records.reserve(by_scan.size());
+  std::map<std::pair<std::uint8_t, std::uint32_t>, bool> known;
+  for (const ScanRecord& r : dataset.scans) {
+    if (known.emplace(std::make_pair(r.robot, r.scan), true).second) records.push_back(r);
+  }
+  for (const auto& [key, indices] : by_scan) {
+    if (known.count(key)) continue;
+    // A scan with points but no row in scans.csv: evaluated at time 0 without team state.
+    ScanRecord r;
+    r.robot = key.first;
+    r.scan = key.second;
+    records.push_back(r);
+    out.orphan_points += indices.size();
+  }
+  std::sort(records.begin(), records.end(), [](const ScanRecord& a, const ScanRecord& b) {
+    return std::tie(a.stamp_ns, a.robot, a.scan) < std::tie(b.stamp_ns, b.robot, b.scan);
+  });
+
+  // The tracker sees the odometry in time order, as the ground station receives it.
+  std::vector<const TrajectorySample*> odom;
+  odom.reserve(dataset.odom.size());
+  for (const TrajectorySample& s : dataset.odom) odom.push_back(&s);
+  std::stable_sort(odom.begin(), odom.end(), [](const TrajectorySample* a, const TrajectorySample* b) {
+    return std::tie(a->stamp_ns, a->robot) < std::tie(b->stamp_ns, b->robot);
+  });
+  TeamTracker tracker(tracker_options);
+  std::size_t next_odom = 0;
+
+  out.points.reserve(dataset.points.size());
+  out.flags.reserve(dataset.points.size());
+  out.source_index.reserve(dataset.points.size());
+  out.scans.reserve(records.size());
+  out.teams.reserve(records.size());
+  for (const ScanRecord& r : records) {
+    while (next_odom < odom.size() && odom[next_odom]->stamp_ns <= r.stamp_ns) {
+      const TrajectorySample& s = *odom[next_odom++];
+      tracker.add_pose(s.robot, s.stamp_ns, s.pose, s.v_mps);
+    }
+    PreparedScan ps;
+    ps.record = r;
+    ps.first = out.points.size();
+    ps.team = out.teams.size();
+    out.teams.push_back(tracker.predict(r.stamp_ns));
+    auto it = by_scan.find({r.robot, r.scan});
+    if (it != by_scan.end()) {
+      for (std::size_t i : it->second) {
+        const LabelledPoint& p = dataset.points[i];
+        out.points.push_back({p.x, p.y, p.z});
+        out.flags.push_back(p.flags);
+        out.source_index.push_back(i);
+      }
+    }
+    ps.count = out.points.size() - ps.first;
+    out.scans.push_back(ps);
+  }
+  return out;
+}
+
+std::vector<std::uint8_t> run_offline(const PreparedDataset& prepared, Filter& filter) {
+  filter.reset();
+  for (std::size_t s = 0; s < prepared.scans.size(); ++s) filter.observe(prepared.view(s));
+  std::vector<std::uint8_t> removed(prepared.points.size(), 0);
+  std::vector<std::uint8_t> out(prepared.points.size(), 0);
+  for (std::size_t s = 0; s < prepared.scans.size(); ++s) {
+    const PreparedScan& ps = prepared.scans[s];
+    filter.classify(prepared.view(s), std::span<std::uint8_t>(removed).subspan(ps.first, ps.count));
+  }
+  for (std::size_t i = 0; i < removed.size(); ++i) out[prepared.source_index[i]] = removed[i];
+  return out;
+}
+
+std::vector<std::uint8_t> run_live(const PreparedDataset& prepared, Filter& filter) {
+  filter.reset();
+  std::vector<std::uint8_t> removed(prepared.points.size(), 0);
+  std::vector<std::uint8_t> out(prepared.points.size(), 0);
+  for (std::size_t s = 0; s < prepared.scans.size(); ++s) {
+    const PreparedScan& ps = prepared.scans[s];
+    const ScanView view = prepared.view(s);
+    filter.observe(view);
+    filter.classify(view, std::span<std::uint8_t>(removed).subspan(ps.first, ps.count));
+  }
+  for (std::size_t i = 0; i < removed.size(); ++i) out[prepared.source_index[i]] = removed[i];
+  return out;
+}
+
+namespace {
+
+std::string format_number(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+MethodSpec spec(const std::string& method, const MethodOptions& base, double resolution_m, double half_angle_deg) {
+  MethodSpec s{method, method, base};
+  s.options.frequency.resolution_m = resolution_m;
+  s.options.visibility.resolution_m = resolution_m;
+  s.options.combined_resolution_m = resolution_m;
+  s.options.direction.half_angle_rad = deg_to_rad(half_angle_deg);
+  s.options.combined_half_angle_rad = deg_to_rad(half_angle_deg);
+  if (method == "frequency" || method == "visibility") s.name = method + "@" + format_number(resolution_m, 2) + "m";
+  if (method == "direction") s.name = method + "@" + format_number(half_angle_deg, 1) + "deg";
+  if (method == "combined")
+    s.name = method + "@" + format_number(half_angle_deg, 1) + "deg," + format_number(resolution_m, 2) + "m";
+  return s;
+}
+
+}  // namespace
+
+Result<std::vector<MethodSpec>> parse_methods(const std::string& list, std::optional<double> resolution_m,
+                                              std::optional<double> half_angle_deg, const MethodOptions& base) {
+  std::vector<std::string> names;
+  if (list == "all") {
+    names = known_methods();
+  } else {
+    std::stringstream in(list);
+    std::string item;
+    while (std::getline(in, item, ',')) {
+      if (item.empty()) continue;
+      if (std::find(known_methods().begin(), known_methods().end(), item) == known_methods().end())
+        return Error{"unknown method (known: frequency, visibility, position, direction, combined, all)"};
+      names.push_back(item);
+    }
+  }
+  if (names.empty()) return Error{"no method given"};
+  if (resolution_m && !(*resolution_m > 0.0)) return Error{"resolution must be > 0"};
+  if (half_angle_deg && !(*half_angle_deg > 0.0 && *half_angle_deg <= 60.0))
+    return Error{"half-angle must be in (0, 60] degrees (the onboard fixed-point filter's domain)"};
+  std::vector<MethodSpec> out;
+  for (const std::string& m : names) {
+    // Paper settings (PAPER_NOTES table): frequency/visibility at 0.05 and 0.1 m, position at
+    // 0.05 m (robot-based: resolution unused), direction at 5° and 7°, combined at 7° and 0.1 m.
+    std::vector<double> resolutions{resolution_m.value_or(0.05)};
+    std::vector<double> angles{half_angle_deg.value_or(7.0)};
+    if ((m == "frequency" || m == "visibility") && !resolution_m) resolutions = {0.05, 0.1};
+    if (m == "direction" && !half_angle_deg) angles = {5.0, 7.0};
+    if (m == "combined" && !resolution_m) resolutions = {0.1};
+    for (double r : resolutions)
+      for (double a : angles) out.push_back(spec(m, base, r, a));
+  }
+  return out;
+}
+
+EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
+  EvalReport report;
+  report.scenario = dataset.scenario;
+  report.seed = dataset.seed;
+  report.options = options;
+  report.points = dataset.points.size();
+  report.scans = dataset.scans.size();
+  report.robots = dataset.robots.size();
+  for (const LabelledPoint& p : dataset.points)
+    if (p.is_ghost()) ++report.ghosts;
+
+  const PreparedDataset prepared = prepare_dataset(dataset, options.tracker);
+  report.orphan_points = prepared.orphan_points;
+  std::vector<MapPoint> cloud;
+  cloud.reserve(dataset.points.size());
+  for (const LabelledPoint& p : dataset.points) cloud.push_back({p.x, p.y, p.z});
+
+  if (options.progress) options.progress("table 1 (floor plane with and without the ghosts)");
+  report.table1 = table1(dataset.points, cloud, options.ransac);
+  report.plane_before = report.table1.with_ghosts;
+  for (const MethodSpec& m : options.methods) {
+    if (options.progress) options.progress(m.name);
+    std::unique_ptr<Filter> filter = make_filter(m.method, m.options);
+    TEAMSCAN_EXPECTS(filter != nullptr);
+    MethodResult r;
+    r.name = m.name;
+    r.method = m.method;
+    r.params = filter->params();
+    r.removed = run_offline(prepared, *filter);
+    r.removal = removal_metrics(dataset.points, r.removed);
+    r.plane_after = fit_plane_ransac(cloud, options.ransac, r.removed);
+    r.plane_error_improvement_pct = plane_error_improvement_pct(report.plane_before, r.plane_after);
+    r.plane_inlier_improvement_pct = plane_inlier_improvement_pct(report.plane_before, r.plane_after);
+    report.methods.push_back(std::move(r));
+  }
+  return report;
+}
+
+// ---- report writers -------------------------------------------------------------------------------
+namespace {
+
+const char* class_name(std::size_t c) {
+  static const char* const kNames[kPointClasses] = {"none", "floor", "wall", "ceiling", "furniture", "robot"};
+  return c < kPointClasses ? kNames[c] : "?";
+}
+
+std::string json_number(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+
+std::string json_plane(const PlaneFit& f) {
+  std::ostringstream o;
+  o << "{\"found\": " << (f.found ? "true" : "false") << ", \"a\": " << json_number(f.plane.normal.x())
+    << ", \"b\": " << json_number(f.plane.normal.y()) << ", \"c\": " << json_number(f.plane.normal.z())
+    << ", \"d\": " << json_number(f.plane.d) << ", \"points\": " << f.points << ", \"inliers\": " << f.inliers
+    << ", \"inlier_share\": " << json_number(f.inlier_share)
+    << ", \"signed_mean_error_mm\": " << json_number(f.signed_mean_error_m * 1e3)
+    << ", \"mean_abs_error_mm\": " << json_number(f.mean_abs_error_m * 1e3)
+    << ", \"rms_error_mm\": " << json_number(f.rms_error_m * 1e3) << "}";
+  return o.str();
+}
+
+std::string md(double v, int decimals = 1) { return std::isfinite(v) ? format_number(v, decimals) : "–"; }
+
+// Scene classes reported as "kept" (issue 5: floor, wall, ceiling, furniture).
+constexpr std::size_t kSceneClasses[] = {1, 2, 3, 4};
+
+}  // namespace
+
+std::string report_json(const EvalReport& r, const std::string& command) {
+  std::ostringstream o;
+  const RansacOptions& rs = r.options.ransac;
+  const TrackerOptions& tr = r.options.tracker;
+  o << "{\n  \"scenario\": " << json_string(r.scenario) << ",\n  \"seed\": " << r.seed << ",\n";
+  o << "  \"counts\": {\"points\": " << r.points << ", \"ghosts\": " << r.ghosts << ", \"others\": " << (r.points - r.ghosts)
+    << ", \"scans\": " << r.scans << ", \"robots\": " << r.robots << ", \"orphan_points\": " << r.orphan_points;
+  if (!r.methods.empty()) {
+    o << ", \"by_class\": {";
+    for (std::size_t c = 0; c < kPointClasses; ++c)
+      o << (c ? ", " : "") << json_string(class_name(c)) << ": " << r.methods.front().removal.by_class[c].total;
+    o << "}";
+  }
+  o << "},\n";
+  o << "  \"ransac\": {\"threshold_m\": " << json_number(rs.threshold_m) << ", \"iterations\": " << rs.iterations
+    << ", \"seed\": " << rs.seed << ", \"max_tilt_deg\": " << json_number(rs.max_tilt_deg)
+    << ", \"max_height_m\": " << json_number(rs.max_height_m) << ", \"error_reference\": "
+    << (rs.error_reference == PlaneErrorReference::sample ? "\"sample\"" : "\"refit\"") << "},\n";
+  o << "  \"tracker\": {\"accel_noise_mps2\": " << json_number(tr.accel_noise_mps2)
+    << ", \"position_noise_m\": " << json_number(tr.position_noise_m)
+    << ", \"velocity_noise_mps\": " << json_number(tr.velocity_noise_mps)
+    << ", \"use_velocity\": " << (tr.use_velocity ? "true" : "false") << ", \"lost_after_s\": " << json_number(tr.lost_after_s)
+    << "},\n";
+  o << "  \"table1\": {\"with_ghosts\": " << json_plane(r.table1.with_ghosts)
+    << ",\n             \"without_ghosts\": " << json_plane(r.table1.without_ghosts)
+    << ",\n             \"ghost_share_of_inliers_pct\": " << json_number(r.table1.ghost_share_of_inliers_pct)
+    << ", \"plane_error_improvement_pct\": " << json_number(r.table1.error_improvement_pct)
+    << ", \"plane_inlier_improvement_pct\": " << json_number(r.table1.inlier_improvement_pct) << "},\n";
+  o << "  \"methods\": [";
+  for (std::size_t i = 0; i < r.methods.size(); ++i) {
+    const MethodResult& m = r.methods[i];
+    o << (i ? ",\n" : "\n") << "    {\"name\": " << json_string(m.name) << ", \"params\": {";
+    for (std::size_t p = 0; p < m.params.size(); ++p)
+      o << (p ? ", " : "") << json_string(m.params[p].first) << ": " << json_number(m.params[p].second);
+    o << "}, \"ghost_removed_pct\": " << json_number(m.removal.ghost_removed_pct)
+      << ", \"other_removed_pct\": " << json_number(m.removal.other_removed_pct)
+      << ", \"plane_error_improvement_pct\": " << json_number(m.plane_error_improvement_pct)
+      << ", \"plane_inlier_improvement_pct\": " << json_number(m.plane_inlier_improvement_pct)
+      << ", \"SA\": " << json_number(m.removal.sa) << ", \"DA\": " << json_number(m.removal.da)
+      << ", \"AA\": " << json_number(m.removal.aa) << ", \"HA\": " << json_number(m.removal.ha) << ", \"kept_by_class\": {";
+    bool first = true;
+    for (std::size_t c : kSceneClasses) {
+      o << (first ? "" : ", ") << json_string(class_name(c)) << ": " << json_number(m.removal.by_class[c].kept_pct());
+      first = false;
+    }
+    o << "}}";
+  }
+  o << "\n  ],\n  \"plane_fits\": {\"before\": " << json_plane(r.plane_before);
+  for (const MethodResult& m : r.methods) o << ",\n                 " << json_string(m.name) << ": " << json_plane(m.plane_after);
+  o << "},\n  \"command\": " << json_string(command) << "\n}\n";
+  return o.str();
+}
+
+std::string report_markdown(const EvalReport& r, const std::string& command) {
+  std::ostringstream o;
+  const RansacOptions& rs = r.options.ransac;
+  o << "## Data set `" << r.scenario << "` (seed " << r.seed << ")\n\n";
+  o << r.points << " points, " << r.ghosts << " ghost points (" << md(r.points ? 100.0 * static_cast<double>(r.ghosts) / static_cast<double>(r.points) : 0.0)
+    << " %), " << r.scans << " scans, " << r.robots << " robots";
+  if (r.orphan_points) o << ", " << r.orphan_points << " points without a scans.csv row";
+  o << ".\n\n";
+  o << "| method | % ghost | % other | % impr. plane error | % impr. inliers | SA | DA | AA | HA | floor kept | wall kept | ceiling kept | furniture kept |\n";
+  o << "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+  for (const MethodResult& m : r.methods) {
+    o << "| " << m.name << " | " << md(m.removal.ghost_removed_pct) << " | " << md(m.removal.other_removed_pct) << " | "
+      << md(m.plane_error_improvement_pct) << " | " << md(m.plane_inlier_improvement_pct) << " | " << md(m.removal.sa)
+      << " | " << md(m.removal.da) << " | " << md(m.removal.aa) << " | " << md(m.removal.ha);
+    for (std::size_t c : kSceneClasses) o << " | " << md(m.removal.by_class[c].kept_pct());
+    o << " |\n";
+  }
+  const Table1& t = r.table1;
+  o << "\n**Table 1** (floor plane by RANSAC, ghosts removed by label):\n\n";
+  o << "| cloud | signed error (mm) | mean abs (mm) | RMS (mm) | inliers | inlier share % |\n";
+  o << "| --- | ---: | ---: | ---: | ---: | ---: |\n";
+  auto row = [&](const char* name, const PlaneFit& f) {
+    o << "| " << name << " | " << md(f.signed_mean_error_m * 1e3, 3) << " | " << md(f.mean_abs_error_m * 1e3, 3) << " | "
+      << md(f.rms_error_m * 1e3, 3) << " | " << f.inliers << " / " << f.points << " | " << md(100.0 * f.inlier_share) << " |\n";
+  };
+  row("all points", t.with_ghosts);
+  row("ghosts removed", t.without_ghosts);
+  o << "\nGhosts among the inliers with all points: " << md(t.ghost_share_of_inliers_pct) << " %; improvement in plane error "
+    << md(t.error_improvement_pct) << " %, in inliers " << md(t.inlier_improvement_pct) << " %.\n\n";
+  o << "Parameters:\n\n";
+  for (const MethodResult& m : r.methods) {
+    o << "- " << m.name << ":";
+    for (const auto& [name, value] : m.params) o << " " << name << "=" << json_number(value);
+    o << "\n";
+  }
+  o << "- RANSAC: threshold " << json_number(rs.threshold_m) << " m, " << rs.iterations << " iterations, seed " << rs.seed
+    << ", normal within " << json_number(rs.max_tilt_deg) << "° of +z, plane height ≤ " << json_number(rs.max_height_m)
+    << " m, signed error against the " << (rs.error_reference == PlaneErrorReference::sample ? "best sample" : "refit")
+    << " plane\n";
+  const TrackerOptions& tr = r.options.tracker;
+  o << "- tracker: constant velocity, σ_a " << json_number(tr.accel_noise_mps2) << " m/s², σ_pos "
+    << json_number(tr.position_noise_m) << " m, σ_vel " << json_number(tr.velocity_noise_mps) << " m/s, velocity "
+    << (tr.use_velocity ? "measured" : "not measured") << "\n\n";
+  o << "Reproduce: `" << command << "`\n";
+  return o.str();
+}
+
+}  // namespace teamscan::mapping

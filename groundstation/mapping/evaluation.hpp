@@ -1,0 +1,94 @@
+// Offline evaluation of the filters on a labelled data set (`teamscan eval`, issue 5): the tracker
+// runs on the data set's odometry in time order as the live system would, every method runs through
+// the same Filter objects as live, and the metrics are computed per method.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/dataset/dataset.hpp"
+#include "common/result.hpp"
+#include "groundstation/mapping/filter.hpp"
+#include "groundstation/mapping/metrics.hpp"
+#include "groundstation/mapping/tracker.hpp"
+
+namespace teamscan::mapping {
+
+// The data set rearranged for filtering: points grouped by scan in time order, each scan with the
+// team's tracked state at its stamp.
+struct PreparedScan {
+  ScanRecord record;
+  std::size_t first = 0, count = 0;  // range in PreparedDataset::points
+  std::size_t team = 0;              // index in PreparedDataset::teams
+};
+
+struct PreparedDataset {
+  std::vector<MapPoint> points;          // scan-grouped order
+  std::vector<std::uint16_t> flags;      // per point, same order
+  std::vector<std::size_t> source_index; // prepared index → index in Dataset::points
+  std::vector<PreparedScan> scans;       // time order (stamp, robot, scan)
+  std::vector<TeamState> teams;          // one per scan
+  std::uint64_t orphan_points = 0;       // points whose scan is missing from scans.csv
+  [[nodiscard]] ScanView view(std::size_t scan_index) const;
+};
+
+[[nodiscard]] PreparedDataset prepare_dataset(const Dataset& dataset, const TrackerOptions& tracker);
+
+// Offline: observe every scan, then classify every scan. Live: observe and classify each scan as it
+// arrives (decisions against the map so far). Both return removed flags in Dataset::points order.
+[[nodiscard]] std::vector<std::uint8_t> run_offline(const PreparedDataset& prepared, Filter& filter);
+[[nodiscard]] std::vector<std::uint8_t> run_live(const PreparedDataset& prepared, Filter& filter);
+
+// One evaluated method: a name for the report (e.g. "visibility@0.05m"), the method and its options.
+struct MethodSpec {
+  std::string name;
+  std::string method;
+  MethodOptions options;
+};
+
+// Method list from the command line: "all" or a comma list of known_methods(). Without an explicit
+// resolution / half-angle, "frequency" and "visibility" expand to 0.05 m and 0.1 m and "direction"
+// to 5° and 7° (the paper's Tables 2, 3 and 5); with them, each method runs once at that setting.
+[[nodiscard]] Result<std::vector<MethodSpec>> parse_methods(const std::string& list, std::optional<double> resolution_m,
+                                                            std::optional<double> half_angle_deg,
+                                                            const MethodOptions& base = {});
+
+struct EvalOptions {
+  std::vector<MethodSpec> methods;
+  RansacOptions ransac;
+  TrackerOptions tracker;
+  // Called before each stage ("table 1", each method name) so long runs can show progress.
+  std::function<void(const std::string&)> progress;
+};
+
+struct MethodResult {
+  std::string name;
+  std::string method;
+  FilterParams params;
+  RemovalMetrics removal;
+  PlaneFit plane_after;
+  double plane_error_improvement_pct = 0;
+  double plane_inlier_improvement_pct = 0;
+  std::vector<std::uint8_t> removed;  // Dataset::points order (not serialised)
+};
+
+struct EvalReport {
+  std::string scenario;
+  std::uint64_t seed = 0;
+  std::uint64_t points = 0, ghosts = 0, scans = 0, robots = 0, orphan_points = 0;
+  EvalOptions options;
+  PlaneFit plane_before;
+  Table1 table1;
+  std::vector<MethodResult> methods;
+};
+
+[[nodiscard]] EvalReport evaluate(const Dataset& dataset, const EvalOptions& options);
+
+// Report writers. `command` is the command line that reproduces the report.
+[[nodiscard]] std::string report_json(const EvalReport& report, const std::string& command);
+[[nodiscard]] std::string report_markdown(const EvalReport& report, const std::string& command);
+
+}  // namespace teamscan::mapping

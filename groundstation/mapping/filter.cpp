@@ -1,0 +1,177 @@
+// The paper's filters (PAPER_NOTES eqs. 4–8) and their factory.
+#include "groundstation/mapping/filter.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/dataset/dataset.hpp"
+#include "common/result.hpp"
+#include "onboard/core/direction_filter.hpp"
+
+namespace teamscan::mapping {
+
+namespace {
+// Map-frame metres to the wire's int32 millimetres (DESIGN.md "Frames, units, time"), rounded to
+// nearest and clamped; the onboard filter leaves anything beyond ±2^21 mm alone.
+std::int32_t to_mm(double m) {
+  const double mm = std::nearbyint(m * 1000.0);
+  if (!(mm > -2.0e9)) return -2'000'000'000;
+  if (mm > 2.0e9) return 2'000'000'000;
+  return static_cast<std::int32_t>(mm);
+}
+}  // namespace
+
+FilterParams FrequencyFilter::params() const { return {{"resolution_m", options_.resolution_m}, {"k", options_.k}}; }
+
+void FrequencyFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
+  const double limit = threshold();  // eq. 4: count < μ − k·σ
+  for (std::size_t i = 0; i < scan.points.size(); ++i)
+    removed[i] = static_cast<double>(map_.count_at(scan.points[i])) < limit ? 1 : 0;
+}
+
+void VisibilityFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
+  for (std::size_t i = 0; i < scan.points.size(); ++i) {
+    // Eq. 5: an occupied voxel strictly below in the same column hides this one from a floor view.
+    const VoxelKey k = map_.key_of(scan.points[i]);
+    const auto lowest = map_.column_lowest_z(k.x, k.y);
+    removed[i] = (lowest && *lowest < k.z) ? 1 : 0;
+  }
+}
+
+void PositionFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
+  std::fill(removed.begin(), removed.end(), std::uint8_t{0});
+  if (!scan.team) return;
+  const double radius_m = options_.n * options_.sigma_m;  // eq. 6
+  for (const RobotEstimate& other : scan.team->robots) {
+    if (other.robot == scan.robot || !other.valid) continue;
+    for (std::size_t i = 0; i < scan.points.size(); ++i) {
+      const double dx = scan.points[i].x - other.position_m.x, dy = scan.points[i].y - other.position_m.y;
+      if (std::hypot(dx, dy) < radius_m) removed[i] = 1;
+    }
+  }
+}
+
+FilterParams DirectionFilter::params() const {
+  FilterParams p{{"half_angle_deg", rad_to_deg(options_.half_angle_rad)},
+                 {"from_flags", options_.source == DirectionSource::flags ? 1.0 : 0.0}};
+  if (options_.range_gate) p.emplace_back("range_gate_margin_m", options_.range_gate_margin_m);
+  if (options_.height_gate) p.emplace_back("height_gate_margin_m", options_.height_gate_margin_m);
+  if (options_.range_gate || options_.height_gate) {
+    p.emplace_back("body_radius_m", options_.body_radius_m);
+    p.emplace_back("height_m", options_.height_m);
+  }
+  return p;
+}
+
+bool DirectionFilter::cone_contains(Vec2 self_m, Vec2 other_m, const MapPoint& p) const {
+  onboard::DirectionFilterParams params;
+  params.half_angle_deg = rad_to_deg(options_.half_angle_rad);
+  params.range_gate = options_.range_gate;
+  params.range_gate_margin_m = options_.range_gate_margin_m;
+  params.height_gate = options_.height_gate;
+  params.height_gate_margin_m = options_.height_gate_margin_m;
+  const onboard::Teammate mate{0, to_mm(other_m.x), to_mm(other_m.y), to_mm(options_.body_radius_m), to_mm(options_.height_m)};
+  onboard::ConeFixed cone;
+  if (!onboard::prepare_cone(to_mm(self_m.x), to_mm(self_m.y), mate, options_.half_angle_rad, params, cone)) return false;
+  return onboard::cone_contains(cone, to_mm(p.x), to_mm(p.y), to_mm(p.z));
+}
+
+void DirectionFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
+  std::fill(removed.begin(), removed.end(), std::uint8_t{0});
+  if (options_.source == DirectionSource::flags) {
+    // The robot's own decision, as it flagged the point before sending it.
+    for (std::size_t i = 0; i < scan.flags.size() && i < removed.size(); ++i)
+      removed[i] = (scan.flags[i] & point_flags::kDirectionFiltered) ? 1 : 0;
+    return;
+  }
+  if (!scan.team) return;
+  onboard::DirectionFilterParams params;
+  params.half_angle_deg = rad_to_deg(options_.half_angle_rad);
+  params.range_gate = options_.range_gate;
+  params.range_gate_margin_m = options_.range_gate_margin_m;
+  params.height_gate = options_.height_gate;
+  params.height_gate_margin_m = options_.height_gate_margin_m;
+  const std::int32_t apex_x_mm = to_mm(scan.map_from_robot.x_m), apex_y_mm = to_mm(scan.map_from_robot.y_m);
+  for (const RobotEstimate& other : scan.team->robots) {
+    if (other.robot == scan.robot || !other.valid) continue;
+    // The cone is prepared once per teammate and scan, exactly as the daemon does (PAPER_NOTES 7).
+    const onboard::Teammate mate{other.robot, to_mm(other.position_m.x), to_mm(other.position_m.y),
+                                 to_mm(options_.body_radius_m), to_mm(options_.height_m)};
+    onboard::ConeFixed cone;
+    if (!onboard::prepare_cone(apex_x_mm, apex_y_mm, mate, options_.half_angle_rad, params, cone)) continue;
+    for (std::size_t i = 0; i < scan.points.size(); ++i) {
+      const MapPoint& p = scan.points[i];
+      if (onboard::cone_contains(cone, to_mm(p.x), to_mm(p.y), to_mm(p.z))) removed[i] = 1;
+    }
+  }
+}
+
+FilterParams SequentialFilter::params() const {
+  FilterParams out;
+  for (const auto& [name, value] : first_->params()) out.emplace_back(first_->method() + "." + name, value);
+  for (const auto& [name, value] : second_->params()) out.emplace_back(second_->method() + "." + name, value);
+  return out;
+}
+
+void SequentialFilter::survivors(const ScanView& scan, std::span<const std::uint8_t> removed, Survivors& out) const {
+  out.points.clear();
+  out.flags.clear();
+  out.kept_index.clear();
+  for (std::size_t i = 0; i < scan.points.size(); ++i) {
+    if (removed[i]) continue;
+    out.points.push_back(scan.points[i]);
+    if (i < scan.flags.size()) out.flags.push_back(scan.flags[i]);
+    out.kept_index.push_back(i);
+  }
+}
+
+void SequentialFilter::observe(const ScanView& scan) {
+  first_->observe(scan);
+  std::vector<std::uint8_t> removed(scan.points.size());
+  first_->classify(scan, removed);
+  Survivors kept;
+  survivors(scan, removed, kept);
+  ScanView reduced = scan;
+  reduced.points = kept.points;
+  reduced.flags = kept.flags;
+  second_->observe(reduced);
+}
+
+void SequentialFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
+  first_->classify(scan, removed);
+  Survivors kept;
+  survivors(scan, removed, kept);
+  ScanView reduced = scan;
+  reduced.points = kept.points;
+  reduced.flags = kept.flags;
+  std::vector<std::uint8_t> second_removed(kept.points.size());
+  second_->classify(reduced, second_removed);
+  for (std::size_t j = 0; j < kept.kept_index.size(); ++j)
+    if (second_removed[j]) removed[kept.kept_index[j]] = 1;
+}
+
+const std::vector<std::string>& known_methods() {
+  static const std::vector<std::string> methods{"frequency", "visibility", "position", "direction", "combined"};
+  return methods;
+}
+
+std::unique_ptr<Filter> make_filter(const std::string& method, const MethodOptions& options) {
+  if (method == "frequency") return std::make_unique<FrequencyFilter>(options.frequency);
+  if (method == "visibility") return std::make_unique<VisibilityFilter>(options.visibility);
+  if (method == "position") return std::make_unique<PositionFilter>(options.position);
+  if (method == "direction") return std::make_unique<DirectionFilter>(options.direction);
+  if (method == "combined") {
+    DirectionOptions direction = options.direction;
+    direction.half_angle_rad = options.combined_half_angle_rad;
+    return std::make_unique<SequentialFilter>("combined", std::make_unique<DirectionFilter>(direction),
+                                              std::make_unique<VisibilityFilter>(VisibilityOptions{options.combined_resolution_m}));
+  }
+  return nullptr;
+}
+
+}  // namespace teamscan::mapping

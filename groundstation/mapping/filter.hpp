@@ -1,0 +1,203 @@
+// The ghost-point filters behind one interface (DESIGN.md "The filters", PAPER_NOTES eqs. 4–8).
+// The same objects run live (observe + classify each scan as it arrives) and offline (observe every
+// scan of a data set, then classify every scan), so live and offline decisions are the same code.
+// Later methods (issue 7: `freespace`, `tracked`, `best`) are further Filter implementations.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "common/pose.hpp"
+#include "groundstation/mapping/tracker.hpp"
+#include "groundstation/mapping/voxel_map.hpp"
+
+namespace teamscan::mapping {
+
+// One scan as a filter sees it: who measured it, when, from where, its points and their onboard
+// flags (common/dataset point_flags), and the team's tracked state at the scan's time.
+struct ScanView {
+  std::uint8_t robot = 0;
+  std::uint32_t scan = 0;
+  std::int64_t stamp_ns = 0;
+  Vec3 origin_m;                          // sensor origin, map frame
+  Pose2 map_from_robot;                   // the robot's own odometry pose at the stamp
+  std::span<const MapPoint> points;
+  std::span<const std::uint16_t> flags;   // empty, or one per point
+  const TeamState* team = nullptr;        // teammates predicted to stamp_ns (nullptr: none known)
+};
+
+// Named parameters of a filter, printed in reports and JSON ("params").
+using FilterParams = std::vector<std::pair<std::string, double>>;
+
+class Filter {
+ public:
+  virtual ~Filter() = default;
+  // The method name as used on the command line, e.g. "visibility".
+  [[nodiscard]] virtual std::string method() const = 0;
+  [[nodiscard]] virtual FilterParams params() const = 0;
+  // Folds the scan into the filter's state (the voxel map for map-based filters; nothing for the
+  // robot-based ones, which decide from the scan and the team state alone).
+  virtual void observe(const ScanView& scan) = 0;
+  // Decides for every point of the scan against the state so far: removed[i] = 1 filters point i.
+  // Live: call after observe() of the same scan. Offline: after observe() of every scan.
+  virtual void classify(const ScanView& scan, std::span<std::uint8_t> removed) const = 0;
+  // Forgets all state (a new survey).
+  virtual void reset() = 0;
+};
+
+// ---- options, defaults from PAPER_NOTES.md -------------------------------------------------------
+
+// Eq. 4: filter a point if its voxel's count < μ − k·σ over occupied voxels.
+struct FrequencyOptions {
+  double resolution_m = 0.05;
+  double k = 0.0;  // the paper gives no value
+};
+
+// Eq. 5: filter a point if an occupied voxel lies strictly below its voxel in the same column.
+struct VisibilityOptions {
+  double resolution_m = 0.05;
+};
+
+// Eq. 6: filter p if its horizontal distance to another robot's position < n·σ.
+struct PositionOptions {
+  double sigma_m = 0.35;  // from the robot's size (Pioneer 3-AT footprint 0.626 × 0.505 m)
+  double n = 1.0;
+};
+
+// Where the direction filter's decisions come from.
+enum class DirectionSource : std::uint8_t {
+  recompute = 0,  // evaluate eq. 7 here, from the own pose and the tracked teammates
+  flags = 1,      // use point_flags::kDirectionFiltered as the onboard filter recorded it
+};
+
+// Eq. 7: filter p if it lies ahead of R1 along the horizontal line L from R1 to R2 and
+// d_p(p, L) < d_r(p_L)·tan(ha). Recomputed offline with the robot's own fixed-point code
+// (onboard/core/direction_filter.hpp: prepare_cone + cone_contains on int32 mm), so offline and live
+// decisions are the same arithmetic. Gates off = the paper's rule, unchanged.
+struct DirectionOptions {
+  double half_angle_rad = 0.12217304763960307;  // 7° (paper: 5° and 7°); the onboard code caps it at 60°
+  DirectionSource source = DirectionSource::recompute;
+  // Project's variant, range gate: only points whose distance along L is within
+  // body_radius_m + range_gate_margin_m of the teammate's distance.
+  bool range_gate = false;
+  double range_gate_margin_m = 0.3;
+  // Project's variant, height gate: only points no higher than height_m + height_gate_margin_m.
+  bool height_gate = false;
+  double height_gate_margin_m = 0.1;
+  // The teammate's body (Pioneer 3-AT half-diagonal and height with the laser), as the onboard default.
+  double body_radius_m = 0.36;
+  double height_m = 0.5;
+};
+
+// ---- the filters --------------------------------------------------------------------------------
+
+class FrequencyFilter final : public Filter {
+ public:
+  explicit FrequencyFilter(FrequencyOptions options) : options_{options}, map_{options.resolution_m} {}
+  [[nodiscard]] std::string method() const override { return "frequency"; }
+  [[nodiscard]] FilterParams params() const override;
+  void observe(const ScanView& scan) override { map_.insert(scan.points); }
+  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void reset() override { map_.clear(); }
+  [[nodiscard]] const VoxelMap& map() const { return map_; }
+  [[nodiscard]] double threshold() const { return map_.mean_count() - options_.k * map_.stddev_count(); }
+
+ private:
+  FrequencyOptions options_;
+  VoxelMap map_;
+};
+
+class VisibilityFilter final : public Filter {
+ public:
+  explicit VisibilityFilter(VisibilityOptions options) : options_{options}, map_{options.resolution_m} {}
+  [[nodiscard]] std::string method() const override { return "visibility"; }
+  [[nodiscard]] FilterParams params() const override { return {{"resolution_m", options_.resolution_m}}; }
+  void observe(const ScanView& scan) override { map_.insert(scan.points); }
+  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void reset() override { map_.clear(); }
+  [[nodiscard]] const VoxelMap& map() const { return map_; }
+
+ private:
+  VisibilityOptions options_;
+  VoxelMap map_;
+};
+
+class PositionFilter final : public Filter {
+ public:
+  explicit PositionFilter(PositionOptions options) : options_{options} {}
+  [[nodiscard]] std::string method() const override { return "position"; }
+  [[nodiscard]] FilterParams params() const override { return {{"sigma_m", options_.sigma_m}, {"n", options_.n}}; }
+  void observe(const ScanView&) override {}
+  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void reset() override {}
+
+ private:
+  PositionOptions options_;
+};
+
+class DirectionFilter final : public Filter {
+ public:
+  explicit DirectionFilter(DirectionOptions options) : options_{options} {}
+  [[nodiscard]] std::string method() const override { return "direction"; }
+  [[nodiscard]] FilterParams params() const override;
+  void observe(const ScanView&) override {}
+  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void reset() override {}
+  // The decision for one point against one teammate, as the robot computes it (int32 mm, fixed point).
+  [[nodiscard]] bool cone_contains(Vec2 self_m, Vec2 other_m, const MapPoint& p) const;
+
+ private:
+  DirectionOptions options_;
+};
+
+// Runs `first`, then `second` on the points `first` kept: `second` builds its state only from the
+// survivors, as at the ground station when the robots already dropped what their filter removed.
+// The paper's combined method is Sequential(direction ha 7°, visibility 0.1 m) (PAPER_NOTES 8).
+class SequentialFilter final : public Filter {
+ public:
+  SequentialFilter(std::string method, std::unique_ptr<Filter> first, std::unique_ptr<Filter> second)
+      : method_{std::move(method)}, first_{std::move(first)}, second_{std::move(second)} {}
+  [[nodiscard]] std::string method() const override { return method_; }
+  [[nodiscard]] FilterParams params() const override;
+  void observe(const ScanView& scan) override;
+  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void reset() override {
+    first_->reset();
+    second_->reset();
+  }
+
+ private:
+  // The scan reduced to the points `first` keeps; `kept_index` maps back to the scan's indices.
+  struct Survivors {
+    std::vector<MapPoint> points;
+    std::vector<std::uint16_t> flags;
+    std::vector<std::size_t> kept_index;
+  };
+  void survivors(const ScanView& scan, std::span<const std::uint8_t> removed, Survivors& out) const;
+
+  std::string method_;
+  std::unique_ptr<Filter> first_;
+  std::unique_ptr<Filter> second_;
+};
+
+// Every method's options in one place (a method picks the ones it uses).
+struct MethodOptions {
+  FrequencyOptions frequency;
+  VisibilityOptions visibility;
+  PositionOptions position;
+  DirectionOptions direction;
+  // combined = direction (this half-angle) then visibility (this resolution): the paper's Table 6.
+  double combined_half_angle_rad = 0.12217304763960307;  // 7°
+  double combined_resolution_m = 0.1;
+};
+
+// The methods this library knows, in report order.
+[[nodiscard]] const std::vector<std::string>& known_methods();
+// A filter for `method` ("frequency", "visibility", "position", "direction", "combined"), or nullptr.
+[[nodiscard]] std::unique_ptr<Filter> make_filter(const std::string& method, const MethodOptions& options);
+
+}  // namespace teamscan::mapping

@@ -1,0 +1,117 @@
+// Constant-velocity Kalman filter per robot (see tracker.hpp for the choice of model).
+#include "groundstation/mapping/tracker.hpp"
+
+#include <cmath>
+
+#include <Eigen/Dense>
+
+namespace teamscan::mapping {
+
+void RobotTrack::propagate(double dt_s, State& x, Covariance& p) const {
+  Covariance f = Covariance::Identity();
+  f(0, 2) = dt_s;
+  f(1, 3) = dt_s;
+  // Discrete white-noise acceleration: Q = q·[[dt³/3, dt²/2], [dt²/2, dt]] per axis, q = σ_a².
+  // A backward prediction uses |dt|: uncertainty grows in both directions of time.
+  const double t = std::abs(dt_s);
+  const double q = options_.accel_noise_mps2 * options_.accel_noise_mps2;
+  Covariance qm = Covariance::Zero();
+  for (int axis = 0; axis < 2; ++axis) {
+    qm(axis, axis) = q * t * t * t / 3.0;
+    qm(axis, axis + 2) = qm(axis + 2, axis) = q * t * t / 2.0;
+    qm(axis + 2, axis + 2) = q * t;
+  }
+  x = f * x;
+  p = f * p * f.transpose() + qm;
+}
+
+void RobotTrack::update(std::int64_t stamp_ns, const Pose2& pose, double v_mps) {
+  const double vx = v_mps * std::cos(pose.theta_rad), vy = v_mps * std::sin(pose.theta_rad);
+  heading_rad_ = pose.theta_rad;
+  if (!initialised_) {
+    x_ << pose.x_m, pose.y_m, options_.use_velocity ? vx : 0.0, options_.use_velocity ? vy : 0.0;
+    p_.setZero();
+    const double sp = options_.position_noise_m * options_.position_noise_m;
+    const double sv = options_.use_velocity ? options_.velocity_noise_mps * options_.velocity_noise_mps
+                                            : options_.initial_velocity_sigma_mps * options_.initial_velocity_sigma_mps;
+    p_.diagonal() << sp, sp, sv, sv;
+    stamp_ns_ = stamp_ns;
+    initialised_ = true;
+    return;
+  }
+  propagate(static_cast<double>(stamp_ns - stamp_ns_) * 1e-9, x_, p_);
+  stamp_ns_ = stamp_ns;
+  const double rp = options_.position_noise_m * options_.position_noise_m;
+  if (options_.use_velocity) {
+    // Measurement z = H x + v with H = I (position and velocity measured).
+    const Eigen::Vector4d z(pose.x_m, pose.y_m, vx, vy);
+    const double rv = options_.velocity_noise_mps * options_.velocity_noise_mps;
+    Eigen::Matrix4d r = Eigen::Matrix4d::Zero();
+    r.diagonal() << rp, rp, rv, rv;
+    const Eigen::Matrix4d s = p_ + r;
+    const Eigen::Matrix4d k = p_ * s.inverse();
+    x_ += k * (z - x_);
+    // Joseph form keeps P symmetric and positive definite.
+    const Eigen::Matrix4d i_kh = Eigen::Matrix4d::Identity() - k;
+    p_ = i_kh * p_ * i_kh.transpose() + k * r * k.transpose();
+  } else {
+    Eigen::Matrix<double, 2, 4> h = Eigen::Matrix<double, 2, 4>::Zero();
+    h(0, 0) = h(1, 1) = 1.0;
+    const Eigen::Vector2d z(pose.x_m, pose.y_m);
+    const Eigen::Matrix2d r = Eigen::Matrix2d::Identity() * rp;
+    const Eigen::Matrix2d s = h * p_ * h.transpose() + r;
+    const Eigen::Matrix<double, 4, 2> k = p_ * h.transpose() * s.inverse();
+    x_ += k * (z - h * x_);
+    const Eigen::Matrix4d i_kh = Eigen::Matrix4d::Identity() - k * h;
+    p_ = i_kh * p_ * i_kh.transpose() + k * r * k.transpose();
+  }
+}
+
+RobotEstimate RobotTrack::predict(std::int64_t stamp_ns) const {
+  RobotEstimate e;
+  e.robot = robot_;
+  e.stamp_ns = stamp_ns;
+  e.last_update_ns = stamp_ns_;
+  if (!initialised_) return e;
+  State x = x_;
+  Covariance p = p_;
+  const double dt_s = static_cast<double>(stamp_ns - stamp_ns_) * 1e-9;
+  propagate(dt_s, x, p);
+  e.valid = std::abs(dt_s) <= options_.lost_after_s;
+  e.position_m = {x(0), x(1)};
+  e.velocity_mps = {x(2), x(3)};
+  e.position_cov_m2 = p.topLeftCorner<2, 2>();
+  e.heading_rad = heading_rad_;
+  return e;
+}
+
+void TeamTracker::add_pose(std::uint8_t robot, std::int64_t stamp_ns, const Pose2& pose, double v_mps) {
+  if (robot == 0 || robot > kMaxRobots || !std::isfinite(pose.x_m) || !std::isfinite(pose.y_m)) {
+    ++rejected_;
+    return;
+  }
+  for (RobotTrack& t : tracks_) {
+    if (t.robot() == robot) {
+      t.update(stamp_ns, pose, v_mps);
+      return;
+    }
+  }
+  tracks_.emplace_back(robot, options_);
+  tracks_.back().update(stamp_ns, pose, v_mps);
+}
+
+TeamState TeamTracker::predict(std::int64_t stamp_ns) const {
+  TeamState team;
+  team.stamp_ns = stamp_ns;
+  team.robots.reserve(tracks_.size());
+  for (const RobotTrack& t : tracks_) team.robots.push_back(t.predict(stamp_ns));
+  return team;
+}
+
+const RobotTrack* TeamTracker::track(std::uint8_t robot) const {
+  for (const RobotTrack& t : tracks_)
+    if (t.robot() == robot) return &t;
+  return nullptr;
+}
+
+}  // namespace teamscan::mapping

@@ -1,0 +1,107 @@
+// Per-robot Kalman tracker of the team (issue 5 "Tracker"): constant-velocity state (x, y, vx, vy)
+// in the map frame, fed with the odometry poses the robots publish, predicted to any time.
+//
+// Why constant velocity and not (x, y, θ, v, ω): the filters only need a teammate's horizontal
+// position and its covariance at a scan's time, which lies within one pose period (100 ms at the SIP
+// rate) of a measurement. The CV model is linear, so the Kalman filter is exact (no Jacobians, no
+// angle wrapping in the state), and over ≤ 100 ms the turn a CTRV model would add is below
+// v·ω·dt²/2 ≈ 1 mm at Pioneer speeds. Heading and speed are still used: they give the velocity
+// measurement (v·cos θ, v·sin θ).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "common/capacities.hpp"
+#include "common/pose.hpp"
+
+namespace teamscan::mapping {
+
+struct TrackerOptions {
+  // Process noise: white acceleration with this standard deviation per axis (m/s²).
+  double accel_noise_mps2 = 0.5;
+  // Measurement noise of an odometry position (m, per axis) and velocity (m/s, per axis).
+  double position_noise_m = 0.02;
+  double velocity_noise_mps = 0.05;
+  // Use (v cos θ, v sin θ) from the pose message as a velocity measurement.
+  bool use_velocity = true;
+  // Initial velocity uncertainty when the first pose of a robot arrives (m/s).
+  double initial_velocity_sigma_mps = 1.0;
+  // A track older than this (no measurement) is reported invalid (DDS liveliness does the same live).
+  double lost_after_s = 1.0;
+};
+
+// One robot's estimate at a time: what the filters consume (DESIGN.md teamscan/team).
+struct RobotEstimate {
+  std::uint8_t robot = 0;
+  bool valid = false;
+  std::int64_t stamp_ns = 0;          // time the estimate is for
+  std::int64_t last_update_ns = 0;    // time of the last measurement folded in
+  Vec2 position_m;
+  Vec2 velocity_mps;
+  Eigen::Matrix2d position_cov_m2 = Eigen::Matrix2d::Identity();
+  double heading_rad = 0;             // last measured heading (not part of the state)
+};
+
+// The team's state at one time: every tracked robot predicted to `stamp_ns`.
+struct TeamState {
+  std::int64_t stamp_ns = 0;
+  std::vector<RobotEstimate> robots;
+  [[nodiscard]] const RobotEstimate* find(std::uint8_t robot) const {
+    for (const RobotEstimate& r : robots)
+      if (r.robot == robot) return &r;
+    return nullptr;
+  }
+};
+
+class RobotTrack {
+ public:
+  using State = Eigen::Vector4d;
+  using Covariance = Eigen::Matrix4d;
+
+  RobotTrack(std::uint8_t robot, const TrackerOptions& options) : robot_{robot}, options_{options} {}
+
+  // Folds in one odometry pose (map frame) with its speed; predicts to `stamp_ns` first.
+  void update(std::int64_t stamp_ns, const Pose2& pose, double v_mps);
+  // The estimate predicted to any time (also before the last update: the model is run backwards).
+  [[nodiscard]] RobotEstimate predict(std::int64_t stamp_ns) const;
+
+  [[nodiscard]] bool initialised() const { return initialised_; }
+  [[nodiscard]] const State& state() const { return x_; }
+  [[nodiscard]] const Covariance& covariance() const { return p_; }
+  [[nodiscard]] std::int64_t stamp_ns() const { return stamp_ns_; }
+  [[nodiscard]] std::uint8_t robot() const { return robot_; }
+
+ private:
+  void propagate(double dt_s, State& x, Covariance& p) const;
+
+  std::uint8_t robot_;
+  TrackerOptions options_;
+  bool initialised_ = false;
+  std::int64_t stamp_ns_ = 0;
+  double heading_rad_ = 0;
+  State x_ = State::Zero();
+  Covariance p_ = Covariance::Identity();
+};
+
+class TeamTracker {
+ public:
+  explicit TeamTracker(TrackerOptions options = {}) : options_{options} {}
+
+  // Odometry pose of robot `robot` (1..kMaxRobots); poses of other ids are ignored and counted.
+  void add_pose(std::uint8_t robot, std::int64_t stamp_ns, const Pose2& pose, double v_mps);
+  // Every tracked robot predicted to `stamp_ns`; a robot is valid while its last pose is recent.
+  [[nodiscard]] TeamState predict(std::int64_t stamp_ns) const;
+  [[nodiscard]] const RobotTrack* track(std::uint8_t robot) const;
+  [[nodiscard]] std::uint64_t rejected_poses() const { return rejected_; }
+  [[nodiscard]] const TrackerOptions& options() const { return options_; }
+
+ private:
+  TrackerOptions options_;
+  std::vector<RobotTrack> tracks_;
+  std::uint64_t rejected_ = 0;
+};
+
+}  // namespace teamscan::mapping

@@ -1,0 +1,154 @@
+// TOML parsing of the ground-station config with toml++; each error names its key.
+#include "groundstation/station/config.hpp"
+
+#include <fstream>
+#include <functional>
+#include <sstream>
+
+#include <toml++/toml.h>
+
+namespace teamscan::station {
+namespace {
+
+class Reader {
+ public:
+  Reader(const toml::table& root, ConfigError& error) : root_{root}, error_{error} {}
+
+  // Reads a number at a dotted path into `out` if present; checks lo < v <= hi (or lo <= v if closed).
+  bool number(const char* path, double& out, double lo, double hi, bool lo_closed = false) {
+    const toml::node_view<const toml::node> n = root_.at_path(path);
+    if (!n) return true;
+    std::optional<double> v = n.value<double>();
+    if (!v || !(n.is_number())) return fail(path, "must be a number");
+    if (!(lo_closed ? *v >= lo : *v > lo) || *v > hi) {
+      std::ostringstream m;
+      m << "must be in " << (lo_closed ? "[" : "(") << lo << ", " << hi << "], got " << *v;
+      return fail(path, m.str());
+    }
+    out = *v;
+    return true;
+  }
+
+  bool integer(const char* path, std::int64_t& out, std::int64_t lo, std::int64_t hi) {
+    const toml::node_view<const toml::node> n = root_.at_path(path);
+    if (!n) return true;
+    if (!n.is_integer()) return fail(path, "must be an integer");
+    const std::int64_t v = *n.value<std::int64_t>();
+    if (v < lo || v > hi) {
+      return fail(path, "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " + std::to_string(v));
+    }
+    out = v;
+    return true;
+  }
+
+  bool string(const char* path, std::string& out) {
+    const toml::node_view<const toml::node> n = root_.at_path(path);
+    if (!n) return true;
+    if (!n.is_string()) return fail(path, "must be a string");
+    out = *n.value<std::string>();
+    if (out.empty()) return fail(path, "must not be empty");
+    return true;
+  }
+
+  bool fail(const char* path, const std::string& what) {
+    error_.message = std::string(path) + ": " + what;
+    return false;
+  }
+
+ private:
+  const toml::table& root_;
+  ConfigError& error_;
+};
+
+bool known_keys(const toml::table& root, ConfigError& error) {
+  // A misspelt key would otherwise be ignored silently and its default used.
+  static const char* const kKnown[] = {
+      "station", "station.session_root", "station.sync_interval_s", "station.status_interval_s",
+      "dds", "dds.domain_id", "dds.scan_history_depth", "dds.take_batch",
+      "team", "team.publish_rate_hz", "team.liveliness_lease_s", "team.silence_timeout_s",
+      "team.body", "team.body.length_m", "team.body.width_m", "team.body.height_m",
+      "team.last_pose", "team.last_pose.sigma0_m", "team.last_pose.sigma_velocity_mps",
+      "team.last_pose.max_extrapolation_s"};
+  std::string bad;
+  const std::function<void(const toml::table&, const std::string&)> walk = [&](const toml::table& t, const std::string& prefix) {
+    for (const auto& [k, v] : t) {
+      const std::string key = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
+      bool found = false;
+      for (const char* known : kKnown) found = found || key == known;
+      if (!found && bad.empty()) bad = key;
+      if (const toml::table* sub = v.as_table()) walk(*sub, key);
+    }
+  };
+  walk(root, "");
+  if (!bad.empty()) {
+    error.message = bad + ": unknown key";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool parse_groundstation_config(const std::string& toml_text, const std::string& source_name, GroundStationConfig& out,
+                                ConfigError& error) {
+  toml::table root;
+  try {
+    root = toml::parse(toml_text, source_name);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream m;
+    m << source_name << ":" << e.source().begin.line << ":" << e.source().begin.column << ": " << e.description();
+    error.message = m.str();
+    return false;
+  }
+  if (!known_keys(root, error)) return false;
+  Reader r(root, error);
+  GroundStationConfig c = out;
+  double sync_s = to_seconds(c.sync_interval);
+  double status_s = to_seconds(c.status_interval);
+  std::int64_t domain = -1;
+  std::int64_t depth = c.station.scan_history_depth;
+  std::int64_t batch = c.station.take_batch;
+  double rate_hz = 1.0 / to_seconds(c.station.team_period);
+  double lease_s = to_seconds(c.station.team_liveliness_lease);
+  double silence_s = to_seconds(c.station.silence_timeout);
+  RobotBody& body = c.last_pose.default_body;
+  const bool ok = r.string("station.session_root", c.session_root) &&
+                  r.number("station.sync_interval_s", sync_s, 0.0, 3600.0) &&
+                  r.number("station.status_interval_s", status_s, 0.0, 3600.0) &&
+                  r.integer("dds.domain_id", domain, -1, 232) &&
+                  r.integer("dds.scan_history_depth", depth, 1, 100000) &&
+                  r.integer("dds.take_batch", batch, 1, 4096) &&
+                  r.number("team.publish_rate_hz", rate_hz, 0.0, 1000.0) &&
+                  r.number("team.liveliness_lease_s", lease_s, 0.0, 60.0) &&
+                  r.number("team.silence_timeout_s", silence_s, 0.0, 3600.0, true) &&
+                  r.number("team.body.length_m", body.length_m, 0.0, 10.0) &&
+                  r.number("team.body.width_m", body.width_m, 0.0, 10.0) &&
+                  r.number("team.body.height_m", body.height_m, 0.0, 10.0) &&
+                  r.number("team.last_pose.sigma0_m", c.last_pose.sigma0_m, 0.0, 100.0, true) &&
+                  r.number("team.last_pose.sigma_velocity_mps", c.last_pose.sigma_velocity_mps, 0.0, 100.0, true) &&
+                  r.number("team.last_pose.max_extrapolation_s", c.last_pose.max_extrapolation_s, 0.0, 60.0, true);
+  if (!ok) return false;
+  c.sync_interval = from_seconds(sync_s);
+  c.status_interval = from_seconds(status_s);
+  c.station.domain_id = domain < 0 ? 0xFFFFFFFFu : static_cast<std::uint32_t>(domain);
+  c.station.scan_history_depth = static_cast<std::uint32_t>(depth);
+  c.station.take_batch = static_cast<std::uint32_t>(batch);
+  c.station.team_period = from_seconds(1.0 / rate_hz);
+  c.station.team_liveliness_lease = from_seconds(lease_s);
+  c.station.silence_timeout = from_seconds(silence_s);
+  out = c;
+  return true;
+}
+
+bool load_groundstation_config(const std::string& path, GroundStationConfig& out, ConfigError& error) {
+  std::ifstream in(path);
+  if (!in) {
+    error.message = path + ": cannot open";
+    return false;
+  }
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_groundstation_config(ss.str(), path, out, error);
+}
+
+}  // namespace teamscan::station

@@ -1,0 +1,135 @@
+// scans.bin record encoding and decoding (format in scan_record.hpp).
+#include "groundstation/station/scan_record.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+
+namespace teamscan::station {
+namespace {
+
+constexpr std::array<std::uint32_t, 256> make_crc_table() {
+  std::array<std::uint32_t, 256> t{};
+  for (std::uint32_t i = 0; i < 256; ++i) {
+    std::uint32_t c = i;
+    for (int k = 0; k < 8; ++k) c = (c & 1u) ? (0xEDB88320u ^ (c >> 1)) : (c >> 1);
+    t[i] = c;
+  }
+  return t;
+}
+constexpr auto kCrcTable = make_crc_table();
+
+class Writer {
+ public:
+  explicit Writer(std::uint8_t* p) : p_{p} {}
+  void u16(std::uint16_t v) { for (int i = 0; i < 2; ++i) *p_++ = static_cast<std::uint8_t>(v >> (8 * i)); }
+  void u32(std::uint32_t v) { for (int i = 0; i < 4; ++i) *p_++ = static_cast<std::uint8_t>(v >> (8 * i)); }
+  void u64(std::uint64_t v) { for (int i = 0; i < 8; ++i) *p_++ = static_cast<std::uint8_t>(v >> (8 * i)); }
+  void i32(std::int32_t v) { u32(static_cast<std::uint32_t>(v)); }
+  void i64(std::int64_t v) { u64(static_cast<std::uint64_t>(v)); }
+  [[nodiscard]] std::uint8_t* at() const { return p_; }
+
+ private:
+  std::uint8_t* p_;
+};
+
+class Reader {
+ public:
+  explicit Reader(const std::uint8_t* p) : p_{p} {}
+  std::uint16_t u16() { std::uint16_t v = 0; for (int i = 0; i < 2; ++i) v = static_cast<std::uint16_t>(v | (p_[i] << (8 * i))); p_ += 2; return v; }
+  std::uint32_t u32() { std::uint32_t v = 0; for (int i = 0; i < 4; ++i) v |= static_cast<std::uint32_t>(p_[i]) << (8 * i); p_ += 4; return v; }
+  std::uint64_t u64() { std::uint64_t v = 0; for (int i = 0; i < 8; ++i) v |= static_cast<std::uint64_t>(p_[i]) << (8 * i); p_ += 8; return v; }
+  std::int32_t i32() { return static_cast<std::int32_t>(u32()); }
+  std::int64_t i64() { return static_cast<std::int64_t>(u64()); }
+
+ private:
+  const std::uint8_t* p_;
+};
+
+}  // namespace
+
+std::uint32_t crc32_ieee(std::span<const std::uint8_t> bytes, std::uint32_t crc) {
+  crc = ~crc;
+  for (const std::uint8_t b : bytes) crc = kCrcTable[(crc ^ b) & 0xFFu] ^ (crc >> 8);
+  return ~crc;
+}
+
+void encode_scan_file_header(std::uint8_t (&out)[kScanFileHeaderBytes]) {
+  std::memcpy(out, kScanFileMagic, 8);
+  Writer w(out + 8);
+  w.u32(kScanFileVersion);
+  w.u32(static_cast<std::uint32_t>(kScanFileHeaderBytes));
+}
+
+std::size_t encode_scan_record(const StoredScan& scan, std::span<std::uint8_t> out) {
+  const std::uint16_t count = std::min<std::uint16_t>(scan.count, static_cast<std::uint16_t>(kMaxBeams));
+  const std::size_t total = kScanRecordFixedBytes + count * kScanPointBytes;
+  if (out.size() < total) return 0;
+  Writer w(out.data());
+  w.u32(kScanRecordMagic);
+  w.u32(static_cast<std::uint32_t>(48 + count * kScanPointBytes));
+  w.i64(scan.recv_realtime_ns);
+  w.i64(scan.recv_monotonic_ns);
+  w.u32(scan.robot_id);
+  w.u32(scan.seq);
+  w.i64(scan.stamp_ns);
+  w.i32(scan.origin_x_mm);
+  w.i32(scan.origin_y_mm);
+  w.i32(scan.origin_z_mm);
+  w.u16(count);
+  w.u16(0);
+  for (std::uint16_t i = 0; i < count; ++i) {
+    w.i32(scan.points[i].x_mm);
+    w.i32(scan.points[i].y_mm);
+    w.i32(scan.points[i].z_mm);
+    w.u16(scan.points[i].beam);
+    w.u16(scan.points[i].flags);
+  }
+  const std::size_t crc_at = total - 4;
+  const std::uint32_t crc = crc32_ieee(out.first(crc_at));
+  Writer(out.data() + crc_at).u32(crc);
+  return total;
+}
+
+long decode_scan_record(std::span<const std::uint8_t> bytes, StoredScan& out, ScanDecodeStats& stats) {
+  if (bytes.size() < 8) return 0;
+  Reader h(bytes.data());
+  if (h.u32() != kScanRecordMagic) return -1;
+  const std::uint32_t body = h.u32();
+  if (body < 48 || (body - 48) % kScanPointBytes != 0 || (body - 48) / kScanPointBytes > kMaxBeams) {
+    ++stats.bad_length;
+    return -1;
+  }
+  const std::size_t total = 8 + body + 4;
+  if (bytes.size() < total) return 0;
+  Reader c(bytes.data() + 8 + body);
+  if (c.u32() != crc32_ieee(bytes.first(8 + body))) {
+    ++stats.bad_crc;
+    return -1;
+  }
+  Reader r(bytes.data() + 8);
+  out.recv_realtime_ns = r.i64();
+  out.recv_monotonic_ns = r.i64();
+  out.robot_id = r.u32();
+  out.seq = r.u32();
+  out.stamp_ns = r.i64();
+  out.origin_x_mm = r.i32();
+  out.origin_y_mm = r.i32();
+  out.origin_z_mm = r.i32();
+  out.count = r.u16();
+  (void)r.u16();
+  if (out.count != (body - 48) / kScanPointBytes) {
+    ++stats.bad_length;
+    return -1;
+  }
+  for (std::uint16_t i = 0; i < out.count; ++i) {
+    out.points[i].x_mm = r.i32();
+    out.points[i].y_mm = r.i32();
+    out.points[i].z_mm = r.i32();
+    out.points[i].beam = r.u16();
+    out.points[i].flags = r.u16();
+  }
+  return static_cast<long>(total);
+}
+
+}  // namespace teamscan::station

@@ -1,0 +1,146 @@
+// The ground station's receiving side (issue 5): subscribes to teamscan/pose, /scan and /status of up
+// to 32 robots, stores every sample with its receive time (SessionStore) before anything else sees it,
+// detects robots that stop (liveliness / no-writers / dispose, DDS_SYSTEMD.md 3.2) and marks them lost,
+// publishes teamscan/team from a TeamSource at a fixed rate, and hands every scan to the mapping hooks.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "common/capacities.hpp"
+#include "common/result.hpp"
+#include "common/time.hpp"
+#include "groundstation/station/scan_record.hpp"
+#include "groundstation/station/session_store.hpp"
+#include "groundstation/station/team_source.hpp"
+
+struct teamscan_msg_MapVoxel;
+
+namespace teamscan::station {
+
+struct StationOptions {
+  std::uint32_t domain_id = 0xFFFFFFFFu;      // DDS_DOMAIN_DEFAULT
+  // Reader history per robot; at least the robots' scan_history_depth so a late join loses nothing.
+  std::uint32_t scan_history_depth = 300;
+  Duration team_period = std::chrono::milliseconds(50);    // 20 Hz
+  Duration team_liveliness_lease = std::chrono::seconds(2);
+  // Safety net beside liveliness: a robot heard of for this long (no pose, scan or status) is lost
+  // even if its writers are alive (a hung robot loop). Zero: off.
+  Duration silence_timeout = std::chrono::seconds(5);
+  std::uint32_t take_batch = 64;               // samples taken per dds_take (preallocated)
+};
+
+// Per-robot bookkeeping.
+struct RobotRecord {
+  std::uint32_t robot_id = 0;
+  bool seen = false;
+  bool lost = false;
+  std::uint64_t scans = 0;
+  std::uint64_t poses = 0;
+  std::uint64_t statuses = 0;
+  std::uint64_t scans_missing = 0;     // gaps in seq (writer history overrun while we were away)
+  std::uint64_t scans_repeated = 0;    // seq not above the last one (robot restart or duplicate)
+  std::uint32_t last_scan_seq = 0;
+  Time last_heard;                     // CLOCK_MONOTONIC
+  Time lost_at;                        // CLOCK_MONOTONIC of the last transition to lost
+  Time last_gap_event;                 // CLOCK_MONOTONIC: gap events are rate-limited to 1 per second
+  std::uint64_t gaps_unreported = 0;
+  std::uint64_t writer_handles[3] = {0, 0, 0};    // pose, scan, status publication handles
+  std::uint64_t instance_handles[3] = {0, 0, 0};  // this robot's instance on each reader
+};
+
+struct StationCounters {
+  std::uint64_t scans = 0;
+  std::uint64_t poses = 0;
+  std::uint64_t statuses = 0;
+  std::uint64_t invalid_samples = 0;   // dispose / no-writers notifications
+  std::uint64_t bad_samples = 0;       // robot id or count out of range: counted, not stored
+  std::uint64_t teams_published = 0;
+  std::uint64_t team_write_errors = 0;
+  std::uint64_t liveliness_events = 0;
+  std::uint64_t hook_failures = 0;     // a mapping hook threw; the station carried on
+  std::uint64_t robots_lost = 0;       // transitions to lost
+};
+
+using ScanHook = std::function<void(const StoredScan&)>;
+using PoseHook = std::function<void(const PoseObservation&)>;
+using LostHook = std::function<void(std::uint32_t robot_id, bool lost)>;
+
+class Station {
+ public:
+  [[nodiscard]] static Result<std::unique_ptr<Station>> create(const StationOptions& options, SessionStore& store,
+                                                               TeamSource& team);
+  ~Station();
+  Station(const Station&) = delete;
+  Station& operator=(const Station&) = delete;
+
+  // Waits up to max_wait for data, then takes and handles everything available. Returns the number of
+  // valid samples handled.
+  std::size_t poll(Duration max_wait);
+  // Publishes teamscan/team if a period has passed since the last publication (CLOCK_MONOTONIC).
+  bool publish_team_if_due(Time now_monotonic);
+  // Checks the silence timeout (also done in poll).
+  void check_silence(Time now_monotonic);
+  // Makes a blocked poll() return early (thread-safe).
+  void wake();
+
+  // Mapping stage hooks, run after the sample is stored (a hook that throws is counted and logged).
+  void add_scan_hook(ScanHook hook) { scan_hooks_.push_back(std::move(hook)); }
+  void add_pose_hook(PoseHook hook) { pose_hooks_.push_back(std::move(hook)); }
+  void add_lost_hook(LostHook hook) { lost_hooks_.push_back(std::move(hook)); }
+
+  // teamscan/map for live viewers.
+  [[nodiscard]] Status publish_map(std::span<const teamscan_msg_MapVoxel> voxels, std::uint32_t resolution_mm,
+                                   std::uint32_t total_voxels);
+
+  [[nodiscard]] const RobotRecord& robot(std::uint32_t robot_id) const;  // 1..32
+  [[nodiscard]] std::uint32_t robots_seen() const;
+  [[nodiscard]] std::uint32_t robots_lost() const;
+  [[nodiscard]] const StationCounters& counters() const { return counters_; }
+  // One line for STATUS= and the journal.
+  [[nodiscard]] std::string status_line() const;
+
+  // Called from Cyclone's listener thread on LIVELINESS_CHANGED of any reader (queued, handled in poll).
+  void push_liveliness(std::uint64_t writer_handle, int alive_change, int not_alive_change);
+
+ private:
+  struct Dds;
+  struct LivelinessEvent {
+    std::uint64_t handle;
+    int alive_change;
+    int not_alive_change;
+  };
+  Station(const StationOptions& options, SessionStore& store, TeamSource& team);
+  void take_scans(const ReceiveTime& at);
+  void take_poses(const ReceiveTime& at);
+  void take_statuses(const ReceiveTime& at);
+  void handle_liveliness_events();
+  RobotRecord* heard(std::uint32_t robot_id, int topic, std::uint64_t writer, std::uint64_t instance, Time now_mono);
+  // An invalid sample (dispose / no writers) on `topic`: the robot whose instance it is goes lost.
+  void instance_ended(int topic, std::uint64_t instance, std::uint32_t instance_state);
+  void set_lost(RobotRecord& r, bool lost, const std::string& why);
+  void event(const std::string& text);
+
+  StationOptions options_;
+  SessionStore& store_;
+  TeamSource& team_;
+  std::unique_ptr<Dds> dds_;
+  std::array<RobotRecord, kMaxRobots + 1> robots_{};
+  StationCounters counters_{};
+  Time last_team_;
+  std::uint32_t team_seq_ = 0;
+  std::uint32_t map_seq_ = 0;
+  std::vector<ScanHook> scan_hooks_;
+  std::vector<PoseHook> pose_hooks_;
+  std::vector<LostHook> lost_hooks_;
+  std::mutex events_mutex_;                  // liveliness events come on Cyclone's threads
+  std::vector<LivelinessEvent> events_;
+  std::vector<LivelinessEvent> events_work_;
+};
+
+}  // namespace teamscan::station

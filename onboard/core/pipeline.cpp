@@ -1,0 +1,97 @@
+// The robot's data path without I/O (pipeline.hpp).
+#include "onboard/core/pipeline.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace teamscan::onboard {
+
+namespace {
+constexpr std::uint16_t kNotKept =
+    kPointDirectionFiltered | kPointInvalid | kPointDazzled | kPointNoPose | kPointOutOfRange;
+}  // namespace
+
+Result<OnboardPipeline> OnboardPipeline::create(const OnboardConfig& config) {
+  Result<DirectionFilter> filter = DirectionFilter::create(config.filter, config.robot_id);
+  if (!filter.ok()) return filter.error();
+  return OnboardPipeline{config, filter.value()};
+}
+
+OnboardPipeline::OnboardPipeline(const OnboardConfig& config, DirectionFilter filter)
+    : robot_id_{config.robot_id},
+      filter_enabled_{config.filter_enabled},
+      publish_{config.publish},
+      map_from_odom_{config.map_from_odom()},
+      projector_{config.mount.robot_from_laser(), config.map_from_odom(),
+                 ScanPointsOptions{config.max_range_mm(), config.odometry_max_extrapolation}},
+      filter_{filter} {}
+
+bool OnboardPipeline::on_odometry(Time stamp, const Pose2& odom_from_robot, double trans_vel_mm_s,
+                                  double rot_vel_rad_s, OnboardPose& out) {
+  if (!odometry_.push(stamp, odom_from_robot)) {
+    ++counters_.odometry_rejected;
+    return false;
+  }
+  ++counters_.poses;
+  const Pose2 map_from_robot = map_from_odom_ * odom_from_robot;
+  out.robot_id = robot_id_;
+  out.seq = ++pose_seq_;
+  out.stamp_ns = stamp.ns();
+  out.x_mm = metres_to_mm_i32(map_from_robot.x_m);
+  out.y_mm = metres_to_mm_i32(map_from_robot.y_m);
+  out.yaw_urad = static_cast<std::int32_t>(std::lround(map_from_robot.theta_rad * 1e6));
+  out.vx_mmps = static_cast<std::int32_t>(std::lround(trans_vel_mm_s * std::cos(map_from_robot.theta_rad)));
+  out.vy_mmps = static_cast<std::int32_t>(std::lround(trans_vel_mm_s * std::sin(map_from_robot.theta_rad)));
+  out.yaw_rate_mradps = static_cast<std::int32_t>(std::lround(rot_vel_rad_s * 1e3));
+  return true;
+}
+
+void OnboardPipeline::on_team(const TeamSnapshot& team) {
+  filter_.set_team(team);
+  ++counters_.teams;
+  have_team_ = true;
+  newest_team_valid_ns_ = 0;
+  const std::uint32_t n = std::min<std::uint32_t>(team.count, static_cast<std::uint32_t>(kMaxRobots));
+  for (std::uint32_t i = 0; i < n; ++i) newest_team_valid_ns_ = std::max(newest_team_valid_ns_, team.members[i].valid_ns);
+}
+
+bool OnboardPipeline::team_fresh(Time now) const {
+  return have_team_ && filter_.fresh(Time::from_ns(newest_team_valid_ns_), now);
+}
+
+const OnboardScan& OnboardPipeline::on_scan(const ScanBeams& beams) {
+  projector_.project(beams, odometry_, points_);
+  ++counters_.scans;
+  counters_.points += points_.count;
+  counters_.points_no_pose += points_.unplaced;
+  filter_stats_ = DirectionFilterStats{};
+  if (filter_enabled_) {
+    if (points_.pose_ok) {
+      // R1 of eq. 7 is this robot's own position at the scan's stamp.
+      filter_stats_ = filter_.apply(metres_to_mm_i32(points_.map_from_robot.x_m), metres_to_mm_i32(points_.map_from_robot.y_m),
+                                    points_.stamp, points_.points.data(), points_.count);
+    } else {
+      ++counters_.scans_without_pose;
+    }
+  }
+  counters_.points_direction_filtered += filter_stats_.filtered;
+  counters_.points_team_stale += filter_stats_.stale_points;
+
+  scan_.robot_id = robot_id_;
+  ++scan_.seq;
+  scan_.stamp_ns = points_.stamp.ns();
+  scan_.origin_x_mm = points_.origin_x_mm;
+  scan_.origin_y_mm = points_.origin_y_mm;
+  scan_.origin_z_mm = points_.origin_z_mm;
+  std::uint16_t n = 0;
+  for (std::uint16_t i = 0; i < points_.count; ++i) {
+    const ScanPoint& p = points_.points[i];
+    if (publish_ == PublishMode::kept && (p.flags & kNotKept) != 0) continue;
+    scan_.points[n++] = p;
+  }
+  scan_.count = n;
+  counters_.points_published += n;
+  return scan_;
+}
+
+}  // namespace teamscan::onboard

@@ -1,0 +1,74 @@
+// The robot's data path without I/O: odometry samples into the history, each scan into map-frame points
+// (common/scan_points), the direction filter against the latest team state, and the fixed-size messages
+// for the DDS bridge. Built once at start-up; after that nothing allocates (tests/unit/onboard
+// allocation_test.cpp counts).
+#pragma once
+
+#include <cstdint>
+
+#include "common/odometry_history.hpp"
+#include "common/result.hpp"
+#include "common/scan_points.hpp"
+#include "common/time.hpp"
+#include "onboard/core/config.hpp"
+#include "onboard/core/direction_filter.hpp"
+#include "onboard/core/messages.hpp"
+
+namespace teamscan::onboard {
+
+struct PipelineCounters {
+  std::uint64_t poses = 0;
+  std::uint64_t odometry_rejected = 0;   // out-of-order SIP stamps
+  std::uint64_t scans = 0;
+  std::uint64_t scans_without_pose = 0;  // no odometry at the scan's stamp: not filtered
+  std::uint64_t points = 0;
+  std::uint64_t points_published = 0;
+  std::uint64_t points_direction_filtered = 0;
+  std::uint64_t points_team_stale = 0;
+  std::uint64_t points_no_pose = 0;
+  std::uint64_t teams = 0;
+};
+
+class OnboardPipeline {
+ public:
+  // The config has been checked by parse_onboard_config; the filter parameters are checked again here.
+  [[nodiscard]] static Result<OnboardPipeline> create(const OnboardConfig& config);
+
+  // One odometry reading (odometry frame) at `stamp` (CLOCK_REALTIME): into the history, and the
+  // teamscan/pose sample in the map frame. False if refused (not newer than the last one; counted).
+  bool on_odometry(Time stamp, const Pose2& odom_from_robot, double trans_vel_mm_s, double rot_vel_rad_s,
+                   OnboardPose& out);
+
+  // The newest team state (teamscan/team).
+  void on_team(const TeamSnapshot& team);
+
+  // One scan: points, direction filter, and the teamscan/scan sample (every point with its flags, or
+  // only kept points, per config). The returned reference stays valid until the next call.
+  const OnboardScan& on_scan(const ScanBeams& beams);
+
+  [[nodiscard]] const ScanPoints& last_points() const { return points_; }
+  [[nodiscard]] const DirectionFilterStats& last_filter_stats() const { return filter_stats_; }
+  [[nodiscard]] const PipelineCounters& counters() const { return counters_; }
+  [[nodiscard]] const OdometryHistory<>& odometry() const { return odometry_; }
+  [[nodiscard]] bool team_fresh(Time now) const;
+
+ private:
+  OnboardPipeline(const OnboardConfig& config, DirectionFilter filter);
+
+  std::uint32_t robot_id_;
+  bool filter_enabled_;
+  PublishMode publish_;
+  Pose2 map_from_odom_;
+  ScanProjector projector_;
+  DirectionFilter filter_;
+  OdometryHistory<> odometry_;
+  ScanPoints points_;
+  DirectionFilterStats filter_stats_;
+  OnboardScan scan_;
+  std::uint32_t pose_seq_ = 0;
+  std::int64_t newest_team_valid_ns_ = 0;
+  bool have_team_ = false;
+  PipelineCounters counters_;
+};
+
+}  // namespace teamscan::onboard

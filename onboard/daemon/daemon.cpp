@@ -1,0 +1,419 @@
+// teamscan-onboard's event loop (daemon.hpp).
+#include "onboard/daemon/daemon.hpp"
+
+#include <sys/epoll.h>
+#include <sys/signalfd.h>
+#include <sys/timerfd.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <csignal>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+#include "common/clock.hpp"
+#include "drivers/serial/posix_call.hpp"
+#include "onboard/daemon/lms_scan.hpp"
+#include "onboard/daemon/log.hpp"
+#include "onboard/daemon/notify.hpp"
+
+namespace teamscan::onboard {
+
+namespace {
+
+using serial::posix_call;
+
+// Tags in epoll_event.data.u32.
+constexpr std::uint32_t kTagTimer = 1, kTagSignal = 2, kTagArcos = 3, kTagLms = 4;
+
+// Bytes of a SIP on the wire: header, count, type, the fixed fields, 3 per sonar reading, checksum
+// (PROTOCOLS.md 1.8; 43 bytes in the A21 vector without sonar). Used to back-date its arrival.
+std::int64_t sip_wire_bytes(const arcos::SipPacket& sip) { return 43 + 3 * std::int64_t{sip.sonar_count}; }
+
+// Status state byte: 0 = port not open, else 1 + the client's state.
+std::uint8_t state_byte(bool open, std::uint8_t state) { return open ? static_cast<std::uint8_t>(state + 1) : 0; }
+
+std::uint32_t rate_mhz(std::uint32_t events, Duration period) {
+  if (period <= Duration::zero()) return 0;
+  return static_cast<std::uint32_t>(static_cast<std::int64_t>(events) * 1'000'000'000'000LL / period.count());
+}
+
+std::uint32_t clamp_u32(std::uint64_t v) { return v > 0xFFFFFFFFull ? 0xFFFFFFFFu : static_cast<std::uint32_t>(v); }
+
+}  // namespace
+
+Result<std::unique_ptr<OnboardDaemon>> OnboardDaemon::create(const OnboardConfig& config, Publisher& publisher,
+                                                             const DaemonOptions& options) {
+  Result<OnboardPipeline> pipeline = OnboardPipeline::create(config);
+  if (!pipeline.ok()) return pipeline.error();
+  std::unique_ptr<OnboardDaemon> d{new OnboardDaemon(config, publisher, options, pipeline.value())};
+  const Status fds = d->setup_fds();
+  if (!fds.ok()) return fds.error();
+  return d;
+}
+
+OnboardDaemon::OnboardDaemon(const OnboardConfig& config, Publisher& publisher, const DaemonOptions& options,
+                             OnboardPipeline pipeline)
+    : config_{config},
+      publisher_{publisher},
+      options_{options},
+      pipeline_{pipeline},
+      arcos_{[&] {
+        arcos::ArcosClientOptions o;
+        o.baud = config.arcos_baud;
+        return o;
+      }()},
+      lms_{[&] {
+        lms200::LmsClientOptions o;
+        o.target_baud = config.lms_baud;
+        o.variant = config.lms_variant;
+        o.units = config.lms_units == LmsUnits::mm ? lms200::Unit::mm : lms200::Unit::cm;
+        return o;
+      }()} {
+  arcos_dev_.name = "arcos";
+  arcos_dev_.path = config.arcos_device;
+  lms_dev_.name = "lms";
+  lms_dev_.path = config.lms_device;
+  arcos_.set_sip_callback(&OnboardDaemon::on_sip, this);
+}
+
+OnboardDaemon::~OnboardDaemon() {
+  for (int fd : {epoll_fd_, timer_fd_, signal_fd_})
+    if (fd >= 0) ::close(fd);
+}
+
+Status OnboardDaemon::setup_fds() {
+  // SIGTERM/SIGINT stop the daemon, SIGUSR1 asks for a status dump: all through the loop's signalfd.
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGTERM);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGUSR1);
+  if (::sigprocmask(SIG_BLOCK, &set, nullptr) != 0) return Error{"sigprocmask failed", errno};
+  std::signal(SIGPIPE, SIG_IGN);
+  auto sfd = posix_call([&] { return ::signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK); });
+  if (!sfd.ok()) return Error{"signalfd failed", sfd.err};
+  signal_fd_ = static_cast<int>(sfd.value);
+  auto tfd = posix_call([] { return ::timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC | TFD_NONBLOCK); });
+  if (!tfd.ok()) return Error{"timerfd_create failed", tfd.err};
+  timer_fd_ = static_cast<int>(tfd.value);
+  auto efd = posix_call([] { return ::epoll_create1(EPOLL_CLOEXEC); });
+  if (!efd.ok()) return Error{"epoll_create1 failed", efd.err};
+  epoll_fd_ = static_cast<int>(efd.value);
+  for (auto [fd, tag] : {std::pair{timer_fd_, kTagTimer}, std::pair{signal_fd_, kTagSignal}}) {
+    epoll_event ev{};
+    ev.events = EPOLLIN;
+    ev.data.u32 = tag;
+    if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &ev) != 0) return Error{"epoll_ctl failed", errno};
+  }
+  return ok_status();
+}
+
+void OnboardDaemon::try_open(DeviceSlot& dev, serial::SerialEndpoint& client, Time now) {
+  Result<serial::SerialPort> port = serial::SerialPort::open(dev.path.c_str(), client.baud());
+  if (!port.ok()) {
+    if (dev.opens == 0 || dev.last_error != port.error().what) {
+      log_message(LogLevel::warning, "%s: cannot open %s: %s (%s); retrying every %lld ms", dev.name, dev.path.c_str(),
+                  port.error().what, std::strerror(port.error().sys_errno),
+                  static_cast<long long>(options_.reopen_period.count() / 1'000'000));
+    }
+    dev.last_error = port.error().what;
+    dev.next_open = now + options_.reopen_period;
+    return;
+  }
+  dev.port = std::move(port.value());
+  epoll_event ev{};
+  ev.events = EPOLLIN;
+  ev.data.u32 = &dev == &arcos_dev_ ? kTagArcos : kTagLms;
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, dev.port.fd(), &ev) != 0) {
+    log_message(LogLevel::err, "%s: epoll_ctl: %s", dev.name, std::strerror(errno));
+    dev.port.close();
+    dev.next_open = now + options_.reopen_period;
+    return;
+  }
+  dev.open = true;
+  ++dev.opens;
+  dev.last_error = "";
+  log_message(LogLevel::notice, "%s: opened %s at %u baud", dev.name, dev.path.c_str(), client.baud());
+  const bool first = !dev.started;
+  dev.started = true;
+  if (&dev == &arcos_dev_) {
+    if (first) arcos_.start(now); else arcos_.on_device_back(now);
+  } else {
+    if (first) lms_.start(now); else lms_.on_device_back(now);
+  }
+}
+
+void OnboardDaemon::lose(DeviceSlot& dev, Time now, const char* why, int err) {
+  if (!dev.open) return;
+  log_message(LogLevel::err, "%s: device %s lost: %s (%s); reopening every %lld ms", dev.name, dev.path.c_str(), why,
+              std::strerror(err), static_cast<long long>(options_.reopen_period.count() / 1'000'000));
+  (void)::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, dev.port.fd(), nullptr);
+  dev.port.close();
+  dev.open = false;
+  ++dev.losses;
+  dev.last_error = why;
+  dev.next_open = now + options_.reopen_period;
+  if (&dev == &arcos_dev_) arcos_.on_device_lost(now); else lms_.on_device_lost(now);
+}
+
+void OnboardDaemon::sync_baud(DeviceSlot& dev, const serial::SerialEndpoint& client, Time now) {
+  if (!dev.open || client.baud() == dev.port.baud()) return;
+  const Status s = dev.port.set_baud(client.baud());
+  if (!s.ok()) lose(dev, now, s.error().what, s.error().sys_errno);
+}
+
+void OnboardDaemon::service_rx(DeviceSlot& dev, serial::SerialEndpoint& client, Time now) {
+  // Level-triggered: read what is there now (a few chunks at most), the rest on the next wake-up.
+  for (int chunk = 0; chunk < 4 && dev.open; ++chunk) {
+    Result<std::size_t> n = dev.port.read(rx_buf_, Duration{0});
+    if (!n.ok()) {
+      lose(dev, now, n.error().what, n.error().sys_errno);
+      return;
+    }
+    if (n.value() == 0) return;
+    client.on_rx(std::span<const std::uint8_t>(rx_buf_.data(), n.value()), now);
+    sync_baud(dev, client, now);
+    if (n.value() < rx_buf_.size()) return;
+  }
+}
+
+void OnboardDaemon::service_tx(DeviceSlot& dev, serial::SerialEndpoint& client, Time now) {
+  for (;;) {
+    // The client may change its rate (baud switch, recovery): the port follows before each take_tx.
+    sync_baud(dev, client, now);
+    const std::size_t n = client.take_tx(tx_buf_);
+    if (n == 0 || !dev.open) return;
+    const Status s = dev.port.write_all(std::span<const std::uint8_t>(tx_buf_.data(), n), options_.write_timeout);
+    if (!s.ok()) {
+      lose(dev, now, s.error().what, s.error().sys_errno);
+      return;
+    }
+  }
+}
+
+void OnboardDaemon::on_sip(void* self_ptr, const arcos::SipPacket& sip, const arcos::OdometryState& odometry,
+                           Time received) {
+  auto* self = static_cast<OnboardDaemon*>(self_ptr);
+  // The SIP describes the robot when ARCOS sent it: back-date the arrival by its time on the wire.
+  const Time stamp = self->to_realtime(received) - serial_transmission_time(sip_wire_bytes(sip), self->arcos_.baud());
+  ++self->sips_in_period_;
+  if (!self->pipeline_.on_odometry(stamp, odometry.pose, odometry.trans_vel_mm_s, odometry.rot_vel_rad_s,
+                                   self->pose_msg_))
+    return;
+  if (!self->publisher_.publish_pose(self->pose_msg_).ok()) ++self->publish_errors_;
+}
+
+void OnboardDaemon::take_scans(Time now) {
+  (void)now;
+  lms200::ScanArrival arrival;
+  while (lms_.take_scan(telegram_, arrival)) {
+    ScanBeams beams;
+    // A scan's stamp is the end of its sweep: its last byte's arrival minus its transmission time.
+    if (!to_scan_beams(telegram_, to_realtime(arrival.sweep_end_estimate()), config_.lms_variant, beam_flags_, beams)) {
+      ++scans_dropped_;
+      continue;
+    }
+    const OnboardScan& msg = pipeline_.on_scan(beams);
+    ++scans_in_period_;
+    if (publisher_.publish_scan(msg).ok()) ++scans_published_; else ++publish_errors_;
+  }
+}
+
+void OnboardDaemon::publish_status(Time now) {
+  const Duration period = now - period_start_;
+  const PipelineCounters& pc = pipeline_.counters();
+  const arcos::ArcosClientStatistics as = arcos_.statistics();
+  const lms200::LmsParserStatistics& lp = lms_.parser_statistics();
+  OnboardStatus& s = status_msg_;
+  s.robot_id = config_.robot_id;
+  s.seq = ++status_seq_;
+  s.stamp_ns = to_realtime(now).ns();
+  s.arcos_state = state_byte(arcos_dev_.open, static_cast<std::uint8_t>(arcos_.state()));
+  s.lms_state = state_byte(lms_dev_.open, static_cast<std::uint8_t>(lms_.state()));
+  s.team_fresh = pipeline_.team_fresh(to_realtime(now));
+  s.sip_rate_mhz = rate_mhz(sips_in_period_, period);
+  s.scan_rate_mhz = rate_mhz(scans_in_period_, period);
+  s.arcos_bad_packets = clamp_u32(as.parser.bad_checksum + as.parser.bad_length + as.bad_sips);
+  s.lms_bad_telegrams = clamp_u32(lp.bad_crc + lp.bad_length + lms_.statistics().decode_errors);
+  s.lms_resyncs = clamp_u32(lp.resyncs);
+  s.scans_published = clamp_u32(scans_published_);
+  s.points_direction_filtered = clamp_u32(pc.points_direction_filtered);
+  s.dds_write_errors = publish_errors_;
+  s.uptime_s = static_cast<std::uint32_t>((now - started_).count() / 1'000'000'000);
+  s.arcos_reopens = arcos_dev_.opens;
+  s.lms_reopens = lms_dev_.opens;
+  s.points_team_stale = clamp_u32(pc.points_team_stale);
+  s.points_no_pose = clamp_u32(pc.points_no_pose);
+  s.loop_max_us = loop_max_us_;
+  if (!publisher_.publish_status(s).ok()) ++publish_errors_;
+
+  char text[384];
+  std::snprintf(text, sizeof text,
+                "arcos %s %.1f Hz (opens %u, bad %u); lms %s %.1f Hz (opens %u, bad %u, dropped %u); scans %u, "
+                "filtered %u, stale %u, no pose %u; team %s; loop max %u us; publish errors %u",
+                arcos_dev_.open ? arcos::to_string(arcos_.state()) : "closed", s.sip_rate_mhz / 1000.0, s.arcos_reopens,
+                s.arcos_bad_packets, lms_dev_.open ? lms200::to_string(lms_.state()) : "closed", s.scan_rate_mhz / 1000.0,
+                s.lms_reopens, s.lms_bad_telegrams, scans_dropped_, s.scans_published, s.points_direction_filtered,
+                s.points_team_stale, s.points_no_pose, s.team_fresh ? "fresh" : "stale", s.loop_max_us, publish_errors_);
+  notify_status(text);
+  sips_in_period_ = scans_in_period_ = 0;
+  loop_max_us_ = 0;
+  period_start_ = now;
+}
+
+void OnboardDaemon::log_state_changes() {
+  if (arcos_.state() != last_arcos_state_) {
+    log_message(arcos_.connected() ? LogLevel::notice : LogLevel::info, "arcos: %s -> %s%s%s",
+                arcos::to_string(last_arcos_state_), arcos::to_string(arcos_.state()),
+                *arcos_.last_error() != '\0' ? "; last error: " : "", arcos_.last_error());
+    last_arcos_state_ = arcos_.state();
+  }
+  if (lms_.state() != last_lms_state_) {
+    log_message(lms_.streaming() ? LogLevel::notice : LogLevel::info, "lms: %s -> %s%s%s", lms200::to_string(last_lms_state_),
+                lms200::to_string(lms_.state()), *lms_.last_error() != '\0' ? "; last error: " : "", lms_.last_error());
+    last_lms_state_ = lms_.state();
+  }
+}
+
+Time OnboardDaemon::next_wakeup(Time now) const {
+  Time t = now + 1s;
+  auto consider = [&](Time d) {
+    if (d.ns() != 0 && d < t) t = d;
+  };
+  if (arcos_dev_.open) consider(arcos_.next_deadline()); else consider(arcos_dev_.next_open);
+  if (lms_dev_.open) consider(lms_.next_deadline()); else consider(lms_dev_.next_open);
+  consider(next_status_);
+  consider(next_team_poll_);
+  if (watchdog_period_ > Duration::zero()) consider(next_watchdog_);
+  if (stopping_) consider(std::min(stop_deadline_, now + 10ms));
+  return std::max(t, now);
+}
+
+void OnboardDaemon::tick(Time now) {
+  realtime_offset_ = now_realtime() - now_monotonic();
+  if (!arcos_dev_.open && !stopping_ && now >= arcos_dev_.next_open) try_open(arcos_dev_, arcos_, now);
+  if (!lms_dev_.open && !stopping_ && now >= lms_dev_.next_open) try_open(lms_dev_, lms_, now);
+  if (arcos_dev_.open) {
+    arcos_.on_tick(now);
+    service_tx(arcos_dev_, arcos_, now);
+  }
+  if (lms_dev_.open) {
+    lms_.on_tick(now);
+    service_tx(lms_dev_, lms_, now);
+  }
+  take_scans(now);
+  if (now >= next_team_poll_) {
+    // take_team gives the newest state since the last call: one call per poll is enough.
+    if (publisher_.take_team(team_msg_)) pipeline_.on_team(team_msg_);
+    next_team_poll_ = now + options_.team_poll_period;
+  }
+  log_state_changes();
+  if (!ready_sent_ && arcos_.connected() && lms_.streaming()) {
+    // READY=1 only once both devices stream (DDS_SYSTEMD.md 5).
+    notify_ready();
+    ready_sent_ = true;
+    log_message(LogLevel::notice, "ready: Pioneer connected and LMS streaming");
+  }
+  if (now >= next_status_) {
+    publish_status(now);
+    next_status_ = now + config_.status_period;
+  }
+  if (watchdog_period_ > Duration::zero() && now >= next_watchdog_) {
+    notify_watchdog();  // from the loop itself, so a hung loop starves systemd's watchdog
+    next_watchdog_ = now + watchdog_period_;
+  }
+}
+
+int OnboardDaemon::run() {
+  started_ = now_monotonic();
+  period_start_ = started_;
+  next_status_ = started_ + config_.status_period;
+  next_team_poll_ = started_;
+  const Duration wd = watchdog_interval();
+  watchdog_period_ = wd / 2;
+  next_watchdog_ = started_;
+  log_message(LogLevel::notice, "robot %u starting; publisher: %s; watchdog %lld ms", config_.robot_id, publisher_.name(),
+              static_cast<long long>(wd.count() / 1'000'000));
+
+  std::array<epoll_event, 8> events{};
+  for (;;) {
+    const Time now = now_monotonic();
+    tick(now);
+    if (stopping_) {
+      const bool lms_done = !lms_dev_.open || lms_.state() == lms200::LmsClientState::stopped ||
+                            lms_.state() == lms200::LmsClientState::device_lost;
+      if (lms_done || now >= stop_deadline_) break;
+    }
+    const Time wake = next_wakeup(now);
+    itimerspec spec{};
+    spec.it_value.tv_sec = static_cast<time_t>(wake.ns() / 1'000'000'000);
+    spec.it_value.tv_nsec = static_cast<long>(wake.ns() % 1'000'000'000);
+    if (spec.it_value.tv_sec == 0 && spec.it_value.tv_nsec == 0) spec.it_value.tv_nsec = 1;
+    if (::timerfd_settime(timer_fd_, TFD_TIMER_ABSTIME, &spec, nullptr) != 0) {
+      log_message(LogLevel::crit, "timerfd_settime: %s", std::strerror(errno));
+      return 1;
+    }
+    const auto n = posix_call([&] { return ::epoll_wait(epoll_fd_, events.data(), static_cast<int>(events.size()), -1); });
+    if (!n.ok()) {
+      log_message(LogLevel::crit, "epoll_wait: %s", std::strerror(n.err));
+      return 1;
+    }
+    const Time woke = now_monotonic();
+    realtime_offset_ = now_realtime() - woke;
+    for (long i = 0; i < n.value; ++i) {
+      switch (events[static_cast<std::size_t>(i)].data.u32) {
+        case kTagTimer: {
+          std::uint64_t expirations = 0;
+          (void)::read(timer_fd_, &expirations, sizeof expirations);
+          break;
+        }
+        case kTagSignal: {
+          signalfd_siginfo si{};
+          while (::read(signal_fd_, &si, sizeof si) == static_cast<ssize_t>(sizeof si)) {
+            if (si.ssi_signo == SIGUSR1) {
+              publish_status(woke);
+              log_message(LogLevel::info, "status dump requested");
+            } else if (!stopping_) {
+              log_message(LogLevel::notice, "signal %u: stopping the laser stream and closing the Pioneer", si.ssi_signo);
+              notify_stopping();
+              stopping_ = true;
+              stop_deadline_ = woke + options_.shutdown_timeout;
+              if (lms_dev_.open) lms_.shutdown(woke);
+              if (arcos_dev_.open) arcos_.shutdown(woke);
+            }
+          }
+          break;
+        }
+        case kTagArcos:
+          if (arcos_dev_.open) service_rx(arcos_dev_, arcos_, woke);
+          break;
+        case kTagLms:
+          if (lms_dev_.open) service_rx(lms_dev_, lms_, woke);
+          break;
+        default: break;
+      }
+    }
+    const Duration busy = now_monotonic() - woke;
+    loop_max_us_ = std::max(loop_max_us_, static_cast<std::uint32_t>(busy.count() / 1000));
+  }
+  // Flush what the clients queued for the shutdown (STOP + CLOSE for the Pioneer) and close the ports.
+  const Time end = now_monotonic();
+  if (arcos_dev_.open) service_tx(arcos_dev_, arcos_, end);
+  if (lms_dev_.open) service_tx(lms_dev_, lms_, end);
+  for (DeviceSlot* dev : {&arcos_dev_, &lms_dev_}) {
+    if (dev->open) {
+      (void)dev->port.drain(options_.write_timeout);
+      dev->port.close();
+      dev->open = false;
+    }
+  }
+  log_message(LogLevel::notice, "stopped after %lld s; %llu scans published", static_cast<long long>((end - started_).count() / 1'000'000'000),
+              static_cast<unsigned long long>(scans_published_));
+  return 0;
+}
+
+}  // namespace teamscan::onboard

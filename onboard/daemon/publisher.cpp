@@ -1,0 +1,43 @@
+// make_publisher: the DDS bridge (onboard/dds/bridge.hpp) behind the daemon's Publisher interface.
+#include "onboard/daemon/publisher.hpp"
+
+#if TEAMSCAN_HAVE_DDS
+#include "onboard/dds/bridge.hpp"
+#endif
+
+namespace teamscan::onboard {
+
+#if TEAMSCAN_HAVE_DDS
+namespace {
+
+class DdsPublisher final : public Publisher {
+ public:
+  explicit DdsPublisher(DdsBridge bridge) : bridge_{std::move(bridge)} {}
+  Status publish_pose(const OnboardPose& pose) override { return bridge_.publish_pose(pose); }
+  Status publish_scan(const OnboardScan& scan) override { return bridge_.publish_scan(scan); }
+  Status publish_status(const OnboardStatus& status) override { return bridge_.publish_status(status); }
+  bool take_team(TeamSnapshot& out) override { return bridge_.take_team(out); }
+  const char* name() const override { return "dds"; }
+
+ private:
+  DdsBridge bridge_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig& config) {
+  DdsBridgeOptions options;
+  options.robot_id = config.robot_id;
+  options.domain_id = config.dds_domain;
+  options.scan_history_depth = config.scan_history_depth;
+  Result<DdsBridge> bridge = DdsBridge::create(options);
+  if (!bridge.ok()) return bridge.error();
+  return std::unique_ptr<Publisher>(new DdsPublisher(std::move(bridge.value())));
+}
+#else
+Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig&) {
+  return std::unique_ptr<Publisher>(new NullPublisher());
+}
+#endif
+
+}  // namespace teamscan::onboard

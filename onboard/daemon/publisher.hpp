@@ -1,0 +1,38 @@
+// Where the daemon's messages go: the DDS bridge (onboard/dds) on the robot, a stub in tests or when
+// the bridge is not built. The daemon's loop only sees this interface.
+#pragma once
+
+#include <memory>
+
+#include "common/result.hpp"
+#include "onboard/core/config.hpp"
+#include "onboard/core/messages.hpp"
+
+namespace teamscan::onboard {
+
+class Publisher {
+ public:
+  virtual ~Publisher() = default;
+  [[nodiscard]] virtual Status publish_pose(const OnboardPose& pose) = 0;
+  [[nodiscard]] virtual Status publish_scan(const OnboardScan& scan) = 0;
+  [[nodiscard]] virtual Status publish_status(const OnboardStatus& status) = 0;
+  // The newest team state since the last call, if any; never blocks.
+  [[nodiscard]] virtual bool take_team(TeamSnapshot& out) = 0;
+  [[nodiscard]] virtual const char* name() const = 0;
+};
+
+// Counts what it is given and drops it; never has a team state (the filter then flags points stale).
+class NullPublisher final : public Publisher {
+ public:
+  Status publish_pose(const OnboardPose&) override { ++poses; return ok_status(); }
+  Status publish_scan(const OnboardScan&) override { ++scans; return ok_status(); }
+  Status publish_status(const OnboardStatus&) override { ++statuses; return ok_status(); }
+  bool take_team(TeamSnapshot&) override { return false; }
+  const char* name() const override { return "none (DDS bridge not built)"; }
+  unsigned long poses = 0, scans = 0, statuses = 0;
+};
+
+// The DDS bridge publisher when onboard/dds is built (TEAMSCAN_HAVE_DDS), else a NullPublisher.
+[[nodiscard]] Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig& config);
+
+}  // namespace teamscan::onboard

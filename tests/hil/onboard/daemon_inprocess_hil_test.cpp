@@ -1,0 +1,196 @@
+// Hardware-in-loop test of the daemon's event loop in-process, against an emulated Pioneer and LMS-200
+// on pseudo-terminals, with a recording Publisher in place of the DDS bridge (it also plays the ground
+// station: a teammate 3 m ahead, fresh). Checks what reaches the publisher: pose, scan points in the
+// map frame with direction-filter flags, status, and the "kept" publish mode.
+#include <gtest/gtest.h>
+
+#include <pthread.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "common/clock.hpp"
+#include "drivers/arcos/emulator.hpp"
+#include "drivers/lms200/emulator.hpp"
+#include "drivers/serial/pty_runner.hpp"
+#include "onboard/daemon/daemon.hpp"
+
+namespace teamscan::onboard {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    std::string tmpl = (fs::temp_directory_path() / "teamscan-onboard-XXXXXX").string();
+    path = ::mkdtemp(tmpl.data());
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+class FlatRanges final : public lms200::RangeSource {
+ public:
+  void measure(const lms200::SweepTiming& sweep, std::span<lms200::BeamReading> beams) override {
+    for (std::size_t i = 0; i < sweep.variant.beams() && i < beams.size(); ++i) beams[i] = {3000, 0, lms200::BeamInvalid::none};
+  }
+};
+
+// Records what the daemon publishes; offers a fresh team state with one teammate at (x, y) mm.
+class RecordingPublisher final : public Publisher {
+ public:
+  RecordingPublisher(std::int32_t mate_x_mm, std::int32_t mate_y_mm) : x_{mate_x_mm}, y_{mate_y_mm} {}
+  Status publish_pose(const OnboardPose& p) override {
+    std::lock_guard lock{m_};
+    pose_ = p;
+    ++poses_;
+    return ok_status();
+  }
+  Status publish_scan(const OnboardScan& s) override {
+    std::lock_guard lock{m_};
+    scan_ = s;
+    ++scans_;
+    return ok_status();
+  }
+  Status publish_status(const OnboardStatus& s) override {
+    std::lock_guard lock{m_};
+    status_ = s;
+    ++statuses_;
+    return ok_status();
+  }
+  bool take_team(TeamSnapshot& out) override {
+    // A new state on every other poll, as a ground station publishing at ~50 Hz would.
+    fresh_ = !fresh_;
+    if (!fresh_) return false;
+    out.count = 1;
+    out.members[0] = TeamMemberState{};
+    out.members[0].robot_id = 2;
+    out.members[0].x_mm = x_;
+    out.members[0].y_mm = y_;
+    out.members[0].valid_ns = now_realtime().ns();
+    return true;
+  }
+  const char* name() const override { return "recording"; }
+
+  template <class F>
+  auto with(F&& f) {
+    std::lock_guard lock{m_};
+    return f();
+  }
+  OnboardPose pose_{};
+  OnboardScan scan_{};
+  OnboardStatus status_{};
+  long poses_ = 0, scans_ = 0, statuses_ = 0;
+
+ private:
+  std::mutex m_;
+  std::int32_t x_, y_;
+  bool fresh_ = false;
+};
+
+bool wait_until(const std::function<bool()>& pred, std::chrono::seconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (pred()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return false;
+}
+
+TEST(OnboardDaemonInProcess, PublishesFilteredMapFramePoints) {
+  TempDir dir;
+  const fs::path arcos_link = dir.path / "ttyArcos", lms_link = dir.path / "ttyLms";
+  arcos::PioneerEmulator pioneer;
+  FlatRanges ranges;
+  lms200::LmsEmulatorOptions lms_options;
+  lms_options.variant = LaserVariant{180, 50};
+  lms200::LmsEmulator scanner{lms_options, &ranges};
+  scanner.power_up(now_monotonic());
+  auto arcos_runner = serial::PtyRunner::create(pioneer, serial::PtyRunnerOptions{.link_path = arcos_link.string()});
+  auto lms_runner = serial::PtyRunner::create(scanner, serial::PtyRunnerOptions{.link_path = lms_link.string()});
+  ASSERT_TRUE(arcos_runner.ok() && lms_runner.ok());
+  ASSERT_TRUE((*arcos_runner)->start().ok());
+  ASSERT_TRUE((*lms_runner)->start().ok());
+
+  std::string msg;
+  auto config = parse_onboard_config("[robot]\nid = 1\n[arcos]\ndevice = \"" + arcos_link.string() + "\"\n[lms]\ndevice = \"" +
+                                         lms_link.string() + "\"\nbaud = 500000\nfov_deg = 180\nresolution_deg = 0.5\n" +
+                                         "[mount]\nx_m = 0.16\ny_m = 0\nz_m = 0.45\npitch_deg = 0\n" +
+                                         "[filter]\nhalf_angle_deg = 7\nextrapolate_team = false\n[status]\nperiod_s = 0.1\n",
+                                     msg);
+  ASSERT_TRUE(config.ok()) << msg;
+
+  for (const PublishMode mode : {PublishMode::all, PublishMode::kept}) {
+    SCOPED_TRACE(mode == PublishMode::all ? "publish all" : "publish kept");
+    config->publish = mode;
+    // The teammate 3.16 m ahead of the robot's centre: where the laser's 0° beam (3 m from the laser
+    // at x = 0.16 m) hits.
+    RecordingPublisher rec{3160, 0};
+    auto daemon = OnboardDaemon::create(config.value(), rec);
+    ASSERT_TRUE(daemon.ok()) << daemon.error().what;
+    int rc = -1;
+    std::thread loop{[&] { rc = (*daemon)->run(); }};
+
+    const bool streamed = wait_until([&] { return rec.with([&] { return rec.scans_ >= 20 && rec.poses_ >= 2; }); },
+                                     std::chrono::seconds(30));
+    const OnboardScan scan = rec.with([&] { return rec.scan_; });
+    const OnboardPose pose = rec.with([&] { return rec.pose_; });
+    const OnboardStatus status = rec.with([&] { return rec.status_; });
+    ::pthread_kill(loop.native_handle(), SIGTERM);
+    loop.join();
+    ASSERT_TRUE(streamed);
+    EXPECT_EQ(rc, 0);
+
+    EXPECT_EQ(pose.robot_id, 1u);
+    EXPECT_EQ(pose.x_mm, 0);
+    EXPECT_EQ(pose.y_mm, 0);
+    EXPECT_EQ(scan.robot_id, 1u);
+    EXPECT_EQ(scan.origin_x_mm, 160);
+    EXPECT_EQ(scan.origin_z_mm, 450);
+    EXPECT_NE(status.arcos_state, 0);
+    EXPECT_NE(status.lms_state, 0);
+    EXPECT_TRUE(status.team_fresh);
+
+    // Beam 180 (0°) hits (3160, 0, 450); beam 192 (6°): robot-frame (3143.6, 313.6) is 5.7° off the line
+    // to the teammate, inside the 7° cone; beam 196 (8°): (3130.8, 417.5) is 7.6° off, outside; beam 0
+    // (−90°): (160, −3000).
+    auto find = [&](std::uint16_t beam) -> const OnboardPoint* {
+      for (std::uint16_t i = 0; i < scan.count; ++i)
+        if (scan.points[i].beam == beam) return &scan.points[i];
+      return nullptr;
+    };
+    if (mode == PublishMode::all) {
+      ASSERT_EQ(scan.count, 361);
+      ASSERT_NE(find(180), nullptr);
+      EXPECT_EQ(find(180)->x_mm, 3160);
+      EXPECT_EQ(find(180)->y_mm, 0);
+      EXPECT_EQ(find(180)->z_mm, 450);
+      EXPECT_EQ(find(180)->flags, kPointDirectionFiltered);
+      EXPECT_EQ(find(192)->flags, kPointDirectionFiltered);
+      EXPECT_EQ(find(196)->flags, 0);
+      EXPECT_EQ(find(0)->x_mm, 160);
+      EXPECT_EQ(find(0)->y_mm, -3000);
+      EXPECT_EQ(find(0)->flags, 0);
+    } else {
+      EXPECT_LT(scan.count, 361);
+      EXPECT_GT(scan.count, 300);
+      EXPECT_EQ(find(180), nullptr);
+      EXPECT_EQ(find(192), nullptr);
+      ASSERT_NE(find(196), nullptr);
+      for (std::uint16_t i = 0; i < scan.count; ++i) EXPECT_EQ(scan.points[i].flags, 0) << scan.points[i].beam;
+    }
+  }
+  (*arcos_runner)->stop();
+  (*lms_runner)->stop();
+}
+
+}  // namespace
+}  // namespace teamscan::onboard

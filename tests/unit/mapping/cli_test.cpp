@@ -1,0 +1,89 @@
+// `teamscan eval` and `teamscan export` end to end through the data set files (common/dataset): the
+// JSON is byte-identical for a seed, and the export's ground truth reads back with the labels.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <unistd.h>
+
+#include "common/dataset/dataset.hpp"
+#include "common/dataset/pcd.hpp"
+#include "tests/bench/mapping/synthetic_survey.hpp"
+
+namespace teamscan::mapping {
+namespace {
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const char* bin = std::getenv("TEAMSCAN_BINARY_DIR");
+    tool_ = std::string(bin ? bin : "build/dev") + "/tools/teamscan/teamscan";
+    if (!std::filesystem::exists(tool_)) GTEST_SKIP() << "teamscan tool not built: " << tool_;
+    dir_ = ::testing::TempDir() + "/mapping_cli_" + std::to_string(::getpid());
+    std::filesystem::create_directories(dir_);
+    bench::SurveyOptions o;
+    o.duration_s = 6.0;
+    dataset_ = bench::synthetic_survey(o);
+    ASSERT_TRUE(write_dataset(dir_ + "/ds", dataset_).ok());
+  }
+  void TearDown() override {
+    if (!dir_.empty()) std::filesystem::remove_all(dir_);
+  }
+  int run(const std::string& args) {
+    const std::string cmd = "timeout 60 " + tool_ + " " + args + " > " + dir_ + "/stdout.txt 2> " + dir_ + "/stderr.txt";
+    return std::system(cmd.c_str());
+  }
+  std::string tool_, dir_;
+  Dataset dataset_;
+};
+
+TEST_F(Cli, EvalJsonIsIdenticalForASeedAndTheReportFolderIsWritten) {
+  ASSERT_EQ(run("eval " + dir_ + "/ds --seed 7 --json " + dir_ + "/a.json"), 0) << slurp(dir_ + "/stderr.txt");
+  ASSERT_EQ(run("eval " + dir_ + "/ds --seed 7 --json " + dir_ + "/b.json --out " + dir_ + "/report"), 0);
+  const std::string a = slurp(dir_ + "/a.json");
+  EXPECT_FALSE(a.empty());
+  EXPECT_EQ(a, slurp(dir_ + "/b.json"));
+  EXPECT_EQ(a, slurp(dir_ + "/report/report.json"));
+  const std::string md = slurp(dir_ + "/report/report.md");
+  EXPECT_NE(md.find("| combined@7.0deg,0.10m |"), std::string::npos);
+  EXPECT_NE(md.find("Reproduce: `teamscan eval " + dir_ + "/ds --method all --seed 7`"), std::string::npos);
+  // The table goes to stdout too.
+  EXPECT_NE(slurp(dir_ + "/stdout.txt").find("| position |"), std::string::npos);
+}
+
+TEST_F(Cli, EvalRejectsBadArgumentsAndBadFolders) {
+  EXPECT_NE(run("eval " + dir_ + "/ds --method bogus"), 0);
+  EXPECT_NE(slurp(dir_ + "/stderr.txt").find("unknown method"), std::string::npos);
+  EXPECT_NE(run("eval " + dir_ + "/ds --half-angle 75"), 0);
+  std::filesystem::create_directories(dir_ + "/empty");
+  EXPECT_NE(run("eval " + dir_ + "/empty"), 0);
+}
+
+TEST_F(Cli, ExportWritesTheDynamicMapLayoutThatReadsBack) {
+  ASSERT_EQ(run("export " + dir_ + "/ds --format dynamicmap --out " + dir_ + "/dm"), 0) << slurp(dir_ + "/stderr.txt");
+  auto gt = read_pcd(dir_ + "/dm/gt_cloud.pcd");
+  ASSERT_TRUE(gt.ok()) << gt.error().what;
+  ASSERT_EQ(gt.value().size(), dataset_.points.size());
+  const int intensity = gt.value().field("intensity");
+  ASSERT_GE(intensity, 0);
+  for (std::size_t i = 0; i < dataset_.points.size(); ++i)
+    ASSERT_EQ(gt.value().columns[static_cast<std::size_t>(intensity)][i], dataset_.points[i].is_ghost() ? 1.0 : 0.0) << i;
+  auto frame = read_pcd(dir_ + "/dm/pcd/000000.pcd");
+  ASSERT_TRUE(frame.ok());
+  EXPECT_EQ(frame.value().size(), dataset_.scans.front().points);
+  EXPECT_NE(run("export " + dir_ + "/ds --format kitti --out " + dir_ + "/x"), 0);
+}
+
+}  // namespace
+}  // namespace teamscan::mapping

@@ -1,0 +1,140 @@
+// scans.bin format: exact bytes of a record, CRC check values, round trip, and bad input (corruption,
+// truncation, garbage between records) counted and resynchronised.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <vector>
+
+#include "groundstation/station/scan_record.hpp"
+
+namespace teamscan::station {
+namespace {
+
+TEST(Crc32, StandardCheckValue) {
+  // CRC-32/ISO-HDLC check value of "123456789" (the catalogue value every CRC-32 implementation meets).
+  const char* s = "123456789";
+  EXPECT_EQ(crc32_ieee(std::span<const std::uint8_t>(reinterpret_cast<const std::uint8_t*>(s), 9)), 0xCBF43926u);
+  EXPECT_EQ(crc32_ieee(std::span<const std::uint8_t>()), 0u);
+}
+
+TEST(ScanRecord, FileHeaderBytes) {
+  std::uint8_t h[kScanFileHeaderBytes];
+  encode_scan_file_header(h);
+  const std::uint8_t expected[16] = {'T', 'S', 'S', 'C', 'A', 'N', 'S', '1', 1, 0, 0, 0, 16, 0, 0, 0};
+  EXPECT_EQ(std::memcmp(h, expected, 16), 0);
+}
+
+TEST(ScanRecord, ExactBytesOfAOnePointRecord) {
+  static StoredScan s;
+  s.recv_realtime_ns = 0x0102030405060708;
+  s.recv_monotonic_ns = -2;
+  s.robot_id = 3;
+  s.seq = 0x11223344;
+  s.stamp_ns = 1;
+  s.origin_x_mm = -1;
+  s.origin_y_mm = 256;
+  s.origin_z_mm = 0;
+  s.count = 1;
+  s.points[0] = StoredPoint{-1000, 1000, 7, 400, 5};
+  std::uint8_t buf[kScanRecordMaxBytes];
+  const std::size_t n = encode_scan_record(s, buf);
+  ASSERT_EQ(n, 8u + 48u + 16u + 4u);
+  const std::uint8_t expected[72] = {
+      0x54, 0x43, 0x53, 0x52,  64, 0, 0, 0,                        // magic "TCSR", body 48 + 16
+      0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01,              // recv realtime
+      0xFE, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF,              // recv monotonic -2
+      3, 0, 0, 0,  0x44, 0x33, 0x22, 0x11,                        // robot, seq
+      1, 0, 0, 0, 0, 0, 0, 0,                                      // stamp
+      0xFF, 0xFF, 0xFF, 0xFF,  0, 1, 0, 0,  0, 0, 0, 0,            // origin -1, 256, 0
+      1, 0,  0, 0,                                                 // count, reserved
+      0x18, 0xFC, 0xFF, 0xFF,  0xE8, 0x03, 0, 0,  7, 0, 0, 0,      // -1000, 1000, 7
+      0x90, 0x01,  5, 0};                                          // beam 400, flags 5
+  ASSERT_EQ(std::memcmp(buf, expected, 72), 0);
+  const std::uint32_t crc = crc32_ieee(std::span<const std::uint8_t>(buf, 72));
+  EXPECT_EQ(buf[72], crc & 0xFF);
+  EXPECT_EQ(buf[75], crc >> 24);
+}
+
+std::vector<std::uint8_t> file_with(const std::vector<StoredScan*>& scans) {
+  std::vector<std::uint8_t> f(kScanFileHeaderBytes);
+  std::uint8_t h[kScanFileHeaderBytes];
+  encode_scan_file_header(h);
+  std::memcpy(f.data(), h, sizeof h);
+  std::uint8_t buf[kScanRecordMaxBytes];
+  for (const StoredScan* s : scans) {
+    const std::size_t n = encode_scan_record(*s, buf);
+    f.insert(f.end(), buf, buf + n);
+  }
+  return f;
+}
+
+TEST(ScanRecord, RoundTripOfZeroOneAndFullScans) {
+  static StoredScan a, b, c;
+  a.robot_id = 1; a.seq = 1; a.count = 0;
+  b.robot_id = 2; b.seq = 2; b.count = 1; b.points[0] = StoredPoint{1, 2, 3, 4, 5};
+  c.robot_id = 32; c.seq = 3; c.count = kMaxBeams;
+  for (std::uint16_t i = 0; i < kMaxBeams; ++i) c.points[i] = StoredPoint{i, -i, i * 2, i, static_cast<std::uint16_t>(i & 15)};
+  const auto f = file_with({&a, &b, &c});
+  std::vector<std::pair<std::uint32_t, std::uint16_t>> got;
+  std::int32_t last_z = 0;
+  const ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const StoredScan& s) {
+    got.emplace_back(s.seq, s.count);
+    if (s.count == kMaxBeams) last_z = s.points[400].z_mm;
+  });
+  EXPECT_EQ(st.records, 3u);
+  EXPECT_EQ(st.bad_crc, 0u);
+  EXPECT_FALSE(st.truncated_tail);
+  ASSERT_EQ(got.size(), 3u);
+  EXPECT_EQ(got[0], std::make_pair(1u, std::uint16_t{0}));
+  EXPECT_EQ(got[1], std::make_pair(2u, std::uint16_t{1}));
+  EXPECT_EQ(got[2], std::make_pair(3u, static_cast<std::uint16_t>(kMaxBeams)));
+  EXPECT_EQ(last_z, 800);
+}
+
+TEST(ScanRecord, CorruptRecordIsSkippedAndTheNextOneFound) {
+  static StoredScan a, b, c;
+  a.seq = 1; a.count = 3;
+  b.seq = 2; b.count = 3;
+  c.seq = 3; c.count = 3;
+  auto f = file_with({&a, &b, &c});
+  const std::size_t rec = kScanRecordFixedBytes + 3 * kScanPointBytes;
+  f[kScanFileHeaderBytes + rec + 30] ^= 0x40;  // flip a bit inside record 2
+  std::vector<std::uint32_t> seqs;
+  const ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const StoredScan& s) { seqs.push_back(s.seq); });
+  EXPECT_EQ(seqs, (std::vector<std::uint32_t>{1, 3}));
+  EXPECT_EQ(st.bad_crc, 1u);
+  EXPECT_GT(st.bytes_skipped, 0u);
+}
+
+TEST(ScanRecord, TruncatedTailAndGarbageAndBadHeader) {
+  static StoredScan a, b;
+  a.seq = 1; a.count = 2;
+  b.seq = 2; b.count = 2;
+  auto f = file_with({&a, &b});
+  f.insert(f.begin() + kScanFileHeaderBytes, {0xDE, 0xAD, 0xBE, 0xEF, 0x54});  // garbage before record 1
+  f.resize(f.size() - 7);                                                     // torn last record
+  std::vector<std::uint32_t> seqs;
+  ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const StoredScan& s) { seqs.push_back(s.seq); });
+  EXPECT_EQ(seqs, (std::vector<std::uint32_t>{1}));
+  EXPECT_TRUE(st.truncated_tail);
+  EXPECT_EQ(st.bytes_skipped, 5u);
+
+  f[0] = 'X';
+  st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const StoredScan&) { ADD_FAILURE(); });
+  EXPECT_TRUE(st.bad_header);
+}
+
+TEST(ScanRecord, LengthAboveCapacityIsRejected) {
+  static StoredScan a;
+  a.count = 1;
+  auto f = file_with({&a});
+  // body length claiming 402 points
+  const std::uint32_t body = 48 + 402 * 16;
+  std::memcpy(&f[kScanFileHeaderBytes + 4], &body, 4);
+  const ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const StoredScan&) { ADD_FAILURE(); });
+  EXPECT_EQ(st.records, 0u);
+  EXPECT_GE(st.bad_length, 1u);
+}
+
+}  // namespace
+}  // namespace teamscan::station

@@ -1,0 +1,174 @@
+// SessionStore files and the last-pose TeamSource.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "groundstation/station/session_store.hpp"
+#include "groundstation/station/team_source.hpp"
+#include "teamscan.h"
+
+namespace teamscan::station {
+namespace {
+
+std::string temp_dir() {
+  char tmpl[] = "/tmp/teamscan-store-XXXXXX";
+  return ::mkdtemp(tmpl);
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(SessionStore, CreatesATimestampedSessionFolderWithAllFiles) {
+  const std::string root = temp_dir() + "/nested/root";
+  auto s = SessionStore::create(root);
+  ASSERT_TRUE(s.ok()) << s.error().what;
+  const std::filesystem::path dir(s->dir());
+  EXPECT_EQ(dir.parent_path(), std::filesystem::path(root));
+  EXPECT_EQ(dir.filename().string().rfind("session-", 0), 0u);
+  for (const char* f : {"scans.bin", "poses.csv", "status.csv", "events.log"}) {
+    EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
+  }
+  EXPECT_EQ(std::filesystem::file_size(dir / "scans.bin"), kScanFileHeaderBytes);
+  std::filesystem::remove_all(root);
+}
+
+// A child process stores and then dies by SIGKILL without any cleanup: every record is in the files.
+TEST(SessionStore, NothingIsLostWhenTheProcessIsKilled) {
+  const std::string dir = temp_dir() + "/s";
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    auto s = SessionStore::open(dir);
+    if (!s) ::_exit(3);
+    static StoredScan scan;
+    scan.robot_id = 2;
+    scan.count = 10;
+    teamscan_msg_RobotPose p{};
+    p.robot_id = 2;
+    for (std::uint32_t i = 1; i <= 500; ++i) {
+      scan.seq = i;
+      s->append_scan(scan);
+      p.seq = i;
+      s->append_pose(p, ReceiveTime{Time::from_ns(i), Time::from_ns(i)});
+    }
+    s->log_event(Time::from_ns(1'700'000'000'000'000'000), "last words");
+    ::kill(::getpid(), SIGKILL);  // no destructor, no sync
+    ::_exit(4);
+  }
+  int st = 0;
+  ASSERT_EQ(::waitpid(pid, &st, 0), pid);
+  ASSERT_TRUE(WIFSIGNALED(st));
+  std::uint32_t n = 0;
+  std::uint32_t expected_seq = 1;
+  ScanDecodeStats stats;
+  std::string err;
+  ASSERT_TRUE(read_scan_file(dir + "/scans.bin", [&](const StoredScan& s) {
+    EXPECT_EQ(s.seq, expected_seq++);
+    ++n;
+  }, stats, err)) << err;
+  EXPECT_EQ(n, 500u);
+  EXPECT_FALSE(stats.truncated_tail);
+  const std::string poses = slurp(dir + "/poses.csv");
+  EXPECT_EQ(std::count(poses.begin(), poses.end(), '\n'), 501);  // header + 500
+  EXPECT_NE(poses.find("\n500,500,2,500,"), std::string::npos);
+  EXPECT_NE(slurp(dir + "/events.log").find("1700000000000000000 2023-11-14T22:13:20.000Z last words\n"),
+            std::string::npos);
+  std::filesystem::remove_all(std::filesystem::path(dir).parent_path());
+}
+
+TEST(SessionStore, ReopeningAppendsWithoutASecondHeader) {
+  const std::string dir = temp_dir() + "/s";
+  static StoredScan scan;
+  scan.count = 1;
+  {
+    auto s = SessionStore::open(dir);
+    ASSERT_TRUE(s.ok());
+    scan.seq = 1;
+    s->append_scan(scan);
+  }
+  {
+    auto s = SessionStore::open(dir);
+    ASSERT_TRUE(s.ok());
+    scan.seq = 2;
+    s->append_scan(scan);
+  }
+  std::vector<std::uint32_t> seqs;
+  ScanDecodeStats stats;
+  std::string err;
+  ASSERT_TRUE(read_scan_file(dir + "/scans.bin", [&](const StoredScan& s) { seqs.push_back(s.seq); }, stats, err));
+  EXPECT_EQ(seqs, (std::vector<std::uint32_t>{1, 2}));
+  EXPECT_EQ(stats.bytes_skipped, 0u);
+  const std::string poses = slurp(dir + "/poses.csv");
+  EXPECT_EQ(std::count(poses.begin(), poses.end(), '\n'), 1);
+  std::filesystem::remove_all(std::filesystem::path(dir).parent_path());
+}
+
+TEST(SessionStore, UnwritableRootIsAnErrorNotACrash) {
+  auto s = SessionStore::create("/proc/teamscan-cannot-be-here");
+  EXPECT_FALSE(s.ok());
+}
+
+PoseObservation pose(std::uint32_t id, double t_s, double x, double y, double vx, double vy) {
+  PoseObservation p;
+  p.robot_id = id;
+  p.stamp = Time::from_seconds(t_s);
+  p.x_m = x;
+  p.y_m = y;
+  p.vx_mps = vx;
+  p.vy_mps = vy;
+  return p;
+}
+
+TEST(LastPoseTeamSource, ExtrapolatesWithVelocityUpToTheLimitAndGrowsTheCovariance) {
+  LastPoseOptions o;
+  o.sigma0_m = 0.1;
+  o.sigma_velocity_mps = 0.5;
+  o.max_extrapolation_s = 0.5;
+  LastPoseTeamSource src(o);
+  src.add_pose(pose(3, 100.0, 1.0, 2.0, 1.0, -2.0));
+  std::array<TeamMemberEstimate, kMaxRobots> out{};
+  ASSERT_EQ(src.estimate(Time::from_seconds(100.2), out), 1u);
+  EXPECT_EQ(out[0].robot_id, 3u);
+  EXPECT_NEAR(out[0].x_m, 1.2, 1e-9);
+  EXPECT_NEAR(out[0].y_m, 1.6, 1e-9);
+  EXPECT_NEAR(out[0].cov_xx_m2, 0.2 * 0.2, 1e-9);  // (0.1 + 0.5 * 0.2)^2
+  EXPECT_NEAR(out[0].cov_yy_m2, 0.04, 1e-9);
+  EXPECT_EQ(out[0].cov_xy_m2, 0.0);
+  // 2 s old: extrapolation capped at 0.5 s, sigma keeps growing with the full age.
+  ASSERT_EQ(src.estimate(Time::from_seconds(102.0), out), 1u);
+  EXPECT_NEAR(out[0].x_m, 1.5, 1e-9);
+  EXPECT_NEAR(out[0].cov_xx_m2, 1.1 * 1.1, 1e-9);
+}
+
+TEST(LastPoseTeamSource, OrderedByIdOlderPoseIgnoredLostHoldsPosition) {
+  LastPoseTeamSource src;
+  src.add_pose(pose(7, 10.0, 7.0, 0.0, 1.0, 0.0));
+  src.add_pose(pose(2, 10.0, 2.0, 0.0, 0.0, 0.0));
+  src.add_pose(pose(2, 9.0, 99.0, 0.0, 0.0, 0.0));  // older: ignored
+  src.add_pose(pose(0, 10.0, 0.0, 0.0, 0.0, 0.0));  // id out of range: ignored
+  src.add_pose(pose(33, 10.0, 0.0, 0.0, 0.0, 0.0));
+  src.set_lost(7, true);
+  std::array<TeamMemberEstimate, kMaxRobots> out{};
+  ASSERT_EQ(src.estimate(Time::from_seconds(10.4), out), 2u);
+  EXPECT_EQ(out[0].robot_id, 2u);
+  EXPECT_NEAR(out[0].x_m, 2.0, 1e-12);
+  EXPECT_EQ(out[1].robot_id, 7u);
+  EXPECT_TRUE(out[1].lost);
+  EXPECT_NEAR(out[1].x_m, 7.0, 1e-12);  // not extrapolated
+  EXPECT_EQ(out[1].vx_mps, 0.0);
+  // Output span smaller than the team: no overrun.
+  std::array<TeamMemberEstimate, 1> one{};
+  EXPECT_EQ(src.estimate(Time::from_seconds(10.4), one), 1u);
+}
+
+}  // namespace
+}  // namespace teamscan::station

@@ -1,0 +1,227 @@
+// `teamscan eval DIR…`: runs the tracker and the paper's filters on labelled data sets and prints,
+// per data set, the paper's metrics, SA/DA/AA/HA, the share kept per class and Table 1 (issue 5).
+// Thin: the work is in groundstation/mapping/evaluation.hpp.
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "common/dataset/dataset.hpp"
+#include "groundstation/mapping/evaluation.hpp"
+#include "tools/teamscan/subcommand.hpp"
+
+namespace teamscan::tool {
+namespace {
+
+using mapping::DirectionSource;
+using mapping::EvalOptions;
+using mapping::EvalReport;
+using mapping::MethodOptions;
+using mapping::PlaneErrorReference;
+
+struct EvalArgs {
+  std::vector<std::string> dirs;
+  std::string methods = "all";
+  std::optional<double> resolution_m;
+  std::optional<double> half_angle_deg;
+  std::uint64_t seed = 1;
+  std::string json_path;
+  std::string out_dir;
+  // Named interpretations of the paper (PAPER_NOTES.md), defaults as there.
+  double frequency_k = 0.0;
+  double sigma_m = 0.35;
+  double n_sigma = 1.0;
+  std::string direction_source = "recompute";
+  bool range_gate = false;
+  double range_gate_margin_m = 0.3;
+  bool height_gate = false;
+  double height_gate_margin_m = 0.1;
+  double ransac_threshold_m = 0.02;
+  int ransac_iterations = 500;
+  double floor_max_tilt_deg = 15.0;
+  double floor_max_height_m = 0.5;
+  std::string plane_error = "sample";
+  double accel_noise_mps2 = 0.5;
+  double position_noise_m = 0.02;
+  double velocity_noise_mps = 0.05;
+};
+
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+// The command line that reproduces the run: every parameter that differs from its default.
+std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
+  const EvalArgs d;
+  std::ostringstream o;
+  o << "teamscan eval " << dir << " --method " << a.methods;
+  if (a.resolution_m) o << " --resolution " << number(*a.resolution_m);
+  if (a.half_angle_deg) o << " --half-angle " << number(*a.half_angle_deg);
+  o << " --seed " << a.seed;
+  if (a.frequency_k != d.frequency_k) o << " --k " << number(a.frequency_k);
+  if (a.sigma_m != d.sigma_m) o << " --sigma " << number(a.sigma_m);
+  if (a.n_sigma != d.n_sigma) o << " --n " << number(a.n_sigma);
+  if (a.direction_source != d.direction_source) o << " --direction-source " << a.direction_source;
+  if (a.range_gate) o << " --range-gate --range-gate-margin " << number(a.range_gate_margin_m);
+  if (a.height_gate) o << " --height-gate --height-gate-margin " << number(a.height_gate_margin_m);
+  if (a.ransac_threshold_m != d.ransac_threshold_m) o << " --ransac-threshold " << number(a.ransac_threshold_m);
+  if (a.ransac_iterations != d.ransac_iterations) o << " --ransac-iterations " << a.ransac_iterations;
+  if (a.floor_max_tilt_deg != d.floor_max_tilt_deg) o << " --floor-max-tilt " << number(a.floor_max_tilt_deg);
+  if (a.floor_max_height_m != d.floor_max_height_m) o << " --floor-max-height " << number(a.floor_max_height_m);
+  if (a.plane_error != d.plane_error) o << " --plane-error " << a.plane_error;
+  if (a.accel_noise_mps2 != d.accel_noise_mps2) o << " --tracker-accel-noise " << number(a.accel_noise_mps2);
+  if (a.position_noise_m != d.position_noise_m) o << " --tracker-position-noise " << number(a.position_noise_m);
+  if (a.velocity_noise_mps != d.velocity_noise_mps) o << " --tracker-velocity-noise " << number(a.velocity_noise_mps);
+  return o.str();
+}
+
+bool write_file(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::trunc);
+  out << text;
+  return static_cast<bool>(out);
+}
+
+// Seam for the pictures of each method's result (issue 5: like the paper's figures 4–8). They come
+// from the render engineer's teamscan_render library; until its API is on main, the report says so.
+std::string write_pictures(const EvalReport&, const std::string&) {
+  return "Pictures: not generated in this build (the teamscan_render library is not linked into "
+         "`teamscan eval` yet); `teamscan render` draws the data set.\n";
+}
+
+std::string describe(const Error& e) {
+  std::string s = e.what;
+  if (e.detail != 0) s += " (line " + std::to_string(e.detail) + ")";
+  return s;
+}
+
+
+int run_eval(const EvalArgs& a) {
+  MethodOptions base;
+  base.frequency.k = a.frequency_k;
+  base.position.sigma_m = a.sigma_m;
+  base.position.n = a.n_sigma;
+  base.direction.source = a.direction_source == "flags" ? DirectionSource::flags : DirectionSource::recompute;
+  base.direction.range_gate = a.range_gate;
+  base.direction.range_gate_margin_m = a.range_gate_margin_m;
+  base.direction.height_gate = a.height_gate;
+  base.direction.height_gate_margin_m = a.height_gate_margin_m;
+  auto methods = mapping::parse_methods(a.methods, a.resolution_m, a.half_angle_deg, base);
+  if (!methods) {
+    std::fprintf(stderr, "teamscan eval: --method %s: %s\n", a.methods.c_str(), methods.error().what);
+    return 2;
+  }
+  EvalOptions options;
+  options.methods = methods.value();
+  options.ransac.threshold_m = a.ransac_threshold_m;
+  options.ransac.iterations = a.ransac_iterations;
+  options.ransac.seed = a.seed;
+  options.ransac.max_tilt_deg = a.floor_max_tilt_deg;
+  options.ransac.max_height_m = a.floor_max_height_m;
+  options.ransac.error_reference = a.plane_error == "refit" ? PlaneErrorReference::refit : PlaneErrorReference::sample;
+  options.tracker.accel_noise_mps2 = a.accel_noise_mps2;
+  options.tracker.position_noise_m = a.position_noise_m;
+  options.tracker.velocity_noise_mps = a.velocity_noise_mps;
+
+  std::string markdown, json;
+  std::vector<std::string> jsons;
+  int status = 0;
+  for (const std::string& dir : a.dirs) {
+    std::fprintf(stderr, "teamscan eval: reading %s\n", dir.c_str());
+    Result<Dataset> dataset = read_dataset(dir);
+    if (!dataset) {
+      std::fprintf(stderr, "teamscan eval: %s: %s\n", dir.c_str(), describe(dataset.error()).c_str());
+      status = 1;
+      continue;
+    }
+    options.progress = [&](const std::string& stage) { std::fprintf(stderr, "teamscan eval: %s: %s\n", dir.c_str(), stage.c_str()); };
+    const EvalReport report = mapping::evaluate(dataset.value(), options);
+    const std::string command = reproduce_command(a, dir);
+    const std::string md = mapping::report_markdown(report, command);
+    std::fputs(md.c_str(), stdout);
+    std::fputs("\n", stdout);
+    markdown += md + "\n";
+    if (!a.out_dir.empty()) markdown += write_pictures(report, a.out_dir) + "\n";
+    jsons.push_back(mapping::report_json(report, command));
+  }
+  // One data set: the report object; several: an array of them.
+  if (jsons.size() == 1) {
+    json = jsons.front();
+  } else {
+    json = "[\n";
+    for (std::size_t i = 0; i < jsons.size(); ++i) json += (i ? ",\n" : "") + jsons[i];
+    json += "]\n";
+  }
+  if (!a.json_path.empty() && !write_file(a.json_path, json)) {
+    std::fprintf(stderr, "teamscan eval: cannot write %s\n", a.json_path.c_str());
+    status = 1;
+  }
+  if (!a.out_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(a.out_dir, ec);
+    const std::string header = "# teamscan evaluation report\n\n";
+    if (ec || !write_file(a.out_dir + "/report.md", header + markdown) || !write_file(a.out_dir + "/report.json", json)) {
+      std::fprintf(stderr, "teamscan eval: cannot write the report into %s\n", a.out_dir.c_str());
+      status = 1;
+    } else {
+      std::fprintf(stderr, "teamscan eval: wrote %s/report.md and report.json\n", a.out_dir.c_str());
+    }
+  }
+  return status;
+}
+
+const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on labelled data sets", [](CLI::App& app) {
+  auto a = std::make_shared<EvalArgs>();
+  app.add_option("DIR", a->dirs, "Data set folder(s) written by `teamscan sim`")->required()->check(CLI::ExistingDirectory);
+  app.add_option("--method", a->methods,
+                 "Methods, comma separated, or 'all': frequency (eq. 4), visibility (eq. 5), position (eq. 6), "
+                 "direction (eq. 7), combined (direction then visibility, Table 6). Without --resolution/--half-angle "
+                 "frequency and visibility run at 0.05 and 0.1 m, direction at 5 and 7 deg, combined at 7 deg and 0.1 m")
+      ->capture_default_str();
+  app.add_option("--resolution", a->resolution_m, "Voxel size in metres for the map-based methods (paper: 0.05, 0.1)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--half-angle", a->half_angle_deg, "Direction-filter cone half-angle ha in degrees (paper: 5, 7)")
+      ->check(CLI::Range(0.0, 60.0));
+  app.add_option("--seed", a->seed, "RANSAC seed (the report is deterministic for a seed)")->capture_default_str();
+  app.add_option("--json", a->json_path, "Write the JSON report to FILE");
+  app.add_option("--out", a->out_dir, "Write report.md and report.json (and pictures) into REPORTDIR");
+  app.add_option("--k", a->frequency_k, "Frequency filter: remove if count < mean - k*stddev (paper: no value)")
+      ->capture_default_str();
+  app.add_option("--sigma", a->sigma_m, "Position filter: robot size sigma in metres")->capture_default_str();
+  app.add_option("--n", a->n_sigma, "Position filter: remove within n*sigma of another robot")->capture_default_str();
+  app.add_option("--direction-source", a->direction_source,
+                 "Direction filter: 'recompute' (eq. 7 from the tracked team) or 'flags' (the onboard decisions)")
+      ->check(CLI::IsMember({"recompute", "flags"}))
+      ->capture_default_str();
+  app.add_flag("--range-gate", a->range_gate,
+               "Direction filter variant (off = the paper's rule): only points within body radius 0.36 m + margin of "
+               "the teammate's distance along L");
+  app.add_option("--range-gate-margin", a->range_gate_margin_m, "Range gate margin (m)")->capture_default_str();
+  app.add_flag("--height-gate", a->height_gate,
+               "Direction filter variant (off = the paper's rule): only points below the teammate's height 0.5 m + margin");
+  app.add_option("--height-gate-margin", a->height_gate_margin_m, "Height gate margin (m)")->capture_default_str();
+  app.add_option("--ransac-threshold", a->ransac_threshold_m, "RANSAC inlier distance (m)")->capture_default_str();
+  app.add_option("--ransac-iterations", a->ransac_iterations, "RANSAC iterations")->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--floor-max-tilt", a->floor_max_tilt_deg, "Floor plane: normal within this angle of +z (deg, 0 = any plane)")
+      ->capture_default_str();
+  app.add_option("--floor-max-height", a->floor_max_height_m, "Floor plane: at most this high (m), so the ceiling never wins")
+      ->capture_default_str();
+  app.add_option("--plane-error", a->plane_error,
+                 "Signed plane error against the best RANSAC 'sample' plane or the least-squares 'refit' (which is ~0 by construction)")
+      ->check(CLI::IsMember({"sample", "refit"}))
+      ->capture_default_str();
+  app.add_option("--tracker-accel-noise", a->accel_noise_mps2, "Kalman process noise: acceleration sigma (m/s^2)")->capture_default_str();
+  app.add_option("--tracker-position-noise", a->position_noise_m, "Kalman measurement noise: odometry position sigma (m)")
+      ->capture_default_str();
+  app.add_option("--tracker-velocity-noise", a->velocity_noise_mps, "Kalman measurement noise: odometry velocity sigma (m/s)")
+      ->capture_default_str();
+  return [a] { return run_eval(*a); };
+}}};
+
+}  // namespace
+}  // namespace teamscan::tool
