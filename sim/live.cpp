@@ -80,6 +80,7 @@ class LiveLaser final : public lms200::RangeSource {
   void measure(const lms200::SweepTiming& sweep, std::span<lms200::BeamReading> beams) override {
     const RobotSpec& spec = team_.spec(ri_);
     const std::uint16_t n = sweep.variant.beams();
+    std::uint64_t ghosts = 0;
     LiveScanTruth truth;
     truth.sweep_end_realtime_ns = sweep.sweep_end.ns() + realtime_offset_ns_;
     truth.beams.resize(n);
@@ -103,10 +104,16 @@ class LiveLaser final : public lms200::RangeSource {
       b.tz = static_cast<float>(hit.point_m.z);
       b.label = hit.label;
       b.hit_robot = hit.hit_robot;
+      if (hit.label == PointClass::robot) ++ghosts;
     }
     std::lock_guard<std::mutex> lock{mutex_};
     truths_.push_back(std::move(truth));
     ++measured_;
+    ghost_beams_ += ghosts;
+  }
+  std::uint64_t ghost_beams() const {
+    std::lock_guard<std::mutex> lock{mutex_};
+    return ghost_beams_;
   }
 
   std::vector<LiveScanTruth> take() {
@@ -130,6 +137,7 @@ class LiveLaser final : public lms200::RangeSource {
   mutable std::mutex mutex_;
   std::vector<LiveScanTruth> truths_;
   std::uint64_t measured_ = 0;
+  std::uint64_t ghost_beams_ = 0;
 };
 
 }  // namespace
@@ -237,6 +245,7 @@ void LiveTeam::unplug_laser(std::size_t i) { impl_->robots[i]->lms->unplug(); }
 Status LiveTeam::replug_laser(std::size_t i) { return impl_->robots[i]->lms->replug(); }
 std::vector<LiveScanTruth> LiveTeam::take_truth(std::size_t i) { return impl_->robots[i]->laser.take(); }
 std::uint64_t LiveTeam::scans_measured(std::size_t i) const { return impl_->robots[i]->laser.measured(); }
+std::uint64_t LiveTeam::ghost_beams(std::size_t i) const { return impl_->robots[i]->laser.ghost_beams(); }
 
 const LiveScanTruth* match_truth(const std::vector<LiveScanTruth>& truths, std::int64_t stamp_ns, std::int64_t tolerance_ns) {
   auto it = std::lower_bound(truths.begin(), truths.end(), stamp_ns,

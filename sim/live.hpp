@@ -73,6 +73,8 @@ class LiveTeam {
   [[nodiscard]] std::vector<LiveScanTruth> take_truth(std::size_t i);
   // Scans the LMS emulator of robot i has measured so far.
   [[nodiscard]] std::uint64_t scans_measured(std::size_t i) const;
+  // Beams of robot i whose ray hit a teammate (ghosts in the making).
+  [[nodiscard]] std::uint64_t ghost_beams(std::size_t i) const;
 
  private:
   LiveTeam(const Scenario& scenario, const LiveOptions& options);

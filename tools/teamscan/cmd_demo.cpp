@@ -238,6 +238,7 @@ struct RobotDelivery {
   std::uint32_t last_status_published = 0;  // scans_published in the robot's last status
   std::uint64_t in_window = 0, truth_matched = 0, truth_unmatched = 0;
   std::uint64_t measured = 0;  // scans the emulated LMS sent
+  std::uint64_t truth_ghost_beams = 0;  // beams cast on a teammate within the run window
 };
 
 // Live session -> labelled data set on the simulator's time base (scenario start + world time).
@@ -379,6 +380,11 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
     }
     d.last_status_published = last_pub[id];
     d.measured = live.scans_measured(i);
+    for (const sim::LiveScanTruth& t : truths[i]) {
+      const std::int64_t ts = to_sim_ns(t.sweep_end_realtime_ns);
+      if (ts < scenario.start_time_ns || ts > end_ns) continue;
+      for (const sim::LiveBeamTruth& b : t.beams) d.truth_ghost_beams += b.label == PointClass::robot ? 1 : 0;
+    }
     L.delivery.push_back(d);
   }
   return L;
@@ -520,7 +526,8 @@ int run_demo(const DemoArgs& a) {
       const auto bytes = fs::file_size(session + "/scans.bin", e2);
       std::printf("  t = %6.1f / %.0f s  scans sent:", now_s, duration_s);
       for (std::size_t i = 0; i < live.robot_count(); ++i)
-        std::printf(" robot%u %llu", unsigned(live.spec(i).id), static_cast<unsigned long long>(live.scans_measured(i)));
+        std::printf(" robot%u %llu (%llu ghost beams)", unsigned(live.spec(i).id), static_cast<unsigned long long>(live.scans_measured(i)),
+                    static_cast<unsigned long long>(live.ghost_beams(i)));
       std::printf("  stored: %.1f MB\n", e2 ? 0.0 : static_cast<double>(bytes) / 1e6);
       std::fflush(stdout);
     }
@@ -613,11 +620,12 @@ int run_demo(const DemoArgs& a) {
     char line[300];
     std::snprintf(line, sizeof line,
                   "  robot%u: stored %llu scans (seq %u..%u, %llu missing, %llu duplicates; last status said %u published), "
-                  "%llu in the run window, %llu matched to truth, %llu unmatched; the emulated LMS sent %llu\n",
+                  "%llu in the run window, %llu matched to truth, %llu unmatched; the emulated LMS sent %llu (%llu beams on a teammate in the window)\n",
                   unsigned(d.id), static_cast<unsigned long long>(d.stored), d.seq_first, d.seq_last,
                   static_cast<unsigned long long>(d.gaps), static_cast<unsigned long long>(d.duplicates), d.last_status_published,
                   static_cast<unsigned long long>(d.in_window), static_cast<unsigned long long>(d.truth_matched),
-                  static_cast<unsigned long long>(d.truth_unmatched), static_cast<unsigned long long>(d.measured));
+                  static_cast<unsigned long long>(d.truth_unmatched), static_cast<unsigned long long>(d.measured),
+                  static_cast<unsigned long long>(d.truth_ghost_beams));
     dtxt << line;
     dj << (dj.tellp() > 0 ? ",\n" : "") << "    {\"id\": " << unsigned(d.id) << ", \"stored\": " << d.stored
        << ", \"seq_first\": " << d.seq_first << ", \"seq_last\": " << d.seq_last << ", \"missing\": " << d.gaps

@@ -73,8 +73,8 @@ int run_emulate(const EmulateArgs& a) {
   }
   team.stop();
   for (std::size_t i = 0; i < team.robot_count(); ++i)
-    std::printf("robot%u: %llu scans measured\n", static_cast<unsigned>(team.spec(i).id),
-                static_cast<unsigned long long>(team.scans_measured(i)));
+    std::printf("robot%u: %llu scans measured, %llu beams hit a teammate\n", static_cast<unsigned>(team.spec(i).id),
+                static_cast<unsigned long long>(team.scans_measured(i)), static_cast<unsigned long long>(team.ghost_beams(i)));
   return 0;
 }
 
