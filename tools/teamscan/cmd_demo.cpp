@@ -30,6 +30,7 @@
 #include "common/dataset/dataset.hpp"
 #include "common/dataset/pcd.hpp"
 #include "common/laser_geometry.hpp"
+#include "common/scan_points.hpp"
 #include "groundstation/mapping/evaluation.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "sim/live.hpp"
@@ -241,6 +242,17 @@ struct RobotDelivery {
   std::uint64_t truth_ghost_beams = 0;  // beams cast on a teammate within the run window
 };
 
+// The wire's point flags (common/scan_points.hpp) as the data set's (common/dataset/dataset.hpp).
+std::uint16_t dataset_flags(std::uint16_t wire) {
+  std::uint16_t f = 0;
+  if (wire & kPointDirectionFiltered) f |= point_flags::kDirectionFiltered;
+  if (wire & kPointInvalid) f |= point_flags::kInvalid;
+  if (wire & kPointDazzled) f |= point_flags::kDazzled;
+  if (wire & kPointOutOfRange) f |= point_flags::kOutOfRange;
+  if (wire & kPointTeamStale) f |= point_flags::kTeamStale;
+  return f;
+}
+
 // Live session -> labelled data set on the simulator's time base (scenario start + world time).
 struct LiveDataset {
   Dataset ds;
@@ -339,7 +351,7 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
     rec.true_pose = m.pose_at(static_cast<double>(t - scenario.start_time_ns) * 1e-9);
     for (std::uint16_t k = 0; k < s.count; ++k) {
       const station::StoredPoint& p = s.points[k];
-      if (p.flags & point_flags::kInvalid) continue;  // no 3-D point (as the simulator's data set)
+      if (p.flags & kPointUnplaced) continue;  // no 3-D point (as the simulator's data set)
       if (p.beam >= truth->beams.size()) continue;
       const sim::LiveBeamTruth& b = truth->beams[p.beam];
       LabelledPoint lp;
@@ -351,7 +363,7 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
       lp.beam = p.beam;
       lp.label = b.label;
       lp.hit_robot = b.hit_robot;
-      lp.flags = p.flags;
+      lp.flags = dataset_flags(p.flags);
       lp.tx = b.tx;
       lp.ty = b.ty;
       lp.tz = b.tz;
@@ -558,6 +570,16 @@ int run_demo(const DemoArgs& a) {
   so.device_streams = false;
   const sim::SimOutput offline = sim::simulate(scenario, so);
 
+  {  // Every beam the ray caster put on a teammate: for checking the labels of the live map.
+    std::ofstream g(out + "/truth-ghost-beams.csv");
+    g << "robot,world_time_s,beam,tx_m,ty_m,tz_m,hit_robot\n";
+    for (std::size_t i = 0; i < live.robot_count(); ++i)
+      for (const sim::LiveScanTruth& t : truths[i])
+        for (std::size_t k = 0; k < t.beams.size(); ++k)
+          if (t.beams[k].label == PointClass::robot)
+            g << unsigned(live.spec(i).id) << ',' << live.world_time_of(t.sweep_end_realtime_ns) << ',' << k << ','
+              << t.beams[k].tx << ',' << t.beams[k].ty << ',' << t.beams[k].tz << ',' << unsigned(t.beams[k].hit_robot) << '\n';
+  }
   LiveDataset L = build_live_dataset(session, live, truths, scenario, team, offline.dataset, duration_s);
 
   auto methods = mapping::parse_methods(a.methods, std::nullopt, std::nullopt, {});
