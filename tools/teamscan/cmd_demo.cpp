@@ -21,6 +21,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -331,6 +332,7 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
   std::map<std::uint8_t, RobotDelivery> del;
   std::map<std::uint8_t, std::vector<std::uint32_t>> seqs;
   std::map<std::uint8_t, std::uint32_t> next_scan;
+  std::map<std::uint8_t, std::set<std::uint32_t>> seen;
   std::string err;
   station::read_scan_file(session + "/scans.bin", [&](const station::StoredScan& s) {
     const auto id = static_cast<std::uint8_t>(s.robot_id);
@@ -339,6 +341,9 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
     d.id = id;
     ++d.stored;
     seqs[id].push_back(s.seq);
+    // A restarted ground station gets the robots' history again (DDS transient-local, depth 300): a scan
+    // already stored is stored twice; the data set keeps the first.
+    if (!seen[id].insert(s.seq).second) return;
     const std::int64_t t = to_sim_ns(s.stamp_ns);
     if (t < scenario.start_time_ns || t > end_ns) return;  // bring-up (robots standing) or after the end
     ++d.in_window;
