@@ -5,6 +5,7 @@
 // simulation of the same scenario and seed (docs/demo.md).
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -168,6 +169,7 @@ struct Child {
   pid_t pid = -1;
   int exit_code = -1;  // 128 + signal if killed
   bool exited = false;
+  double cpu_s = 0;    // user + system CPU time (from wait4)
 };
 
 pid_t g_pgid = 0;
@@ -199,9 +201,11 @@ Result<pid_t> spawn(const std::vector<std::string>& argv, const std::string& log
 void reap(Child& c, bool block) {
   if (c.exited || c.pid <= 0) return;
   int st = 0;
-  const pid_t r = ::waitpid(c.pid, &st, block ? 0 : WNOHANG);
+  struct rusage ru{};
+  const pid_t r = ::wait4(c.pid, &st, block ? 0 : WNOHANG, &ru);
   if (r == c.pid) {
     c.exited = true;
+    c.cpu_s = static_cast<double>(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) + 1e-6 * static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
     c.exit_code = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
   }
 }
@@ -267,6 +271,7 @@ struct LiveDataset {
   Dataset ds;
   std::vector<RobotDelivery> delivery;
   station::ScanDecodeStats decode;
+  std::vector<double> latency_ms;  // scan stamp (sweep end) -> stored by the station, per stored scan
 };
 
 Pose2 interpolate_pose(const std::vector<TrajectorySample>& s, std::int64_t t) {
@@ -341,6 +346,7 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
     d.id = id;
     ++d.stored;
     seqs[id].push_back(s.seq);
+    L.latency_ms.push_back(static_cast<double>(s.recv_realtime_ns - s.stamp_ns) * 1e-6);
     // A restarted ground station gets the robots' history again (DDS transient-local, depth 300): a scan
     // already stored is stored twice; the data set keeps the first.
     if (!seen[id].insert(s.seq).second) return;
@@ -828,6 +834,17 @@ int run_demo(const DemoArgs& a) {
   }
   if (!faults_log.str().empty()) std::printf("faults:\n%s", faults_log.str().c_str());
 
+  // Scan -> stored latency (the station stores before any mapping hook; docs/demo.md "Scale").
+  std::vector<double> lat = L.latency_ms;
+  std::sort(lat.begin(), lat.end());
+  auto pct = [&](double q) { return lat.empty() ? 0.0 : lat[std::min(lat.size() - 1, static_cast<std::size_t>(q * static_cast<double>(lat.size())))]; };
+  double station_cpu_s = 0;
+  for (const Child& c : children)
+    if (c.name.rfind("teamscan-groundstation", 0) == 0) station_cpu_s += c.cpu_s;
+  std::printf("scan -> stored latency: p50 %.1f ms, p99 %.1f ms, max %.1f ms over %zu scans; ground station CPU %.2f s (%.1f %% of one core over the run)\n",
+              pct(0.5), pct(0.99), lat.empty() ? 0.0 : lat.back(), lat.size(), station_cpu_s,
+              100.0 * station_cpu_s / (duration_s / a.speed + a.bringup_s));
+
   bool clean = true;
   std::ostringstream pj;
   for (std::size_t ci = 0; ci < children.size(); ++ci) {
@@ -835,7 +852,7 @@ int run_demo(const DemoArgs& a) {
     const bool killed_by_fault = (killed_child != 0 && ci == killed_child) ||
                                  (c.name == "teamscan-groundstation" && a.kill_station_at_s && ci >= 1 + live.robot_count());
     clean = clean && (c.exit_code == 0 || (killed_by_fault && c.exit_code == 128 + SIGKILL));
-    pj << (pj.tellp() > 0 ? ",\n" : "") << "    {\"name\": \"" << json_escape(c.name) << "\", \"exit\": " << c.exit_code
+    pj << (pj.tellp() > 0 ? ",\n" : "") << "    {\"name\": \"" << json_escape(c.name) << "\", \"exit\": " << c.exit_code << ", \"cpu_s\": " << c.cpu_s
        << ", \"log\": \"" << json_escape(c.log) << "\"}";
   }
   std::ostringstream sj;
@@ -843,6 +860,8 @@ int run_demo(const DemoArgs& a) {
      << ",\n  \"speed\": " << a.speed << ",\n  \"wall_s\": " << wall_s << ",\n  \"none_lost\": " << (none_lost ? "true" : "false")
      << ",\n  \"agree\": " << (agree ? "true" : "false") << ",\n  \"clean_exit\": " << (clean ? "true" : "false")
      << ",\n  \"tolerance_da_pct\": " << a.tolerance_da_pct << ",\n  \"tolerance_sa_pct\": " << a.tolerance_sa_pct
+     << ",\n  \"latency_ms_p50\": " << pct(0.5) << ",\n  \"latency_ms_p99\": " << pct(0.99)
+     << ",\n  \"latency_ms_max\": " << (lat.empty() ? 0.0 : lat.back()) << ",\n  \"station_cpu_s\": " << station_cpu_s
      << ",\n  \"scan_file_bad_crc\": " << L.decode.bad_crc << ",\n" << fj.str() << "  \"robots\": [\n" << dj.str() << "\n  ],\n  \"methods\": [\n"
      << mj.str() << "\n  ],\n  \"processes\": [\n" << pj.str() << "\n  ]\n}\n";
   write_text(out + "/summary.json", sj.str());
