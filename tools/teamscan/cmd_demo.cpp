@@ -346,10 +346,10 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
     d.id = id;
     ++d.stored;
     seqs[id].push_back(s.seq);
-    L.latency_ms.push_back(static_cast<double>(s.recv_realtime_ns - s.stamp_ns) * 1e-6);
     // A restarted ground station gets the robots' history again (DDS transient-local, depth 300): a scan
     // already stored is stored twice; the data set keeps the first.
     if (!seen[id].insert(s.seq).second) return;
+    L.latency_ms.push_back(static_cast<double>(s.recv_realtime_ns - s.stamp_ns) * 1e-6);
     const std::int64_t t = to_sim_ns(s.stamp_ns);
     if (t < scenario.start_time_ns || t > end_ns) return;  // bring-up (robots standing) or after the end
     ++d.in_window;

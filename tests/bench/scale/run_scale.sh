@@ -23,14 +23,21 @@ scenario() {  # N -> scenario TOML on stdout
   cols=$(awk -v n="$n" 'BEGIN { c = int(sqrt(n)); if (c * c < n) c++; print c }')
   rows=$(( (n + cols - 1) / cols ))
   local w h
-  w=$(awk -v c="$cols" 'BEGIN { printf "%.1f", c * 3.6 }')
-  h=$(awk -v r="$rows" 'BEGIN { printf "%.1f", r * 2.6 }')
+  # The room is at most 10 x 10 m (the paper's space): N ovals share it, one per cell.
+  w=10.0
+  h=10.0
+  local cw ch
+  cw=$(awk -v c="$cols" 'BEGIN { printf "%.3f", 10.0 / c }')
+  ch=$(awk -v r="$rows" 'BEGIN { printf "%.3f", 10.0 / r }')
+  local sx sy
+  sx=$(awk -v c="$cw" 'BEGIN { s = 0.5 * c - 0.45; if (s > 1.5) s = 1.5; printf "%.2f", s }')
+  sy=$(awk -v c="$ch" 'BEGIN { s = 0.5 * c - 0.45; if (s > 1.0) s = 1.0; printf "%.2f", s }')
   printf 'name = "scale%d"\nseed = 1\n\n[room]\nsize_m = [%s, %s, 3.0]\n' "$n" "$w" "$h"
   local i
   for ((i = 0; i < n; i++)); do
     local cx cy pitch role
-    cx=$(awk -v i="$i" -v c="$cols" -v w="$w" 'BEGIN { printf "%.2f", -w / 2 + 1.8 + (i % c) * 3.6 }')
-    cy=$(awk -v i="$i" -v c="$cols" -v h="$h" 'BEGIN { printf "%.2f", -h / 2 + 1.3 + int(i / c) * 2.6 }')
+    cx=$(awk -v i="$i" -v c="$cols" -v cw="$cw" 'BEGIN { printf "%.2f", -5.0 + cw * ((i % c) + 0.5) }')
+    cy=$(awk -v i="$i" -v c="$cols" -v ch="$ch" 'BEGIN { printf "%.2f", -5.0 + ch * (int(i / c) + 0.5) }')
     if (( i % 2 == 0 )); then pitch=15.0; role=down-laser; else pitch=-20.0; role=up-laser; fi
     cat <<TOML
 
@@ -44,7 +51,7 @@ start_phase = 0.$((i % 10))
   [robot.track]
   kind = "oval"
   center_m = [$cx, $cy]
-  semi_axes_m = [1.2, 0.8]
+  semi_axes_m = [$sx, $sy]
   direction = "ccw"
   [robot.laser]
   mount_xyz_m = [0.125, 0.0, 0.462]
