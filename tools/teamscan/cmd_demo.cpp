@@ -5,6 +5,7 @@
 // simulation of the same scenario and seed (docs/demo.md).
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -179,6 +180,7 @@ Result<pid_t> spawn(const std::vector<std::string>& argv, const std::string& log
   if (pid < 0) return Error{"fork failed", errno};
   if (pid == 0) {
     ::setpgid(0, g_pgid);  // g_pgid == 0 for the first child: a new group led by it
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // the demo killed outright (SIGKILL): its children still stop
     ::signal(SIGINT, SIG_DFL);
     ::signal(SIGTERM, SIG_DFL);
     const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
