@@ -68,6 +68,7 @@ struct DemoArgs {
   double tolerance_da_pct = 5.0;
   double tolerance_sa_pct = 1.0;
   double tolerance_map_sa_pct = 8.0;  // the map-based methods (frequency, visibility, combined)
+  double tolerance_map_da_pct = 10.0;
   std::string methods = "all";
   bool quiet = false;
   // Live faults (docs/demo.md "Faults"), times in seconds of world time.
@@ -689,7 +690,8 @@ int run_demo(const DemoArgs& a) {
     if (om) {
       const double dda = lm.removal.da - om->removal.da, dsa = lm.removal.sa - om->removal.sa;
       const bool map_based = lm.method == "frequency" || lm.method == "visibility" || lm.method == "combined";
-      const bool ok = std::fabs(dda) <= a.tolerance_da_pct && std::fabs(dsa) <= (map_based ? a.tolerance_map_sa_pct : a.tolerance_sa_pct);
+      const bool ok = std::fabs(dda) <= (map_based ? a.tolerance_map_da_pct : a.tolerance_da_pct) &&
+                      std::fabs(dsa) <= (map_based ? a.tolerance_map_sa_pct : a.tolerance_sa_pct);
       agree = agree && ok;
       std::snprintf(row, sizeof row, "| %s | %.1f | %.1f | %+.1f | %.2f | %.2f | %+.2f | %.1f | %.1f |%s\n", lm.name.c_str(),
                     lm.removal.da, om->removal.da, dda, lm.removal.sa, om->removal.sa, dsa, lm.removal.aa, om->removal.aa,
@@ -769,8 +771,9 @@ int run_demo(const DemoArgs& a) {
   md << "# teamscan demo: " << scenario.name << "\n\n" << live.robot_count() << " robots, " << duration_s
      << " s of robot time at " << a.speed << "x real time, " << wall_s << " s wall clock.\n\n## Delivery\n\n```\n"
      << dtxt.str() << "```\n\n## Live vs offline (`teamscan eval " << off_ds_dir << "`)\n\nTolerance: |ΔDA| ≤ "
-     << a.tolerance_da_pct << " points; |ΔSA| ≤ " << a.tolerance_sa_pct << " points (position, direction), ≤ "
-     << a.tolerance_map_sa_pct << " points (frequency, visibility, combined: map-based, docs/demo.md).\n\n" << cmp.str()
+     << a.tolerance_da_pct << " points, |ΔSA| ≤ " << a.tolerance_sa_pct << " points (position, direction); |ΔDA| ≤ "
+     << a.tolerance_map_da_pct << ", |ΔSA| ≤ " << a.tolerance_map_sa_pct
+     << " points (frequency, visibility, combined: map-based, docs/demo.md).\n\n" << cmp.str()
      << "\n## Live report\n\n" << mapping::report_markdown(live_report, "teamscan eval " + live_ds_dir)
      << "\n## Offline report\n\n" << mapping::report_markdown(offline_report, "teamscan eval " + off_ds_dir) << "\n"
      << pictures << "\n## Logs\n\n";
@@ -896,6 +899,8 @@ const SubcommandRegistration kDemo{
        app.add_option("--station-bin", a->station_bin, "teamscan-groundstation executable (default: found)");
        app.add_option("--tolerance-da", a->tolerance_da_pct, "Allowed |live DA − offline DA| in points")->capture_default_str();
        app.add_option("--tolerance-sa", a->tolerance_sa_pct, "Allowed |live SA − offline SA| in points")->capture_default_str();
+       app.add_option("--tolerance-map-da", a->tolerance_map_da_pct, "Allowed |ΔDA| for frequency/visibility/combined")
+           ->capture_default_str();
        app.add_option("--tolerance-map-sa", a->tolerance_map_sa_pct, "Allowed |ΔSA| for frequency/visibility/combined")
            ->capture_default_str();
        app.add_option("--method", a->methods, "Methods as in `teamscan eval --method`")->capture_default_str();
