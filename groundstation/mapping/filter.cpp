@@ -21,7 +21,9 @@ std::int32_t to_mm(double m) {
 }
 }  // namespace
 
-FilterParams FrequencyFilter::params() const { return {{"resolution_m", options_.resolution_m}, {"k", options_.k}}; }
+FilterParams FrequencyFilter::params() const {
+  return {{"resolution_m", options_.resolution_m}, {"k", options_.k}, {"grid_origin_z_m", options_.grid_origin_z_m}};
+}
 
 void FrequencyFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
   TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
@@ -169,7 +171,8 @@ std::unique_ptr<Filter> make_filter(const std::string& method, const MethodOptio
     DirectionOptions direction = options.direction;
     direction.half_angle_rad = options.combined_half_angle_rad;
     return std::make_unique<SequentialFilter>("combined", std::make_unique<DirectionFilter>(direction),
-                                              std::make_unique<VisibilityFilter>(VisibilityOptions{options.combined_resolution_m}));
+                                              std::make_unique<VisibilityFilter>(
+                                                  VisibilityOptions{options.combined_resolution_m, options.combined_grid_origin_z_m}));
   }
   return nullptr;
 }

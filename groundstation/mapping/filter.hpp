@@ -55,11 +55,15 @@ class Filter {
 struct FrequencyOptions {
   double resolution_m = 0.05;
   double k = 0.0;  // the paper gives no value
+  double grid_origin_z_m = 0.0;  // vertical grid offset (VoxelMap); paper: 0
 };
 
 // Eq. 5: filter a point if an occupied voxel lies strictly below its voxel in the same column.
 struct VisibilityOptions {
   double resolution_m = 0.05;
+  // Vertical grid offset (VoxelMap). Paper: 0, which puts a floor at z = 0 on a voxel boundary so its
+  // noise straddles two voxels and eq. 5 removes the upper half of the floor; −r/2 centres it.
+  double grid_origin_z_m = 0.0;
 };
 
 // Eq. 6: filter p if its horizontal distance to another robot's position < n·σ.
@@ -97,7 +101,8 @@ struct DirectionOptions {
 
 class FrequencyFilter final : public Filter {
  public:
-  explicit FrequencyFilter(FrequencyOptions options) : options_{options}, map_{options.resolution_m} {}
+  explicit FrequencyFilter(FrequencyOptions options)
+      : options_{options}, map_{options.resolution_m, options.grid_origin_z_m} {}
   [[nodiscard]] std::string method() const override { return "frequency"; }
   [[nodiscard]] FilterParams params() const override;
   void observe(const ScanView& scan) override { map_.insert(scan.points); }
@@ -113,9 +118,12 @@ class FrequencyFilter final : public Filter {
 
 class VisibilityFilter final : public Filter {
  public:
-  explicit VisibilityFilter(VisibilityOptions options) : options_{options}, map_{options.resolution_m} {}
+  explicit VisibilityFilter(VisibilityOptions options)
+      : options_{options}, map_{options.resolution_m, options.grid_origin_z_m} {}
   [[nodiscard]] std::string method() const override { return "visibility"; }
-  [[nodiscard]] FilterParams params() const override { return {{"resolution_m", options_.resolution_m}}; }
+  [[nodiscard]] FilterParams params() const override {
+    return {{"resolution_m", options_.resolution_m}, {"grid_origin_z_m", options_.grid_origin_z_m}};
+  }
   void observe(const ScanView& scan) override { map_.insert(scan.points); }
   void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
   void reset() override { map_.clear(); }
@@ -193,6 +201,7 @@ struct MethodOptions {
   // combined = direction (this half-angle) then visibility (this resolution): the paper's Table 6.
   double combined_half_angle_rad = 0.12217304763960307;  // 7°
   double combined_resolution_m = 0.1;
+  double combined_grid_origin_z_m = 0.0;
 };
 
 // The methods this library knows, in report order.

@@ -8,8 +8,8 @@
 namespace teamscan::mapping {
 namespace {
 constexpr std::uint64_t kFieldMask = (std::uint64_t{1} << 21) - 1;
-std::int32_t to_index(float v, double inverse_resolution) {
-  const double scaled = std::floor(static_cast<double>(v) * inverse_resolution);
+std::int32_t to_index(double v, double inverse_resolution) {
+  const double scaled = std::floor(v * inverse_resolution);
   // Clamp before the cast so NaN or huge values cannot overflow; in_range() rejects them after.
   if (!(scaled > -2.0 * VoxelMap::kIndexLimit)) return -2 * VoxelMap::kIndexLimit;
   if (scaled > 2.0 * VoxelMap::kIndexLimit) return 2 * VoxelMap::kIndexLimit;
@@ -17,12 +17,14 @@ std::int32_t to_index(float v, double inverse_resolution) {
 }
 }  // namespace
 
-VoxelMap::VoxelMap(double resolution_m) : resolution_m_{resolution_m}, inverse_resolution_{1.0 / resolution_m} {
+VoxelMap::VoxelMap(double resolution_m, double origin_z_m)
+    : resolution_m_{resolution_m}, origin_z_m_{origin_z_m}, inverse_resolution_{1.0 / resolution_m} {
   TEAMSCAN_EXPECTS(resolution_m > 0.0);
 }
 
 VoxelKey VoxelMap::key_of(const MapPoint& p) const {
-  return {to_index(p.x, inverse_resolution_), to_index(p.y, inverse_resolution_), to_index(p.z, inverse_resolution_)};
+  return {to_index(p.x, inverse_resolution_), to_index(p.y, inverse_resolution_),
+          to_index(static_cast<double>(p.z) - origin_z_m_, inverse_resolution_)};
 }
 
 bool VoxelMap::in_range(VoxelKey k) {

@@ -17,7 +17,7 @@ struct MapPoint {
   float x = 0, y = 0, z = 0;
 };
 
-// Integer voxel index: floor(coordinate / resolution) per axis (PAPER_NOTES eq. 2).
+// Integer voxel index: floor(coordinate / resolution) per axis (PAPER_NOTES eq. 2), z from the grid origin.
 struct VoxelKey {
   std::int32_t x = 0, y = 0, z = 0;
   friend constexpr bool operator==(VoxelKey, VoxelKey) = default;
@@ -28,9 +28,13 @@ class VoxelMap {
   // Each index is packed into 21 bits, so the map spans ±2^20 voxels per axis (±52 km at 0.05 m).
   static constexpr std::int32_t kIndexLimit = 1 << 20;
 
-  explicit VoxelMap(double resolution_m);
+  // `origin_z_m` shifts the grid vertically: voxel z index = floor((z − origin_z_m) / resolution).
+  // The paper's grid starts at the map origin (0); where the floor falls relative to a voxel boundary
+  // decides whether floor noise straddles two voxels (see docs/evaluation.md, visibility filter).
+  explicit VoxelMap(double resolution_m, double origin_z_m = 0.0);
 
   [[nodiscard]] double resolution_m() const { return resolution_m_; }
+  [[nodiscard]] double origin_z_m() const { return origin_z_m_; }
   [[nodiscard]] VoxelKey key_of(const MapPoint& p) const;
 
   // Adds one point (eq. 2: V[key] += 1). Points beyond the index range are counted and ignored.
@@ -68,6 +72,7 @@ class VoxelMap {
   [[nodiscard]] static bool in_range(VoxelKey k);
 
   double resolution_m_;
+  double origin_z_m_;
   double inverse_resolution_;
   FlatKeyMap<std::uint32_t> voxels_;   // packed (x, y, z) -> count
   FlatKeyMap<std::int32_t> columns_;   // packed (x, y, 0) -> lowest occupied z

@@ -1,6 +1,7 @@
 // `teamscan eval DIR…`: runs the tracker and the paper's filters on labelled data sets and prints,
 // per data set, the paper's metrics, SA/DA/AA/HA, the share kept per class and Table 1 (issue 5).
 // Thin: the work is in groundstation/mapping/evaluation.hpp.
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -13,6 +14,9 @@
 #include "common/dataset/dataset.hpp"
 #include "groundstation/mapping/evaluation.hpp"
 #include "tools/teamscan/subcommand.hpp"
+#if __has_include("tools/render/render.hpp")
+#include "tools/render/render.hpp"
+#endif
 
 namespace teamscan::tool {
 namespace {
@@ -33,6 +37,7 @@ struct EvalArgs {
   std::string out_dir;
   // Named interpretations of the paper (PAPER_NOTES.md), defaults as there.
   double frequency_k = 0.0;
+  double grid_origin_z_m = 0.0;
   double sigma_m = 0.35;
   double n_sigma = 1.0;
   std::string direction_source = "recompute";
@@ -65,6 +70,7 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.half_angle_deg) o << " --half-angle " << number(*a.half_angle_deg);
   o << " --seed " << a.seed;
   if (a.frequency_k != d.frequency_k) o << " --k " << number(a.frequency_k);
+  if (a.grid_origin_z_m != d.grid_origin_z_m) o << " --grid-origin-z " << number(a.grid_origin_z_m);
   if (a.sigma_m != d.sigma_m) o << " --sigma " << number(a.sigma_m);
   if (a.n_sigma != d.n_sigma) o << " --n " << number(a.n_sigma);
   if (a.direction_source != d.direction_source) o << " --direction-source " << a.direction_source;
@@ -87,11 +93,49 @@ bool write_file(const std::string& path, const std::string& text) {
   return static_cast<bool>(out);
 }
 
-// Seam for the pictures of each method's result (issue 5: like the paper's figures 4–8). They come
-// from the render engineer's teamscan_render library; until its API is on main, the report says so.
-std::string write_pictures(const EvalReport&, const std::string&) {
-  return "Pictures: not generated in this build (the teamscan_render library is not linked into "
-         "`teamscan eval` yet); `teamscan render` draws the data set.\n";
+// Pictures of each method's result like the paper's figures 4–8 (top view; filtered points white),
+// drawn by tools/render when it is part of the build.
+std::string picture_slug(const std::string& name) {
+  std::string out;
+  for (char c : name) out += (std::isalnum(static_cast<unsigned char>(c)) || c == '.') ? c : '_';
+  return out;
+}
+
+std::string write_pictures(const Dataset& dataset, const EvalReport& report, const std::string& out_dir) {
+#if __has_include("tools/render/render.hpp")
+  std::string md = "Pictures (top view; class colours, then each method with its filtered points white):\n\n";
+  const std::string prefix = picture_slug(report.scenario);
+  render::RenderOptions options;
+  options.view = render::View::top;
+  options.color = render::ColorMode::class_label;
+  options.title = report.scenario + ": all points (ghosts black)";
+  const std::string all = prefix + "-all-top.png";
+  if (render::render_dataset_png(out_dir + "/" + all, dataset, {}, options)) md += "![all points](" + all + ")\n";
+  options.color = render::ColorMode::filter;
+  for (const mapping::MethodResult& m : report.methods) {
+    std::vector<std::uint8_t> keep(m.removed.size());
+    for (std::size_t i = 0; i < keep.size(); ++i) keep[i] = m.removed[i] ? 0 : 1;
+    std::string shown = m.name;  // the picture font has no '@'
+    for (std::size_t at = shown.find('@'); at != std::string::npos; at = shown.find('@')) shown.replace(at, 1, " at ");
+    char title[160];
+    std::snprintf(title, sizeof title, "%s: %s (DA %.1f %%, SA %.1f %%)", report.scenario.c_str(), shown.c_str(),
+                  m.removal.da, m.removal.sa);
+    options.title = title;
+    const std::string file = prefix + "-" + picture_slug(m.name) + "-top.png";
+    Status st = render::render_dataset_png(out_dir + "/" + file, dataset, keep, options);
+    if (st) {
+      md += "![" + m.name + "](" + file + ")\n";
+    } else {
+      std::fprintf(stderr, "teamscan eval: picture %s: %s\n", file.c_str(), st.error().what);
+    }
+  }
+  return md;
+#else
+  (void)dataset;
+  (void)report;
+  (void)out_dir;
+  return "Pictures: not generated (this build has no tools/render library).\n";
+#endif
 }
 
 std::string describe(const Error& e) {
@@ -100,10 +144,10 @@ std::string describe(const Error& e) {
   return s;
 }
 
-
 int run_eval(const EvalArgs& a) {
   MethodOptions base;
   base.frequency.k = a.frequency_k;
+  base.frequency.grid_origin_z_m = base.visibility.grid_origin_z_m = base.combined_grid_origin_z_m = a.grid_origin_z_m;
   base.position.sigma_m = a.sigma_m;
   base.position.n = a.n_sigma;
   base.direction.source = a.direction_source == "flags" ? DirectionSource::flags : DirectionSource::recompute;
@@ -146,7 +190,11 @@ int run_eval(const EvalArgs& a) {
     std::fputs(md.c_str(), stdout);
     std::fputs("\n", stdout);
     markdown += md + "\n";
-    if (!a.out_dir.empty()) markdown += write_pictures(report, a.out_dir) + "\n";
+    if (!a.out_dir.empty()) {
+      std::error_code ec;
+      std::filesystem::create_directories(a.out_dir, ec);
+      markdown += write_pictures(dataset.value(), report, a.out_dir) + "\n";
+    }
     jsons.push_back(mapping::report_json(report, command));
   }
   // One data set: the report object; several: an array of them.
@@ -191,6 +239,10 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
   app.add_option("--json", a->json_path, "Write the JSON report to FILE");
   app.add_option("--out", a->out_dir, "Write report.md and report.json (and pictures) into REPORTDIR");
   app.add_option("--k", a->frequency_k, "Frequency filter: remove if count < mean - k*stddev (paper: no value)")
+      ->capture_default_str();
+  app.add_option("--grid-origin-z", a->grid_origin_z_m,
+                 "Map-based methods: vertical offset of the voxel grid (m; paper 0 puts a z = 0 floor on a voxel boundary, "
+                 "-r/2 centres it in a voxel)")
       ->capture_default_str();
   app.add_option("--sigma", a->sigma_m, "Position filter: robot size sigma in metres")->capture_default_str();
   app.add_option("--n", a->n_sigma, "Position filter: remove within n*sigma of another robot")->capture_default_str();

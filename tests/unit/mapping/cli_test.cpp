@@ -58,6 +58,14 @@ TEST_F(Cli, EvalJsonIsIdenticalForASeedAndTheReportFolderIsWritten) {
   const std::string md = slurp(dir_ + "/report/report.md");
   EXPECT_NE(md.find("| combined@7.0deg,0.10m |"), std::string::npos);
   EXPECT_NE(md.find("Reproduce: `teamscan eval " + dir_ + "/ds --method all --seed 7`"), std::string::npos);
+  // Pictures from tools/render: one per method plus the whole cloud, each a PNG.
+  if (md.find("Pictures (top view") != std::string::npos) {
+    const std::string file = "synthetic_oval_10m-position-top.png";  // scenario with '-' made '_'
+    const std::string png = slurp(dir_ + "/report/" + file);
+    ASSERT_GE(png.size(), 8u);
+    EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+    EXPECT_NE(md.find("![position](" + file + ")"), std::string::npos);
+  }
   // The table goes to stdout too.
   EXPECT_NE(slurp(dir_ + "/stdout.txt").find("| position |"), std::string::npos);
 }

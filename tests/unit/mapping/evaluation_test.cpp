@@ -314,3 +314,38 @@ TEST(SurveyProperties, WiderConeRemovesASuperset) {
 
 }  // namespace
 }  // namespace teamscan::mapping
+
+namespace teamscan::mapping {
+namespace {
+
+TEST(EvaluationEdges, EmptyDataSetGivesNullsNotACrash) {
+  const Dataset empty;
+  EvalOptions o;
+  o.methods = parse_methods("all", std::nullopt, std::nullopt).value();
+  const EvalReport r = evaluate(empty, o);
+  EXPECT_EQ(r.points, 0u);
+  EXPECT_FALSE(r.table1.with_ghosts.found);
+  const std::string json = report_json(r, "x");
+  EXPECT_NE(json.find("\"DA\": null"), std::string::npos);
+  EXPECT_NE(json.find("\"plane_error_improvement_pct\": null"), std::string::npos);
+}
+
+TEST(EvaluationEdges, NonFinitePointsAndScansMissingFromScansCsvAreHandled) {
+  Dataset d = synthetic_dataset(2);
+  LabelledPoint bad = d.points.front();
+  bad.x = NAN;
+  d.points.push_back(bad);
+  LabelledPoint orphan = d.points.front();
+  orphan.scan = 999;  // no scans.csv row
+  d.points.push_back(orphan);
+  EvalOptions o;
+  o.methods = parse_methods("all", std::nullopt, std::nullopt).value();
+  const EvalReport r = evaluate(d, o);
+  EXPECT_EQ(r.orphan_points, 1u);
+  EXPECT_EQ(r.points, d.points.size());
+  for (const MethodResult& m : r.methods) EXPECT_EQ(m.removed.size(), d.points.size());
+  EXPECT_TRUE(r.table1.with_ghosts.found);
+}
+
+}  // namespace
+}  // namespace teamscan::mapping

@@ -51,6 +51,20 @@ TEST(VisibilityFilter, RemovesARobotVoxelAboveAFloorVoxelInTheSameColumn) {
   EXPECT_EQ(classify(f, v), (std::vector<std::uint8_t>{0, 1, 0, 0}));
 }
 
+TEST(VisibilityFilter, FloorNoiseStraddlingAVoxelBoundaryAndTheGridOffset) {
+  // A floor at z = 0 with ±3 mm noise: with the paper's grid (origin 0) the points above 0 sit one voxel
+  // above those below and are filtered; a grid offset of −r/2 puts the whole floor in one voxel.
+  const std::vector<MapPoint> floor{{0.05f, 0.05f, -0.003f}, {0.06f, 0.05f, 0.003f}, {0.07f, 0.05f, 0.001f}};
+  VisibilityFilter paper({0.1, 0.0});
+  paper.observe(make_scan(1, floor));
+  EXPECT_EQ(classify(paper, make_scan(1, floor)), (std::vector<std::uint8_t>{0, 1, 1}));
+  VisibilityFilter centred({0.1, -0.05});
+  centred.observe(make_scan(1, floor));
+  EXPECT_EQ(classify(centred, make_scan(1, floor)), (std::vector<std::uint8_t>{0, 0, 0}));
+  EXPECT_EQ(centred.map().key_of({0.0f, 0.0f, 0.049f}).z, 0);
+  EXPECT_EQ(centred.map().key_of({0.0f, 0.0f, 0.051f}).z, 1);
+}
+
 TEST(VisibilityFilter, LiveDecisionUsesTheMapSoFar) {
   VisibilityFilter f({0.1});
   const std::vector<MapPoint> high{{0.05f, 0.05f, 0.45f}};
