@@ -12,6 +12,7 @@
 #include "drivers/lms200/emulator.hpp"
 #include "drivers/serial/virtual_link.hpp"
 #include "sim/receiver.hpp"
+#include "sim/replay.hpp"
 
 namespace teamscan::sim {
 namespace {
@@ -370,17 +371,12 @@ RobotStats run_devices(Run& run, std::size_t ri, RobotCaptures& captures) {
   po.sip_period = from_seconds(spec.sip_cycle_s);
   arcos::PioneerEmulator pioneer{po};
   pioneer.set_sip_source(&wheels);
-  arcos::ArcosClientOptions ao;
-  ao.baud = spec.arcos_baud;
-  arcos::ArcosClient arcos_client{ao};
+  arcos::ArcosClient arcos_client{arcos_client_options(spec)};
 
   LaserModel laser{run, ri};
   lms200::LmsEmulatorOptions eo;
   lms200::LmsEmulator lms{eo, &laser};
-  lms200::LmsClientOptions lo;
-  lo.target_baud = spec.lms_baud;
-  lo.variant = spec.variant;
-  lms200::LmsClient lms_client{lo};
+  lms200::LmsClient lms_client{lms_client_options(spec)};
 
   RobotReceiver receiver{
       spec.robot_from_laser, registration, spec.arcos_baud,

@@ -2,6 +2,7 @@
 // set's labelled points and plain xyz clouds. Layouts: docs/formats.md "PCD files".
 #include "common/dataset/pcd.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <cerrno>
 #include <charconv>
@@ -241,6 +242,7 @@ Result<PcdCloud> decode_cloud(const PcdHeader& h, std::span<const std::uint8_t> 
   PcdCloud cloud;
   cloud.width = h.width;
   cloud.height = h.height;
+  std::copy(std::begin(h.viewpoint), std::end(h.viewpoint), std::begin(cloud.viewpoint));
   int ix = -1, iy = -1, iz = -1;
   for (std::size_t i = 0; i < h.fields.size(); ++i) {
     cloud.fields.push_back(h.fields[i].name);
@@ -287,6 +289,8 @@ Result<PcdCloud> decode_cloud(const PcdHeader& h, std::span<const std::uint8_t> 
       if (tok.size() != total_values) return Error{"PCD ascii: wrong number of values on a data line", 0, line_no};
       for (std::size_t f = 0; f < nf; ++f) {
         if (!parse_f64(tok[first_value[f]], row[f])) return Error{"PCD ascii: a value is not a number", 0, line_no};
+        // A field declared F 4 holds a float: the same value the binary encodings would give.
+        if (h.fields[f].type == 'F' && h.fields[f].size == 4) row[f] = static_cast<float>(row[f]);
       }
       keep_row();
       ++read;
@@ -402,6 +406,110 @@ std::vector<std::uint8_t> encode_xyz_pcd(std::span<const float> xyz) {
 }
 
 Status write_xyz_pcd(const std::string& path, std::span<const float> xyz) { return write_bytes(path, encode_xyz_pcd(xyz)); }
+
+Result<std::vector<std::uint8_t>> encode_pcd(const PcdCloud& cloud, const std::vector<PcdField>& layout_in, PcdData data) {
+  const std::size_t nf = cloud.fields.size();
+  if (nf == 0 || cloud.columns.size() != nf) return Error{"PCD write: fields and columns differ in number"};
+  const std::size_t n = cloud.columns[0].size();
+  for (const auto& c : cloud.columns)
+    if (c.size() != n) return Error{"PCD write: columns differ in length"};
+  if (cloud.field("x") < 0 || cloud.field("y") < 0 || cloud.field("z") < 0) return Error{"PCD write: no x, y and z fields"};
+  if (data == PcdData::binary_compressed) return Error{"PCD write: binary_compressed is not supported (use binary)"};
+  std::vector<PcdField> layout = layout_in;
+  if (layout.empty())
+    for (const auto& name : cloud.fields) layout.push_back(PcdField{name, 4, 'F', 1});
+  if (layout.size() != nf) return Error{"PCD write: layout and fields differ in number"};
+  for (std::size_t f = 0; f < nf; ++f) {
+    if (layout[f].name != cloud.fields[f]) return Error{"PCD write: layout names differ from the fields"};
+    if (!valid_type_size(layout[f].type, layout[f].size) || layout[f].count != 1)
+      return Error{"PCD write: invalid TYPE/SIZE (F 4|8, I/U 1|2|4|8) or COUNT other than 1"};
+    const auto& field_name = layout[f].name;
+    if (field_name.empty() || field_name.find_first_of(" \t\r\n") != std::string::npos) return Error{"PCD write: a field name is empty or has white space"};
+  }
+  // Integer fields: the value rounded to nearest must fit the type.
+  for (std::size_t f = 0; f < nf; ++f) {
+    if (layout[f].type == 'F') continue;
+    const double bits = 8.0 * layout[f].size;
+    const double lo = layout[f].type == 'U' ? 0.0 : -std::ldexp(1.0, static_cast<int>(bits) - 1);
+    // Exclusive upper bound, a power of two and so exact in a double (2^64 - 1 is not).
+    const double hi_excl = layout[f].type == 'U' ? std::ldexp(1.0, static_cast<int>(bits)) : std::ldexp(1.0, static_cast<int>(bits) - 1);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double v = std::nearbyint(cloud.columns[f][i]);
+      if (!(v >= lo && v < hi_excl)) return Error{"PCD write: an integer field's value does not fit its type", 0, static_cast<long>(i)};
+    }
+  }
+  char vp[256];
+  std::snprintf(vp, sizeof vp, "%.17g %.17g %.17g %.17g %.17g %.17g %.17g", cloud.viewpoint[0], cloud.viewpoint[1], cloud.viewpoint[2],
+                cloud.viewpoint[3], cloud.viewpoint[4], cloud.viewpoint[5], cloud.viewpoint[6]);
+  std::string header = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS";
+  for (const auto& f : layout) header += " " + f.name;
+  header += "\nSIZE";
+  for (const auto& f : layout) header += " " + std::to_string(f.size);
+  header += "\nTYPE";
+  for (const auto& f : layout) header += std::string(" ") + f.type;
+  header += "\nCOUNT";
+  for (std::size_t f = 0; f < nf; ++f) header += " 1";
+  const bool organised = cloud.width * cloud.height == n && cloud.height > 1;
+  header += "\nWIDTH " + std::to_string(organised ? cloud.width : n) + "\nHEIGHT " + std::to_string(organised ? cloud.height : 1) +
+            "\nVIEWPOINT " + vp + "\nPOINTS " + std::to_string(n) + "\nDATA " + (data == PcdData::ascii ? "ascii" : "binary") + "\n";
+  std::vector<std::uint8_t> out(header.begin(), header.end());
+  if (data == PcdData::ascii) {
+    std::string line;
+    char buf[40];
+    for (std::size_t i = 0; i < n; ++i) {
+      line.clear();
+      for (std::size_t f = 0; f < nf; ++f) {
+        const double v = cloud.columns[f][i];
+        if (layout[f].type == 'F')
+          std::snprintf(buf, sizeof buf, layout[f].size == 4 ? "%.9g" : "%.17g", layout[f].size == 4 ? static_cast<double>(static_cast<float>(v)) : v);
+        else
+          std::snprintf(buf, sizeof buf, "%.0f", std::nearbyint(v));
+        if (f != 0) line += ' ';
+        line += buf;
+      }
+      line += '\n';
+      out.insert(out.end(), line.begin(), line.end());
+    }
+    return out;
+  }
+  std::uint64_t point_size = 0;
+  for (const auto& f : layout) point_size += f.size;
+  const std::size_t start = out.size();
+  out.resize(start + n * point_size);
+  std::uint8_t* p = out.data() + start;
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t f = 0; f < nf; ++f) {
+      const double v = cloud.columns[f][i];
+      const double r = std::nearbyint(v);
+      switch (layout[f].type) {
+        case 'F':
+          if (layout[f].size == 4) put(p, static_cast<float>(v)); else put(p, v);
+          break;
+        case 'I':
+          switch (layout[f].size) {
+            case 1: put(p, static_cast<std::int8_t>(r)); break;
+            case 2: put(p, static_cast<std::int16_t>(r)); break;
+            case 4: put(p, static_cast<std::int32_t>(r)); break;
+            default: put(p, static_cast<std::int64_t>(r)); break;
+          }
+          break;
+        default:
+          switch (layout[f].size) {
+            case 1: put(p, static_cast<std::uint8_t>(r)); break;
+            case 2: put(p, static_cast<std::uint16_t>(r)); break;
+            case 4: put(p, static_cast<std::uint32_t>(r)); break;
+            default: put(p, static_cast<std::uint64_t>(r)); break;
+          }
+      }
+    }
+  return out;
+}
+
+Status write_pcd(const std::string& path, const PcdCloud& cloud, const std::vector<PcdField>& layout, PcdData data) {
+  const auto bytes = encode_pcd(cloud, layout, data);
+  if (!bytes) return bytes.error();
+  return write_bytes(path, *bytes);
+}
 
 Result<std::vector<LabelledPoint>> parse_labelled_pcd(std::span<const std::uint8_t> bytes) {
   const auto h = parse_pcd_header(bytes);

@@ -19,6 +19,7 @@ struct PcdCloud {
   std::vector<float> xyz;                     // 3 per point
   std::vector<std::vector<double>> columns;   // one per field, one value per point (first element of each field)
   std::uint64_t width = 0, height = 0;
+  double viewpoint[7] = {0, 0, 0, 1, 0, 0, 0};  // sensor pose from the header: tx ty tz qw qx qy qz
   [[nodiscard]] std::size_t size() const { return xyz.size() / 3; }
   // Index of a field, or -1.
   [[nodiscard]] int field(const std::string& name) const;
@@ -66,6 +67,16 @@ struct PcdHeader {
 // A plain xyz cloud (e.g. the fused model), binary PCD.
 [[nodiscard]] Status write_xyz_pcd(const std::string& path, std::span<const float> xyz);
 [[nodiscard]] std::vector<std::uint8_t> encode_xyz_pcd(std::span<const float> xyz);
+
+// A general PCD writer (e.g. a fused model with a `keep` field, one frame per file with the sensor pose
+// in VIEWPOINT for the KTH DynamicMap benchmark layout). `fields`/`columns` of `cloud` are the data (x, y
+// and z must be among them; `xyz` is not used); `layout` gives each field's TYPE and SIZE in the same
+// order (empty = every field F 4). Integer values are rounded to nearest and must fit their type.
+// `data` may be ascii or binary (binary_compressed writing is not offered: every reader takes binary).
+[[nodiscard]] Result<std::vector<std::uint8_t>> encode_pcd(const PcdCloud& cloud, const std::vector<PcdField>& layout,
+                                                           PcdData data = PcdData::binary);
+[[nodiscard]] Status write_pcd(const std::string& path, const PcdCloud& cloud, const std::vector<PcdField>& layout,
+                               PcdData data = PcdData::binary);
 
 // Reads a whole file into memory; Error{"cannot open file", errno} on failure.
 [[nodiscard]] Result<std::vector<std::uint8_t>> read_file_bytes(const std::string& path);

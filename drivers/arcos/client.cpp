@@ -214,13 +214,25 @@ void ArcosClient::on_packet(const PacketView& p, Time now) {
 void ArcosClient::on_rx(std::span<const std::uint8_t> bytes, Time now) {
   if (state_ == ArcosClientState::kIdle) begin_handshake(now, true);
   if (state_ == ArcosClientState::kDeviceLost || state_ == ArcosClientState::kShutdown) return;
+  if (!bytes.empty()) last_rx_ = now;
   while (!bytes.empty()) {
     const std::size_t n = parser_.feed(bytes);
     bytes = bytes.subspan(n);
-    for (auto e = parser_.poll(); e.kind != ArcosParser::EventKind::kNeedMore; e = parser_.poll()) {
-      if (e.kind == ArcosParser::EventKind::kPacket) on_packet(e.packet, now);
-    }
+    drain_parser(now);
   }
+}
+
+void ArcosClient::drain_parser(Time now) {
+  for (auto e = parser_.poll(); e.kind != ArcosParser::EventKind::kNeedMore; e = parser_.poll()) {
+    if (e.kind == ArcosParser::EventKind::kPacket) on_packet(e.packet, now);
+  }
+}
+
+Time ArcosClient::next_deadline() const {
+  if (parser_.buffered() > 0 && state_ != ArcosClientState::kDeviceLost && state_ != ArcosClientState::kShutdown) {
+    return std::min(deadline_, last_rx_ + opt_.inter_byte_timeout);
+  }
+  return deadline_;
 }
 
 // ---- host commands ----
@@ -296,6 +308,12 @@ void ArcosClient::on_device_back(Time now) {
 // ---- timers ----
 
 void ArcosClient::on_tick(Time now) {
+  if (parser_.buffered() > 0 && now - last_rx_ >= opt_.inter_byte_timeout &&
+      state_ != ArcosClientState::kDeviceLost && state_ != ArcosClientState::kShutdown) {
+    // A corrupted count can make the parser wait for bytes that are not coming (§1.2).
+    parser_.finish();
+    drain_parser(now);
+  }
   switch (state_) {
     case ArcosClientState::kIdle: begin_handshake(now, true); return;
     case ArcosClientState::kSyncing:

@@ -37,6 +37,8 @@ struct ArcosClientOptions {
   Duration sip_timeout = 1000ms;             // connected, no SIP for this long (10 cycles): reconnect
   Duration motion_command_timeout = 0ns;     // host-side timeout: 0 = off, else STOP when the host
                                              // has not refreshed its velocity (rosaria#51, §6)
+  Duration inter_byte_timeout = 100ms;       // a packet still incomplete after this much silence is
+                                             // abandoned and its bytes re-scanned (ARIA's receiver, §1.2)
   std::string_view subclass_override{};      // non-empty: use these parameters, not SYNC2's
   bool allow_unknown_subclass = true;        // unknown subclass: p3at-sh fallback (counted) vs. refuse
 };
@@ -89,7 +91,7 @@ class ArcosClient final : public serial::SerialEndpoint {
   void on_tick(Time now) override;
   std::size_t take_tx(std::span<std::uint8_t> out) override;
   [[nodiscard]] std::uint32_t baud() const override { return baud_; }
-  [[nodiscard]] Time next_deadline() const override { return deadline_; }
+  [[nodiscard]] Time next_deadline() const override;
 
   // Host commands. Velocities are sent at once when connected and re-sent as the keep-alive.
   void set_velocity(double trans_mm_s, double rot_deg_s, Time now);    // VEL + RVEL
@@ -131,6 +133,7 @@ class ArcosClient final : public serial::SerialEndpoint {
   void send_motion(Time now);
   bool queue(const PacketBuffer& p, Time now);
   void recompute_deadline();
+  void drain_parser(Time now);
 
   ArcosClientOptions opt_;
   ArcosClientState state_ = ArcosClientState::kIdle;
@@ -148,6 +151,7 @@ class ArcosClient final : public serial::SerialEndpoint {
 
   // connection
   Time last_tx_;
+  Time last_rx_;
   Time last_sip_rx_;
   Time last_motion_cmd_;
   MotionKind motion_ = MotionKind::kNone;

@@ -122,12 +122,17 @@ bool PioneerEmulator::make_sip(Time now, SipPacket& sip) {
 }
 
 Time PioneerEmulator::next_deadline() const {
-  if (state_ != PioneerState::kServerOpen) return Time::from_ns(INT64_MAX);
+  const Time flush = parser_.buffered() > 0 ? last_rx_ + opt_.inter_byte_timeout : Time::from_ns(INT64_MAX);
+  if (state_ != PioneerState::kServerOpen) return flush;
   const bool moving = trans_mm_s_ != 0 || rot_rad_s_ != 0;
-  return moving ? std::min(next_sip_, last_cmd_ + opt_.watchdog) : next_sip_;
+  return std::min(flush, moving ? std::min(next_sip_, last_cmd_ + opt_.watchdog) : next_sip_);
 }
 
 void PioneerEmulator::on_tick(Time now) {
+  if (parser_.buffered() > 0 && now - last_rx_ >= opt_.inter_byte_timeout) {
+    parser_.finish();
+    drain_parser(now);
+  }
   if (state_ != PioneerState::kServerOpen) return;
   integrate(now);
   if (now - last_cmd_ >= opt_.watchdog && (trans_mm_s_ != 0 || rot_rad_s_ != 0)) {
@@ -153,12 +158,17 @@ void PioneerEmulator::on_tick(Time now) {
 }
 
 void PioneerEmulator::on_rx(std::span<const std::uint8_t> bytes, Time now) {
+  if (!bytes.empty()) last_rx_ = now;
   while (!bytes.empty()) {
     const std::size_t n = parser_.feed(bytes);
     bytes = bytes.subspan(n);
-    for (auto e = parser_.poll(); e.kind != ArcosParser::EventKind::kNeedMore; e = parser_.poll()) {
-      if (e.kind == ArcosParser::EventKind::kPacket) on_packet(e.packet, now);
-    }
+    drain_parser(now);
+  }
+}
+
+void PioneerEmulator::drain_parser(Time now) {
+  for (auto e = parser_.poll(); e.kind != ArcosParser::EventKind::kNeedMore; e = parser_.poll()) {
+    if (e.kind == ArcosParser::EventKind::kPacket) on_packet(e.packet, now);
   }
 }
 

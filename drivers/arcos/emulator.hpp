@@ -28,6 +28,9 @@ struct PioneerEmulatorOptions {
   bool motors_enabled_at_open = false;   // real robots need ENABLE 1 (§6, p2os#41)
   std::uint8_t battery_dv = 130;         // 13.0 V
   double ticks_per_mm = 30.0;            // ENCODERpac counts per mm of wheel travel (approximate)
+  Duration inter_byte_timeout = 100ms;   // an incomplete command after this much silence is dropped
+                                         // and its bytes re-scanned (a corrupted count must not stall
+                                         // the receiver while the host sends little, §1.2)
 };
 
 // Lets code drive the SIP content (the simulator's wheel model). Called once per SIP cycle with the
@@ -102,6 +105,7 @@ class PioneerEmulator final : public serial::SerialEndpoint {
 
  private:
   void on_packet(const PacketView& p, Time now);
+  void drain_parser(Time now);
   void server_command(const PacketView& p, Time now);
   void integrate(Time now);
   void send(const PacketBuffer& p);
@@ -125,6 +129,7 @@ class PioneerEmulator final : public serial::SerialEndpoint {
   bool have_integrate_time_ = false;
   Time next_sip_;
   Time last_cmd_;
+  Time last_rx_;
 
   std::array<std::uint8_t, 8 * kMaxArcosPacket> tx_{};
   std::size_t tx_head_ = 0, tx_size_ = 0;

@@ -102,7 +102,9 @@ std::size_t LmsEmulator::take_tx(std::span<std::uint8_t> out) {
   tx_begin_ += n;
   burst_sent_ += static_cast<std::int64_t>(n);
   if (n > 0 && pending_tx() == 0) {
-    line_free_at_ = options_.pace_output ? burst_start_ + serial_transmission_time(burst_sent_, baud_) : now_;
+    // Paced or not, the line is busy for the burst's transmission time: the streaming rule (send the
+    // newest scan when the line is free) holds on a link that paces the bytes itself too.
+    line_free_at_ = burst_start_ + serial_transmission_time(burst_sent_, baud_);
     if (pending_baud_ != 0) {
       // §2.4: the LMS changes its rate after the ACK and the 0xA0 reply have left at the old rate.
       baud_ = pending_baud_;

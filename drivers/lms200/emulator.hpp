@@ -4,9 +4,10 @@
 // RangeSource the caller drives (the simulator ray-casts each beam at its own time).
 //
 // Streaming rule (documented for users of the emulator): the mirror completes one scan every
-// R × 13.33 ms (R = 1, 2, 4 revolutions for 1°, 0.5°, 0.25°), counted from the 0x24 command. Each
-// byte leaves the emulator only when its 10 bits have been on the line (take_tx paces by baud()).
-// Whenever the line is free, the newest completed scan that was not yet sent is encoded and queued;
+// R × 13.33 ms (R = 1, 2, 4 revolutions for 1°, 0.5°, 0.25°), counted from the 0x24 command. Every
+// telegram occupies the line for its transmission time at baud() (10 bits a byte; with pace_output
+// take_tx also releases bytes only at that rate). A scan telegram starts when its sweep ends if the
+// line is free; whenever the line frees, the newest completed scan that was not yet sent is queued;
 // scans that complete while a telegram is still on the line are superseded (counted as skipped).
 // So at 500 kBd every scan is sent, at 38400 a 361-value stream gives about 5 scans/s (§2.10).
 #pragma once
@@ -63,7 +64,10 @@ struct LmsEmulatorOptions {
   std::size_t config_bytes = kConfigBytes;   // 32 (older firmware) or 34
   std::string_view type = "LMS200;30106";    // 0xBA and 0x90 text
   std::uint8_t status_byte = kHealthyStatus;
-  bool pace_output = true;                   // false: take_tx returns everything at once (unit tests)
+  // true: take_tx hands out bytes only once their 10 bits have been on the line (for a harness that
+  // moves bytes instantly). false: everything at once, for links that pace by baud themselves
+  // (serial::VirtualLink, serial::PtyRunner); the line-busy time still drives the streaming rule.
+  bool pace_output = false;
 };
 
 struct LmsEmulatorStatistics {

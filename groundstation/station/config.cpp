@@ -68,7 +68,8 @@ bool known_keys(const toml::table& root, ConfigError& error) {
       "team", "team.publish_rate_hz", "team.liveliness_lease_s", "team.silence_timeout_s",
       "team.body", "team.body.length_m", "team.body.width_m", "team.body.height_m",
       "team.last_pose", "team.last_pose.sigma0_m", "team.last_pose.sigma_velocity_mps",
-      "team.last_pose.max_extrapolation_s"};
+      "team.last_pose.max_extrapolation_s", "team.source", "team.kalman", "team.kalman.accel_noise_mps2",
+      "team.kalman.position_noise_m", "team.kalman.velocity_noise_mps", "team.kalman.lost_after_s"};
   std::string bad;
   const std::function<void(const toml::table&, const std::string&)> walk = [&](const toml::table& t, const std::string& prefix) {
     for (const auto& [k, v] : t) {
@@ -89,6 +90,14 @@ bool known_keys(const toml::table& root, ConfigError& error) {
 
 }  // namespace
 
+bool kalman_tracker_available() {
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+  return true;
+#else
+  return false;
+#endif
+}
+
 bool parse_groundstation_config(const std::string& toml_text, const std::string& source_name, GroundStationConfig& out,
                                 ConfigError& error) {
   toml::table root;
@@ -103,6 +112,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   if (!known_keys(root, error)) return false;
   Reader r(root, error);
   GroundStationConfig c = out;
+  if (!kalman_tracker_available()) c.team_source = TeamSourceKind::kLastPose;
   double sync_s = to_seconds(c.sync_interval);
   double status_s = to_seconds(c.status_interval);
   std::int64_t domain = -1;
@@ -127,7 +137,21 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
                   r.number("team.last_pose.sigma0_m", c.last_pose.sigma0_m, 0.0, 100.0, true) &&
                   r.number("team.last_pose.sigma_velocity_mps", c.last_pose.sigma_velocity_mps, 0.0, 100.0, true) &&
                   r.number("team.last_pose.max_extrapolation_s", c.last_pose.max_extrapolation_s, 0.0, 60.0, true);
-  if (!ok) return false;
+  std::string source = kalman_tracker_available() ? "kalman" : "last_pose";
+  const bool ok2 = ok && r.string("team.source", source) &&
+                   r.number("team.kalman.accel_noise_mps2", c.kalman.accel_noise_mps2, 0.0, 100.0) &&
+                   r.number("team.kalman.position_noise_m", c.kalman.position_noise_m, 0.0, 100.0) &&
+                   r.number("team.kalman.velocity_noise_mps", c.kalman.velocity_noise_mps, 0.0, 100.0) &&
+                   r.number("team.kalman.lost_after_s", c.kalman.lost_after_s, 0.0, 3600.0);
+  if (!ok2) return false;
+  if (source == "kalman") {
+    if (!kalman_tracker_available()) return r.fail("team.source", "\"kalman\" is not in this build (no groundstation/mapping)");
+    c.team_source = TeamSourceKind::kKalman;
+  } else if (source == "last_pose") {
+    c.team_source = TeamSourceKind::kLastPose;
+  } else {
+    return r.fail("team.source", "must be \"kalman\" or \"last_pose\", got \"" + source + "\"");
+  }
   c.sync_interval = from_seconds(sync_s);
   c.status_interval = from_seconds(status_s);
   c.station.domain_id = domain < 0 ? 0xFFFFFFFFu : static_cast<std::uint32_t>(domain);

@@ -10,13 +10,30 @@
 
 namespace teamscan::station {
 
+// Parameters of the Kalman team source (groundstation/mapping/tracker.hpp TrackerOptions), kept here as
+// plain values so the config parses without the mapping library.
+struct KalmanConfig {
+  double accel_noise_mps2 = 0.5;
+  double position_noise_m = 0.02;
+  double velocity_noise_mps = 0.05;
+  double lost_after_s = 1.0;
+};
+
+enum class TeamSourceKind { kKalman, kLastPose };
+
 struct GroundStationConfig {
   std::string session_root = "/var/lib/teamscan/sessions";
   Duration sync_interval = std::chrono::seconds(1);     // fdatasync of the session files
   Duration status_interval = std::chrono::seconds(1);   // STATUS= line and journal status
   StationOptions station;
   LastPoseOptions last_pose;
+  // "kalman" (default; needs groundstation/mapping in the build) or "last_pose".
+  TeamSourceKind team_source = TeamSourceKind::kKalman;
+  KalmanConfig kalman;
 };
+
+// True when this build has the Kalman tracker (groundstation/mapping).
+[[nodiscard]] bool kalman_tracker_available();
 
 struct ConfigError {
   std::string message;  // names the key, e.g. "team.publish_rate_hz: must be in (0, 1000]"

@@ -15,6 +15,9 @@
 #include "groundstation/station/station.hpp"
 #include "groundstation/station/team_source.hpp"
 #include "onboard/dds/notify.hpp"
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+#include "groundstation/station/kalman_team_source.hpp"
+#endif
 
 namespace {
 
@@ -43,9 +46,11 @@ int main(int argc, char** argv) {
   std::string config_path;
   std::string session_dir;
   bool check_only = false;
+  long domain = -2;
   app.add_option("--config", config_path, "ground-station config (TOML), e.g. deploy/groundstation.toml")
       ->check(CLI::ExistingFile);
   app.add_option("--session-dir", session_dir, "store into exactly this folder instead of a new session-<time>");
+  app.add_option("--domain", domain, "DDS domain id (overrides dds.domain_id)")->check(CLI::Range(-1, 232));
   app.add_flag("--check-config", check_only, "parse the config, print the effective values and exit");
   CLI11_PARSE(app, argc, argv);
 
@@ -57,6 +62,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  if (domain >= 0) cfg.station.domain_id = static_cast<std::uint32_t>(domain);
   if (check_only) {
     std::printf("session_root = %s\nscan_history_depth = %u\nteam_rate_hz = %.3f\nsilence_timeout_s = %.3f\n",
                 cfg.session_root.c_str(), cfg.station.scan_history_depth, 1.0 / to_seconds(cfg.station.team_period),
@@ -76,8 +82,19 @@ int main(int argc, char** argv) {
     return 1;
   }
   log(kInfo, "session folder " + store->dir());
-  LastPoseTeamSource team(cfg.last_pose);
-  auto station = Station::create(cfg.station, *store, team);
+  LastPoseTeamSource last_pose(cfg.last_pose);
+  TeamSource* team = &last_pose;
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+  mapping::TrackerOptions tracker_options;
+  tracker_options.accel_noise_mps2 = cfg.kalman.accel_noise_mps2;
+  tracker_options.position_noise_m = cfg.kalman.position_noise_m;
+  tracker_options.velocity_noise_mps = cfg.kalman.velocity_noise_mps;
+  tracker_options.lost_after_s = cfg.kalman.lost_after_s;
+  KalmanTeamSource kalman(tracker_options, cfg.last_pose.default_body);
+  if (cfg.team_source == TeamSourceKind::kKalman) team = &kalman;
+#endif
+  log(kInfo, std::string("team source: ") + (team == &last_pose ? "last pose" : "Kalman tracker"));
+  auto station = Station::create(cfg.station, *store, *team);
   if (!station) {
     log(kErr, station.error().what);
     return 1;

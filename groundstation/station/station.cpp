@@ -64,7 +64,10 @@ Station::Station(const StationOptions& options, SessionStore& store, TeamSource&
   for (std::uint32_t i = 0; i <= kMaxRobots; ++i) robots_[i].robot_id = i;
 }
 
-Station::~Station() = default;
+Station::~Station() {
+  // Leave DDS first: a listener callback must not run against members already destroyed.
+  dds_.reset();
+}
 
 Result<std::unique_ptr<Station>> Station::create(const StationOptions& options, SessionStore& store,
                                                  TeamSource& team) {
@@ -102,7 +105,7 @@ Result<std::unique_ptr<Station>> Station::create(const StationOptions& options, 
   d.readers[kPose] = dds_create_reader(d.participant, tp_pose, q, listener);
   d.readers[kStatus] = dds_create_reader(d.participant, tp_status, q, listener);
   dds_delete_qos(q);
-  q = onboard::make_scan_reader_qos(options.scan_history_depth);
+  q = onboard::make_scan_reader_qos();
   d.readers[kScan] = dds_create_reader(d.participant, tp_scan, q, listener);
   dds_delete_qos(q);
   dds_delete_listener(listener);

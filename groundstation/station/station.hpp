@@ -25,7 +25,8 @@ namespace teamscan::station {
 
 struct StationOptions {
   std::uint32_t domain_id = 0xFFFFFFFFu;      // DDS_DOMAIN_DEFAULT
-  // Reader history per robot; at least the robots' scan_history_depth so a late join loses nothing.
+  // The robots' scan history depth (the scan reader itself keeps all): a scan seq that falls back by more
+  // than this is taken as a restarted robot rather than a replay of the history.
   std::uint32_t scan_history_depth = 300;
   Duration team_period = std::chrono::milliseconds(50);    // 20 Hz
   Duration team_liveliness_lease = std::chrono::seconds(2);

@@ -91,7 +91,7 @@ void DirectionFilter::set_team(const TeamSnapshot& team) {
   const std::uint32_t n = std::min<std::uint32_t>(team.count, static_cast<std::uint32_t>(kMaxRobots));
   for (std::uint32_t i = 0; i < n; ++i) {
     const TeamMemberState& m = team.members[i];
-    if (m.robot_id == own_robot_id_ || m.lost) continue;
+    if (m.robot_id == own_robot_id_) continue;
     Mate& out = mates_[mate_count_++];
     out.mate.robot_id = m.robot_id;
     out.mate.x_mm = m.x_mm;
@@ -109,6 +109,7 @@ void DirectionFilter::set_team(const TeamSnapshot& team) {
     out.vx_mmps = m.vx_mmps;
     out.vy_mmps = m.vy_mmps;
     out.valid = Time::from_ns(m.valid_ns);
+    out.lost = m.lost;
   }
 }
 
@@ -128,7 +129,7 @@ DirectionFilterStats DirectionFilter::apply(std::int32_t apex_x_mm, std::int32_t
   bool stale = !have_team_;
   for (std::uint16_t i = 0; i < mate_count_; ++i) {
     const Mate& m = mates_[i];
-    const bool is_fresh = fresh(m.valid, stamp);
+    const bool is_fresh = !m.lost && fresh(m.valid, stamp);
     if (!is_fresh) {
       stale = true;
       ++stats.stale_mates;

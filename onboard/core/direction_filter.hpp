@@ -117,8 +117,9 @@ class DirectionFilter {
   // Checks the parameters; the error names the offending one.
   [[nodiscard]] static Result<DirectionFilter> create(const DirectionFilterParams& params, std::uint32_t own_robot_id);
 
-  // Replaces the team state (from teamscan/team). Members with this robot's id, lost members and
-  // members beyond kMaxRobots are left out.
+  // Replaces the team state (from teamscan/team). This robot's own entry and members beyond kMaxRobots
+  // are left out. A member the ground station marks lost keeps its last known position and counts as
+  // stale (the stale policy applies), since it may still stand there.
   void set_team(const TeamSnapshot& team);
   void clear_team() { mate_count_ = 0; have_team_ = false; }
   [[nodiscard]] bool have_team() const { return have_team_; }
@@ -140,6 +141,7 @@ class DirectionFilter {
     Teammate mate;
     std::int32_t vx_mmps = 0, vy_mmps = 0;
     Time valid;
+    bool lost = false;
   };
 
   DirectionFilterParams params_;

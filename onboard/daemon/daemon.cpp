@@ -29,10 +29,6 @@ using serial::posix_call;
 // Tags in epoll_event.data.u32.
 constexpr std::uint32_t kTagTimer = 1, kTagSignal = 2, kTagArcos = 3, kTagLms = 4;
 
-// Bytes of a SIP on the wire: header, count, type, the fixed fields, 3 per sonar reading, checksum
-// (PROTOCOLS.md 1.8; 43 bytes in the A21 vector without sonar). Used to back-date its arrival.
-std::int64_t sip_wire_bytes(const arcos::SipPacket& sip) { return 43 + 3 * std::int64_t{sip.sonar_count}; }
-
 // Status state byte: 0 = port not open, else 1 + the client's state.
 std::uint8_t state_byte(bool open, std::uint8_t state) { return open ? static_cast<std::uint8_t>(state + 1) : 0; }
 
@@ -198,22 +194,50 @@ void OnboardDaemon::service_tx(DeviceSlot& dev, serial::SerialEndpoint& client, 
 void OnboardDaemon::on_sip(void* self_ptr, const arcos::SipPacket& sip, const arcos::OdometryState& odometry,
                            Time received) {
   auto* self = static_cast<OnboardDaemon*>(self_ptr);
-  // The SIP describes the robot when ARCOS sent it: back-date the arrival by its time on the wire.
-  const Time stamp = self->to_realtime(received) - serial_transmission_time(sip_wire_bytes(sip), self->arcos_.baud());
+  // The SIP describes the robot when ARCOS sent it: back-date the arrival by its own time on the wire.
+  // Times are truncated to whole microseconds as in sim/receiver.cpp (the capture format's resolution).
+  const Duration on_line =
+      serial_transmission_time(static_cast<std::int64_t>(arcos::encode_sip(sip).size), self->arcos_.baud());
+  const Time stamp = Time::from_us(self->to_realtime(received).us()) - on_line;
   ++self->sips_in_period_;
   if (!self->pipeline_.on_odometry(stamp, odometry.pose, odometry.trans_vel_mm_s, odometry.rot_vel_rad_s,
                                    self->pose_msg_))
     return;
   if (!self->publisher_.publish_pose(self->pose_msg_).ok()) ++self->publish_errors_;
+  self->drain_scans(received, false);
 }
 
 void OnboardDaemon::take_scans(Time now) {
-  (void)now;
   lms200::ScanArrival arrival;
-  while (lms_.take_scan(telegram_, arrival)) {
-    ScanBeams beams;
+  for (;;) {
+    if (pending_size_ == kPendingScans) {
+      // No room: the oldest goes out with the odometry there is (extrapolated, or flagged no-pose).
+      ++scans_forced_;
+      drain_scans(now, true);
+    }
+    PendingScan& slot = pending_[(pending_head_ + pending_size_) % kPendingScans];
+    if (!lms_.take_scan(slot.telegram, arrival)) break;
     // A scan's stamp is the end of its sweep: its last byte's arrival minus its transmission time.
-    if (!to_scan_beams(telegram_, to_realtime(arrival.sweep_end_estimate()), config_.lms_variant, beam_flags_, beams)) {
+    slot.stamp = Time::from_us(to_realtime(arrival.last_byte).us()) - arrival.transmission();
+    ++pending_size_;
+  }
+  drain_scans(now, false);
+}
+
+void OnboardDaemon::drain_scans(Time now, bool force) {
+  const Time now_rt = to_realtime(now);
+  while (pending_size_ > 0) {
+    PendingScan& p = pending_[pending_head_];
+    const OdometryHistory<>& odometry = pipeline_.odometry();
+    const bool covered = !odometry.empty() && odometry.newest().stamp >= p.stamp;
+    const bool overdue = now_rt - p.stamp > config_.odometry_max_extrapolation;
+    if (!covered && !force && !overdue) return;
+    if (!covered && !force) ++scans_forced_;
+    pending_head_ = (pending_head_ + 1) % kPendingScans;
+    --pending_size_;
+    force = false;  // a forced drain releases one scan
+    ScanBeams beams;
+    if (!to_scan_beams(p.telegram, p.stamp, config_.lms_variant, beam_flags_, beams)) {
       ++scans_dropped_;
       continue;
     }
@@ -253,11 +277,11 @@ void OnboardDaemon::publish_status(Time now) {
 
   char text[384];
   std::snprintf(text, sizeof text,
-                "arcos %s %.1f Hz (opens %u, bad %u); lms %s %.1f Hz (opens %u, bad %u, dropped %u); scans %u, "
+                "arcos %s %.1f Hz (opens %u, bad %u); lms %s %.1f Hz (opens %u, bad %u, dropped %u, forced %u); scans %u, "
                 "filtered %u, stale %u, no pose %u; team %s; loop max %u us; publish errors %u",
                 arcos_dev_.open ? arcos::to_string(arcos_.state()) : "closed", s.sip_rate_mhz / 1000.0, s.arcos_reopens,
                 s.arcos_bad_packets, lms_dev_.open ? lms200::to_string(lms_.state()) : "closed", s.scan_rate_mhz / 1000.0,
-                s.lms_reopens, s.lms_bad_telegrams, scans_dropped_, s.scans_published, s.points_direction_filtered,
+                s.lms_reopens, s.lms_bad_telegrams, scans_dropped_, scans_forced_, s.scans_published, s.points_direction_filtered,
                 s.points_team_stale, s.points_no_pose, s.team_fresh ? "fresh" : "stale", s.loop_max_us, publish_errors_);
   notify_status(text);
   sips_in_period_ = scans_in_period_ = 0;
@@ -402,6 +426,7 @@ int OnboardDaemon::run() {
   }
   // Flush what the clients queued for the shutdown (STOP + CLOSE for the Pioneer) and close the ports.
   const Time end = now_monotonic();
+  while (pending_size_ > 0) drain_scans(end, true);  // nothing received is lost
   if (arcos_dev_.open) service_tx(arcos_dev_, arcos_, end);
   if (lms_dev_.open) service_tx(lms_dev_, lms_, end);
   for (DeviceSlot* dev : {&arcos_dev_, &lms_dev_}) {

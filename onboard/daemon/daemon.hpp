@@ -66,6 +66,10 @@ class OnboardDaemon {
   void service_tx(DeviceSlot& dev, serial::SerialEndpoint& client, Time now);
   void sync_baud(DeviceSlot& dev, const serial::SerialEndpoint& client, Time now);
   void take_scans(Time now);
+  // Projects, filters and publishes the scans waiting for odometry: each waits until a SIP at or after
+  // its stamp has arrived (so its beams are interpolated, as sim/receiver.cpp does for the data set),
+  // unless `force`, or the queue is full, or it has waited longer than the odometry extrapolation limit.
+  void drain_scans(Time now, bool force);
   void publish_status(Time now);
   void log_state_changes();
   [[nodiscard]] Time next_wakeup(Time now) const;
@@ -107,7 +111,15 @@ class OnboardDaemon {
   OnboardPose pose_msg_{};
   OnboardStatus status_msg_{};
   TeamSnapshot team_msg_{};
-  lms200::ScanTelegram telegram_{};
+  // Scans waiting for the SIP that covers them: a fixed ring (16 scans = 213 ms at 75 Hz).
+  struct PendingScan {
+    lms200::ScanTelegram telegram;
+    Time stamp;  // end of sweep, CLOCK_REALTIME
+  };
+  static constexpr std::size_t kPendingScans = 16;
+  std::array<PendingScan, kPendingScans> pending_{};
+  std::size_t pending_head_ = 0, pending_size_ = 0;
+  std::uint32_t scans_forced_ = 0;  // projected before a covering SIP arrived
   std::array<std::uint8_t, kMaxBeams> beam_flags_{};
   std::array<std::uint8_t, kSerialRxChunk> rx_buf_{};
   std::array<std::uint8_t, 2 * kMaxLmsTelegram> tx_buf_{};

@@ -83,6 +83,11 @@ void encode_status(const OnboardStatus& in, teamscan_msg_RobotStatus& out) {
   out.points_direction_filtered = in.points_direction_filtered;
   out.dds_write_errors = in.dds_write_errors;
   out.uptime_s = in.uptime_s;
+  out.arcos_reopens = in.arcos_reopens;
+  out.lms_reopens = in.lms_reopens;
+  out.points_team_stale = in.points_team_stale;
+  out.points_no_pose = in.points_no_pose;
+  out.loop_max_us = in.loop_max_us;
 }
 
 bool decode_team(const teamscan_msg_TeamState& in, TeamSnapshot& out) {

@@ -44,10 +44,9 @@ dds_qos_t* make_scan_writer_qos(std::uint32_t depth, Duration liveliness_lease, 
   return q;
 }
 
-dds_qos_t* make_scan_reader_qos(std::uint32_t depth) {
-  const auto d = static_cast<std::int32_t>(depth == 0 ? 1 : depth);
+dds_qos_t* make_scan_reader_qos() {
   dds_qos_t* q = reliable(std::chrono::milliseconds(100));
-  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, d);
+  dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
   dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
   return q;
 }

@@ -16,11 +16,14 @@ namespace teamscan::onboard {
 [[nodiscard]] dds_qos_t* make_state_writer_qos(Duration liveliness_lease, Duration max_blocking);
 [[nodiscard]] dds_qos_t* make_state_reader_qos();
 
-// teamscan/scan: reliable, keep-last `depth` per robot, transient-local with the same durability-service
-// depth: a reader that joins late (a restarted ground station) receives the last `depth` sweeps. Without
-// the durability-service depth Cyclone keeps only 1 sample for late joiners.
+// teamscan/scan: the writer keeps the last `depth` sweeps per robot, transient-local with the same
+// durability-service depth: a reader that joins late (a restarted ground station) receives the last
+// `depth` sweeps. Without the durability-service depth Cyclone keeps only 1 sample for late joiners.
 [[nodiscard]] dds_qos_t* make_scan_writer_qos(std::uint32_t depth, Duration liveliness_lease, Duration max_blocking);
-[[nodiscard]] dds_qos_t* make_scan_reader_qos(std::uint32_t depth);
+// The reader keeps all (reliable, transient-local): a sample the writer delivered is never overwritten
+// in the reader's cache because the taking thread was slow; only the writer's bounded history decides
+// what a reader that is away for too long misses.
+[[nodiscard]] dds_qos_t* make_scan_reader_qos();
 
 // teamscan/team (ground station -> robots): reliable, transient-local, keep-last 1, keyless.
 [[nodiscard]] dds_qos_t* make_team_writer_qos(Duration liveliness_lease);

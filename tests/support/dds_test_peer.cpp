@@ -1,8 +1,9 @@
 // teamscan_dds_test_peer: a separate DDS process for multi-process tests (loopback config only).
+//   Every mode takes --domain D (DDS domain id; default: Cyclone's default).
 //   robot --robot ID [--rate HZ] [--scans N] [--first-seq S] [--points P] [--depth D]
 //         publishes pose + scan (+ status every 10th) at HZ through DdsBridge; N = 0: until SIGTERM.
 //         Prints "matched" once a scan reader is matched and "done <last seq>" at the end.
-//   sink [--count N] [--timeout S] [--depth D]
+//   sink [--count N] [--timeout S]
 //         takes teamscan/scan until N samples or S seconds; prints
 //         "received <n> in_order <0|1> first <seq> last <seq> distinct <k>".
 #include <csignal>
@@ -41,6 +42,7 @@ int run_robot(int argc, char** argv) {
   using namespace teamscan::onboard;
   DdsBridgeOptions opt;
   opt.robot_id = static_cast<std::uint32_t>(arg_long(argc, argv, "--robot", 1));
+  opt.domain_id = static_cast<std::uint32_t>(arg_long(argc, argv, "--domain", DDS_DOMAIN_DEFAULT));
   opt.scan_history_depth = static_cast<std::uint32_t>(arg_long(argc, argv, "--depth", 300));
   const long rate_hz = arg_long(argc, argv, "--rate", 50);
   const long scans = arg_long(argc, argv, "--scans", 0);
@@ -98,10 +100,10 @@ int run_robot(int argc, char** argv) {
 int run_sink(int argc, char** argv) {
   const long count = arg_long(argc, argv, "--count", 1);
   const long timeout_s = arg_long(argc, argv, "--timeout", 10);
-  const auto depth = static_cast<std::uint32_t>(arg_long(argc, argv, "--depth", 300));
-  dds_qos_t* q = teamscan::onboard::make_scan_reader_qos(depth);
+  dds_qos_t* q = teamscan::onboard::make_scan_reader_qos();
   teamscan::test::DdsTestSubscriber<teamscan_msg_ScanPoints> sub(&teamscan_msg_ScanPoints_desc,
-                                                                 teamscan::onboard::kTopicScan, q, 256);
+                                                                 teamscan::onboard::kTopicScan, q, 256,
+      static_cast<dds_domainid_t>(arg_long(argc, argv, "--domain", DDS_DOMAIN_DEFAULT)));
   dds_delete_qos(q);
   if (!sub.ok()) {
     std::fprintf(stderr, "sink: cannot create reader\n");

@@ -19,9 +19,9 @@ class DdsTestSubscriber {
  public:
   // `qos` stays owned by the caller (may be null for defaults). `batch` samples are preallocated.
   DdsTestSubscriber(const dds_topic_descriptor_t* desc, const char* topic_name, const dds_qos_t* qos,
-                    std::size_t batch = 64)
+                    std::size_t batch = 64, dds_domainid_t domain = DDS_DOMAIN_DEFAULT)
       : samples_(batch), ptrs_(batch), infos_(batch) {
-    participant_ = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
+    participant_ = dds_create_participant(domain, nullptr, nullptr);
     if (participant_ < 0) return;
     const dds_entity_t topic = dds_create_topic(participant_, desc, topic_name, nullptr, nullptr);
     if (topic < 0) return;

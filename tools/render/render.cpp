@@ -189,7 +189,7 @@ PlotRect plot_rect(const RenderOptions& o) {
   return r;
 }
 
-Camera Camera::fit(View view, Vec3 lo, Vec3 hi, PlotRect rect) {
+Camera Camera::fit(View view, Vec3 lo, Vec3 hi, PlotRect rect, std::span<const Vec3> samples) {
   Camera c;
   c.view_ = view;
   constexpr double kMinExtentM = 0.1;  // a single point or a flat cloud still gets a sensible scale
@@ -229,6 +229,41 @@ Camera Camera::fit(View view, Vec3 lo, Vec3 hi, PlotRect rect) {
     const Vec3 q = c.camera_coords(corner);
     amin = std::min(amin, q.x / q.z); amax = std::max(amax, q.x / q.z);
     bmin = std::min(bmin, q.y / q.z); bmax = std::max(bmax, q.y / q.z);
+  }
+  if (!samples.empty()) {
+    std::vector<double> as, bs;
+    as.reserve(samples.size());
+    bs.reserve(samples.size());
+    for (const auto& p : samples) {
+      const Vec3 q = c.camera_coords(p);
+      if (q.z <= 1e-6) continue;
+      as.push_back(q.x / q.z);
+      bs.push_back(q.y / q.z);
+    }
+    if (as.size() >= 2) {
+      const std::size_t n = as.size(), lo_i = n * 2 / 1000, hi_i = n - 1 - n * 2 / 1000;
+      std::nth_element(as.begin(), as.begin() + static_cast<long>(lo_i), as.end());
+      amin = as[lo_i];
+      std::nth_element(as.begin(), as.begin() + static_cast<long>(hi_i), as.end());
+      amax = as[hi_i];
+      std::nth_element(bs.begin(), bs.begin() + static_cast<long>(lo_i), bs.end());
+      bmin = bs[lo_i];
+      std::nth_element(bs.begin(), bs.begin() + static_cast<long>(hi_i), bs.end());
+      bmax = bs[hi_i];
+      // A degenerate spread (all samples on one ray) keeps the box fit's size.
+      if (!(amax - amin > 1e-9) || !(bmax - bmin > 1e-9)) amin = amax = bmin = bmax = 0;
+    }
+    if (amin == amax) {  // fall back to the box
+      amin = 1e300; amax = -1e300; bmin = 1e300; bmax = -1e300;
+      for (int k = 0; k < 8; ++k) {
+        const Vec3 corner{(k & 1) ? centre.x + 0.5 * ext.x : centre.x - 0.5 * ext.x,
+                          (k & 2) ? centre.y + 0.5 * ext.y : centre.y - 0.5 * ext.y,
+                          (k & 4) ? centre.z + 0.5 * ext.z : centre.z - 0.5 * ext.z};
+        const Vec3 q = c.camera_coords(corner);
+        amin = std::min(amin, q.x / q.z); amax = std::max(amax, q.x / q.z);
+        bmin = std::min(bmin, q.y / q.z); bmax = std::max(bmax, q.y / q.z);
+      }
+    }
   }
   c.scale_ = kFill * std::min(w / (amax - amin), h / (bmax - bmin));
   // Centre the projected box in the plot.
@@ -306,7 +341,19 @@ Camera camera_for(const RenderInput& input, const RenderOptions& options) {
     for (const auto& t : input.tracks)
       for (const auto& q : t.points_m) grow(q.x, q.y, q.z);
   if (lo.x > hi.x) lo = hi = Vec3{0, 0, 0};  // nothing to draw: any box
-  return Camera::fit(options.view, lo, hi, plot_rect(options));
+  std::vector<Vec3> samples;
+  if (options.view == View::perspective) {
+    // Fit the picture to the points as seen (at most ~200 000 of them, evenly spaced), not to the box.
+    const std::size_t stride = std::max<std::size_t>(1, input.points.size() / 200000);
+    for (std::size_t i = 0; i < input.points.size(); i += stride) {
+      const auto& p = input.points[i];
+      if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) samples.push_back({p.x, p.y, p.z});
+    }
+    if (options.draw_tracks)
+      for (const auto& t : input.tracks)
+        for (const auto& q : t.points_m) samples.push_back(q);
+  }
+  return Camera::fit(options.view, lo, hi, plot_rect(options), samples);
 }
 
 Result<Image> render(const RenderInput& in, const RenderOptions& o) {
@@ -345,6 +392,31 @@ Result<Image> render(const RenderInput& in, const RenderOptions& o) {
   std::vector<float> zbuf(static_cast<std::size_t>(o.width_px) * static_cast<std::size_t>(o.height_px),
                           std::numeric_limits<float>::infinity());
   std::vector<std::size_t> overlay;
+  // Perspective: depth cueing, near points up to 15 % darker and far ones up to 15 % lighter, so that
+  // shapes read in 3-D; orthographic views keep the paper's flat shades. White (filtered) stays white.
+  double depth_lo = 0, depth_hi = 0;
+  if (o.view == View::perspective && n > 0) {
+    std::vector<float> depths;
+    const std::size_t stride = std::max<std::size_t>(1, n / 100000);
+    for (std::size_t i = 0; i < n; i += stride) {
+      const auto px = camera.project({in.points[i].x, in.points[i].y, in.points[i].z});
+      if (px.visible) depths.push_back(static_cast<float>(px.depth));
+    }
+    if (!depths.empty()) {
+      const std::size_t lo_i = depths.size() * 2 / 100, hi_i = depths.size() - 1 - depths.size() * 2 / 100;
+      std::nth_element(depths.begin(), depths.begin() + static_cast<long>(lo_i), depths.end());
+      depth_lo = depths[lo_i];
+      std::nth_element(depths.begin(), depths.begin() + static_cast<long>(hi_i), depths.end());
+      depth_hi = depths[hi_i];
+    }
+  }
+  const auto shade = [&](Rgb c, double depth) {
+    if (depth_hi <= depth_lo || c == kWhite) return c;
+    const double t = std::clamp((depth - depth_lo) / (depth_hi - depth_lo), 0.0, 1.0);
+    const double f = 0.85 + 0.3 * t;
+    const auto ch = [f](std::uint8_t v) { return static_cast<std::uint8_t>(std::clamp(std::lround(v * f), 0L, 255L)); };
+    return Rgb{ch(c.r), ch(c.g), ch(c.b)};
+  };
   for (std::size_t i = 0; i < n; ++i) {
     const auto& p = in.points[i];
     const bool ghost = in.has_labels && p.is_ghost();
@@ -359,7 +431,7 @@ Result<Image> render(const RenderInput& in, const RenderOptions& o) {
       continue;
     }
     const auto px = camera.project({p.x, p.y, p.z});
-    if (px.visible) canvas.splat(px.u, px.v, px.depth, size, c, zbuf);
+    if (px.visible) canvas.splat(px.u, px.v, px.depth, size, shade(c, px.depth), zbuf);
   }
   // Tracks on the floor (DESIGN: "each robot path is shown"), a line two pixels wide.
   if (o.draw_tracks && o.view != View::side) {

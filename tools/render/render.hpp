@@ -83,7 +83,9 @@ class Camera {
     bool visible = false;  // false if behind the perspective camera
   };
   // Fits `view` to the box [lo, hi] inside `rect`, keeping the aspect ratio (1 m is as long across as up).
-  static Camera fit(View view, Vec3 lo, Vec3 hi, PlotRect rect);
+  // Perspective: the camera looks at the box; with `samples` the picture is fitted to where the samples
+  // project (their 0.2 %..99.8 % quantiles), else to the box's corners.
+  static Camera fit(View view, Vec3 lo, Vec3 hi, PlotRect rect, std::span<const Vec3> samples = {});
   [[nodiscard]] Pixel project(Vec3 p_map) const;
   // Pixels per metre at the box centre (exact for the orthographic views).
   [[nodiscard]] double pixels_per_metre() const { return pixels_per_metre_; }

@@ -11,7 +11,9 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <string>
 #include <vector>
 
 #include <dds/dds.h>
@@ -21,6 +23,7 @@
 #include "onboard/dds/qos.hpp"
 #include "teamscan.h"
 #include "tests/support/alloc_counter.hpp"
+#include "tests/support/test_domain.hpp"
 
 namespace {
 
@@ -50,6 +53,7 @@ BENCHMARK(BM_EncodeScan);
 void BM_PublishScan(benchmark::State& state) {
   DdsBridgeOptions o;
   o.robot_id = 2;
+  o.domain_id = test::test_domain_id();
   auto b = DdsBridge::create(o);
   if (!b) {
     state.SkipWithError(b.error().what);
@@ -76,9 +80,11 @@ pid_t g_pong = -1;
 
 void start_pong() {
   if (g_pong > 0) return;
+  (void)test::test_domain_id();  // fix the id before forking
   g_pong = ::fork();
   if (g_pong == 0) {
-    ::execl("/proc/self/exe", "dds_bench", "--pong", static_cast<char*>(nullptr));
+    const std::string domain = test::test_domain_arg();  // the parent's id (pid-derived), not the child's
+    ::execl("/proc/self/exe", "dds_bench", "--pong", domain.c_str(), static_cast<char*>(nullptr));
     ::_exit(127);
   }
 }
@@ -88,14 +94,15 @@ void BM_PublishToTakeLatency(benchmark::State& state) {
   start_pong();
   DdsBridgeOptions o;
   o.robot_id = 3;
+  o.domain_id = test::test_domain_id();
   auto b = DdsBridge::create(o);
   if (!b) {
     state.SkipWithError(b.error().what);
     return;
   }
-  const dds_entity_t pp = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
+  const dds_entity_t pp = dds_create_participant(test::test_domain_id(), nullptr, nullptr);
   const dds_entity_t tp = dds_create_topic(pp, &teamscan_msg_ScanPoints_desc, kPongTopic, nullptr, nullptr);
-  dds_qos_t* q = make_scan_reader_qos(8);
+  dds_qos_t* q = make_scan_reader_qos();
   dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
   const dds_entity_t rd = dds_create_reader(pp, tp, q, nullptr);
   dds_delete_qos(q);
@@ -167,12 +174,12 @@ volatile sig_atomic_t g_stop = 0;
 void on_term(int) { g_stop = 1; }
 
 // The echo process: takes every teamscan/scan sample and writes it back on teamscan/bench_pong.
-int run_pong() {
+int run_pong(dds_domainid_t domain) {
   signal(SIGTERM, on_term);
-  const dds_entity_t pp = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
+  const dds_entity_t pp = dds_create_participant(domain, nullptr, nullptr);
   const dds_entity_t tp_in = dds_create_topic(pp, &teamscan_msg_ScanPoints_desc, kTopicScan, nullptr, nullptr);
   const dds_entity_t tp_out = dds_create_topic(pp, &teamscan_msg_ScanPoints_desc, kPongTopic, nullptr, nullptr);
-  dds_qos_t* q = make_scan_reader_qos(8);
+  dds_qos_t* q = make_scan_reader_qos();
   dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
   const dds_entity_t rd = dds_create_reader(pp, tp_in, q, nullptr);
   dds_delete_qos(q);
@@ -201,7 +208,9 @@ int run_pong() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc >= 2 && std::strcmp(argv[1], "--pong") == 0) return run_pong();
+  if (argc >= 3 && std::strcmp(argv[1], "--pong") == 0) {
+    return run_pong(static_cast<dds_domainid_t>(std::strtoul(argv[2], nullptr, 10)));
+  }
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();

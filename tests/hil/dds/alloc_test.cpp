@@ -13,6 +13,7 @@
 #include "onboard/dds/bridge.hpp"
 #include "teamscan.h"
 #include "tests/support/alloc_counter.hpp"
+#include "tests/support/test_domain.hpp"
 
 namespace teamscan::onboard {
 namespace {
@@ -37,7 +38,7 @@ TEST(DdsAllocations, EncodingAllocatesNothing) {
 TEST(DdsAllocations, PublishScanIsConstantAndEveryScanArrivesInOrder) {
   // The sink runs in its own process so that no local-delivery work lands on this thread.
   const std::string cmd = std::string(TEAMSCAN_TEST_PEER) + " sink --count " + std::to_string(kScans) +
-                          " --timeout 60";
+                          " --timeout 60 --domain " + test::test_domain_arg();
   FILE* sink = ::popen(cmd.c_str(), "r");
   ASSERT_NE(sink, nullptr);
   char line[256] = {};
@@ -46,6 +47,7 @@ TEST(DdsAllocations, PublishScanIsConstantAndEveryScanArrivesInOrder) {
 
   DdsBridgeOptions o;
   o.robot_id = 11;
+  o.domain_id = test::test_domain_id();
   o.scan_history_depth = 300;
   auto bridge = DdsBridge::create(o);
   ASSERT_TRUE(bridge.ok()) << bridge.error().what;

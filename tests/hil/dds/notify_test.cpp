@@ -11,6 +11,7 @@
 #include <string>
 
 #include "tests/support/notify_harness.hpp"
+#include "tests/support/test_domain.hpp"
 
 namespace teamscan::test {
 namespace {
@@ -74,7 +75,7 @@ TEST(NotifyHarness, GroundStationSpeaksTheProtocol) {
   const std::string dir = ::mkdtemp(tmpl);
   NotifyHarness h;
   const Duration wd = 1s;
-  ASSERT_GT(h.spawn({TEAMSCAN_GROUNDSTATION, "--session-dir", dir + "/session"}, wd), 0);
+  ASSERT_GT(h.spawn({TEAMSCAN_GROUNDSTATION, "--session-dir", dir + "/session", "--domain", test_domain_arg()}, wd), 0);
   const auto ready = h.wait_for("READY", 15s);
   ASSERT_TRUE(ready.has_value());
   EXPECT_FALSE(h.supervise(3s).has_value());

@@ -2,6 +2,9 @@
 #pragma once
 
 #include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -9,7 +12,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+#include <thread>
 #include <vector>
+
+extern char** environ;
 
 namespace teamscan::serial::testing {
 
@@ -39,6 +45,46 @@ inline bool write_fd(int fd, const std::vector<std::uint8_t>& bytes) {
     else ::usleep(1000);
   }
   return done == bytes.size();
+}
+
+// The `teamscan` binary of this build (ctest sets TEAMSCAN_BINARY_DIR).
+inline std::string teamscan_binary() {
+  const char* dir = std::getenv("TEAMSCAN_BINARY_DIR");
+  return std::string{dir != nullptr ? dir : "."} + "/tools/teamscan/teamscan";
+}
+
+inline pid_t spawn(const std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  if (::posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return -1;
+  return pid;
+}
+
+// The child's exit code, or -1 if it did not exit within `timeout` (then it is killed).
+inline int wait_exit(pid_t pid, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    int status = 0;
+    const pid_t r = ::waitpid(pid, &status, WNOHANG);
+    if (r == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    if (std::chrono::steady_clock::now() > deadline) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      return -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+}
+
+inline bool wait_for_path(const std::string& path, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (std::filesystem::exists(path)) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return false;
 }
 
 // A fresh folder under $TMPDIR for symlinks and captures, removed by the destructor.

@@ -21,54 +21,17 @@
 #include "tests/hil/serial/pty_test_util.hpp"
 #include "tests/unit/serial/scripted_endpoint.hpp"
 
-extern char** environ;
-
 namespace teamscan::serial {
 namespace {
 
 using testing::ScriptedEndpoint;
+using testing::spawn;
+using testing::teamscan_binary;
+using testing::wait_exit;
+using testing::wait_for_path;
 using testing::TempDir;
 using Bytes = std::vector<std::uint8_t>;
 using namespace std::chrono_literals;
-
-std::string teamscan_binary() {
-  const char* dir = std::getenv("TEAMSCAN_BINARY_DIR");
-  return std::string{dir != nullptr ? dir : "."} + "/tools/teamscan/teamscan";
-}
-
-pid_t spawn(const std::vector<std::string>& args) {
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = -1;
-  if (::posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return -1;
-  return pid;
-}
-
-// The child's exit code, or -1 if it did not exit within `timeout` (then it is killed).
-int wait_exit(pid_t pid, Duration timeout) {
-  const Time deadline = now_monotonic() + timeout;
-  for (;;) {
-    int status = 0;
-    const pid_t r = ::waitpid(pid, &status, WNOHANG);
-    if (r == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    if (now_monotonic() > deadline) {
-      ::kill(pid, SIGKILL);
-      ::waitpid(pid, &status, 0);
-      return -1;
-    }
-    std::this_thread::sleep_for(5ms);
-  }
-}
-
-bool wait_for_path(const std::string& path, Duration timeout) {
-  const Time deadline = now_monotonic() + timeout;
-  while (now_monotonic() < deadline) {
-    if (std::filesystem::exists(path)) return true;
-    std::this_thread::sleep_for(5ms);
-  }
-  return false;
-}
 
 // The scripted protocol: frames [len, payload...]. The device answers [len, payload ^ 0x5A]; the
 // payload {0x20, 0x01} asks for 38400 baud: the device answers {0x01, 0x06} at the old rate, then
@@ -203,6 +166,40 @@ TEST(RecordReplayTest, RecordedSessionReplaysAndDivergenceIsCaught) {
     auto silent = SerialPort::open(replay_link.c_str(), 9600);
     EXPECT_TRUE(silent.ok());
     EXPECT_EQ(wait_exit(replay, 10s), 3);
+  }
+}
+
+TEST(RecordReplayTest, ReplayKeepsTheCapturedDelayScaledBySpeed) {
+  // The device answered 300 ms after the host's request; a device-first greeting opens the capture.
+  TempDir dir;
+  const std::string cap_path = (dir.path / "timed.cap").string();
+  std::FILE* f = std::fopen(cap_path.c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  std::fputs("#teamscan-capture 1\n#device arcos\n#baud 0 9600\n20000 rx 55\n1000000 tx 01 02\n1300000 rx 06\n", f);
+  std::fclose(f);
+  for (const char* speed : {"1", "3"}) {
+    SCOPED_TRACE(speed);
+    const std::string link = (dir.path / (std::string{"ttyT"} + speed)).string();
+    const pid_t replay = spawn({teamscan_binary(), "replay", cap_path, "--link", link, "--speed", speed, "--quiet"});
+    ASSERT_GT(replay, 0);
+    ASSERT_TRUE(wait_for_path(link, 5s));
+    auto port = SerialPort::open(link.c_str(), 9600);
+    ASSERT_TRUE(port.ok());
+    std::uint8_t buf[4];
+    auto greeting = port->read(buf, 3s);
+    ASSERT_TRUE(greeting.ok());
+    ASSERT_EQ(*greeting, 1u);
+    EXPECT_EQ(buf[0], 0x55);
+    const Time asked = now_monotonic();
+    ASSERT_TRUE(port->write_all(Bytes{0x01, 0x02}, 1s).ok());
+    auto answer = port->read(buf, 3s);
+    const Duration took = now_monotonic() - asked;
+    ASSERT_TRUE(answer.ok());
+    ASSERT_EQ(*answer, 1u);
+    EXPECT_EQ(buf[0], 0x06);
+    // Never earlier than the captured 300 ms, scaled by 1/speed (a lower bound only).
+    EXPECT_GE(took, std::string{speed} == "1" ? Duration{300ms} : Duration{100ms});
+    EXPECT_EQ(wait_exit(replay, 10s), 0);
   }
 }
 

@@ -19,6 +19,7 @@
 #include "teamscan.h"
 #include "tests/hil/station/process.hpp"
 #include "tests/support/dds_test_subscriber.hpp"
+#include "tests/support/test_domain.hpp"
 
 namespace teamscan::station {
 namespace {
@@ -39,6 +40,7 @@ struct Fixture {
     store.emplace(std::move(s.value()));
     StationOptions o;
     o.silence_timeout = 0s;  // liveliness alone must do it
+    o.domain_id = test::test_domain_id();
     auto st = Station::create(o, *store, team);
     if (!st) ADD_FAILURE() << st.error().what;
     station = std::move(st.value());
@@ -68,10 +70,11 @@ std::string slurp(const std::string& p) {
 TEST(StationLiveliness, KilledRobotIsLostWithinThreeSecondsAndFlaggedOnTeam) {
   Fixture f;
   dds_qos_t* q = onboard::make_team_reader_qos();
-  test::DdsTestSubscriber<teamscan_msg_TeamState> team_sub(&teamscan_msg_TeamState_desc, onboard::kTopicTeam, q, 32);
+  test::DdsTestSubscriber<teamscan_msg_TeamState> team_sub(&teamscan_msg_TeamState_desc, onboard::kTopicTeam, q, 32,
+                                                             test::test_domain_id());
   dds_delete_qos(q);
-  test::ChildProcess robot({TEAMSCAN_TEST_PEER, "robot", "--robot", "12", "--rate", "50", "--scans", "0"});
-  test::ChildProcess other({TEAMSCAN_TEST_PEER, "robot", "--robot", "13", "--rate", "50", "--scans", "0"});
+  test::ChildProcess robot({TEAMSCAN_TEST_PEER, "robot", "--robot", "12", "--rate", "50", "--scans", "0", "--domain", test::test_domain_arg()});
+  test::ChildProcess other({TEAMSCAN_TEST_PEER, "robot", "--robot", "13", "--rate", "50", "--scans", "0", "--domain", test::test_domain_arg()});
   ASSERT_TRUE(f.run_until([&] { return f.station->robot(12).scans >= 10 && f.station->robot(13).scans >= 10; }, 15s));
   EXPECT_FALSE(f.station->robot(12).lost);
 
@@ -119,13 +122,13 @@ TEST(StationLiveliness, KilledRobotIsLostWithinThreeSecondsAndFlaggedOnTeam) {
 TEST(StationLiveliness, RestartedRobotComesBack) {
   Fixture f;
   {
-    test::ChildProcess robot({TEAMSCAN_TEST_PEER, "robot", "--robot", "14", "--rate", "50", "--scans", "0"});
+    test::ChildProcess robot({TEAMSCAN_TEST_PEER, "robot", "--robot", "14", "--rate", "50", "--scans", "0", "--domain", test::test_domain_arg()});
     ASSERT_TRUE(f.run_until([&] { return f.station->robot(14).scans >= 5; }, 15s));
     robot.signal(SIGKILL);
     ASSERT_TRUE(robot.wait(5s).has_value());
     ASSERT_TRUE(f.run_until([&] { return f.station->robot(14).lost; }, 6s));
   }
-  test::ChildProcess robot({TEAMSCAN_TEST_PEER, "robot", "--robot", "14", "--rate", "50", "--scans", "0"});
+  test::ChildProcess robot({TEAMSCAN_TEST_PEER, "robot", "--robot", "14", "--rate", "50", "--scans", "0", "--domain", test::test_domain_arg()});
   ASSERT_TRUE(f.run_until([&] { return !f.station->robot(14).lost; }, 15s));
   f.store->sync();
   EXPECT_NE(slurp(f.root + "/session/events.log").find("robot 14 back"), std::string::npos);
@@ -138,7 +141,7 @@ TEST(StationHooks, ThrowingFusionStageLosesNoStoredScan) {
     ++hook_calls;
     if (s.seq % 3 == 0) throw std::runtime_error("fusion stage failed");
   });
-  test::ChildProcess robot({TEAMSCAN_TEST_PEER, "robot", "--robot", "15", "--rate", "200", "--scans", "120"});
+  test::ChildProcess robot({TEAMSCAN_TEST_PEER, "robot", "--robot", "15", "--rate", "200", "--scans", "120", "--domain", test::test_domain_arg()});
   ASSERT_TRUE(f.run_until([&] { return f.station->robot(15).scans >= 120; }, 20s));
   EXPECT_EQ(hook_calls, 120u);
   EXPECT_EQ(f.station->counters().hook_failures, 40u);

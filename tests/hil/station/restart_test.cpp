@@ -14,6 +14,7 @@
 #include "groundstation/station/scan_record.hpp"
 #include "onboard/dds/bridge.hpp"
 #include "tests/hil/station/process.hpp"
+#include "tests/support/test_domain.hpp"
 
 namespace teamscan {
 namespace {
@@ -49,6 +50,7 @@ TEST(StationRestart, EveryScanMissedWhileDownArrivesAfterRestart) {
   onboard::DdsBridgeOptions o;
   o.robot_id = kRobot;
   o.scan_history_depth = 300;
+  o.domain_id = test::test_domain_id();
   auto bridge = onboard::DdsBridge::create(o);
   ASSERT_TRUE(bridge.ok()) << bridge.error().what;
   static onboard::OnboardScan scan;
@@ -65,7 +67,7 @@ TEST(StationRestart, EveryScanMissedWhileDownArrivesAfterRestart) {
   };
 
   {
-    test::ChildProcess gs({TEAMSCAN_GROUNDSTATION, "--session-dir", first});
+    test::ChildProcess gs({TEAMSCAN_GROUNDSTATION, "--session-dir", first, "--domain", test::test_domain_arg()});
     ASSERT_TRUE(wait_for_subscribers(*bridge, 1, 15s));
     publish(1, 50);
     ASSERT_TRUE(bridge->wait_for_scan_acks(10s).ok());
@@ -74,7 +76,7 @@ TEST(StationRestart, EveryScanMissedWhileDownArrivesAfterRestart) {
   }
   publish(51, 250);  // nobody is listening now (or only a dead, still-matched reader)
 
-  test::ChildProcess gs({TEAMSCAN_GROUNDSTATION, "--session-dir", second});
+  test::ChildProcess gs({TEAMSCAN_GROUNDSTATION, "--session-dir", second, "--domain", test::test_domain_arg()});
   const auto deadline = std::chrono::steady_clock::now() + 30s;
   std::vector<std::uint32_t> got;
   while (std::chrono::steady_clock::now() < deadline) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 
 #include "drivers/arcos/client.hpp"
@@ -13,6 +14,7 @@
 namespace teamscan::arcos {
 namespace {
 
+using test::bytes_of_packet;
 using test::Loop;
 
 struct Rig {
@@ -376,6 +378,83 @@ TEST(PioneerEmulator, SipSourceCanSkipACycle) {
   }
   EXPECT_EQ(src.calls, 11);  // at OPEN, then every 100 ms up to and including t + 1 s
   EXPECT_EQ(e.statistics().sips_sent, 5U);
+}
+
+}  // namespace
+}  // namespace teamscan::arcos
+
+namespace teamscan::arcos {
+namespace {
+
+struct SipLog {
+  std::vector<std::vector<std::uint8_t>> sips;
+  static void on_sip(void* self, const SipPacket& sip, const OdometryState&, Time) {
+    const auto w = encode_sip(sip);
+    static_cast<SipLog*>(self)->sips.emplace_back(w.bytes.begin(), w.bytes.begin() + static_cast<std::ptrdiff_t>(w.size));
+  }
+};
+
+// A noisy cable (1 % of bytes flipped in both directions, §6 USB adapters): the client keeps its
+// connection, every SIP it accepts is one the robot sent, and odometry follows the robot.
+TEST(ArcosClientEmulator, NoisyLinkOnePercent) {
+  Rig r;
+  SipLog log;
+  r.client.set_sip_callback(&SipLog::on_sip, &log);
+  r.loop.corruption = 0.01;
+  ASSERT_TRUE(r.connect(30s));
+  r.client.set_velocity(300, 5, r.loop.now);
+  r.loop.run_for(60s);
+  EXPECT_GT(r.loop.corrupted_bytes, 100U);
+  const auto s = r.client.statistics();
+  std::printf("noisy link: %llu SIPs, %llu bad checksums, %llu connects, %llu silence reconnects, %llu wrong replies, robot: %llu watchdog stops %llu closes %llu commands\n",
+              (unsigned long long)s.sips, (unsigned long long)s.parser.bad_checksum, (unsigned long long)s.connects,
+              (unsigned long long)s.silence_reconnects, (unsigned long long)s.wrong_replies,
+              (unsigned long long)r.robot.statistics().watchdog_stops, (unsigned long long)r.robot.statistics().closes,
+              (unsigned long long)r.robot.statistics().commands);
+  EXPECT_GT(s.parser.bad_checksum, 0U);
+  EXPECT_GT(s.sips, 400U);  // of 600 sent; a 38-byte SIP survives 1 % flips with p = 0.68
+  // Every accepted SIP is byte-identical to one the robot sent, in order.
+  std::vector<std::vector<std::uint8_t>> sent;
+  ArcosParser p;
+  p.push(r.loop.device_tx_bytes, [&](const PacketView& v) {
+    if (is_sip_type(v.type)) sent.emplace_back(v.wire.begin(), v.wire.end());
+  });
+  std::size_t k = 0;
+  for (const auto& got : log.sips) {
+    while (k < sent.size() && sent[k] != got) ++k;
+    ASSERT_LT(k, sent.size()) << "a SIP the robot never sent was accepted";
+    ++k;
+  }
+  EXPECT_NEAR(r.client.odometry().pose.x_m * 1000.0, r.robot.x_mm(), 50.0);
+  EXPECT_NEAR(r.client.odometry().pose.y_m * 1000.0, r.robot.y_mm(), 50.0);
+  EXPECT_GT(r.robot.statistics().commands, 100U);
+  EXPECT_EQ(r.robot.statistics().watchdog_stops, 0U);  // keep-alives get through often enough
+}
+
+}  // namespace
+}  // namespace teamscan::arcos
+
+namespace teamscan::arcos {
+namespace {
+
+// A command whose count byte was corrupted upwards makes the receiver wait for bytes the host will
+// not send for seconds; after the inter-byte timeout the robot re-scans and obeys what followed.
+TEST(PioneerEmulator, CorruptedCountDoesNotStallCommands) {
+  PioneerEmulatorOptions o;
+  o.motors_enabled_at_open = true;
+  PioneerEmulator e{o};
+  Time t = Time::from_seconds(1);
+  for (auto c : {Command::kSync0, Command::kSync1, Command::kSync2, Command::kOpen}) e.on_rx(make_command(c).span(), t);
+  auto bad = bytes_of_packet(make_command(Command::kPulse));
+  bad[2] = 0xC8;  // count 200: waits for 203 bytes
+  e.on_rx(bad, t);
+  e.on_rx(make_command(Command::kVel, 250).span(), t + 10ms);
+  e.on_tick(t + 50ms);
+  EXPECT_EQ(e.trans_vel_mm_s(), 0.0);  // still inside the suspect packet
+  EXPECT_LE(e.next_deadline(), t + 10ms + o.inter_byte_timeout);
+  e.on_tick(t + 10ms + o.inter_byte_timeout);
+  EXPECT_DOUBLE_EQ(e.trans_vel_mm_s(), 250.0);
+  EXPECT_EQ(e.statistics().parser.bad_length, 1U);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <random>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -34,6 +35,8 @@ inline std::vector<std::uint8_t> hex(std::string_view s) {
 
 inline std::vector<std::uint8_t> bytes_of(const PacketBuffer& p) { return {p.bytes.begin(), p.bytes.begin() + static_cast<std::ptrdiff_t>(p.size)}; }
 
+inline std::vector<std::uint8_t> bytes_of_packet(const PacketBuffer& p) { return bytes_of(p); }
+
 // Frames `body` (type byte + data) as a packet with a correct checksum.
 inline std::vector<std::uint8_t> frame(std::span<const std::uint8_t> body) {
   std::vector<std::uint8_t> out;
@@ -60,7 +63,22 @@ struct Loop {
   bool device_to_host_up = true;
   std::vector<Time> host_tx_times;                   // when host bytes were delivered
   std::vector<std::uint8_t> host_tx_bytes;           // everything the host sent (any rate)
+  std::vector<std::uint8_t> device_tx_bytes;         // everything the device sent, before corruption
   std::vector<std::uint32_t> host_tx_bauds;          // the host's rate for each delivery
+  double corruption = 0.0;                           // per byte: probability of a flipped byte
+  std::mt19937 rng{99};
+  std::uint64_t corrupted_bytes = 0;
+
+  void corrupt(std::uint8_t* b, std::size_t n) {
+    if (corruption <= 0.0) return;
+    std::uniform_real_distribution<double> u{0.0, 1.0};
+    for (std::size_t i = 0; i < n; ++i) {
+      if (u(rng) < corruption) {
+        b[i] = static_cast<std::uint8_t>(b[i] ^ static_cast<std::uint8_t>(1 + rng() % 255));
+        ++corrupted_bytes;
+      }
+    }
+  }
 
   void step_once(Duration step) {
     now += step;
@@ -72,9 +90,12 @@ struct Loop {
       host_tx_times.push_back(now);
       host_tx_bauds.push_back(host.baud());
       host_tx_bytes.insert(host_tx_bytes.end(), buf, buf + n);
+      corrupt(buf, n);
       if (host_to_device_up && host.baud() == device.baud()) device.on_rx({buf, n}, now);
     }
     const std::size_t m = device.take_tx(buf);
+    if (m > 0) device_tx_bytes.insert(device_tx_bytes.end(), buf, buf + m);
+    corrupt(buf, m);
     if (m > 0 && device_to_host_up && host.baud() == device.baud()) host.on_rx({buf, m}, now);
   }
   void run_for(Duration d, Duration step = 1ms) {

@@ -1,6 +1,7 @@
 // Interoperability with PCL's own reader and writer (pcl-tools): our binary points.pcd read by PCL and
 // written back as ascii, binary and binary_compressed must hold exactly our values. Skipped only if
 // pcl_convert_pcd_ascii_binary is not installed (CI installs pcl-tools).
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -128,6 +129,35 @@ TEST(PcdPcl, RealFileThroughPclAsciiMatchesOurBinaryCompressedRead) {
   ASSERT_EQ(compressed->size(), text->size());
   for (std::size_t i = 0; i < compressed->xyz.size(); ++i)
     ASSERT_NEAR(compressed->xyz[i], text->xyz[i], 1e-6f * (1 + std::fabs(text->xyz[i]))) << i;
+}
+
+TEST(PcdPcl, PclReadsOurGeneralWriterWithViewpoint) {
+  if (!have_pcl_tools()) GTEST_SKIP() << "pcl_convert_pcd_ascii_binary not installed (apt-get install pcl-tools)";
+  const auto dir = test::temp_dir();
+  PcdCloud c;
+  c.fields = {"x", "y", "z", "keep", "ring", "time"};
+  c.columns = {{1.5, -2.25, 0.125}, {0, 1, 2}, {-1, 0.5, 3}, {1, 0, 1}, {-3, 0, 32767}, {0.5, 2.0, 1024.25}};
+  const double vp[7] = {1.0, 2.0, 0.5, 0.0, 0.0, 0.0, 1.0};  // 180 deg about z
+  std::copy(std::begin(vp), std::end(vp), std::begin(c.viewpoint));
+  const std::vector<PcdField> layout = {{"x", 4, 'F', 1}, {"y", 4, 'F', 1}, {"z", 4, 'F', 1},
+                                        {"keep", 1, 'U', 1}, {"ring", 2, 'I', 1}, {"time", 8, 'F', 1}};
+  const auto ours = (dir / "general.pcd").string();
+  ASSERT_TRUE(write_pcd(ours, c, layout).ok());
+  const auto ascii = (dir / "general_ascii.pcd").string();
+  ASSERT_EQ(pcl_convert(ours, ascii, 0), 0);
+  std::ifstream in(ascii);
+  std::string line, types, viewpoint;
+  while (std::getline(in, line)) {
+    if (line.rfind("TYPE", 0) == 0) types = line;
+    if (line.rfind("VIEWPOINT", 0) == 0) viewpoint = line;
+  }
+  EXPECT_EQ(types, "TYPE F F F U I F");
+  EXPECT_EQ(viewpoint, "VIEWPOINT 1 2 0.5 0 0 0 1");
+  const auto back = read_pcd(ascii);
+  ASSERT_TRUE(back.ok()) << back.error().what;
+  ASSERT_EQ(back->size(), 3u);
+  for (std::size_t f = 0; f < c.fields.size(); ++f)
+    for (std::size_t i = 0; i < 3; ++i) EXPECT_EQ(back->columns[f][i], c.columns[f][i]) << c.fields[f] << " " << i;
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // PCD parsing on hand-made files (ascii, binary, binary_compressed; types, counts, NaN, errors) and the
 // exact bytes of the labelled and xyz writers (layout in docs/formats.md).
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -283,6 +284,82 @@ TEST(PcdXyz, ExactBytesAndRoundTrip) {
   const auto cloud = parse_pcd(bytes);
   ASSERT_TRUE(cloud.ok());
   EXPECT_EQ(cloud->xyz, xyz);
+}
+
+}  // namespace
+}  // namespace teamscan
+
+namespace teamscan {
+namespace {
+
+PcdCloud general_cloud() {
+  PcdCloud c;
+  c.fields = {"x", "y", "z", "keep", "ring", "time", "intensity"};
+  c.columns = {{1.5, -2.25, 0.1}, {0, 1, 2}, {-1, 0.5, 1e-3}, {1, 0, 1}, {-3, 0, 32767}, {0.1, 1e-12, 123456.789}, {7, 8, 9}};
+  const double vp[7] = {1.0, 2.0, 0.5, 0.70710678118654757, 0.0, 0.0, 0.70710678118654746};
+  std::copy(std::begin(vp), std::end(vp), std::begin(c.viewpoint));
+  return c;
+}
+const std::vector<PcdField> kGeneralLayout = {{"x", 4, 'F', 1}, {"y", 4, 'F', 1}, {"z", 4, 'F', 1}, {"keep", 1, 'U', 1},
+                                              {"ring", 2, 'I', 1}, {"time", 8, 'F', 1}, {"intensity", 4, 'U', 1}};
+
+TEST(PcdGeneralWriter, BinaryAndAsciiRoundTripWithTypesAndViewpoint) {
+  const PcdCloud c = general_cloud();
+  for (const PcdData kind : {PcdData::binary, PcdData::ascii}) {
+    const auto bytes = encode_pcd(c, kGeneralLayout, kind);
+    ASSERT_TRUE(bytes.ok()) << bytes.error().what;
+    const auto back = parse_pcd(*bytes);
+    ASSERT_TRUE(back.ok()) << back.error().what;
+    EXPECT_EQ(back->fields, c.fields);
+    ASSERT_EQ(back->size(), 3u);
+    for (std::size_t f = 0; f < c.fields.size(); ++f)
+      for (std::size_t i = 0; i < 3; ++i) {
+        // F 4 fields hold the float nearest the double; the others exactly.
+        const double expect = kGeneralLayout[f].type == 'F' && kGeneralLayout[f].size == 4
+                                  ? static_cast<double>(static_cast<float>(c.columns[f][i]))
+                                  : c.columns[f][i];
+        EXPECT_EQ(back->columns[f][i], expect) << c.fields[f] << " " << i;
+      }
+    for (int k = 0; k < 7; ++k) EXPECT_EQ(back->viewpoint[k], c.viewpoint[k]);
+  }
+  // The binary header, exactly.
+  const auto bytes = encode_pcd(c, kGeneralLayout);
+  const std::string text(bytes->begin(), bytes->end());
+  EXPECT_EQ(text.substr(0, text.find("DATA binary\n") + 12),
+            "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z keep ring time intensity\n"
+            "SIZE 4 4 4 1 2 8 4\nTYPE F F F U I F U\nCOUNT 1 1 1 1 1 1 1\nWIDTH 3\nHEIGHT 1\n"
+            "VIEWPOINT 1 2 0.5 0.70710678118654757 0 0 0.70710678118654746\nPOINTS 3\nDATA binary\n");
+  EXPECT_EQ(bytes->size(), text.find("DATA binary\n") + 12 + 3 * (12 + 1 + 2 + 8 + 4));
+}
+
+TEST(PcdGeneralWriter, RefusesWhatItCannotWrite) {
+  PcdCloud c = general_cloud();
+  auto layout = kGeneralLayout;
+  c.columns[3][1] = 256;  // keep is U 1
+  EXPECT_FALSE(encode_pcd(c, layout).ok());
+  c = general_cloud();
+  c.columns[4][0] = -32769;  // ring is I 2
+  EXPECT_FALSE(encode_pcd(c, layout).ok());
+  c = general_cloud();
+  layout[6] = {"intensity", 8, 'U', 1};
+  c.columns[6][0] = 18446744073709551616.0;  // 2^64 does not fit U 8
+  EXPECT_FALSE(encode_pcd(c, layout).ok());
+  c = general_cloud();
+  c.columns[1].pop_back();
+  EXPECT_FALSE(encode_pcd(c, kGeneralLayout).ok());
+  c = general_cloud();
+  layout = kGeneralLayout;
+  layout[0].type = 'Q';
+  EXPECT_FALSE(encode_pcd(c, layout).ok());
+  EXPECT_FALSE(encode_pcd(c, kGeneralLayout, PcdData::binary_compressed).ok());
+  PcdCloud no_xyz;
+  no_xyz.fields = {"a"};
+  no_xyz.columns = {{1}};
+  EXPECT_FALSE(encode_pcd(no_xyz, {}).ok());
+  // Default layout: every field F 4.
+  const auto plain = encode_pcd(general_cloud(), {});
+  ASSERT_TRUE(plain.ok());
+  EXPECT_NE(std::string(plain->begin(), plain->end()).find("TYPE F F F F F F F\n"), std::string::npos);
 }
 
 }  // namespace

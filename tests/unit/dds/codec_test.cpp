@@ -118,6 +118,8 @@ TEST(DdsCodec, PoseAndStatusFieldsCopied) {
   s.team_fresh = true;
   s.lms_resyncs = 11;
   s.uptime_s = 3600;
+  s.lms_reopens = 2;
+  s.loop_max_us = 1234;
   teamscan_msg_RobotStatus t{};
   encode_status(s, t);
   EXPECT_EQ(t.arcos_state, 3);
@@ -125,6 +127,8 @@ TEST(DdsCodec, PoseAndStatusFieldsCopied) {
   EXPECT_EQ(t.team_fresh, 1);
   EXPECT_EQ(t.lms_resyncs, 11u);
   EXPECT_EQ(t.uptime_s, 3600u);
+  EXPECT_EQ(t.lms_reopens, 2u);
+  EXPECT_EQ(t.loop_max_us, 1234u);
 }
 
 TEST(DdsBridgeOptions, BadRobotIdOrDepthRefusedBeforeTouchingDds) {

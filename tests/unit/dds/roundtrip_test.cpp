@@ -8,6 +8,7 @@
 #include "onboard/dds/qos.hpp"
 #include "teamscan.h"
 #include "tests/support/dds_test_subscriber.hpp"
+#include "tests/support/test_domain.hpp"
 
 namespace teamscan::onboard {
 namespace {
@@ -19,6 +20,7 @@ DdsBridge make_bridge(std::uint32_t robot, std::uint32_t depth = 300) {
   DdsBridgeOptions o;
   o.robot_id = robot;
   o.scan_history_depth = depth;
+  o.domain_id = test::test_domain_id();
   auto b = DdsBridge::create(o);
   if (!b) ADD_FAILURE() << b.error().what << " " << b.error().detail;
   return std::move(b.value());
@@ -26,7 +28,7 @@ DdsBridge make_bridge(std::uint32_t robot, std::uint32_t depth = 300) {
 
 TEST(DdsRoundTrip, PoseArrivesWithEveryField) {
   dds_qos_t* q = make_state_reader_qos();
-  DdsTestSubscriber<teamscan_msg_RobotPose> sub(&teamscan_msg_RobotPose_desc, kTopicPose, q);
+  DdsTestSubscriber<teamscan_msg_RobotPose> sub(&teamscan_msg_RobotPose_desc, kTopicPose, q, 64, test::test_domain_id());
   dds_delete_qos(q);
   ASSERT_TRUE(sub.ok());
   DdsBridge b = make_bridge(5);
@@ -48,8 +50,8 @@ TEST(DdsRoundTrip, PoseArrivesWithEveryField) {
 }
 
 TEST(DdsRoundTrip, FullScanArrivesPointForPoint) {
-  dds_qos_t* q = make_scan_reader_qos(300);
-  DdsTestSubscriber<teamscan_msg_ScanPoints> sub(&teamscan_msg_ScanPoints_desc, kTopicScan, q, 8);
+  dds_qos_t* q = make_scan_reader_qos();
+  DdsTestSubscriber<teamscan_msg_ScanPoints> sub(&teamscan_msg_ScanPoints_desc, kTopicScan, q, 8, test::test_domain_id());
   dds_delete_qos(q);
   ASSERT_TRUE(sub.ok());
   DdsBridge b = make_bridge(6);
@@ -88,7 +90,7 @@ TEST(DdsRoundTrip, FullScanArrivesPointForPoint) {
 
 TEST(DdsRoundTrip, StatusArrives) {
   dds_qos_t* q = make_state_reader_qos();
-  DdsTestSubscriber<teamscan_msg_RobotStatus> sub(&teamscan_msg_RobotStatus_desc, kTopicStatus, q);
+  DdsTestSubscriber<teamscan_msg_RobotStatus> sub(&teamscan_msg_RobotStatus_desc, kTopicStatus, q, 64, test::test_domain_id());
   dds_delete_qos(q);
   DdsBridge b = make_bridge(7);
   ASSERT_TRUE(sub.wait_matched(1, kWait));
@@ -119,7 +121,7 @@ TEST(DdsRoundTrip, SampleOfAnotherRobotIsRefusedAndCounted) {
 // A ground-station-side team writer, created before the robot: transient-local hands the robot the
 // last team state as soon as it joins.
 TEST(DdsRoundTrip, TeamStateReachesLateJoiningRobot) {
-  const dds_entity_t pp = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
+  const dds_entity_t pp = dds_create_participant(test::test_domain_id(), nullptr, nullptr);
   ASSERT_GT(pp, 0);
   const dds_entity_t tp = dds_create_topic(pp, &teamscan_msg_TeamState_desc, kTopicTeam, nullptr, nullptr);
   dds_qos_t* q = make_team_writer_qos(std::chrono::seconds(2));
@@ -154,8 +156,8 @@ TEST(DdsRoundTrip, TeamStateReachesLateJoiningRobot) {
 
 TEST(DdsRoundTrip, MapUpdateWithVoxels) {
   dds_qos_t* q = make_map_qos();
-  DdsTestSubscriber<teamscan_msg_MapUpdate> sub(&teamscan_msg_MapUpdate_desc, kTopicMap, q, 1);
-  const dds_entity_t pp = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
+  DdsTestSubscriber<teamscan_msg_MapUpdate> sub(&teamscan_msg_MapUpdate_desc, kTopicMap, q, 1, test::test_domain_id());
+  const dds_entity_t pp = dds_create_participant(test::test_domain_id(), nullptr, nullptr);
   const dds_entity_t tp = dds_create_topic(pp, &teamscan_msg_MapUpdate_desc, kTopicMap, nullptr, nullptr);
   const dds_entity_t wr = dds_create_writer(pp, tp, q, nullptr);
   dds_delete_qos(q);
@@ -196,8 +198,8 @@ TEST(DdsRoundTrip, LateScanReaderGetsTheWholeHistory) {
     s.seq = seq;
     ASSERT_TRUE(b.publish_scan(s).ok());
   }
-  dds_qos_t* q = make_scan_reader_qos(300);
-  DdsTestSubscriber<teamscan_msg_ScanPoints> sub(&teamscan_msg_ScanPoints_desc, kTopicScan, q, 64);
+  dds_qos_t* q = make_scan_reader_qos();
+  DdsTestSubscriber<teamscan_msg_ScanPoints> sub(&teamscan_msg_ScanPoints_desc, kTopicScan, q, 64, test::test_domain_id());
   dds_delete_qos(q);
   std::vector<teamscan_msg_ScanPoints> got;
   ASSERT_TRUE(sub.take_until(got, 100, kWait));

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <random>
 #include <vector>
 
 #include "drivers/lms200/emulator.hpp"
@@ -35,8 +36,8 @@ class TestRanges final : public RangeSource {
 // the receiver sees garbage), and the line can be cut (unplugged cable / powered-down converter).
 class Bench {
  public:
-  explicit Bench(const LmsEmulatorOptions& eo = {}, const LmsClientOptions& co = {})
-      : emulator{eo, &ranges}, client{co} {
+  explicit Bench(LmsEmulatorOptions eo = {}, const LmsClientOptions& co = {})
+      : emulator{paced(eo), &ranges}, client{co} {
     emulator.power_up(now);
   }
 
@@ -46,11 +47,18 @@ class Bench {
     client.on_tick(now);
     std::array<std::uint8_t, 4096> buf{};
     std::size_t n = client.take_tx(buf);
+    if (n > 0 && corrupt_next_command) {
+      buf[n - 1] = static_cast<std::uint8_t>(buf[n - 1] ^ 0x01);  // break the CRC
+      corrupt_next_command = false;
+    }
     if (n > 0 && connected) deliver(std::span{buf}.first(n), client.baud(), emulator.baud(), [&](auto b) {
       emulator.on_rx(b, now);
     });
     const std::uint32_t emulator_baud = emulator.baud();  // the rate these bytes left at (it may switch after)
     n = emulator.take_tx(buf);
+    if (noise_rate > 0.0)
+      for (std::size_t i = 0; i < n; ++i)
+        if (noise(rng) < noise_rate) buf[i] = static_cast<std::uint8_t>(buf[i] ^ (1u << (rng() % 8)));
     if (n > 0 && connected) deliver(std::span{buf}.first(n), emulator_baud, client.baud(), [&](auto b) {
       client.on_rx(b, now);
     });
@@ -99,6 +107,12 @@ class Bench {
       if (s.ranges_mm[i] != TestRanges::expected_mm(match->sweep_end, i)) ++range_mismatches;
   }
 
+  // This harness moves bytes instantly, so the emulator paces its own output.
+  static LmsEmulatorOptions paced(LmsEmulatorOptions o) {
+    o.pace_output = true;
+    return o;
+  }
+
   static void deliver(std::span<const std::uint8_t> bytes, std::uint32_t from, std::uint32_t to,
                       const std::function<void(std::span<const std::uint8_t>)>& rx) {
     if (from == to) {
@@ -116,6 +130,10 @@ class Bench {
   LmsEmulator emulator;
   LmsClient client;
   bool connected = true;
+  bool corrupt_next_command = false;
+  double noise_rate = 0.0;  // per byte from the scanner: one bit flipped
+  std::mt19937 rng{42};
+  std::uniform_real_distribution<double> noise{0.0, 1.0};
   // On a link slower than the mirror a scan waits for the line after its sweep ended (emulator rule).
   Duration late_send_allowance = 0ms;
   int scans = 0;
@@ -377,6 +395,28 @@ TEST(LmsClient, ScansWithAnErrorStatusAreDropped) {
   b.run_for(1s);
   EXPECT_EQ(b.scans, 0);
   EXPECT_GT(b.client.statistics().scans_bad_status, 30u);
+}
+
+TEST(LmsClient, NakedCommandIsSentAgain) {
+  Bench b{{}, fast_client()};
+  b.corrupt_next_command = true;  // the first probe arrives with a bad CRC -> NAK
+  b.client.start(b.now);
+  ASSERT_TRUE(b.run_until([&] { return b.client.streaming(); }, 10s)) << b.client.state_name();
+  EXPECT_EQ(b.emulator.statistics().naks_sent, 1u);
+  EXPECT_GE(b.client.statistics().naks, 1u);
+}
+
+TEST(LmsClient, NoisyLineDeliversOnlyIntactScans) {
+  Bench b{{}, fast_client()};
+  b.client.start(b.now);
+  ASSERT_TRUE(b.run_until([&] { return b.client.streaming(); }, 10s));
+  b.noise_rate = 1e-4;  // ~7 % of 732-byte telegrams hit
+  b.run_for(10s);
+  EXPECT_GT(b.client.parser_statistics().bad_crc, 0u);
+  EXPECT_EQ(b.range_mismatches, 0);  // a corrupted scan is never delivered
+  EXPECT_EQ(b.unmatched, 0);
+  EXPECT_GT(b.scans, 300);           // the rest keep coming (375 sent)
+  EXPECT_TRUE(b.client.streaming());
 }
 
 TEST(LmsClient, StateNamesAreDistinct) {

@@ -176,7 +176,8 @@ TEST(LmsEmulator, PowerOnTelegramAfterTheDelay) {
 }
 
 TEST(LmsEmulator, PacedOutputTakesTheLineTime) {
-  LmsEmulatorOptions o;  // paced
+  LmsEmulatorOptions o;
+  o.pace_output = true;
   Rig r{o};
   r.emu.on_rx(hex("02 00 01 00 31 15 12"), r.now);
   std::array<std::uint8_t, 512> b{};

@@ -196,19 +196,25 @@ TEST(DirectionFilter, NoTeamStateYetFlagsStaleAndFiltersNothing) {
   EXPECT_EQ(pts[0].flags, 0);
 }
 
-TEST(DirectionFilter, OwnAndLostMembersAreIgnored) {
-  auto f = DirectionFilter::create({}, 2);
+TEST(DirectionFilter, OwnEntryIgnoredLostMemberTreatedAsStale) {
+  DirectionFilterParams p;
+  p.extrapolate_team = false;
+  auto f = DirectionFilter::create(p, 2);
   ASSERT_TRUE(f.ok());
   TeamSnapshot t = team_with(5000, 0, kStamp, 2);  // ourselves
-  t.count = 2;
-  t.members[1] = t.members[0];
-  t.members[1].robot_id = 3;
-  t.members[1].lost = true;
   f->set_team(t);
   ScanPoint pts[1] = {{5000, 0, 0, 0, 0}};
-  const auto st = f->apply(0, 0, kStamp, pts, 1);
+  auto st = f->apply(0, 0, kStamp, pts, 1);
   EXPECT_EQ(pts[0].flags, 0);
   EXPECT_EQ(st.cones, 0);
+  // A lost teammate, reported just now: still filtered against (widen policy) but flagged stale.
+  t.members[0].robot_id = 3;
+  t.members[0].lost = true;
+  f->set_team(t);
+  pts[0].flags = 0;
+  st = f->apply(0, 0, kStamp, pts, 1);
+  EXPECT_EQ(pts[0].flags, kPointDirectionFiltered | kPointTeamStale);
+  EXPECT_EQ(st.stale_mates, 1);
 }
 
 TEST(DirectionFilter, TeammateExtrapolatedToTheScanTime) {

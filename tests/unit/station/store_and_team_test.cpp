@@ -112,6 +112,41 @@ TEST(SessionStore, ReopeningAppendsWithoutASecondHeader) {
   std::filesystem::remove_all(std::filesystem::path(dir).parent_path());
 }
 
+TEST(SessionStore, StatusLineHasEveryFieldInHeaderOrder) {
+  const std::string dir = temp_dir() + "/s";
+  {
+    auto s = SessionStore::open(dir);
+    ASSERT_TRUE(s.ok());
+    teamscan_msg_RobotStatus st{};
+    st.robot_id = 3;
+    st.seq = 4;
+    st.stamp_ns = 5;
+    st.arcos_state = 6;
+    st.lms_state = 7;
+    st.team_fresh = 1;
+    st.sip_rate_mhz = 10000;
+    st.scan_rate_mhz = 75000;
+    st.arcos_bad_packets = 11;
+    st.lms_bad_telegrams = 12;
+    st.lms_resyncs = 13;
+    st.scans_published = 14;
+    st.points_direction_filtered = 15;
+    st.dds_write_errors = 16;
+    st.uptime_s = 17;
+    st.arcos_reopens = 18;
+    st.lms_reopens = 19;
+    st.points_team_stale = 20;
+    st.points_no_pose = 21;
+    st.loop_max_us = 22;
+    s->append_status(st, ReceiveTime{Time::from_ns(1), Time::from_ns(2)});
+  }
+  const std::string text = slurp(dir + "/status.csv");
+  const std::string header = text.substr(0, text.find('\n'));
+  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 21);
+  EXPECT_EQ(text.substr(text.find('\n') + 1), "1,2,3,4,5,6,7,1,10000,75000,11,12,13,14,15,16,17,18,19,20,21,22\n");
+  std::filesystem::remove_all(std::filesystem::path(dir).parent_path());
+}
+
 TEST(SessionStore, UnwritableRootIsAnErrorNotACrash) {
   auto s = SessionStore::create("/proc/teamscan-cannot-be-here");
   EXPECT_FALSE(s.ok());

@@ -1,0 +1,27 @@
+// TeamSource over the mapping engineer's Kalman tracker (groundstation/mapping/tracker.hpp): the
+// constant-velocity filter per robot, fed with every received pose, predicted to the publication time.
+// Built only when groundstation/mapping is in the tree (TEAMSCAN_HAVE_KALMAN_TRACKER).
+#pragma once
+
+#include <array>
+
+#include "groundstation/mapping/tracker.hpp"
+#include "groundstation/station/team_source.hpp"
+
+namespace teamscan::station {
+
+class KalmanTeamSource final : public TeamSource {
+ public:
+  explicit KalmanTeamSource(const mapping::TrackerOptions& options, const RobotBody& default_body = {});
+  void add_pose(const PoseObservation& pose) override;
+  void set_lost(std::uint32_t robot_id, bool lost) override;
+  void set_body(std::uint32_t robot_id, const RobotBody& body) override;
+  [[nodiscard]] std::size_t estimate(Time at, std::span<TeamMemberEstimate> out) const override;
+
+ private:
+  mapping::TeamTracker tracker_;
+  std::array<bool, kMaxRobots + 1> lost_{};
+  std::array<RobotBody, kMaxRobots + 1> body_{};
+};
+
+}  // namespace teamscan::station
