@@ -1,0 +1,144 @@
+// Free-space ray casting (issue 7): Amanatides & Woo, "A fast voxel traversal algorithm for ray
+// tracing" (1987), on the VoxelMap key layout (21-bit fields, VoxelMap::pack).
+#include "groundstation/mapping/freespace_filter.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "common/result.hpp"
+
+namespace teamscan::mapping {
+
+namespace {
+constexpr std::uint32_t kSaturate = std::numeric_limits<std::uint32_t>::max();
+bool in_range(VoxelKey k) {
+  return k.x > -VoxelMap::kIndexLimit && k.x < VoxelMap::kIndexLimit && k.y > -VoxelMap::kIndexLimit &&
+         k.y < VoxelMap::kIndexLimit && k.z > -VoxelMap::kIndexLimit && k.z < VoxelMap::kIndexLimit;
+}
+}  // namespace
+
+FreespaceGrid::FreespaceGrid(const FreespaceOptions& options)
+    : options_{options}, inverse_resolution_{1.0 / options.resolution_m} {}
+
+VoxelKey FreespaceGrid::key_of(double x, double y, double z) const {
+  return {static_cast<std::int32_t>(std::floor(x * inverse_resolution_)),
+          static_cast<std::int32_t>(std::floor(y * inverse_resolution_)),
+          static_cast<std::int32_t>(std::floor((z - options_.grid_origin_z_m) * inverse_resolution_))};
+}
+
+void FreespaceGrid::clear() {
+  cells_.clear();
+  traversed_ = 0;
+}
+
+FreeCell FreespaceGrid::cell(VoxelKey key) const {
+  if (!in_range(key)) return {};
+  const FreeCell* c = cells_.find(VoxelMap::pack(key));
+  return c ? *c : FreeCell{};
+}
+
+bool FreespaceGrid::transient(const MapPoint& p) const {
+  const FreeCell c = cell(key_of(p.x, p.y, p.z));
+  const double need = std::max(static_cast<double>(options_.min_free), options_.free_per_hit * static_cast<double>(c.hits));
+  return c.free > 0 && static_cast<double>(c.free) >= need;
+}
+
+void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> points) {
+  for (const MapPoint& p : points) {
+    const double dx = p.x - origin_m.x, dy = p.y - origin_m.y, dz = p.z - origin_m.z;
+    const double range = std::sqrt(dx * dx + dy * dy + dz * dz);
+    // ANCHORS.md §6.2: a return at the sensor is an ego point, not a surface; it marks nothing.
+    if (!(range >= options_.min_range_m)) continue;
+    const VoxelKey k = key_of(p.x, p.y, p.z);
+    if (!in_range(k)) continue;
+    FreeCell& c = cells_.get_or_insert(VoxelMap::pack(k), FreeCell{});
+    if (c.hits != kSaturate) ++c.hits;
+  }
+  for (const MapPoint& p : points) cast_ray(origin_m, p);
+}
+
+void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
+  const double dx = hit.x - origin_m.x, dy = hit.y - origin_m.y, dz = hit.z - origin_m.z;
+  const double range = std::sqrt(dx * dx + dy * dy + dz * dz);
+  if (!(range >= options_.min_range_m) || range > options_.max_range_m) return;
+  // Where the ray stops: end_margin short of the hit, further for grazing rays (see the options).
+  const double sin_elev = std::abs(dz) / range;
+  double stop_short = options_.end_margin_m;
+  if (sin_elev * options_.grazing_cap_m > options_.clearance_m)
+    stop_short = std::max(stop_short, options_.clearance_m / sin_elev);
+  else
+    stop_short = std::max(stop_short, options_.grazing_cap_m);
+  const double t0 = options_.min_range_m / range, t1 = (range - stop_short) / range;
+  if (!(t1 > t0)) return;
+
+  // Segment in grid units (voxel size 1, z from the grid origin).
+  const double r = inverse_resolution_;
+  const double sx = (origin_m.x + dx * t0) * r, sy = (origin_m.y + dy * t0) * r;
+  const double sz = (origin_m.z + dz * t0 - options_.grid_origin_z_m) * r;
+  const double ex = (origin_m.x + dx * t1) * r, ey = (origin_m.y + dy * t1) * r;
+  const double ez = (origin_m.z + dz * t1 - options_.grid_origin_z_m) * r;
+  const double vx = ex - sx, vy = ey - sy, vz = ez - sz;
+  VoxelKey k{static_cast<std::int32_t>(std::floor(sx)), static_cast<std::int32_t>(std::floor(sy)),
+             static_cast<std::int32_t>(std::floor(sz))};
+  const VoxelKey end{static_cast<std::int32_t>(std::floor(ex)), static_cast<std::int32_t>(std::floor(ey)),
+                     static_cast<std::int32_t>(std::floor(ez))};
+  if (!in_range(k) || !in_range(end)) return;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  // Per axis: the step, the parameter t (0..1 along the segment) of the next boundary, and the t
+  // between boundaries (Amanatides–Woo tMax / tDelta).
+  auto axis = [&](double s, double v, std::int32_t idx, std::int32_t& step, double& t_max, double& t_delta) {
+    if (v > 0) {
+      step = 1;
+      t_max = (static_cast<double>(idx) + 1.0 - s) / v;
+      t_delta = 1.0 / v;
+    } else if (v < 0) {
+      step = -1;
+      t_max = (static_cast<double>(idx) - s) / v;
+      t_delta = -1.0 / v;
+    } else {
+      step = 0;
+      t_max = kInf;
+      t_delta = kInf;
+    }
+  };
+  std::int32_t step_x, step_y, step_z;
+  double tmx, tmy, tmz, tdx, tdy, tdz;
+  axis(sx, vx, k.x, step_x, tmx, tdx);
+  axis(sy, vy, k.y, step_y, tmy, tdy);
+  axis(sz, vz, k.z, step_z, tmz, tdz);
+  // The voxel count is bounded by the Manhattan distance between the end voxels.
+  const std::int64_t n = std::int64_t{1} + std::abs(std::int64_t{end.x} - k.x) + std::abs(std::int64_t{end.y} - k.y) +
+                         std::abs(std::int64_t{end.z} - k.z);
+  for (std::int64_t i = 0; i < n; ++i) {
+    FreeCell& c = cells_.get_or_insert(VoxelMap::pack(k), FreeCell{});
+    if (c.free != kSaturate) ++c.free;
+    ++traversed_;
+    if (k == end) break;
+    if (tmx <= tmy && tmx <= tmz) {
+      k.x += step_x;
+      tmx += tdx;
+    } else if (tmy <= tmz) {
+      k.y += step_y;
+      tmy += tdy;
+    } else {
+      k.z += step_z;
+      tmz += tdz;
+    }
+  }
+}
+
+FilterParams FreespaceFilter::params() const {
+  return {{"resolution_m", options_.resolution_m},   {"grid_origin_z_m", options_.grid_origin_z_m},
+          {"min_range_m", options_.min_range_m},     {"max_range_m", options_.max_range_m},
+          {"end_margin_m", options_.end_margin_m},   {"clearance_m", options_.clearance_m},
+          {"grazing_cap_m", options_.grazing_cap_m}, {"min_free", static_cast<double>(options_.min_free)},
+          {"free_per_hit", options_.free_per_hit}};
+}
+
+void FreespaceFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
+  for (std::size_t i = 0; i < scan.points.size(); ++i) removed[i] = grid_.transient(scan.points[i]) ? 1 : 0;
+}
+
+}  // namespace teamscan::mapping
