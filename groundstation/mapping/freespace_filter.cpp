@@ -28,14 +28,36 @@ VoxelKey FreespaceGrid::key_of(double x, double y, double z) const {
 }
 
 void FreespaceGrid::clear() {
-  cells_.clear();
+  block_index_.clear();
+  blocks_.clear();
+  cached_block_key_ = ~std::uint64_t{0};
+  cached_block_ = nullptr;
+  voxels_ = 0;
   traversed_ = 0;
 }
 
 FreeCell FreespaceGrid::cell(VoxelKey key) const {
   if (!in_range(key)) return {};
-  const FreeCell* c = cells_.find(VoxelMap::pack(key));
-  return c ? *c : FreeCell{};
+  const std::uint32_t* b = block_index_.find(block_key(key));
+  return b ? blocks_[*b][offset_in_block(key)] : FreeCell{};
+}
+
+FreeCell& FreespaceGrid::touch(VoxelKey k) {
+  const std::uint64_t bk = block_key(k);
+  if (bk != cached_block_key_) {
+    bool inserted = false;
+    std::uint32_t& index = block_index_.get_or_insert(bk, 0, &inserted);
+    if (inserted) {
+      index = static_cast<std::uint32_t>(blocks_.size());
+      blocks_.emplace_back();
+      blocks_.back().fill(FreeCell{});
+    }
+    cached_block_key_ = bk;
+    cached_block_ = &blocks_[index];  // blocks_ may have moved: refresh on every miss
+  }
+  FreeCell& c = (*cached_block_)[offset_in_block(k)];
+  if (c.hits == 0 && c.free == 0) ++voxels_;
+  return c;
 }
 
 bool FreespaceGrid::transient(const MapPoint& p) const {
@@ -52,7 +74,7 @@ void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> 
     if (!(range >= options_.min_range_m)) continue;
     const VoxelKey k = key_of(p.x, p.y, p.z);
     if (!in_range(k)) continue;
-    FreeCell& c = cells_.get_or_insert(VoxelMap::pack(k), FreeCell{});
+    FreeCell& c = touch(k);
     if (c.hits != kSaturate) ++c.hits;
   }
   for (const MapPoint& p : points) cast_ray(origin_m, p);
@@ -111,7 +133,7 @@ void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
   const std::int64_t n = std::int64_t{1} + std::abs(std::int64_t{end.x} - k.x) + std::abs(std::int64_t{end.y} - k.y) +
                          std::abs(std::int64_t{end.z} - k.z);
   for (std::int64_t i = 0; i < n; ++i) {
-    FreeCell& c = cells_.get_or_insert(VoxelMap::pack(k), FreeCell{});
+    FreeCell& c = touch(k);
     if (c.free != kSaturate) ++c.free;
     ++traversed_;
     if (k == end) break;

@@ -4,8 +4,10 @@
 // enough. observe() is the same code live and offline; classify() only reads.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "groundstation/mapping/beyond_options.hpp"
 #include "groundstation/mapping/filter.hpp"
@@ -29,15 +31,34 @@ class FreespaceGrid {
   void cast_ray(const Vec3& origin_m, const MapPoint& hit);
   [[nodiscard]] FreeCell cell(VoxelKey key) const;
   [[nodiscard]] bool transient(const MapPoint& p) const;
-  [[nodiscard]] std::size_t voxels() const { return cells_.size(); }
+  [[nodiscard]] std::size_t voxels() const { return voxels_; }
   [[nodiscard]] std::uint64_t traversed() const { return traversed_; }
-  [[nodiscard]] std::size_t memory_bytes() const { return cells_.memory_bytes(); }
+  [[nodiscard]] std::size_t memory_bytes() const {
+    return block_index_.memory_bytes() + blocks_.capacity() * sizeof(Block);
+  }
   void clear();
 
  private:
+  // Voxels live in dense 16³ blocks found through a sparse block index: a ray walks mostly within
+  // one block, so the hash lookup is paid once per block, not once per voxel.
+  static constexpr int kBlockBits = 4;
+  static constexpr std::int32_t kBlockMask = (1 << kBlockBits) - 1;
+  using Block = std::array<FreeCell, 1u << (3 * kBlockBits)>;
+  [[nodiscard]] static std::size_t offset_in_block(VoxelKey k) {
+    return static_cast<std::size_t>(((k.z & kBlockMask) << (2 * kBlockBits)) | ((k.y & kBlockMask) << kBlockBits) | (k.x & kBlockMask));
+  }
+  [[nodiscard]] static std::uint64_t block_key(VoxelKey k) {
+    return VoxelMap::pack({k.x >> kBlockBits, k.y >> kBlockBits, k.z >> kBlockBits});
+  }
+  FreeCell& touch(VoxelKey k);  // creates the block if needed
+
   FreespaceOptions options_;
   double inverse_resolution_;
-  FlatKeyMap<FreeCell> cells_;
+  FlatKeyMap<std::uint32_t> block_index_;  // block key -> index in blocks_
+  std::vector<Block> blocks_;
+  std::uint64_t cached_block_key_ = ~std::uint64_t{0};
+  Block* cached_block_ = nullptr;
+  std::size_t voxels_ = 0;
   std::uint64_t traversed_ = 0;
 };
 
