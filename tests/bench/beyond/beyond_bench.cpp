@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 
 #include "groundstation/mapping/evaluation.hpp"
 #include "groundstation/mapping/freespace_filter.hpp"
@@ -45,8 +46,17 @@ const PreparedDataset& prepared() {
   return p;
 }
 
-using Clock = std::chrono::steady_clock;
-double seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+// This thread's CPU time: the machine is shared (load 2–14 on 2 cores), so wall time would measure the
+// neighbours; "one core" in the goal is CPU time.
+struct Clock {
+  using time_point = double;
+  static double now() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+  }
+};
+double seconds(double a, double b) { return b - a; }
 
 // SA and DA (%) of removed flags in Dataset::points order.
 void add_scores(benchmark::State& state, const std::string& prefix, const std::vector<std::uint8_t>& removed) {
