@@ -30,6 +30,11 @@ struct FreespaceOptions {
   // The ratio keeps surfaces that are hit far more often than rays graze through them.
   std::uint32_t min_free = 2;
   double free_per_hit = 1.0;
+  // Partly occupied voxels (ANCHORS.md §6.3, DUFOMap's dilation idea): a table top's edge voxel is
+  // also crossed by rays passing just beside the slab. With the guard, a void voxel still counts as
+  // static when one of its 6 face neighbours is solid (hit and not void): a surface continues there.
+  // A teammate that left has no solid neighbour: its whole body's voxels went void together.
+  bool solid_neighbour_guard = true;
 };
 
 // `tracked`: the paper's position and direction filters made one 3-D body test (issue 7): every
@@ -44,6 +49,10 @@ struct TrackedOptions {
   // are wheel hits below 1 cm (docs/beyond.md), so by default the box reaches below the floor's noise
   // and takes the few floor points inside the inflated footprint with it.
   double floor_clearance_m = -0.05;
+  // Below this height (wheel contact, floor noise) the box is the bare footprint + margin_m, without
+  // the covariance and heading inflation: the floor around a teammate is scanned far more than its
+  // wheels, and those wheel hits lie within the footprint (lap2: |y| ≤ 0.268 m vs 0.2525 m).
+  double low_band_m = 0.02;
   double margin_m = 0.04;           // range noise, quantisation, odometry between poses
   double n_sigma = 3.0;
   double heading_sigma_rad = 0.035; // ~2°: heading is not in the tracker's state

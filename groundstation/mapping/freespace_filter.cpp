@@ -60,10 +60,22 @@ FreeCell& FreespaceGrid::touch(VoxelKey k) {
   return c;
 }
 
-bool FreespaceGrid::transient(const MapPoint& p) const {
-  const FreeCell c = cell(key_of(p.x, p.y, p.z));
+bool FreespaceGrid::void_voxel(VoxelKey k) const {
+  const FreeCell c = cell(k);
   const double need = std::max(static_cast<double>(options_.min_free), options_.free_per_hit * static_cast<double>(c.hits));
   return c.free > 0 && static_cast<double>(c.free) >= need;
+}
+
+bool FreespaceGrid::transient(const MapPoint& p) const {
+  const VoxelKey k = key_of(p.x, p.y, p.z);
+  if (!void_voxel(k)) return false;
+  if (!options_.solid_neighbour_guard) return true;
+  static constexpr std::int32_t kFaces[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (const auto& f : kFaces) {
+    const VoxelKey n{k.x + f[0], k.y + f[1], k.z + f[2]};
+    if (cell(n).hits > 0 && !void_voxel(n)) return false;
+  }
+  return true;
 }
 
 void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> points) {
@@ -155,7 +167,7 @@ FilterParams FreespaceFilter::params() const {
           {"min_range_m", options_.min_range_m},     {"max_range_m", options_.max_range_m},
           {"end_margin_m", options_.end_margin_m},   {"clearance_m", options_.clearance_m},
           {"grazing_cap_m", options_.grazing_cap_m}, {"min_free", static_cast<double>(options_.min_free)},
-          {"free_per_hit", options_.free_per_hit}};
+          {"free_per_hit", options_.free_per_hit},   {"solid_neighbour_guard", options_.solid_neighbour_guard ? 1.0 : 0.0}};
 }
 
 void FreespaceFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {

@@ -31,6 +31,8 @@ class FreespaceGrid {
   void cast_ray(const Vec3& origin_m, const MapPoint& hit);
   [[nodiscard]] FreeCell cell(VoxelKey key) const;
   [[nodiscard]] bool transient(const MapPoint& p) const;
+  // The voxel's own evidence says void (free passes enough, see FreespaceOptions).
+  [[nodiscard]] bool void_voxel(VoxelKey k) const;
   [[nodiscard]] std::size_t voxels() const { return voxels_; }
   [[nodiscard]] std::uint64_t traversed() const { return traversed_; }
   [[nodiscard]] std::size_t memory_bytes() const {

@@ -26,6 +26,9 @@ BodyBox body_box(const RobotEstimate& other, const TrackedOptions& o) {
   b.half_y_m = o.half_width_m + o.margin_m + o.n_sigma * sigma_y + turn_m;
   b.z_min_m = o.floor_clearance_m;
   b.z_max_m = o.height_m + o.margin_m;
+  b.low_band_m = o.low_band_m;
+  b.low_half_x_m = o.half_length_m + o.margin_m;
+  b.low_half_y_m = o.half_width_m + o.margin_m;
   return b;
 }
 
@@ -33,7 +36,9 @@ bool box_contains(const BodyBox& b, const MapPoint& p, double dt_s) {
   if (p.z < b.z_min_m || p.z > b.z_max_m) return false;
   const double dx = p.x - (b.centre_m.x + b.velocity_mps.x * dt_s);
   const double dy = p.y - (b.centre_m.y + b.velocity_mps.y * dt_s);
-  return std::abs(dx * b.axis_x.x + dy * b.axis_x.y) <= b.half_x_m && std::abs(dx * b.axis_y.x + dy * b.axis_y.y) <= b.half_y_m;
+  const double lx = std::abs(dx * b.axis_x.x + dy * b.axis_x.y), ly = std::abs(dx * b.axis_y.x + dy * b.axis_y.y);
+  if (p.z < b.low_band_m) return lx <= b.low_half_x_m && ly <= b.low_half_y_m;
+  return lx <= b.half_x_m && ly <= b.half_y_m;
 }
 
 FilterParams TrackedFilter::params() const {
@@ -41,7 +46,7 @@ FilterParams TrackedFilter::params() const {
           {"height_m", options_.height_m},           {"floor_clearance_m", options_.floor_clearance_m},
           {"margin_m", options_.margin_m},           {"n_sigma", options_.n_sigma},
           {"heading_sigma_deg", options_.heading_sigma_rad * 180.0 / 3.14159265358979323846},
-          {"sweep_s", options_.sweep_s}};
+          {"sweep_s", options_.sweep_s},             {"low_band_m", options_.low_band_m}};
 }
 
 void TrackedFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {

@@ -16,6 +16,8 @@ struct BodyBox {
   Vec2 velocity_mps;
   Vec2 axis_x, axis_y;  // unit vectors: heading and its left normal
   double half_x_m = 0, half_y_m = 0, z_min_m = 0, z_max_m = 0;
+  // Below low_band_m: the bare footprint + margin (TrackedOptions::low_band_m).
+  double low_band_m = 0, low_half_x_m = 0, low_half_y_m = 0;
 };
 
 // The inflated box of `other` (RobotEstimate at the scan's stamp) for these options.
