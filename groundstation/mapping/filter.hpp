@@ -206,10 +206,10 @@ struct MethodOptions {
   // Issue 7 (docs/beyond.md): freespace, tracked, and best = tracked ∪ freespace(best_freespace).
   FreespaceOptions freespace;
   TrackedOptions tracked;
-  // best's freespace part demands 4 passes per hit: chosen on lap2/team3 (docs/beyond.md).
+  // best's freespace part demands 8 passes per hit: chosen on tables4/team3 (docs/beyond.md).
   FreespaceOptions best_freespace = [] {
     FreespaceOptions o;
-    o.free_per_hit = 4.0;
+    o.free_per_hit = 8.0;
     return o;
   }();
 };

@@ -61,7 +61,7 @@ struct EvalArgs {
   double fs_free_per_hit = 1.0;
   double fs_clearance_m = 0.05;
   double fs_end_margin_m = 0.1;
-  double best_fs_free_per_hit = 4.0;
+  double best_fs_free_per_hit = 8.0;
   double tracked_n_sigma = 3.0;
   double tracked_margin_m = 0.04;
   // Table-top heights (m): report the kept share of furniture points whose true z is within 3 cm of one.
