@@ -144,11 +144,14 @@ void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
   // The voxel count is bounded by the Manhattan distance between the end voxels.
   const std::int64_t n = std::int64_t{1} + std::abs(std::int64_t{end.x} - k.x) + std::abs(std::int64_t{end.y} - k.y) +
                          std::abs(std::int64_t{end.z} - k.z);
+  traversed_ += static_cast<std::uint64_t>(n);
   for (std::int64_t i = 0; i < n; ++i) {
     FreeCell& c = touch(k);
     if (c.free != kSaturate) ++c.free;
-    ++traversed_;
-    if (k == end) break;
+    if (k == end) {
+      traversed_ -= static_cast<std::uint64_t>(n - 1 - i);  // stopped early: count only the visited
+      break;
+    }
     if (tmx <= tmy && tmx <= tmz) {
       k.x += step_x;
       tmx += tdx;
