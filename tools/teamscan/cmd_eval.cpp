@@ -352,7 +352,7 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
       ->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--fs-min-free", a->fs_min_free, "freespace/best: free passes a voxel needs to be void")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
-  app.add_option("--fs-free-per-hit", a->fs_free_per_hit, "freespace/best: and at least this many free passes per hit")
+  app.add_option("--fs-free-per-hit", a->fs_free_per_hit, "freespace: and at least this many free passes per hit (best: --best-fs-free-per-hit)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--fs-clearance", a->fs_clearance_m, "freespace/best: grazing rays stop this high above their hit (m)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
