@@ -185,6 +185,28 @@ TEST(FreespaceFilter, GrazingFloorRaysDoNotEraseTheFloor) {
   EXPECT_EQ(removed_share(o), 0.0);
 }
 
+TEST(FreespaceFilter, ASolidNeighbourKeepsAPartlyCrossedSurfaceVoxel) {
+  // A slab's edge voxel at x = 1.0..1.05 (hit twice) next to a solid slab voxel (hit 10 times, never
+  // crossed); three rays pass through the edge voxel's lower part to a wall, never through the slab.
+  auto run = [](bool guard) {
+    FreespaceOptions o = plain_options();
+    o.solid_neighbour_guard = guard;
+    FreespaceFilter f(o);
+    const Vec3 sensor{1.025, -3.0, 0.51};
+    const std::vector<MapPoint> edge{{1.01f, 0.01f, 0.51f}, {1.02f, 0.02f, 0.52f}};
+    const std::vector<MapPoint> slab(10, MapPoint{1.01f, 0.06f, 0.52f});
+    const std::vector<MapPoint> wall{{1.025f, 3.0f, 0.51f}};
+    f.observe(view_of(1, {1.025, 3.0, 0.51}, edge));   // seen from the far side: no ray crosses it
+    f.observe(view_of(1, {1.025, 3.0, 0.51}, slab));
+    for (int i = 0; i < 3; ++i) f.observe(view_of(2, sensor, wall));
+    std::vector<std::uint8_t> removed(edge.size());
+    f.classify(view_of(1, sensor, edge), removed);
+    return removed;
+  };
+  EXPECT_EQ(run(false), (std::vector<std::uint8_t>{1, 1}));
+  EXPECT_EQ(run(true), (std::vector<std::uint8_t>{0, 0}));
+}
+
 // ---- tracked -------------------------------------------------------------------------------------
 
 TeamState team_with(std::uint8_t id, Vec2 pos, double heading, double sigma_m, Vec2 vel = {0, 0}) {
@@ -227,6 +249,17 @@ TEST(TrackedFilter, APointInsideTheInflatedBoxGoesOneJustOutsideStays) {
   EXPECT_EQ(classify_tracked(o, team, pts), (std::vector<std::uint8_t>{1, 0, 1, 0}));
   // The robot's own body is not a teammate.
   EXPECT_EQ(classify_tracked(o, team, pts, 2), (std::vector<std::uint8_t>{0, 0, 0, 0}));
+}
+
+TEST(TrackedFilter, BelowTheLowBandOnlyTheBareFootprintCounts) {
+  TrackedOptions o;
+  o.sweep_s = 0.0;
+  const double sigma = 0.05;
+  const double inflated = expected_half_length(o, sigma), bare = o.half_length_m + o.margin_m;
+  ASSERT_GT(inflated - bare, 0.02);
+  const float x_between = static_cast<float>((inflated + bare) / 2.0), x_inside = static_cast<float>(bare - 0.005);
+  const std::vector<MapPoint> pts{{x_between, 0.0f, 0.2f}, {x_between, 0.0f, 0.005f}, {x_inside, 0.0f, 0.005f}, {x_inside, 0.0f, -0.01f}};
+  EXPECT_EQ(classify_tracked(o, team_with(2, {0, 0}, 0.0, sigma), pts), (std::vector<std::uint8_t>{1, 0, 1, 1}));
 }
 
 TEST(TrackedFilter, TheBoxTurnsWithTheHeadingAndGrowsWithTheCovariance) {
