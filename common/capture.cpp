@@ -135,8 +135,11 @@ Result<Capture> parse_capture(std::string_view text) {
         if (version != "1") return Error{"unsupported capture version", 0, line_no};
         saw_magic = true;
       } else if (key == "device") {
-        cap.device = device_kind_from_string(next_token(rest));
-        if (cap.device == DeviceKind::unknown) return Error{"unknown device kind in capture header", 0, line_no};
+        const std::string_view kind = next_token(rest);
+        cap.device = device_kind_from_string(kind);
+        // `unknown` is what format_capture writes for a capture of an unnamed device: accept it.
+        if (cap.device == DeviceKind::unknown && kind != "unknown")
+          return Error{"unknown device kind in capture header", 0, line_no};
       } else if (key == "baud") {
         CaptureRecord r;
         r.kind = CaptureRecord::Kind::baud;

@@ -16,6 +16,7 @@ class LmsPtyEmulator {
  public:
   // Creates the emulator and its pty (and the symlink `runner.link_path`, if given). `ranges` may be
   // null (a flat 3 m wall) and must outlive the emulator; it is called from the runner's thread.
+  // `options.pace_output` is ignored: the runner paces the line.
   [[nodiscard]] static Result<std::unique_ptr<LmsPtyEmulator>> create(const LmsEmulatorOptions& options,
                                                                       RangeSource* ranges,
                                                                       serial::PtyRunnerOptions runner = {});
@@ -39,7 +40,12 @@ class LmsPtyEmulator {
   [[nodiscard]] serial::PtyRunner& runner() { return *runner_; }
 
  private:
-  LmsPtyEmulator(const LmsEmulatorOptions& options, RangeSource* ranges) : emulator_{options, ranges} {}
+  LmsPtyEmulator(LmsEmulatorOptions options, RangeSource* ranges) : emulator_{unpaced(options), ranges} {}
+  // The runner paces the line at the device's rate; the emulator must not pace a second time.
+  static LmsEmulatorOptions unpaced(LmsEmulatorOptions o) {
+    o.pace_output = false;
+    return o;
+  }
   LmsEmulator emulator_;
   std::unique_ptr<serial::PtyRunner> runner_;
 };

@@ -39,6 +39,16 @@ void LmsParser::reset() {
   begin_ = end_ = 0;
 }
 
+// An ACK/NAK is a lone byte between telegrams: accepted when it is the last byte so far or is
+// followed by STX or another ACK/NAK. A 0x06/0x15 inside the remains of a broken telegram is
+// followed by anything else and counts as discarded, so corruption does not inflate the ACK count.
+bool LmsParser::is_handshake_at(std::size_t at) const {
+  if (!is_handshake(buffer_[at])) return false;
+  if (at + 1 >= end_) return true;
+  const std::uint8_t next = buffer_[at + 1];
+  return next == kStx || is_handshake(next);
+}
+
 // A byte at `at` can begin a telegram if it is STX and the next byte (if already here) is the address.
 bool LmsParser::may_start_telegram(std::size_t at) const {
   if (buffer_[at] != kStx) return false;
@@ -50,7 +60,7 @@ bool LmsParser::next(LmsEvent& event) {
     const std::uint8_t* p = buffer_.data() + begin_;
     const std::size_t avail = end_ - begin_;
 
-    if (is_handshake(p[0])) {
+    if (is_handshake_at(begin_)) {
       // ACK/NAK are single bytes between telegrams (§2.2); they cannot be checked further.
       event.kind = p[0] == kAck ? LmsEvent::Kind::ack : LmsEvent::Kind::nak;
       event.bytes = std::span{p, 1};
@@ -62,7 +72,7 @@ bool LmsParser::next(LmsEvent& event) {
     if (!may_start_telegram(begin_)) {
       // A run of bytes that cannot start anything: one garbage event for the run.
       std::size_t n = 1;
-      while (begin_ + n < end_ && !may_start_telegram(begin_ + n) && !is_handshake(buffer_[begin_ + n])) ++n;
+      while (begin_ + n < end_ && !may_start_telegram(begin_ + n) && !is_handshake_at(begin_ + n)) ++n;
       event.kind = LmsEvent::Kind::garbage;
       event.bytes = std::span{p, n};
       stats_.discarded_bytes += n;

@@ -65,6 +65,7 @@ class LmsParser {
     return direction_ == StreamDirection::from_device ? kAddressToHost : kAddressToLms;
   }
   [[nodiscard]] bool may_start_telegram(std::size_t at) const;
+  [[nodiscard]] bool is_handshake_at(std::size_t at) const;
   [[nodiscard]] bool is_handshake(std::uint8_t b) const {
     return direction_ == StreamDirection::from_device && (b == kAck || b == kNak);
   }

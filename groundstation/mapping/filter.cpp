@@ -6,6 +6,9 @@
 
 #include "common/dataset/dataset.hpp"
 #include "common/result.hpp"
+#include "groundstation/mapping/best.hpp"
+#include "groundstation/mapping/freespace_filter.hpp"
+#include "groundstation/mapping/tracked_filter.hpp"
 #include "onboard/core/direction_filter.hpp"
 
 namespace teamscan::mapping {
@@ -18,6 +21,18 @@ std::int32_t to_mm(double m) {
   if (!(mm > -2.0e9)) return -2'000'000'000;
   if (mm > 2.0e9) return 2'000'000'000;
   return static_cast<std::int32_t>(mm);
+}
+
+// The onboard filter's parameters from ours (the stale-team policy does not apply offline: the tracker
+// already marks a lost teammate invalid).
+onboard::DirectionFilterParams onboard_params(const DirectionOptions& o) {
+  onboard::DirectionFilterParams params;
+  params.half_angle_deg = rad_to_deg(o.half_angle_rad);
+  params.range_gate = o.range_gate;
+  params.range_gate_margin_m = o.range_gate_margin_m;
+  params.height_gate = o.height_gate;
+  params.height_gate_margin_m = o.height_gate_margin_m;
+  return params;
 }
 }  // namespace
 
@@ -69,12 +84,7 @@ FilterParams DirectionFilter::params() const {
 }
 
 bool DirectionFilter::cone_contains(Vec2 self_m, Vec2 other_m, const MapPoint& p) const {
-  onboard::DirectionFilterParams params;
-  params.half_angle_deg = rad_to_deg(options_.half_angle_rad);
-  params.range_gate = options_.range_gate;
-  params.range_gate_margin_m = options_.range_gate_margin_m;
-  params.height_gate = options_.height_gate;
-  params.height_gate_margin_m = options_.height_gate_margin_m;
+  const onboard::DirectionFilterParams params = onboard_params(options_);
   const onboard::Teammate mate{0, to_mm(other_m.x), to_mm(other_m.y), to_mm(options_.body_radius_m), to_mm(options_.height_m)};
   onboard::ConeFixed cone;
   if (!onboard::prepare_cone(to_mm(self_m.x), to_mm(self_m.y), mate, options_.half_angle_rad, params, cone)) return false;
@@ -91,12 +101,7 @@ void DirectionFilter::classify(const ScanView& scan, std::span<std::uint8_t> rem
     return;
   }
   if (!scan.team) return;
-  onboard::DirectionFilterParams params;
-  params.half_angle_deg = rad_to_deg(options_.half_angle_rad);
-  params.range_gate = options_.range_gate;
-  params.range_gate_margin_m = options_.range_gate_margin_m;
-  params.height_gate = options_.height_gate;
-  params.height_gate_margin_m = options_.height_gate_margin_m;
+  const onboard::DirectionFilterParams params = onboard_params(options_);
   const std::int32_t apex_x_mm = to_mm(scan.map_from_robot.x_m), apex_y_mm = to_mm(scan.map_from_robot.y_m);
   for (const RobotEstimate& other : scan.team->robots) {
     if (other.robot == scan.robot || !other.valid) continue;
@@ -162,7 +167,15 @@ const std::vector<std::string>& known_methods() {
   return methods;
 }
 
+const std::vector<std::string>& extended_methods() {
+  static const std::vector<std::string> methods{"freespace", "tracked", "best"};
+  return methods;
+}
+
 std::unique_ptr<Filter> make_filter(const std::string& method, const MethodOptions& options) {
+  if (method == "freespace") return std::make_unique<FreespaceFilter>(options.freespace);
+  if (method == "tracked") return std::make_unique<TrackedFilter>(options.tracked);
+  if (method == "best") return make_best(options);
   if (method == "frequency") return std::make_unique<FrequencyFilter>(options.frequency);
   if (method == "visibility") return std::make_unique<VisibilityFilter>(options.visibility);
   if (method == "position") return std::make_unique<PositionFilter>(options.position);

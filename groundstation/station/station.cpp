@@ -146,11 +146,10 @@ std::size_t Station::poll(Duration max_wait) {
   (void)dds_waitset_wait(dds_->waitset, triggered, 4, static_cast<dds_duration_t>(std::max<std::int64_t>(0, max_wait.count())));
   (void)dds_set_guardcondition(dds_->guard, false);
   const std::uint64_t before = counters_.scans + counters_.poses + counters_.statuses;
-  // One receive time for the batch: the moment we took it. Store first, then run the hooks.
-  const ReceiveTime at{now_realtime(), now_monotonic()};
-  take_poses(at);
-  take_statuses(at);
-  take_scans(at);
+  // Store first, then run the hooks. The receive time of a sample is when its dds_take returned.
+  take_poses();
+  take_statuses();
+  take_scans();
   handle_liveliness_events();
   check_silence(now_monotonic());
   return static_cast<std::size_t>(counters_.scans + counters_.poses + counters_.statuses - before);
@@ -205,13 +204,14 @@ void Station::set_lost(RobotRecord& r, bool lost, const std::string& why) {
   }
 }
 
-void Station::take_poses(const ReceiveTime& at) {
+void Station::take_poses() {
   Dds& d = *dds_;
   for (std::size_t i = 0; i < d.poses.size(); ++i) d.ptrs[i] = &d.poses[i];
   for (;;) {
     const int n = dds_take(d.readers[kPose], d.ptrs.data(), d.infos.data(), d.poses.size(),
                            static_cast<std::uint32_t>(d.poses.size()));
     if (n <= 0) break;
+    const ReceiveTime at{now_realtime(), now_monotonic()};
     for (int i = 0; i < n; ++i) {
       const auto k = static_cast<std::size_t>(i);
       const dds_sample_info_t& info = d.infos[k];
@@ -250,13 +250,14 @@ void Station::take_poses(const ReceiveTime& at) {
   }
 }
 
-void Station::take_statuses(const ReceiveTime& at) {
+void Station::take_statuses() {
   Dds& d = *dds_;
   for (std::size_t i = 0; i < d.statuses.size(); ++i) d.ptrs[i] = &d.statuses[i];
   for (;;) {
     const int n = dds_take(d.readers[kStatus], d.ptrs.data(), d.infos.data(), d.statuses.size(),
                            static_cast<std::uint32_t>(d.statuses.size()));
     if (n <= 0) break;
+    const ReceiveTime at{now_realtime(), now_monotonic()};
     for (int i = 0; i < n; ++i) {
       const auto k = static_cast<std::size_t>(i);
       if (!d.infos[k].valid_data) {
@@ -273,13 +274,14 @@ void Station::take_statuses(const ReceiveTime& at) {
   }
 }
 
-void Station::take_scans(const ReceiveTime& at) {
+void Station::take_scans() {
   Dds& d = *dds_;
   for (std::size_t i = 0; i < d.scans.size(); ++i) d.ptrs[i] = &d.scans[i];
   for (;;) {
     const int n = dds_take(d.readers[kScan], d.ptrs.data(), d.infos.data(), d.scans.size(),
                            static_cast<std::uint32_t>(d.scans.size()));
     if (n <= 0) break;
+    const ReceiveTime at{now_realtime(), now_monotonic()};
     for (int i = 0; i < n; ++i) {
       const auto k = static_cast<std::size_t>(i);
       if (!d.infos[k].valid_data) {

@@ -117,9 +117,9 @@ class Station {
     int not_alive_change;
   };
   Station(const StationOptions& options, SessionStore& store, TeamSource& team);
-  void take_scans(const ReceiveTime& at);
-  void take_poses(const ReceiveTime& at);
-  void take_statuses(const ReceiveTime& at);
+  void take_scans();
+  void take_poses();
+  void take_statuses();
   void handle_liveliness_events();
   RobotRecord* heard(std::uint32_t robot_id, int topic, std::uint64_t writer, std::uint64_t instance, Time now_mono);
   // An invalid sample (dispose / no writers) on `topic`: the robot whose instance it is goes lost.

@@ -67,17 +67,13 @@ class Reader {
   // Refuses keys that are not in `allowed` (a typo would otherwise silently keep a default).
   void only(const toml::table* t, const char* sect, std::initializer_list<const char*> allowed) {
     if (t == nullptr) return;
-    for (auto&& [k, v] : *t) {
-      const bool known = std::any_of(allowed.begin(), allowed.end(), [&](const char* a) { return k.str() == a; });
-      if (!known) fail(std::string(sect) + "." + std::string(k.str()), "unknown key", &v);
-    }
+    for (auto&& [k, v] : *t)
+      if (!listed(k.str(), allowed)) fail(std::string(sect) + "." + std::string(k.str()), "unknown key", &v);
   }
 
   void top_level(std::initializer_list<const char*> allowed) {
-    for (auto&& [k, v] : root_) {
-      const bool known = std::any_of(allowed.begin(), allowed.end(), [&](const char* a) { return k.str() == a; });
-      if (!known) fail(std::string(k.str()), "unknown section or key", &v);
-    }
+    for (auto&& [k, v] : root_)
+      if (!listed(k.str(), allowed)) fail(std::string(k.str()), "unknown section or key", &v);
   }
 
   bool number(const toml::table* t, const char* sect, const char* key, double& out, bool required) {
@@ -121,6 +117,12 @@ class Reader {
   const toml::node* node(const toml::table* t, const char* key) const { return t == nullptr ? nullptr : t->get(key); }
 
  private:
+  // (Not a lambda over the structured binding: clang 14, used by the fuzz preset, cannot capture one.)
+  static bool listed(std::string_view key, std::initializer_list<const char*> allowed) {
+    for (const char* a : allowed)
+      if (key == a) return true;
+    return false;
+  }
   static std::string name(const char* sect, const char* key) { return std::string(sect) + "." + key; }
   const toml::node* find(const toml::table* t, const char* sect, const char* key, bool required) {
     const toml::node* n = t == nullptr ? nullptr : t->get(key);
@@ -147,12 +149,82 @@ std::string fmt_double(double v) {
 }  // namespace
 
 Result<OnboardConfig> parse_onboard_config(std::string_view toml_text, std::string& message) {
-  toml::parse_result parsed = toml::parse(toml_text);
+  // TOML forbids control characters other than tab and line ends; refuse them here, before toml++:
+  // its 3.3 parser asserts (an assumption, in release builds) on a NUL inside a table header (found
+  // by tests/fuzz/onboard).
+  long line = 1;
+  for (const char ch : toml_text) {
+    const auto b = static_cast<unsigned char>(ch);
+    if (b == '\n') ++line;
+    if ((b < 0x20 && b != '\t' && b != '\n' && b != '\r') || b == 0x7F) {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "0x%02X", b);
+      message = "TOML syntax error at line " + std::to_string(line) + ": control character " + hex + " is not allowed";
+      return Error{"config: TOML syntax error", 0, line};
+    }
+  }
+  // Table headers: toml++ 3.3 also asserts when '[' or '[[' is followed by something that can start no
+  // key (e.g. "[!arcos]"); such a line is a syntax error anyway.
+  line = 1;
+  for (std::size_t i = 0; i < toml_text.size(); ++i) {
+    const bool line_start = i == 0 || toml_text[i - 1] == '\n';
+    if (toml_text[i] == '\n') ++line;
+    if (!line_start) continue;
+    std::size_t j = i;
+    while (j < toml_text.size() && (toml_text[j] == ' ' || toml_text[j] == '\t')) ++j;
+    if (j >= toml_text.size() || toml_text[j] != '[') continue;
+    ++j;
+    if (j < toml_text.size() && toml_text[j] == '[') ++j;
+    while (j < toml_text.size() && (toml_text[j] == ' ' || toml_text[j] == '\t')) ++j;
+    const char c = j < toml_text.size() ? toml_text[j] : '\n';
+    const bool key_start = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' ||
+                           c == '-' || c == '"' || c == '\'';
+    if (!key_start) {
+      message = "TOML syntax error at line " + std::to_string(line) + ": a table header must start with a key";
+      return Error{"config: TOML syntax error", 0, line};
+    }
+  }
+  // toml++ 3.3 reaches an "unreachable" branch when it classifies some non-ASCII characters (found by
+  // tests/fuzz/onboard), so it never sees one: non-ASCII bytes in comments (e.g. "°") become spaces in
+  // a copy; anywhere else they are refused (every key and value of this schema is ASCII).
+  std::string ascii{toml_text};
+  line = 1;
+  bool in_comment = false, in_basic = false, in_literal = false;
+  for (std::size_t i = 0; i < ascii.size(); ++i) {
+    const char ch = ascii[i];
+    if (ch == '\n') {
+      ++line;
+      in_comment = false;
+      continue;
+    }
+    if (static_cast<unsigned char>(ch) >= 0x80) {
+      if (in_comment) {
+        ascii[i] = ' ';
+        continue;
+      }
+      message = "TOML syntax error at line " + std::to_string(line) + ": non-ASCII character outside a comment";
+      return Error{"config: TOML syntax error", 0, line};
+    }
+    if (in_comment) continue;
+    if (in_basic) {
+      if (ch == '\\' && i + 1 < ascii.size() && (ascii[i + 1] == '"' || ascii[i + 1] == '\\')) ++i;  // \" \\ stay in
+      else if (ch == '"') in_basic = false;
+      continue;
+    }
+    if (in_literal) {
+      if (ch == '\'') in_literal = false;
+      continue;
+    }
+    if (ch == '#') in_comment = true;
+    else if (ch == '"') in_basic = true;
+    else if (ch == '\'') in_literal = true;
+  }
+  toml::parse_result parsed = toml::parse(std::string_view{ascii});
   if (!parsed) {
     const toml::parse_error& e = parsed.error();
-    const long line = static_cast<long>(e.source().begin.line);
-    message = "TOML syntax error at line " + std::to_string(line) + ": " + std::string(e.description());
-    return Error{"config: TOML syntax error", 0, line};
+    const long error_line = static_cast<long>(e.source().begin.line);
+    message = "TOML syntax error at line " + std::to_string(error_line) + ": " + std::string(e.description());
+    return Error{"config: TOML syntax error", 0, error_line};
   }
   const toml::table& root = parsed.table();
   Reader r{root, message};

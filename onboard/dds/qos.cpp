@@ -26,7 +26,7 @@ dds_qos_t* make_state_writer_qos(Duration liveliness_lease, Duration max_blockin
 
 dds_qos_t* make_state_reader_qos() {
   dds_qos_t* q = reliable(std::chrono::milliseconds(100));
-  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
   dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
   return q;
 }

@@ -11,8 +11,9 @@
 
 namespace teamscan::onboard {
 
-// Per-robot state topics (pose, status): reliable, keep-last 1, transient-local so that a ground station
-// that (re)starts gets each robot's latest value at once.
+// Per-robot state topics (pose, status): the writer is reliable, keep-last 1, transient-local, so a
+// ground station that (re)starts gets each robot's latest value at once. The reader keeps all: the
+// station stores every pose it is sent, even when two arrive between its takes.
 [[nodiscard]] dds_qos_t* make_state_writer_qos(Duration liveliness_lease, Duration max_blocking);
 [[nodiscard]] dds_qos_t* make_state_reader_qos();
 

@@ -29,6 +29,10 @@
 #include "drivers/arcos/emulator.hpp"
 #include "drivers/lms200/emulator.hpp"
 #include "drivers/serial/pty_runner.hpp"
+#include "onboard/dds/bridge.hpp"
+#include "onboard/dds/qos.hpp"
+#include "teamscan.h"
+#include "tests/support/dds_test_subscriber.hpp"
 
 namespace teamscan {
 namespace {
@@ -196,6 +200,8 @@ TEST(OnboardDaemonProcess, CheckConfigAcceptsTheExamplesAndRefusesBadFiles) {
 TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
   TempDir dir;
   const fs::path arcos_link = dir.path / "ttyArcos", lms_link = dir.path / "ttyLms";
+  // A DDS domain of its own: other tests on this host publish teamscan/team.
+  const auto domain = static_cast<dds_domainid_t>(100 + ::getpid() % 100);
 
   arcos::PioneerEmulator pioneer;
   Muteable pioneer_line{pioneer};
@@ -218,8 +224,13 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
                                            << "fov_deg = 180\nresolution_deg = 0.5\n"
                                            << "[mount]\nx_m = 0.16\ny_m = 0\nz_m = 0.45\npitch_deg = 15\n"
                                            << "[status]\nperiod_s = 0.2\n"
-                                           // A DDS domain of its own: other tests on this host publish teamscan/team.
-                                           << "[dds]\ndomain = " << 100 + ::getpid() % 100 << "\n";
+                                           << "[dds]\ndomain = " << domain << "\n";
+  // A ground station's scan reader on the daemon's domain (loopback config from ctest).
+  dds_qos_t* scan_qos = onboard::make_scan_reader_qos();
+  test::DdsTestSubscriber<teamscan_msg_ScanPoints> scans_sub{&teamscan_msg_ScanPoints_desc, onboard::kTopicScan, scan_qos,
+                                                             64, domain};
+  dds_delete_qos(scan_qos);
+  ASSERT_TRUE(scans_sub.ok());
   NotifySocket notify{dir.path / "notify.sock"};
   ASSERT_TRUE(notify.bound());
   const pid_t pid = spawn({daemon_path(), "--config", (dir.path / "onboard.toml").string()},
@@ -233,6 +244,20 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
   long scans = 0;
   ASSERT_TRUE(notify.wait_for([&](const std::string& m) { return (scans = scans_in(m)) > 20; }, std::chrono::seconds(10)))
       << log_text();
+  // The scans reach a DDS reader: this robot, full 0.5° sweeps, the laser 0.45 m up, in order.
+  {
+    std::vector<teamscan_msg_ScanPoints> got;
+    ASSERT_TRUE(scans_sub.wait_matched(1, std::chrono::seconds(10)));
+    ASSERT_TRUE(scans_sub.take_until(got, 10, std::chrono::seconds(10))) << got.size();
+    for (std::size_t i = 0; i < got.size(); ++i) {
+      EXPECT_EQ(got[i].robot_id, 4u);
+      EXPECT_EQ(got[i].count, 361);
+      EXPECT_EQ(got[i].origin_z_mm, 450);
+      if (i > 0) {
+        EXPECT_GT(got[i].seq, got[i - 1].seq);
+      }
+    }
+  }
   // The watchdog is pinged from the loop at half of WATCHDOG_USEC.
   int pings = 0;
   notify.wait_for([&](const std::string& m) { return m == "WATCHDOG=1" && ++pings >= 3; }, std::chrono::seconds(3));

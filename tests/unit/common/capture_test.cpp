@@ -53,6 +53,7 @@ TEST(Capture, RejectsMalformedInputNamingTheLine) {
       {"1 rx 00\n", 1},                                         // no magic
       {"#teamscan-capture 2\n", 1},                             // version
       {"#teamscan-capture 1\n#device toaster\n", 2},            // device
+      {"#teamscan-capture 1\n#device\n", 2},                     // device missing
       {"#teamscan-capture 1\n12 up 00\n", 2},                   // direction
       {"#teamscan-capture 1\n12 rx 0G\n", 2},                   // hex
       {"#teamscan-capture 1\n12 rx 001\n", 2},                  // hex width
@@ -68,5 +69,18 @@ TEST(Capture, RejectsMalformedInputNamingTheLine) {
   EXPECT_FALSE(load_capture("/nonexistent/x.cap").ok());
 }
 
+}  // namespace
+}  // namespace teamscan
+
+namespace teamscan {
+namespace {
+TEST(Capture, UnknownDeviceRoundTrips) {
+  Capture cap;
+  cap.records.push_back({CaptureRecord::Kind::chunk, 5, CaptureDirection::rx, 0, {0x01}});
+  const auto back = parse_capture(format_capture(cap));
+  ASSERT_TRUE(back.ok()) << back.error().what;
+  EXPECT_EQ(back->device, DeviceKind::unknown);
+  EXPECT_EQ(back->records.size(), 1u);
+}
 }  // namespace
 }  // namespace teamscan

@@ -59,9 +59,9 @@ TEST(LmsParser, HostDirectionHuntsTwoZero) {
   EXPECT_EQ(run(host, l1).telegrams.size(), 1u);
   LmsParser device{StreamDirection::from_device};
   EXPECT_EQ(run(device, l1).telegrams.size(), 0u);  // 02 00 is not a reply header
-  // Its CRC byte 0x15 reads as a lone NAK in the device direction; the other six are discarded.
-  EXPECT_EQ(device.statistics().discarded_bytes, l1.size() - 1);
-  EXPECT_EQ(device.statistics().naks, 1u);
+  // Its CRC byte 0x15 is followed by 0x12, so it is no lone NAK either: all seven are discarded.
+  EXPECT_EQ(device.statistics().discarded_bytes, l1.size());
+  EXPECT_EQ(device.statistics().naks, 0u);
 }
 
 TEST(LmsParser, GarbageBeforeAndBetweenIsCountedAsOneRun) {
@@ -107,6 +107,15 @@ TEST(LmsParser, LoneAckAndNakBetweenTelegrams) {
                                                   LmsEvent::Kind::nak, LmsEvent::Kind::ack}));
   EXPECT_EQ(p.statistics().acks, 2u);
   EXPECT_EQ(p.statistics().naks, 1u);
+}
+
+TEST(LmsParser, HandshakeBytesInsideGarbageAreNotAcks) {
+  LmsParser p;
+  const auto c = run(p, hex("77 06 77 15 33 06 02 80 03 00 A0 00 10 16 0A"));
+  EXPECT_EQ(c.kinds, (std::vector<LmsEvent::Kind>{LmsEvent::Kind::garbage, LmsEvent::Kind::ack, LmsEvent::Kind::telegram}));
+  EXPECT_EQ(p.statistics().acks, 1u);
+  EXPECT_EQ(p.statistics().naks, 0u);
+  EXPECT_EQ(p.statistics().discarded_bytes, 5u);
 }
 
 TEST(LmsParser, MaximalScanTelegramFitsAfterAPartialOne) {

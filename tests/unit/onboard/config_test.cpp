@@ -135,6 +135,33 @@ TEST(OnboardConfig, SyntaxErrorGivesTheLine) {
   EXPECT_NE(msg.find("line 3"), std::string::npos) << msg;
 }
 
+TEST(OnboardConfig, ControlCharactersAreRefused) {
+  std::string msg;
+  const std::string text = std::string("[robot]\nid = 1\n[") + '\0' + "arcos]\n";
+  const auto c = parse_onboard_config(text, msg);
+  ASSERT_FALSE(c.ok());
+  EXPECT_EQ(c.error().detail, 3);
+  EXPECT_NE(msg.find("control character 0x00"), std::string::npos) << msg;
+}
+
+TEST(OnboardConfig, BadTableHeaderIsASyntaxError) {
+  std::string msg;
+  const auto c = parse_onboard_config("[robot]\nid = 1\n  [ !arcos]\n", msg);
+  ASSERT_FALSE(c.ok());
+  EXPECT_EQ(c.error().detail, 3);
+  EXPECT_NE(msg.find("line 3"), std::string::npos) << msg;
+}
+
+TEST(OnboardConfig, NonAsciiOnlyInComments) {
+  std::string msg;
+  std::string text = kMinimal;
+  text += "# 60\xC2\xB0 at most\n[filter]\nhalf_angle_deg = 7 # 7\xC2\xB0\n";
+  EXPECT_TRUE(parse_onboard_config(text, msg).ok()) << msg;
+  const auto c = parse_onboard_config("[robot]\nid = \"\xC3\x9D\"\n", msg);
+  ASSERT_FALSE(c.ok());
+  EXPECT_NE(msg.find("line 2: non-ASCII"), std::string::npos) << msg;
+}
+
 TEST(OnboardConfig, RangeErrorsPointAtTheirLine) {
   std::string msg;
   std::string text = kMinimal;

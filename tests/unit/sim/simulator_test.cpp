@@ -214,7 +214,19 @@ TEST(Determinism, SameSeedGivesByteIdenticalFiles) {
   Scenario sc = load("team3");
   SimOptions o;
   o.duration_s = 4.0;
-  for (const char* run : {"a", "b"}) ASSERT_TRUE(write_dataset((base / run).string(), simulate(sc, o).dataset).ok());
+  std::vector<std::string> captures[2];
+  int k = 0;
+  for (const char* run : {"a", "b"}) {
+    const SimOutput out = simulate(sc, o);
+    ASSERT_TRUE(write_dataset((base / run).string(), out.dataset).ok());
+    for (const RobotCaptures& c : out.captures) {
+      captures[k].push_back(format_capture(c.arcos));
+      captures[k].push_back(format_capture(c.lms200));
+    }
+    ++k;
+  }
+  ASSERT_EQ(captures[0].size(), 6u);  // three robots, two devices each
+  EXPECT_TRUE(captures[0] == captures[1]) << "captures differ between two runs with the same seed";
   for (const char* f : {"dataset.toml", "points.pcd", "scans.csv", "truth.csv", "odom.csv"}) {
     const std::string a = slurp(base / "a" / f), b = slurp(base / "b" / f);
     EXPECT_FALSE(a.empty()) << f;
