@@ -69,6 +69,10 @@ int main(int argc, char** argv) {
     std::printf("session_root = %s\nscan_history_depth = %u\nteam_rate_hz = %.3f\nsilence_timeout_s = %.3f\n",
                 cfg.session_root.c_str(), cfg.station.scan_history_depth, 1.0 / to_seconds(cfg.station.team_period),
                 to_seconds(cfg.station.silence_timeout));
+    std::printf("fusion.enabled = %s\nfusion.method = %s\nfusion.resolution_m = %.3f\nfusion.half_angle_deg = %.3f\n"
+                "fusion.write_interval_s = %.3f\nfusion.map_interval_s = %.3f\n",
+                cfg.fusion.enabled ? "true" : "false", cfg.fusion.method.c_str(), cfg.fusion.resolution_m,
+                cfg.fusion.half_angle_deg, to_seconds(cfg.fusion.write_interval), to_seconds(cfg.fusion.map_interval));
     return 0;
   }
 
