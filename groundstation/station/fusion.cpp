@@ -176,7 +176,31 @@ Status write_atomically(const std::string& path, const PcdCloud& cloud, const st
 
 }  // namespace
 
+void FusionStage::refresh_scan_poses() {
+  for (ScanRecord& r : received_.scans) {
+    r.pose = own_pose(r.robot, r.stamp_ns, r.origin.x, r.origin.y);
+    r.true_pose = r.pose;
+  }
+}
+
+Status FusionStage::write_received_dataset(const std::string& dir) {
+  refresh_scan_poses();
+  received_.truth = received_.odom;  // no ground truth at the station: the odometry stands in
+  received_.robots.clear();
+  for (std::uint32_t id = 1; id <= kMaxRobots; ++id) {
+    if (poses_by_robot_[id].empty()) continue;
+    DatasetRobot r;
+    r.id = static_cast<std::uint8_t>(id);
+    r.name = "robot" + std::to_string(id);
+    received_.robots.push_back(r);
+  }
+  Status st = write_dataset(dir, received_);
+  received_.truth.clear();
+  return st;
+}
+
 Status FusionStage::write_model() {
+  refresh_scan_poses();
   const mapping::PreparedDataset prepared = mapping::prepare_dataset(received_, options_.tracker);
   std::unique_ptr<mapping::Filter> filter = mapping::make_filter(options_.method, options_.methods);
   last_removed_ = mapping::run_offline(prepared, *filter);

@@ -33,6 +33,8 @@ struct FusionOptions {
   // File names inside the session folder. `all_points_pcd` empty: not written.
   std::string kept_pcd = "fused.pcd";
   std::string all_points_pcd;
+  // Sub-folder of the session written on shutdown with everything received as a data set; empty: none.
+  std::string received_dataset = "received";
 };
 
 struct FusionCounters {
@@ -69,6 +71,9 @@ class FusionStage {
   // received scan and writes the kept points (and optionally all points with a `keep` field) as
   // binary PCD: written to NAME.tmp, then rename(2), so a reader never sees a half file.
   [[nodiscard]] Status write_model();
+  // Writes everything received as a data set folder (common/dataset: points.pcd, scans.csv, odom.csv,
+  // ...; no labels), so `teamscan eval DIR --method M` reproduces the fused model's decisions offline.
+  [[nodiscard]] Status write_received_dataset(const std::string& dir);
   // Removed flags of the last write_model(), in received().points order.
   [[nodiscard]] const std::vector<std::uint8_t>& last_removed() const { return last_removed_; }
 
@@ -86,6 +91,8 @@ class FusionStage {
   FusionStage(const FusionOptions& options, std::string session_dir, std::unique_ptr<mapping::Filter> live);
   // The robot's own pose at `stamp_ns`: its newest received pose stamped at or before the scan, moved
   // on with its velocity; else its newest pose; else the scan origin.
+  // Recomputes every scan's own pose from all poses received so far (a pose may arrive after its scan).
+  void refresh_scan_poses();
   [[nodiscard]] Pose2 own_pose(std::uint32_t robot, std::int64_t stamp_ns, double origin_x_m, double origin_y_m) const;
 
   FusionOptions options_;

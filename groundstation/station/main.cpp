@@ -197,5 +197,12 @@ int main(int argc, char** argv) {
   station.value().reset();  // leave DDS before closing the files
   store->sync();  // the session is complete on disk before the (longer) final fusion pass
   write_model("shutdown");
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+  if (fusion && !fusion->options().received_dataset.empty()) {
+    const std::string dir = store->dir() + "/" + fusion->options().received_dataset;
+    const Status w = fusion->write_received_dataset(dir);
+    if (!w.ok()) log(kErr, std::string("fusion: received data set: ") + w.error().what);
+  }
+#endif
   return 0;
 }

@@ -229,6 +229,21 @@ TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
   ASSERT_TRUE(fused.ok());
   EXPECT_EQ(fused->size(), kept);
   EXPECT_FALSE(std::filesystem::exists(session + "/fused.pcd.tmp"));
+
+  // The session's received/ data set (what `teamscan eval SESSION/received` reads) gives the same
+  // decisions through the evaluation code.
+  auto received = read_dataset(session + "/received");
+  ASSERT_TRUE(received.ok()) << received.error().what;
+  ASSERT_EQ(received->points.size(), wire.points.size());
+  const mapping::PreparedDataset prepared_received = mapping::prepare_dataset(received.value(), tracker);
+  const std::vector<std::uint8_t> removed_received = mapping::run_offline(prepared_received, *filter);
+  std::size_t received_mismatches = 0;
+  for (std::size_t i = 0; i < received->points.size(); ++i) {
+    const LabelledPoint& p = received->points[i];
+    const int expect_keep = removed_received[i] ? 0 : 1;
+    if (keep.at({p.robot, static_cast<int>(p.scan), p.beam}) != expect_keep) ++received_mismatches;
+  }
+  EXPECT_EQ(received_mismatches, 0u);
   std::filesystem::remove_all(root);
 }
 
