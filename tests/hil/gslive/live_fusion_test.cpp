@@ -5,6 +5,8 @@
 // teamscan/team topic carries the Kalman tracker's estimates of the poses it was sent.
 #include <gtest/gtest.h>
 
+#include <dds/dds.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -19,6 +21,8 @@
 #include "groundstation/mapping/evaluation.hpp"
 #include "groundstation/mapping/filter.hpp"
 #include "onboard/dds/bridge.hpp"
+#include "onboard/dds/qos.hpp"
+#include "teamscan.h"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 #include "tests/hil/station/process.hpp"
 #include "tests/support/test_domain.hpp"
@@ -64,12 +68,21 @@ Dataset as_received(const Dataset& d) {
   return q;
 }
 
+std::size_t csv_rows(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::size_t n = 0;
+  while (std::getline(in, line))
+    if (!line.empty() && line[0] != '#' && line.rfind("recv", 0) != 0 && line.rfind("robot", 0) != 0) ++n;
+  return n;
+}
+
 struct Robots {
   std::vector<onboard::DdsBridge> bridges;
 };
 
 // Publishes the survey in time order: each robot's odometry pose at the stamp, then its scan.
-void publish_survey(Robots& robots, const Dataset& d) {
+void publish_survey(Robots& robots, const Dataset& d, const std::string& poses_csv) {
   static onboard::OnboardScan scan;
   std::map<std::pair<std::uint8_t, std::uint32_t>, std::vector<const LabelledPoint*>> points;
   for (const LabelledPoint& p : d.points) points[{p.robot, p.scan}].push_back(&p);
@@ -91,8 +104,11 @@ void publish_survey(Robots& robots, const Dataset& d) {
       pose.vy_mmps = mm(s.v_mps * std::sin(s.pose.theta_rad));
       pose.yaw_rate_mradps = mm(s.w_radps);
       ASSERT_TRUE(robots.bridges[s.robot - 1u].publish_pose(pose).ok());
-      // teamscan/pose is keep-last 1: give the station time to take each pose before the next.
-      std::this_thread::sleep_for(4ms);
+      // teamscan/pose is keep-last 1: wait until the station has stored this pose before sending the
+      // next, so a loaded machine cannot make the station miss one (bounded: 10 s per pose).
+      const auto deadline = std::chrono::steady_clock::now() + 10s;
+      while (csv_rows(poses_csv) < next_odom && std::chrono::steady_clock::now() < deadline)
+        std::this_thread::sleep_for(1ms);
     }
     scan.robot_id = r.robot;
     scan.seq = r.scan + 1;  // onboard seq counts from 1
@@ -109,14 +125,49 @@ void publish_survey(Robots& robots, const Dataset& d) {
   for (auto& b : robots.bridges) ASSERT_TRUE(b.wait_for_scan_acks(from_seconds(20.0)).ok());
 }
 
-std::size_t csv_rows(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::size_t n = 0;
-  while (std::getline(in, line))
-    if (!line.empty() && line[0] != '#' && line.rfind("recv", 0) != 0 && line.rfind("robot", 0) != 0) ++n;
-  return n;
-}
+// A teamscan/map viewer: keeps the newest update's totals (the sequence is loaned, so it is summed
+// here rather than copied).
+class MapViewer {
+ public:
+  MapViewer() {
+    participant_ = dds_create_participant(test::test_domain_id(), nullptr, nullptr);
+    const dds_entity_t topic = dds_create_topic(participant_, &teamscan_msg_MapUpdate_desc, onboard::kTopicMap, nullptr, nullptr);
+    dds_qos_t* q = onboard::make_map_qos();
+    reader_ = dds_create_reader(participant_, topic, q, nullptr);
+    dds_delete_qos(q);
+  }
+  ~MapViewer() { (void)dds_delete(participant_); }
+  MapViewer(const MapViewer&) = delete;
+  MapViewer& operator=(const MapViewer&) = delete;
+  // Takes everything available; returns true if an update arrived.
+  bool take() {
+    void* samples[8] = {};
+    dds_sample_info_t infos[8];
+    const int n = dds_take(reader_, samples, infos, 8, 8);
+    bool got = false;
+    for (int i = 0; i < n; ++i) {
+      if (!infos[i].valid_data) continue;
+      const auto* m = static_cast<const teamscan_msg_MapUpdate*>(samples[i]);
+      got = true;
+      resolution_mm = m->resolution_mm;
+      total_voxels = m->total_voxels;
+      voxels = m->voxels._length;
+      hits = flagged = 0;
+      for (std::uint32_t k = 0; k < m->voxels._length; ++k) {
+        hits += m->voxels._buffer[k].hits;
+        flagged += m->voxels._buffer[k].flags;
+      }
+    }
+    if (n > 0) (void)dds_return_loan(reader_, samples, n);
+    return got;
+  }
+  std::uint32_t resolution_mm = 0, total_voxels = 0, voxels = 0;
+  std::uint64_t hits = 0, flagged = 0;
+
+ private:
+  dds_entity_t participant_ = -1;
+  dds_entity_t reader_ = -1;
+};
 
 class LiveFusion : public ::testing::TestWithParam<const char*> {};
 
@@ -136,6 +187,7 @@ TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
   const Dataset survey = make_survey(base_ns);
   const Dataset wire = as_received(survey);
 
+  MapViewer viewer;
   Robots robots;
   for (std::uint32_t id : {1u, 2u}) {
     onboard::DdsBridgeOptions o;
@@ -153,7 +205,7 @@ TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
     ASSERT_EQ(b.scan_subscribers(), 1u);
   }
   std::this_thread::sleep_for(200ms);  // pose reader matched too
-  publish_survey(robots, survey);
+  publish_survey(robots, survey, session + "/poses.csv");
 
   // teamscan/team: every robot's estimate equals the tracker fed with the same poses, predicted to valid_ns.
   mapping::TrackerOptions tracker;
@@ -185,7 +237,17 @@ TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
     EXPECT_GT(m.length_mm, 0);
   }
 
-  std::this_thread::sleep_for(700ms);  // one teamscan/map publication at least
+  // teamscan/map: an update after the last scan accounts for every point (map_interval_s = 0.5).
+  bool map_complete = false;
+  const auto map_deadline = std::chrono::steady_clock::now() + 10s;
+  while (!map_complete && std::chrono::steady_clock::now() < map_deadline) {
+    if (viewer.take() && viewer.hits == wire.points.size()) map_complete = true;
+    std::this_thread::sleep_for(20ms);
+  }
+  EXPECT_TRUE(map_complete) << "last map update: " << viewer.hits << " hits of " << wire.points.size();
+  EXPECT_EQ(viewer.resolution_mm, 100u);
+  EXPECT_EQ(viewer.total_voxels, viewer.voxels);
+  EXPECT_GT(viewer.voxels, 0u);
   gs.signal(SIGTERM);
   const auto st = gs.wait(30s);
   ASSERT_TRUE(st.has_value());
