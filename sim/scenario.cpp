@@ -184,13 +184,15 @@ void read_track(const Reader& r, TrackSpec& t) {
 }
 
 void read_robot(const Reader& r, RobotSpec& robot, std::size_t index) {
-  r.only({"id", "name", "role", "subclass", "speed_mps", "laps", "start_offset_m", "start_phase", "start_s", "pauses",
+  r.only({"id", "name", "role", "subclass", "speed_mps", "accel_mps2", "laps", "start_offset_m", "start_phase", "start_s", "pauses",
           "arcos_baud", "sip_cycle_ms", "scan_phase_ms", "track", "laser", "odometry"});
   robot.id = static_cast<std::uint8_t>(r.integer("id", static_cast<std::int64_t>(index + 1), 1, 32));
   robot.name = r.string("name", "robot" + std::to_string(robot.id));
   robot.role = r.string("role", "down-laser");
   robot.subclass = r.string("subclass", "p3at-sh", {"p3at", "p3at-sh"});
   robot.speed_mps = r.number("speed_mps", 0.3, 0.0, 1.2);  // MaxVelocity 1200 mm/s (§1.11)
+  // ARIA's p3at TransAccel is 300 mm/s²; 0 gives instant starts and stops.
+  robot.accel_mps2 = r.number("accel_mps2", 0.3, 0.0, 10.0);
   robot.laps = r.number("laps", 2.0, 0.0, 1000.0);
   robot.start_offset_m = r.number("start_offset_m", 0.0, -1e4, 1e4);
   if (r.has("start_phase")) {

@@ -43,6 +43,7 @@ struct RobotSpec {
   std::string subclass = "p3at-sh";
   TrackSpec track;
   double speed_mps = 0.3;
+  double accel_mps2 = 0.3;               // speed ramps at starts and stops; 0 = instant
   double laps = 2.0;
   double start_offset_m = 0;             // from `start_offset_m` or `start_phase` × track length
   std::optional<double> start_phase;     // fraction of the track length, resolved after the track is built

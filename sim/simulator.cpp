@@ -54,7 +54,7 @@ TeamWorld::TeamWorld(const Scenario& scenario) : world_{Room{scenario.room_m}}, 
     const double length = track.length_m();
     const double offset = r.start_phase ? *r.start_phase * length : r.start_offset_m;
     const double distance = track.closed() ? r.laps * length : length;
-    motions_.emplace_back(std::move(track), r.speed_mps, offset, distance, r.start_s, r.pauses);
+    motions_.emplace_back(std::move(track), r.speed_mps, offset, distance, r.start_s, r.pauses, r.accel_mps2);
   }
 }
 

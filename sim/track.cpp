@@ -126,40 +126,99 @@ Pose2 Track::pose_at(double s_m) const {
 }
 
 Motion::Motion(Track track, double speed_mps, double start_offset_m, double distance_m, double start_s,
-               std::vector<Pause> pauses)
+               std::vector<Pause> pauses, double accel_mps2)
     : track_{std::move(track)},
       speed_mps_{speed_mps},
       start_offset_m_{start_offset_m},
       distance_m_{distance_m},
       start_s_{start_s},
+      accel_mps2_{accel_mps2},
       pauses_{std::move(pauses)} {
   std::sort(pauses_.begin(), pauses_.end(), [](const Pause& a, const Pause& b) { return a.at_s < b.at_s; });
-  // Finish time: driving time plus every pause that starts before the robot is done.
-  double finish = start_s_ + (speed_mps_ > 0 ? distance_m_ / speed_mps_ : 0.0);
+  finish_s_ = start_s_;
+  if (speed_mps_ <= 0 || distance_m_ <= 0) return;
+  // Drives between the pauses until the distance is done; the last drive is cut to what remains.
+  double remaining = distance_m_;
+  double from = start_s_;
+  auto last_drive = [&](double from_s) {
+    // Length L of a drive that covers `remaining`: trapezoid V·(L − τ) if long enough, else a
+    // triangle a·L²/4 (τ = V / a; a = 0 means τ = 0).
+    const double tau = accel_mps2_ > 0 ? speed_mps_ / accel_mps2_ : 0.0;
+    const double length = remaining >= speed_mps_ * tau ? remaining / speed_mps_ + tau : 2.0 * std::sqrt(remaining / accel_mps2_);
+    Drive d = make_drive(from_s, from_s + length);
+    d.distance_m = remaining;  // exact, not the rounded area
+    drives_.push_back(d);
+    finish_s_ = d.to_s;
+  };
   for (const Pause& p : pauses_) {
-    if (p.at_s < finish && p.at_s + p.for_s > start_s_) finish += p.for_s - std::max(0.0, start_s_ - p.at_s);
+    const double pause_end = p.at_s + p.for_s;
+    if (pause_end <= from) continue;
+    if (p.at_s > from) {
+      const Drive d = make_drive(from, p.at_s);
+      if (d.distance_m >= remaining) {
+        last_drive(from);
+        return;
+      }
+      drives_.push_back(d);
+      remaining -= d.distance_m;
+    }
+    from = std::max(from, pause_end);
   }
-  finish_s_ = finish;
+  last_drive(from);
 }
 
-double Motion::moving_time(double t_s) const {
-  double moving = t_s - start_s_;
-  if (moving <= 0) return 0;
-  for (const Pause& p : pauses_) {
-    const double from = std::max(p.at_s, start_s_), to = std::min(p.at_s + p.for_s, t_s);
-    if (to > from) moving -= to - from;
-  }
-  return std::max(moving, 0.0);
+Motion::Drive Motion::make_drive(double from_s, double to_s) const {
+  Drive d;
+  d.from_s = from_s;
+  d.to_s = to_s;
+  const double length = to_s - from_s;
+  d.ramp_s = accel_mps2_ > 0 ? std::min(speed_mps_ / accel_mps2_, 0.5 * length) : 0.0;
+  const double peak = accel_mps2_ > 0 ? accel_mps2_ * d.ramp_s : speed_mps_;
+  d.distance_m = peak * (length - d.ramp_s);  // two ramps of area peak·ramp/2 plus the plateau
+  return d;
 }
 
-double Motion::distance_at(double t_s) const { return std::min(moving_time(t_s) * speed_mps_, distance_m_); }
-
-bool Motion::moving_at(double t_s) const {
-  if (t_s < start_s_ || t_s >= finish_s_) return false;
-  for (const Pause& p : pauses_) {
-    if (t_s >= p.at_s && t_s < p.at_s + p.for_s) return false;
+double Motion::driven_in(const Drive& d, double t_s) const {
+  const double u = std::clamp(t_s - d.from_s, 0.0, d.to_s - d.from_s);
+  const double length = d.to_s - d.from_s, r = d.ramp_s;
+  const double peak = accel_mps2_ > 0 ? accel_mps2_ * r : speed_mps_;
+  double s;
+  if (u <= r) {
+    s = 0.5 * accel_mps2_ * u * u;
+  } else if (u <= length - r) {
+    s = 0.5 * peak * r + peak * (u - r);
+  } else {
+    const double left = length - u;
+    s = peak * (length - r) - 0.5 * accel_mps2_ * left * left;
   }
-  return true;
+  return std::min(s, d.distance_m);
+}
+
+double Motion::speed_in(const Drive& d, double t_s) const {
+  const double u = t_s - d.from_s, length = d.to_s - d.from_s, r = d.ramp_s;
+  if (u < 0 || u >= length) return 0.0;
+  if (accel_mps2_ <= 0) return speed_mps_;
+  if (u < r) return accel_mps2_ * u;
+  if (u > length - r) return accel_mps2_ * (length - u);
+  return accel_mps2_ * r;
+}
+
+double Motion::distance_at(double t_s) const {
+  double s = 0;
+  for (const Drive& d : drives_) {
+    if (t_s <= d.from_s) break;
+    s += t_s >= d.to_s ? d.distance_m : driven_in(d, t_s);
+  }
+  return std::min(s, distance_m_);
+}
+
+bool Motion::moving_at(double t_s) const { return speed_at(t_s) > 0.0; }
+
+double Motion::speed_at(double t_s) const {
+  for (const Drive& d : drives_) {
+    if (t_s >= d.from_s && t_s < d.to_s) return speed_in(d, t_s);
+  }
+  return 0.0;
 }
 
 double Motion::yaw_rate_at(double t_s) const {

@@ -55,12 +55,14 @@ struct Pause {
   double for_s = 0;
 };
 
-// Constant-speed motion along a track: starts `start_offset_m` along it at `start_s`, drives
-// `distance_m` (e.g. laps × length), stops during pauses and at the end.
+// Motion along a track: starts `start_offset_m` along it at `start_s`, drives `distance_m` (e.g.
+// laps × length) at `speed_mps`, stops during pauses and at the end. With `accel_mps2` > 0 every start
+// and stop is a linear speed ramp (trapezoidal profile, triangular if a drive is too short), so the
+// speed is continuous; 0 = instant starts and stops.
 class Motion {
  public:
   Motion(Track track, double speed_mps, double start_offset_m, double distance_m, double start_s,
-         std::vector<Pause> pauses);
+         std::vector<Pause> pauses, double accel_mps2 = 0.0);
 
   [[nodiscard]] const Track& track() const { return track_; }
   // Distance driven by time t (seconds from the start of the run).
@@ -68,17 +70,24 @@ class Motion {
   [[nodiscard]] Pose2 pose_at(double t_s) const { return track_.pose_at(start_offset_m_ + distance_at(t_s)); }
   [[nodiscard]] bool moving_at(double t_s) const;
   // Forward speed and yaw rate at t (the yaw rate by a central difference of the heading).
-  [[nodiscard]] double speed_at(double t_s) const { return moving_at(t_s) ? speed_mps_ : 0.0; }
+  [[nodiscard]] double speed_at(double t_s) const;
   [[nodiscard]] double yaw_rate_at(double t_s) const;
   // Time at which the robot has driven its whole distance.
   [[nodiscard]] double finish_s() const { return finish_s_; }
 
  private:
-  [[nodiscard]] double moving_time(double t_s) const;
+  // One drive between stops: [from_s, to_s), ramps of `ramp_s` at both ends, `distance_m` driven.
+  struct Drive {
+    double from_s = 0, to_s = 0, ramp_s = 0, distance_m = 0;
+  };
+  [[nodiscard]] Drive make_drive(double from_s, double to_s) const;
+  [[nodiscard]] double driven_in(const Drive& d, double t_s) const;  // distance since d.from_s
+  [[nodiscard]] double speed_in(const Drive& d, double t_s) const;
 
   Track track_;
-  double speed_mps_, start_offset_m_, distance_m_, start_s_;
+  double speed_mps_, start_offset_m_, distance_m_, start_s_, accel_mps2_;
   std::vector<Pause> pauses_;
+  std::vector<Drive> drives_;   // in time order; the last one ends when distance_m is driven
   double finish_s_ = 0;
 };
 

@@ -26,8 +26,56 @@ ScanView PreparedDataset::view(std::size_t scan_index) const {
   return v;
 }
 
-PreparedDataset prepare_dataset(const Dataset& dataset, const TrackerOptions& tracker_options) {
+namespace {
+// Per-robot AR(1) pose error (PoseNoise), advanced to each stamp it is asked for in time order.
+class PoseErrorProcess {
+ public:
+  explicit PoseErrorProcess(const PoseNoise& noise) : noise_{noise} {}
+  // The error (dx, dy, dθ) of `robot` at `stamp_ns` (stamps non-decreasing per robot).
+  Pose2 at(std::uint8_t robot, std::int64_t stamp_ns) {
+    State& s = states_[robot];
+    if (!s.started) {
+      s.rng = noise_.seed * 0x9E3779B97F4A7C15ULL + robot;
+      s.e = {noise_.sigma_m * normal(s), noise_.sigma_m * normal(s), noise_.sigma_rad * normal(s)};
+      s.started = true;
+      s.stamp_ns = stamp_ns;
+    } else if (stamp_ns > s.stamp_ns) {
+      const double dt = static_cast<double>(stamp_ns - s.stamp_ns) * 1e-9;
+      const double a = std::exp(-dt / noise_.correlation_s), b = std::sqrt(std::max(0.0, 1.0 - a * a));
+      s.e.x_m = a * s.e.x_m + b * noise_.sigma_m * normal(s);
+      s.e.y_m = a * s.e.y_m + b * noise_.sigma_m * normal(s);
+      s.e.theta_rad = a * s.e.theta_rad + b * noise_.sigma_rad * normal(s);
+      s.stamp_ns = stamp_ns;
+    }
+    return s.e;
+  }
+
+ private:
+  struct State {
+    bool started = false;
+    std::uint64_t rng = 0;
+    std::int64_t stamp_ns = 0;
+    Pose2 e;
+  };
+  static double uniform(State& s) {  // SplitMix64 → (0, 1)
+    std::uint64_t z = (s.rng += 0x9E3779B97F4A7C15ULL);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31;
+    return (static_cast<double>(z >> 11) + 0.5) * (1.0 / 9007199254740992.0);
+  }
+  static double normal(State& s) {  // Box–Muller, one value per call
+    const double u1 = uniform(s), u2 = uniform(s);
+    return std::sqrt(-2.0 * std::log(u1)) * std::cos(6.283185307179586 * u2);
+  }
+  PoseNoise noise_;
+  std::map<std::uint8_t, State> states_;
+};
+}  // namespace
+
+PreparedDataset prepare_dataset(const Dataset& dataset, const TrackerOptions& tracker_options, const PoseNoise& noise) {
   PreparedDataset out;
+  PoseErrorProcess pose_error(noise);
   // Group the points by (robot, scan), keeping their order within a scan.
   std::map<std::pair<std::uint8_t, std::uint32_t>, std::vector<std::size_t>> by_scan;
   for (std::size_t i = 0; i < dataset.points.size(); ++i)
@@ -70,10 +118,20 @@ PreparedDataset prepare_dataset(const Dataset& dataset, const TrackerOptions& tr
   for (const ScanRecord& r : records) {
     while (next_odom < odom.size() && odom[next_odom]->stamp_ns <= r.stamp_ns) {
       const TrajectorySample& s = *odom[next_odom++];
-      tracker.add_pose(s.robot, s.stamp_ns, s.pose, s.v_mps);
+      Pose2 pose = s.pose;
+      if (noise.active()) {
+        const Pose2 e = pose_error.at(s.robot, s.stamp_ns);
+        pose = {pose.x_m + e.x_m, pose.y_m + e.y_m, pose.theta_rad + e.theta_rad};
+      }
+      tracker.add_pose(s.robot, s.stamp_ns, pose, s.v_mps);
     }
     PreparedScan ps;
     ps.record = r;
+    if (noise.active()) {
+      const Pose2 e = pose_error.at(r.robot, r.stamp_ns);
+      ps.record.pose = {r.pose.x_m + e.x_m, r.pose.y_m + e.y_m, r.pose.theta_rad + e.theta_rad};
+      ps.record.origin = {r.origin.x + e.x_m, r.origin.y + e.y_m, r.origin.z};
+    }
     ps.first = out.points.size();
     ps.team = out.teams.size();
     out.teams.push_back(tracker.predict(r.stamp_ns));
@@ -132,9 +190,12 @@ MethodSpec spec(const std::string& method, const MethodOptions& base, double res
   s.options.frequency.resolution_m = resolution_m;
   s.options.visibility.resolution_m = resolution_m;
   s.options.combined_resolution_m = resolution_m;
+  s.options.freespace.resolution_m = resolution_m;
+  s.options.freespace.grid_origin_z_m = -resolution_m / 2.0;  // floor centred in a voxel layer
   s.options.direction.half_angle_rad = deg_to_rad(half_angle_deg);
   s.options.combined_half_angle_rad = deg_to_rad(half_angle_deg);
   if (method == "frequency" || method == "visibility") s.name = method + "@" + format_number(resolution_m, 2) + "m";
+  if (method == "freespace") s.name = method + "@" + format_number(resolution_m, 2) + "m";
   if (method == "direction") s.name = method + "@" + format_number(half_angle_deg, 1) + "deg";
   if (method == "combined")
     s.name = method + "@" + format_number(half_angle_deg, 1) + "deg," + format_number(resolution_m, 2) + "m";
@@ -153,8 +214,9 @@ Result<std::vector<MethodSpec>> parse_methods(const std::string& list, std::opti
     std::string item;
     while (std::getline(in, item, ',')) {
       if (item.empty()) continue;
-      if (std::find(known_methods().begin(), known_methods().end(), item) == known_methods().end())
-        return Error{"unknown method (known: frequency, visibility, position, direction, combined, all)"};
+      if (std::find(known_methods().begin(), known_methods().end(), item) == known_methods().end() &&
+          std::find(extended_methods().begin(), extended_methods().end(), item) == extended_methods().end())
+        return Error{"unknown method (known: frequency, visibility, position, direction, combined, freespace, tracked, best, all)"};
       names.push_back(item);
     }
   }
@@ -188,7 +250,7 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
   for (const LabelledPoint& p : dataset.points)
     if (p.is_ghost()) ++report.ghosts;
 
-  const PreparedDataset prepared = prepare_dataset(dataset, options.tracker);
+  const PreparedDataset prepared = prepare_dataset(dataset, options.tracker, options.pose_noise);
   report.orphan_points = prepared.orphan_points;
   std::vector<MapPoint> cloud;
   cloud.reserve(dataset.points.size());

@@ -35,7 +35,21 @@ struct PreparedDataset {
   [[nodiscard]] ScanView view(std::size_t scan_index) const;
 };
 
-[[nodiscard]] PreparedDataset prepare_dataset(const Dataset& dataset, const TrackerOptions& tracker);
+// Localisation noise added to what the filters see (issue 7: σ 5 cm and 2°), for data sets whose
+// simulator cannot inject it: every robot's odometry poses (fed to the tracker) and scan origins /
+// poses are offset by a per-robot first-order Gauss–Markov error with stationary σ `sigma_m` per axis
+// and `sigma_rad` in heading and correlation time `correlation_s`. The cloud itself is unchanged:
+// the filters' idea of where the robots are is wrong relative to it. Deterministic for a seed.
+struct PoseNoise {
+  double sigma_m = 0.0;
+  double sigma_rad = 0.0;
+  double correlation_s = 1.0;
+  std::uint64_t seed = 1;
+  [[nodiscard]] bool active() const { return sigma_m > 0.0 || sigma_rad > 0.0; }
+};
+
+[[nodiscard]] PreparedDataset prepare_dataset(const Dataset& dataset, const TrackerOptions& tracker,
+                                              const PoseNoise& noise = {});
 
 // Offline: observe every scan, then classify every scan. Live: observe and classify each scan as it
 // arrives (decisions against the map so far). Both return removed flags in Dataset::points order.
@@ -60,6 +74,7 @@ struct EvalOptions {
   std::vector<MethodSpec> methods;
   RansacOptions ransac;
   TrackerOptions tracker;
+  PoseNoise pose_noise;  // issue 7: off by default
   // Called before each stage ("table 1", each method name) so long runs can show progress.
   std::function<void(const std::string&)> progress;
 };

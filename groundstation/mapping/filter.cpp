@@ -6,6 +6,9 @@
 
 #include "common/dataset/dataset.hpp"
 #include "common/result.hpp"
+#include "groundstation/mapping/best.hpp"
+#include "groundstation/mapping/freespace_filter.hpp"
+#include "groundstation/mapping/tracked_filter.hpp"
 #include "onboard/core/direction_filter.hpp"
 
 namespace teamscan::mapping {
@@ -164,7 +167,15 @@ const std::vector<std::string>& known_methods() {
   return methods;
 }
 
+const std::vector<std::string>& extended_methods() {
+  static const std::vector<std::string> methods{"freespace", "tracked", "best"};
+  return methods;
+}
+
 std::unique_ptr<Filter> make_filter(const std::string& method, const MethodOptions& options) {
+  if (method == "freespace") return std::make_unique<FreespaceFilter>(options.freespace);
+  if (method == "tracked") return std::make_unique<TrackedFilter>(options.tracked);
+  if (method == "best") return make_best(options);
   if (method == "frequency") return std::make_unique<FrequencyFilter>(options.frequency);
   if (method == "visibility") return std::make_unique<VisibilityFilter>(options.visibility);
   if (method == "position") return std::make_unique<PositionFilter>(options.position);

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "common/pose.hpp"
+#include "groundstation/mapping/beyond_options.hpp"
 #include "groundstation/mapping/tracker.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
 
@@ -202,10 +203,21 @@ struct MethodOptions {
   double combined_half_angle_rad = 0.12217304763960307;  // 7°
   double combined_resolution_m = 0.1;
   double combined_grid_origin_z_m = 0.0;
+  // Issue 7 (docs/beyond.md): freespace, tracked, and best = tracked ∪ freespace(best_freespace).
+  FreespaceOptions freespace;
+  TrackedOptions tracked;
+  // best's freespace part demands 8 passes per hit: chosen on tables4/team3 (docs/beyond.md).
+  FreespaceOptions best_freespace = [] {
+    FreespaceOptions o;
+    o.free_per_hit = 8.0;
+    return o;
+  }();
 };
 
 // The methods this library knows, in report order.
 [[nodiscard]] const std::vector<std::string>& known_methods();
+// The methods beyond the paper (issue 7): accepted by name, not part of "all".
+[[nodiscard]] const std::vector<std::string>& extended_methods();
 // A filter for `method` ("frequency", "visibility", "position", "direction", "combined"), or nullptr.
 [[nodiscard]] std::unique_ptr<Filter> make_filter(const std::string& method, const MethodOptions& options);
 

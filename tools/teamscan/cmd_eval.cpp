@@ -53,6 +53,19 @@ struct EvalArgs {
   double accel_noise_mps2 = 0.5;
   double position_noise_m = 0.02;
   double velocity_noise_mps = 0.05;
+  // Issue 7 (docs/beyond.md): localisation noise on what the filters see, and the new methods' knobs.
+  double pose_noise_m = 0.0;
+  double pose_noise_deg = 0.0;
+  double pose_noise_correlation_s = 1.0;
+  double fs_min_free = 2;
+  double fs_free_per_hit = 1.0;
+  double fs_clearance_m = 0.05;
+  double fs_end_margin_m = 0.1;
+  double best_fs_free_per_hit = 8.0;
+  double tracked_n_sigma = 3.0;
+  double tracked_margin_m = 0.04;
+  // Table-top heights (m): report the kept share of furniture points whose true z is within 3 cm of one.
+  std::vector<double> top_heights_m;
 };
 
 std::string number(double v) {
@@ -84,6 +97,45 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.accel_noise_mps2 != d.accel_noise_mps2) o << " --tracker-accel-noise " << number(a.accel_noise_mps2);
   if (a.position_noise_m != d.position_noise_m) o << " --tracker-position-noise " << number(a.position_noise_m);
   if (a.velocity_noise_mps != d.velocity_noise_mps) o << " --tracker-velocity-noise " << number(a.velocity_noise_mps);
+  if (a.pose_noise_m != d.pose_noise_m) o << " --pose-noise-m " << number(a.pose_noise_m);
+  if (a.pose_noise_deg != d.pose_noise_deg) o << " --pose-noise-deg " << number(a.pose_noise_deg);
+  if (a.pose_noise_correlation_s != d.pose_noise_correlation_s) o << " --pose-noise-correlation " << number(a.pose_noise_correlation_s);
+  if (a.fs_min_free != d.fs_min_free) o << " --fs-min-free " << number(a.fs_min_free);
+  if (a.fs_free_per_hit != d.fs_free_per_hit) o << " --fs-free-per-hit " << number(a.fs_free_per_hit);
+  if (a.fs_clearance_m != d.fs_clearance_m) o << " --fs-clearance " << number(a.fs_clearance_m);
+  if (a.fs_end_margin_m != d.fs_end_margin_m) o << " --fs-end-margin " << number(a.fs_end_margin_m);
+  if (a.best_fs_free_per_hit != d.best_fs_free_per_hit) o << " --best-fs-free-per-hit " << number(a.best_fs_free_per_hit);
+  if (a.tracked_n_sigma != d.tracked_n_sigma) o << " --tracked-n-sigma " << number(a.tracked_n_sigma);
+  if (a.tracked_margin_m != d.tracked_margin_m) o << " --tracked-margin " << number(a.tracked_margin_m);
+  for (double h : a.top_heights_m) o << " --top-height " << number(h);
+  return o.str();
+}
+
+// Issue 7 "furniture-top kept": the simulator labels a table top like any furniture, so tops are
+// measured by geometry: furniture points whose true height is within 3 cm of a given top height.
+std::string furniture_top_table(const Dataset& d, const EvalReport& report, const std::vector<double>& heights_m) {
+  std::vector<std::size_t> tops;
+  for (std::size_t i = 0; i < d.points.size(); ++i) {
+    const LabelledPoint& p = d.points[i];
+    if (p.label != PointClass::furniture) continue;
+    for (double h : heights_m)
+      if (std::abs(static_cast<double>(p.tz) - h) <= 0.03) {
+        tops.push_back(i);
+        break;
+      }
+  }
+  std::ostringstream o;
+  o << "Furniture tops (furniture points with true z within 3 cm of";
+  for (double h : heights_m) o << " " << number(h);
+  o << " m): " << tops.size() << " points\n\n| method | furniture-top kept % |\n| --- | ---: |\n";
+  for (const mapping::MethodResult& m : report.methods) {
+    std::size_t kept = 0;
+    for (std::size_t i : tops) kept += m.removed[i] ? 0 : 1;
+    char buf[32];
+    if (tops.empty()) std::snprintf(buf, sizeof buf, "–");
+    else std::snprintf(buf, sizeof buf, "%.2f", 100.0 * static_cast<double>(kept) / static_cast<double>(tops.size()));
+    o << "| " << m.name << " | " << buf << " |\n";
+  }
   return o.str();
 }
 
@@ -155,6 +207,15 @@ int run_eval(const EvalArgs& a) {
   base.direction.range_gate_margin_m = a.range_gate_margin_m;
   base.direction.height_gate = a.height_gate;
   base.direction.height_gate_margin_m = a.height_gate_margin_m;
+  for (mapping::FreespaceOptions* fs : {&base.freespace, &base.best_freespace}) {
+    fs->min_free = static_cast<std::uint32_t>(a.fs_min_free);
+    fs->free_per_hit = a.fs_free_per_hit;
+    fs->clearance_m = a.fs_clearance_m;
+    fs->end_margin_m = a.fs_end_margin_m;
+  }
+  base.best_freespace.free_per_hit = a.best_fs_free_per_hit;
+  base.tracked.n_sigma = a.tracked_n_sigma;
+  base.tracked.margin_m = a.tracked_margin_m;
   auto methods = mapping::parse_methods(a.methods, a.resolution_m, a.half_angle_deg, base);
   if (!methods) {
     std::fprintf(stderr, "teamscan eval: --method %s: %s\n", a.methods.c_str(), methods.error().what);
@@ -171,6 +232,10 @@ int run_eval(const EvalArgs& a) {
   options.tracker.accel_noise_mps2 = a.accel_noise_mps2;
   options.tracker.position_noise_m = a.position_noise_m;
   options.tracker.velocity_noise_mps = a.velocity_noise_mps;
+  options.pose_noise.sigma_m = a.pose_noise_m;
+  options.pose_noise.sigma_rad = a.pose_noise_deg * 3.14159265358979323846 / 180.0;
+  options.pose_noise.correlation_s = a.pose_noise_correlation_s;
+  options.pose_noise.seed = a.seed;
 
   std::string markdown, json;
   std::vector<std::string> jsons;
@@ -190,6 +255,12 @@ int run_eval(const EvalArgs& a) {
     std::fputs(md.c_str(), stdout);
     std::fputs("\n", stdout);
     markdown += md + "\n";
+    if (!a.top_heights_m.empty()) {
+      const std::string tops = furniture_top_table(dataset.value(), report, a.top_heights_m);
+      std::fputs(tops.c_str(), stdout);
+      std::fputs("\n", stdout);
+      markdown += tops + "\n";
+    }
     if (!a.out_dir.empty()) {
       std::error_code ec;
       std::filesystem::create_directories(a.out_dir, ec);
@@ -272,6 +343,29 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
       ->capture_default_str();
   app.add_option("--tracker-velocity-noise", a->velocity_noise_mps, "Kalman measurement noise: odometry velocity sigma (m/s)")
       ->capture_default_str();
+  app.add_option("--pose-noise-m", a->pose_noise_m,
+                 "Localisation noise added to the poses the filters see: sigma per axis (m; issue 7, docs/beyond.md)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--pose-noise-deg", a->pose_noise_deg, "Localisation noise: heading sigma (deg)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--pose-noise-correlation", a->pose_noise_correlation_s, "Localisation noise: correlation time (s)")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--fs-min-free", a->fs_min_free, "freespace/best: free passes a voxel needs to be void")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--fs-free-per-hit", a->fs_free_per_hit, "freespace: and at least this many free passes per hit (best: --best-fs-free-per-hit)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--fs-clearance", a->fs_clearance_m, "freespace/best: grazing rays stop this high above their hit (m)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--fs-end-margin", a->fs_end_margin_m, "freespace/best: rays stop this far short of their hit (m)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--best-fs-free-per-hit", a->best_fs_free_per_hit, "best: its freespace part's free passes per hit")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--tracked-n-sigma", a->tracked_n_sigma, "tracked/best: body box inflated by n Kalman sigma")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--tracked-margin", a->tracked_margin_m, "tracked/best: fixed body box margin (m)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--top-height", a->top_heights_m,
+                 "Table-top height (m, repeatable): also report the kept share of furniture points within 3 cm of it");
   return [a] { return run_eval(*a); };
 }}};
 

@@ -86,5 +86,38 @@ TEST(Motion, StartOffsetSpeedPausesAndFinish) {
   EXPECT_NEAR(m.yaw_rate_at(4.0), 0.0, 1e-9);
 }
 
+TEST(Motion, SpeedRampsAtStartsAndStops) {
+  // 0.3 m/s with 0.3 m/s²: 1 s ramps, 0.15 m driven on each ramp.
+  const Track t = Track::oval({0, 0}, 2.0, 2.0, 0, true);
+  const double len = t.length_m();
+  const Motion m{t, 0.3, 0.0, len, 0.0, {{20.0, 5.0}}, 0.3};
+  EXPECT_NEAR(m.speed_at(0.5), 0.15, 1e-12);
+  EXPECT_NEAR(m.distance_at(1.0), 0.15, 1e-12);
+  EXPECT_NEAR(m.speed_at(10.0), 0.3, 1e-12);
+  EXPECT_NEAR(m.speed_at(19.5), 0.15, 1e-12);  // braking for the pause at 20 s
+  EXPECT_EQ(m.speed_at(22.0), 0.0);
+  EXPECT_NEAR(m.distance_at(22.0), 0.3 * (20.0 - 1.0), 1e-9);
+  // The whole distance is driven: after the pause, len − 5.7 m remain, plus a 1 s ramp.
+  EXPECT_NEAR(m.finish_s(), 25.0 + (len - 5.7) / 0.3 + 1.0, 1e-9);
+  EXPECT_NEAR(m.distance_at(m.finish_s()), len, 1e-9);
+  EXPECT_NEAR(m.distance_at(m.finish_s() + 100.0), len, 1e-9);
+  // Speed never jumps: between samples 1 ms apart it changes by at most a·dt.
+  double previous = m.speed_at(0.0);
+  for (double time = 0.001; time < m.finish_s() + 1.0; time += 0.001) {
+    const double v = m.speed_at(time);
+    EXPECT_LE(std::abs(v - previous), 0.3 * 0.001 + 1e-9) << "at t = " << time;
+    previous = v;
+  }
+}
+
+TEST(Motion, ShortDriveBetweenPausesIsATriangle) {
+  // 1 s of driving before a pause at 1 s: peak a·0.5 = 0.15 m/s, distance a·L²/4 = 0.075 m.
+  const Track t = Track::oval({0, 0}, 2.0, 2.0, 0, true);
+  const Motion m{t, 0.3, 0.0, t.length_m(), 0.0, {{1.0, 2.0}}, 0.3};
+  EXPECT_NEAR(m.speed_at(0.5), 0.15, 1e-12);
+  EXPECT_NEAR(m.distance_at(1.0), 0.075, 1e-12);
+  EXPECT_NEAR(m.distance_at(2.5), 0.075, 1e-12);
+}
+
 }  // namespace
 }  // namespace teamscan::sim

@@ -1,0 +1,64 @@
+// Options of the methods beyond the paper (issue 7; docs/beyond.md): free-space ray casting and the
+// Kalman-linked robot-body filter. Kept apart from filter.hpp so MethodOptions can hold them without
+// the filter headers including each other.
+#pragma once
+
+#include <cstdint>
+
+namespace teamscan::mapping {
+
+// `freespace`: DUFOMap-style void evidence (ANCHORS.md §2): every ray from a scan's sensor origin to
+// its hit marks the voxels it passes through as seen empty; a point whose voxel was seen empty by
+// enough rays is transient.
+struct FreespaceOptions {
+  double resolution_m = 0.05;
+  // Vertical grid offset: −r/2 centres a z = 0 floor in one voxel layer (docs/evaluation.md).
+  double grid_origin_z_m = -0.025;
+  // Rays clear nothing within this distance of the sensor (ANCHORS.md §6.2: ego points, dufomap
+  // min_range 0.2 m); hits nearer than it neither mark nor clear.
+  double min_range_m = 0.2;
+  // Returns beyond this range give no free evidence (LMS-200: 8.182 m is the largest value, §2.7).
+  double max_range_m = 8.2;
+  // A ray stops this far short of its hit, so its own hit voxel and the one before stay untouched.
+  double end_margin_m = 0.1;
+  // Grazing rays (ANCHORS.md §6.3): a ray stops where it comes within `clearance_m` (vertically) of its
+  // hit's height, i.e. clearance/|sin(elevation)| before the hit, at most `grazing_cap_m` before it.
+  // A ray sliding over the floor to a far floor hit thus never enters the floor's voxel layer.
+  double clearance_m = 0.05;
+  double grazing_cap_m = 1.0;
+  // A point is transient when its voxel's free passes >= max(min_free, free_per_hit · hits).
+  // The ratio keeps surfaces that are hit far more often than rays graze through them.
+  std::uint32_t min_free = 2;
+  double free_per_hit = 1.0;
+  // Partly occupied voxels (ANCHORS.md §6.3, DUFOMap's dilation idea): a table top's edge voxel is
+  // also crossed by rays passing just beside the slab. With the guard, a void voxel still counts as
+  // static when one of its 6 face neighbours is solid (hit and not void): a surface continues there.
+  // A teammate that left has no solid neighbour: its whole body's voxels went void together.
+  bool solid_neighbour_guard = true;
+};
+
+// `tracked`: the paper's position and direction filters made one 3-D body test (issue 7): every
+// teammate is the Pioneer 3-AT's bounding box (sim/world.cpp make_pioneer3at_body: 626 × 505 mm, laser
+// housing top at ~0.5 m), oriented by its heading, at its Kalman estimate moved to the beam's time,
+// inflated by n·σ of the Kalman position covariance along each box axis and by the heading σ.
+struct TrackedOptions {
+  double half_length_m = 0.313;
+  double half_width_m = 0.2525;
+  double height_m = 0.52;
+  // Points below this height are never a body hit. The wheels reach z = 0: on lap2 2.4 % of the ghosts
+  // are wheel hits below 1 cm (docs/beyond.md), so by default the box reaches below the floor's noise
+  // and takes the few floor points inside the inflated footprint with it.
+  double floor_clearance_m = -0.05;
+  // Below this height (wheel contact, floor noise) the box is the bare footprint + margin_m, without
+  // the covariance and heading inflation: the floor around a teammate is scanned far more than its
+  // wheels, and those wheel hits lie within the footprint (lap2: |y| ≤ 0.268 m vs 0.2525 m).
+  double low_band_m = 0.02;
+  double margin_m = 0.04;           // range noise, quantisation, odometry between poses
+  double n_sigma = 3.0;
+  double heading_sigma_rad = 0.035; // ~2°: heading is not in the tracker's state
+  // Beams of one scan span one sweep ending at the scan's stamp (common/dataset ScanRecord): beam i
+  // of n is taken at stamp − sweep·(1 − (i + ½)/n). 13.3 ms = one 75 Hz mirror revolution.
+  double sweep_s = 0.0133;
+};
+
+}  // namespace teamscan::mapping

@@ -1,0 +1,181 @@
+// Free-space ray casting (issue 7): Amanatides & Woo, "A fast voxel traversal algorithm for ray
+// tracing" (1987), on the VoxelMap key layout (21-bit fields, VoxelMap::pack).
+#include "groundstation/mapping/freespace_filter.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "common/result.hpp"
+
+namespace teamscan::mapping {
+
+namespace {
+constexpr std::uint32_t kSaturate = std::numeric_limits<std::uint32_t>::max();
+bool in_range(VoxelKey k) {
+  return k.x > -VoxelMap::kIndexLimit && k.x < VoxelMap::kIndexLimit && k.y > -VoxelMap::kIndexLimit &&
+         k.y < VoxelMap::kIndexLimit && k.z > -VoxelMap::kIndexLimit && k.z < VoxelMap::kIndexLimit;
+}
+}  // namespace
+
+FreespaceGrid::FreespaceGrid(const FreespaceOptions& options)
+    : options_{options}, inverse_resolution_{1.0 / options.resolution_m} {}
+
+VoxelKey FreespaceGrid::key_of(double x, double y, double z) const {
+  return {static_cast<std::int32_t>(std::floor(x * inverse_resolution_)),
+          static_cast<std::int32_t>(std::floor(y * inverse_resolution_)),
+          static_cast<std::int32_t>(std::floor((z - options_.grid_origin_z_m) * inverse_resolution_))};
+}
+
+void FreespaceGrid::clear() {
+  block_index_.clear();
+  blocks_.clear();
+  cached_block_key_ = ~std::uint64_t{0};
+  cached_block_ = nullptr;
+  voxels_ = 0;
+  traversed_ = 0;
+}
+
+FreeCell FreespaceGrid::cell(VoxelKey key) const {
+  if (!in_range(key)) return {};
+  const std::uint32_t* b = block_index_.find(block_key(key));
+  return b ? blocks_[*b][offset_in_block(key)] : FreeCell{};
+}
+
+FreeCell& FreespaceGrid::touch(VoxelKey k) {
+  const std::uint64_t bk = block_key(k);
+  if (bk != cached_block_key_) {
+    bool inserted = false;
+    std::uint32_t& index = block_index_.get_or_insert(bk, 0, &inserted);
+    if (inserted) {
+      index = static_cast<std::uint32_t>(blocks_.size());
+      blocks_.emplace_back();
+      blocks_.back().fill(FreeCell{});
+    }
+    cached_block_key_ = bk;
+    cached_block_ = &blocks_[index];  // blocks_ may have moved: refresh on every miss
+  }
+  FreeCell& c = (*cached_block_)[offset_in_block(k)];
+  if (c.hits == 0 && c.free == 0) ++voxels_;
+  return c;
+}
+
+bool FreespaceGrid::void_voxel(VoxelKey k) const {
+  const FreeCell c = cell(k);
+  const double need = std::max(static_cast<double>(options_.min_free), options_.free_per_hit * static_cast<double>(c.hits));
+  return c.free > 0 && static_cast<double>(c.free) >= need;
+}
+
+bool FreespaceGrid::transient(const MapPoint& p) const {
+  const VoxelKey k = key_of(p.x, p.y, p.z);
+  if (!void_voxel(k)) return false;
+  if (!options_.solid_neighbour_guard) return true;
+  static constexpr std::int32_t kFaces[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (const auto& f : kFaces) {
+    const VoxelKey n{k.x + f[0], k.y + f[1], k.z + f[2]};
+    if (cell(n).hits > 0 && !void_voxel(n)) return false;
+  }
+  return true;
+}
+
+void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> points) {
+  for (const MapPoint& p : points) {
+    const double dx = p.x - origin_m.x, dy = p.y - origin_m.y, dz = p.z - origin_m.z;
+    const double range = std::sqrt(dx * dx + dy * dy + dz * dz);
+    // ANCHORS.md §6.2: a return at the sensor is an ego point, not a surface; it marks nothing.
+    if (!(range >= options_.min_range_m)) continue;
+    const VoxelKey k = key_of(p.x, p.y, p.z);
+    if (!in_range(k)) continue;
+    FreeCell& c = touch(k);
+    if (c.hits != kSaturate) ++c.hits;
+  }
+  for (const MapPoint& p : points) cast_ray(origin_m, p);
+}
+
+void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
+  const double dx = hit.x - origin_m.x, dy = hit.y - origin_m.y, dz = hit.z - origin_m.z;
+  const double range = std::sqrt(dx * dx + dy * dy + dz * dz);
+  if (!(range >= options_.min_range_m) || range > options_.max_range_m) return;
+  // Where the ray stops: end_margin short of the hit, further for grazing rays (see the options).
+  const double sin_elev = std::abs(dz) / range;
+  double stop_short = options_.end_margin_m;
+  if (sin_elev * options_.grazing_cap_m > options_.clearance_m)
+    stop_short = std::max(stop_short, options_.clearance_m / sin_elev);
+  else
+    stop_short = std::max(stop_short, options_.grazing_cap_m);
+  const double t0 = options_.min_range_m / range, t1 = (range - stop_short) / range;
+  if (!(t1 > t0)) return;
+
+  // Segment in grid units (voxel size 1, z from the grid origin).
+  const double r = inverse_resolution_;
+  const double sx = (origin_m.x + dx * t0) * r, sy = (origin_m.y + dy * t0) * r;
+  const double sz = (origin_m.z + dz * t0 - options_.grid_origin_z_m) * r;
+  const double ex = (origin_m.x + dx * t1) * r, ey = (origin_m.y + dy * t1) * r;
+  const double ez = (origin_m.z + dz * t1 - options_.grid_origin_z_m) * r;
+  const double vx = ex - sx, vy = ey - sy, vz = ez - sz;
+  VoxelKey k{static_cast<std::int32_t>(std::floor(sx)), static_cast<std::int32_t>(std::floor(sy)),
+             static_cast<std::int32_t>(std::floor(sz))};
+  const VoxelKey end{static_cast<std::int32_t>(std::floor(ex)), static_cast<std::int32_t>(std::floor(ey)),
+                     static_cast<std::int32_t>(std::floor(ez))};
+  if (!in_range(k) || !in_range(end)) return;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  // Per axis: the step, the parameter t (0..1 along the segment) of the next boundary, and the t
+  // between boundaries (Amanatides–Woo tMax / tDelta).
+  auto axis = [&](double s, double v, std::int32_t idx, std::int32_t& step, double& t_max, double& t_delta) {
+    if (v > 0) {
+      step = 1;
+      t_max = (static_cast<double>(idx) + 1.0 - s) / v;
+      t_delta = 1.0 / v;
+    } else if (v < 0) {
+      step = -1;
+      t_max = (static_cast<double>(idx) - s) / v;
+      t_delta = -1.0 / v;
+    } else {
+      step = 0;
+      t_max = kInf;
+      t_delta = kInf;
+    }
+  };
+  std::int32_t step_x, step_y, step_z;
+  double tmx, tmy, tmz, tdx, tdy, tdz;
+  axis(sx, vx, k.x, step_x, tmx, tdx);
+  axis(sy, vy, k.y, step_y, tmy, tdy);
+  axis(sz, vz, k.z, step_z, tmz, tdz);
+  // The voxel count is bounded by the Manhattan distance between the end voxels.
+  const std::int64_t n = std::int64_t{1} + std::abs(std::int64_t{end.x} - k.x) + std::abs(std::int64_t{end.y} - k.y) +
+                         std::abs(std::int64_t{end.z} - k.z);
+  traversed_ += static_cast<std::uint64_t>(n);
+  for (std::int64_t i = 0; i < n; ++i) {
+    FreeCell& c = touch(k);
+    if (c.free != kSaturate) ++c.free;
+    if (k == end) {
+      traversed_ -= static_cast<std::uint64_t>(n - 1 - i);  // stopped early: count only the visited
+      break;
+    }
+    if (tmx <= tmy && tmx <= tmz) {
+      k.x += step_x;
+      tmx += tdx;
+    } else if (tmy <= tmz) {
+      k.y += step_y;
+      tmy += tdy;
+    } else {
+      k.z += step_z;
+      tmz += tdz;
+    }
+  }
+}
+
+FilterParams FreespaceFilter::params() const {
+  return {{"resolution_m", options_.resolution_m},   {"grid_origin_z_m", options_.grid_origin_z_m},
+          {"min_range_m", options_.min_range_m},     {"max_range_m", options_.max_range_m},
+          {"end_margin_m", options_.end_margin_m},   {"clearance_m", options_.clearance_m},
+          {"grazing_cap_m", options_.grazing_cap_m}, {"min_free", static_cast<double>(options_.min_free)},
+          {"free_per_hit", options_.free_per_hit},   {"solid_neighbour_guard", options_.solid_neighbour_guard ? 1.0 : 0.0}};
+}
+
+void FreespaceFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
+  for (std::size_t i = 0; i < scan.points.size(); ++i) removed[i] = grid_.transient(scan.points[i]) ? 1 : 0;
+}
+
+}  // namespace teamscan::mapping

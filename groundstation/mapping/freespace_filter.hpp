@@ -1,0 +1,82 @@
+// `freespace` (issue 7, docs/beyond.md): free-space ray casting through a sparse voxel grid with the
+// Amanatides–Woo traversal. Each voxel counts the points that hit it and the rays that passed through
+// it; a point is transient when its voxel was seen empty (DUFOMap's void evidence, ANCHORS.md §2) often
+// enough. observe() is the same code live and offline; classify() only reads.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "groundstation/mapping/beyond_options.hpp"
+#include "groundstation/mapping/filter.hpp"
+#include "groundstation/mapping/flat_key_map.hpp"
+
+namespace teamscan::mapping {
+
+// One voxel's evidence: points that fell in it, rays that crossed it (both saturate).
+struct FreeCell {
+  std::uint32_t hits = 0;
+  std::uint32_t free = 0;
+};
+
+class FreespaceGrid {
+ public:
+  explicit FreespaceGrid(const FreespaceOptions& options);
+  [[nodiscard]] VoxelKey key_of(double x, double y, double z) const;
+  // Folds one scan in: every point's voxel +1 hit, every ray's traversed voxels +1 free.
+  void insert_scan(const Vec3& origin_m, std::span<const MapPoint> points);
+  // Marks the voxels of one ray (origin → hit, shortened as the options say) as passed.
+  void cast_ray(const Vec3& origin_m, const MapPoint& hit);
+  [[nodiscard]] FreeCell cell(VoxelKey key) const;
+  [[nodiscard]] bool transient(const MapPoint& p) const;
+  // The voxel's own evidence says void (free passes enough, see FreespaceOptions).
+  [[nodiscard]] bool void_voxel(VoxelKey k) const;
+  [[nodiscard]] std::size_t voxels() const { return voxels_; }
+  [[nodiscard]] std::uint64_t traversed() const { return traversed_; }
+  [[nodiscard]] std::size_t memory_bytes() const {
+    return block_index_.memory_bytes() + blocks_.capacity() * sizeof(Block);
+  }
+  void clear();
+
+ private:
+  // Voxels live in dense 16³ blocks found through a sparse block index: a ray walks mostly within
+  // one block, so the hash lookup is paid once per block, not once per voxel.
+  static constexpr int kBlockBits = 4;
+  static constexpr std::int32_t kBlockMask = (1 << kBlockBits) - 1;
+  using Block = std::array<FreeCell, 1u << (3 * kBlockBits)>;
+  [[nodiscard]] static std::size_t offset_in_block(VoxelKey k) {
+    return static_cast<std::size_t>(((k.z & kBlockMask) << (2 * kBlockBits)) | ((k.y & kBlockMask) << kBlockBits) | (k.x & kBlockMask));
+  }
+  [[nodiscard]] static std::uint64_t block_key(VoxelKey k) {
+    return VoxelMap::pack({k.x >> kBlockBits, k.y >> kBlockBits, k.z >> kBlockBits});
+  }
+  FreeCell& touch(VoxelKey k);  // creates the block if needed
+
+  FreespaceOptions options_;
+  double inverse_resolution_;
+  FlatKeyMap<std::uint32_t> block_index_;  // block key -> index in blocks_
+  std::vector<Block> blocks_;
+  std::uint64_t cached_block_key_ = ~std::uint64_t{0};
+  Block* cached_block_ = nullptr;
+  std::size_t voxels_ = 0;
+  std::uint64_t traversed_ = 0;
+};
+
+class FreespaceFilter final : public Filter {
+ public:
+  explicit FreespaceFilter(FreespaceOptions options) : options_{options}, grid_{options} {}
+  [[nodiscard]] std::string method() const override { return "freespace"; }
+  [[nodiscard]] FilterParams params() const override;
+  void observe(const ScanView& scan) override { grid_.insert_scan(scan.origin_m, scan.points); }
+  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void reset() override { grid_.clear(); }
+  [[nodiscard]] const FreespaceGrid& grid() const { return grid_; }
+
+ private:
+  FreespaceOptions options_;
+  FreespaceGrid grid_;
+};
+
+}  // namespace teamscan::mapping

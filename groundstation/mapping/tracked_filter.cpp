@@ -1,0 +1,69 @@
+// The Kalman-linked robot-body filter (issue 7 "tracked").
+#include "groundstation/mapping/tracked_filter.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/result.hpp"
+
+namespace teamscan::mapping {
+
+BodyBox body_box(const RobotEstimate& other, const TrackedOptions& o) {
+  BodyBox b;
+  b.centre_m = other.position_m;
+  b.velocity_mps = other.velocity_mps;
+  const double c = std::cos(other.heading_rad), s = std::sin(other.heading_rad);
+  b.axis_x = {c, s};
+  b.axis_y = {-s, c};
+  // σ of the position along each body axis: uᵀ·C·u of the Kalman 2×2 covariance.
+  const Eigen::Vector2d ux{c, s}, uy{-s, c};
+  const double sigma_x = std::sqrt(std::max(0.0, ux.dot(other.position_cov_m2 * ux)));
+  const double sigma_y = std::sqrt(std::max(0.0, uy.dot(other.position_cov_m2 * uy)));
+  // A heading error θ moves the box's far corners by at most half_diagonal·θ in either axis.
+  const double half_diag = std::hypot(o.half_length_m, o.half_width_m);
+  const double turn_m = half_diag * std::sin(std::min(1.0, o.n_sigma * o.heading_sigma_rad));
+  b.half_x_m = o.half_length_m + o.margin_m + o.n_sigma * sigma_x + turn_m;
+  b.half_y_m = o.half_width_m + o.margin_m + o.n_sigma * sigma_y + turn_m;
+  b.z_min_m = o.floor_clearance_m;
+  b.z_max_m = o.height_m + o.margin_m;
+  b.low_band_m = o.low_band_m;
+  b.low_half_x_m = o.half_length_m + o.margin_m;
+  b.low_half_y_m = o.half_width_m + o.margin_m;
+  return b;
+}
+
+bool box_contains(const BodyBox& b, const MapPoint& p, double dt_s) {
+  if (p.z < b.z_min_m || p.z > b.z_max_m) return false;
+  const double dx = p.x - (b.centre_m.x + b.velocity_mps.x * dt_s);
+  const double dy = p.y - (b.centre_m.y + b.velocity_mps.y * dt_s);
+  const double lx = std::abs(dx * b.axis_x.x + dy * b.axis_x.y), ly = std::abs(dx * b.axis_y.x + dy * b.axis_y.y);
+  if (p.z < b.low_band_m) return lx <= b.low_half_x_m && ly <= b.low_half_y_m;
+  return lx <= b.half_x_m && ly <= b.half_y_m;
+}
+
+FilterParams TrackedFilter::params() const {
+  return {{"half_length_m", options_.half_length_m}, {"half_width_m", options_.half_width_m},
+          {"height_m", options_.height_m},           {"floor_clearance_m", options_.floor_clearance_m},
+          {"margin_m", options_.margin_m},           {"n_sigma", options_.n_sigma},
+          {"heading_sigma_deg", options_.heading_sigma_rad * 180.0 / 3.14159265358979323846},
+          {"sweep_s", options_.sweep_s},             {"low_band_m", options_.low_band_m}};
+}
+
+void TrackedFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
+  std::fill(removed.begin(), removed.end(), std::uint8_t{0});
+  if (!scan.team) return;
+  const double n = static_cast<double>(scan.points.size());
+  for (const RobotEstimate& other : scan.team->robots) {
+    if (other.robot == scan.robot || !other.valid) continue;
+    const BodyBox box = body_box(other, options_);
+    for (std::size_t i = 0; i < scan.points.size(); ++i) {
+      if (removed[i]) continue;
+      // The teammates are interpolated to each beam's time within the sweep (TrackedOptions::sweep_s).
+      const double dt_s = -options_.sweep_s * (1.0 - (static_cast<double>(i) + 0.5) / n);
+      if (box_contains(box, scan.points[i], dt_s)) removed[i] = 1;
+    }
+  }
+}
+
+}  // namespace teamscan::mapping

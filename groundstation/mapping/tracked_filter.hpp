@@ -1,0 +1,41 @@
+// `tracked` (issue 7, docs/beyond.md): the position and direction filters (PAPER_NOTES eqs. 6–7)
+// replaced by one 3-D test against each teammate's real body: the Pioneer 3-AT's bounding box,
+// oriented by its heading, at its Kalman estimate moved to the beam's time, inflated by n·σ of the
+// Kalman position covariance at the scan's time along each box axis and by the heading uncertainty.
+#pragma once
+
+#include "groundstation/mapping/beyond_options.hpp"
+#include "groundstation/mapping/filter.hpp"
+
+namespace teamscan::mapping {
+
+// A teammate's body box for one scan: centre at the scan's stamp, velocity for beam times, box axes
+// and inflated half-extents.
+struct BodyBox {
+  Vec2 centre_m;
+  Vec2 velocity_mps;
+  Vec2 axis_x, axis_y;  // unit vectors: heading and its left normal
+  double half_x_m = 0, half_y_m = 0, z_min_m = 0, z_max_m = 0;
+  // Below low_band_m: the bare footprint + margin (TrackedOptions::low_band_m).
+  double low_band_m = 0, low_half_x_m = 0, low_half_y_m = 0;
+};
+
+// The inflated box of `other` (RobotEstimate at the scan's stamp) for these options.
+[[nodiscard]] BodyBox body_box(const RobotEstimate& other, const TrackedOptions& options);
+// Whether `p` lies in `box` with the teammate moved by `dt_s` (beam time − scan stamp).
+[[nodiscard]] bool box_contains(const BodyBox& box, const MapPoint& p, double dt_s);
+
+class TrackedFilter final : public Filter {
+ public:
+  explicit TrackedFilter(TrackedOptions options) : options_{options} {}
+  [[nodiscard]] std::string method() const override { return "tracked"; }
+  [[nodiscard]] FilterParams params() const override;
+  void observe(const ScanView&) override {}
+  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void reset() override {}
+
+ private:
+  TrackedOptions options_;
+};
+
+}  // namespace teamscan::mapping

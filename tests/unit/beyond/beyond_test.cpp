@@ -1,0 +1,370 @@
+// Hand-built cases with known answers for the issue 7 filters (docs/beyond.md): free-space ray
+// casting (traversal, min range, grazing floor rays, void evidence), the inflated teammate body box,
+// and determinism of `teamscan eval` for the new methods.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "groundstation/mapping/best.hpp"
+#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/mapping/freespace_filter.hpp"
+#include "groundstation/mapping/tracked_filter.hpp"
+#include "tests/bench/mapping/synthetic_survey.hpp"
+
+namespace teamscan::mapping {
+namespace {
+
+using bench::SurveyOptions;
+using bench::synthetic_survey;
+
+ScanView view_of(std::uint8_t robot, const Vec3& origin, const std::vector<MapPoint>& pts, const TeamState* team = nullptr) {
+  ScanView v;
+  v.robot = robot;
+  v.origin_m = origin;
+  v.points = pts;
+  v.team = team;
+  return v;
+}
+
+// Does the segment a→b (metres) touch the voxel `k` of a grid with resolution r and z origin oz?
+bool segment_touches(const Vec3& a, const Vec3& b, VoxelKey k, double r, double oz) {
+  const double lo[3] = {k.x * r, k.y * r, k.z * r + oz}, hi[3] = {lo[0] + r, lo[1] + r, lo[2] + r};
+  const double p[3] = {a.x, a.y, a.z}, d[3] = {b.x - a.x, b.y - a.y, b.z - a.z};
+  double t0 = 0, t1 = 1;
+  constexpr double eps = 1e-9;
+  for (int i = 0; i < 3; ++i) {
+    if (std::abs(d[i]) < 1e-15) {
+      if (p[i] < lo[i] - eps || p[i] > hi[i] + eps) return false;
+      continue;
+    }
+    double ta = (lo[i] - eps - p[i]) / d[i], tb = (hi[i] + eps - p[i]) / d[i];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  return t0 <= t1;
+}
+
+FreespaceOptions plain_options() {
+  FreespaceOptions o;
+  o.grazing_cap_m = 0.0;  // no grazing rule: the ray stops end_margin short of its hit
+  o.clearance_m = 0.0;
+  return o;
+}
+
+TEST(FreespaceGrid, AxisRayVisitsExactlyTheVoxelsBetweenMinRangeAndTheMargin) {
+  FreespaceGrid g(plain_options());
+  // Along +x at y = z-centre: starts 0.2 m out (min range), stops 0.1 m short of the hit.
+  const Vec3 o{0.025, 0.025, 0.5};
+  g.cast_ray(o, MapPoint{1.025f, 0.025f, 0.5f});
+  const std::int32_t z = static_cast<std::int32_t>(std::floor((0.5 + 0.025) / 0.05));
+  // x from 0.225 (voxel 4) to 0.925 (voxel 18).
+  EXPECT_EQ(g.traversed(), 15u);
+  EXPECT_EQ(g.cell({3, 0, z}).free, 0u);
+  for (std::int32_t x = 4; x <= 18; ++x) EXPECT_EQ(g.cell({x, 0, z}).free, 1u) << x;
+  EXPECT_EQ(g.cell({19, 0, z}).free, 0u);
+  EXPECT_EQ(g.cell({20, 0, z}).hits, 0u);  // cast_ray marks free space only
+}
+
+TEST(FreespaceGrid, RandomRaysVisitAConnectedChainOfVoxelsTheSegmentTouches) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  FreespaceOptions o = plain_options();
+  o.min_range_m = 0.0;
+  o.end_margin_m = 0.0;
+  o.max_range_m = 100.0;
+  for (int trial = 0; trial < 200; ++trial) {
+    FreespaceGrid g(o);
+    const Vec3 a{u(rng), u(rng), u(rng) + 2.0};
+    const MapPoint b{static_cast<float>(u(rng)), static_cast<float>(u(rng)), static_cast<float>(u(rng) + 2.0)};
+    const Vec3 bv{b.x, b.y, b.z};
+    g.cast_ray(a, b);
+    const VoxelKey ka = g.key_of(a.x, a.y, a.z), kb = g.key_of(b.x, b.y, b.z);
+    // Every voxel the ray marks is touched by the segment; the count is the 6-connected path length.
+    std::uint64_t marked = 0;
+    for (std::int32_t x = std::min(ka.x, kb.x); x <= std::max(ka.x, kb.x); ++x)
+      for (std::int32_t y = std::min(ka.y, kb.y); y <= std::max(ka.y, kb.y); ++y)
+        for (std::int32_t z = std::min(ka.z, kb.z); z <= std::max(ka.z, kb.z); ++z) {
+          if (g.cell({x, y, z}).free == 0) continue;
+          ++marked;
+          EXPECT_TRUE(segment_touches(a, bv, {x, y, z}, o.resolution_m, o.grid_origin_z_m)) << trial;
+        }
+    EXPECT_EQ(marked, g.traversed()) << trial;
+    EXPECT_EQ(marked, 1u + static_cast<std::uint64_t>(std::abs(kb.x - ka.x) + std::abs(kb.y - ka.y) + std::abs(kb.z - ka.z))) << trial;
+    EXPECT_EQ(g.cell(ka).free, 1u);
+    EXPECT_EQ(g.cell(kb).free, 1u);
+  }
+}
+
+TEST(FreespaceFilter, ARayThroughAVoxelFreesItAndThePointInItIsTransient) {
+  FreespaceFilter f(plain_options());
+  const Vec3 sensor{0.0, 0.0, 0.3};
+  // Scan 1: a teammate stood at x = 1 m and was hit once; scans 2 and 3: it left, the wall at 3 m is hit.
+  const std::vector<MapPoint> ghost{{1.0f, 0.0f, 0.3f}};
+  const std::vector<MapPoint> wall{{3.0f, 0.0f, 0.3f}};
+  f.observe(view_of(1, sensor, ghost));
+  std::vector<std::uint8_t> removed(1);
+  f.classify(view_of(1, sensor, ghost), removed);
+  EXPECT_EQ(removed[0], 0) << "not yet seen empty";
+  f.observe(view_of(1, sensor, wall));
+  f.classify(view_of(1, sensor, ghost), removed);
+  EXPECT_EQ(removed[0], 0) << "one pass is below min_free = 2";
+  f.observe(view_of(1, sensor, wall));
+  f.classify(view_of(1, sensor, ghost), removed);
+  EXPECT_EQ(removed[0], 1);
+  f.classify(view_of(1, sensor, wall), removed);
+  EXPECT_EQ(removed[0], 0) << "the wall's own voxel is never passed";
+  f.reset();
+  f.classify(view_of(1, sensor, ghost), removed);
+  EXPECT_EQ(removed[0], 0);
+}
+
+TEST(FreespaceFilter, AVoxelHitMoreOftenThanPassedStays) {
+  FreespaceFilter f(plain_options());  // free_per_hit 1
+  const Vec3 sensor{0.0, 0.0, 0.3};
+  const std::vector<MapPoint> post{{1.0f, 0.0f, 0.3f}};
+  const std::vector<MapPoint> wall{{3.0f, 0.0f, 0.3f}};
+  for (int i = 0; i < 5; ++i) f.observe(view_of(1, sensor, post));
+  for (int i = 0; i < 4; ++i) f.observe(view_of(2, sensor, wall));
+  std::vector<std::uint8_t> removed(1);
+  f.classify(view_of(1, sensor, post), removed);
+  EXPECT_EQ(removed[0], 0) << "5 hits, 4 passes";
+  f.observe(view_of(2, sensor, wall));
+  f.classify(view_of(1, sensor, post), removed);
+  EXPECT_EQ(removed[0], 1) << "5 hits, 5 passes";
+}
+
+TEST(FreespaceFilter, PointsWithinMinRangeNeitherMarkNorClear) {
+  FreespaceFilter f(plain_options());
+  const Vec3 sensor{0.0, 0.0, 0.3};
+  const std::vector<MapPoint> ego{{0.1f, 0.0f, 0.3f}};
+  f.observe(view_of(1, sensor, ego));
+  EXPECT_EQ(f.grid().voxels(), 0u);
+  EXPECT_EQ(f.grid().traversed(), 0u);
+}
+
+// A down-tilted laser at 0.46 m sweeping the floor: each ray reaches the floor at a shallow angle and
+// passes low over the floor points of nearer rays.
+std::vector<MapPoint> floor_line(double noise_seed) {
+  std::mt19937_64 rng(static_cast<std::uint64_t>(noise_seed));
+  std::normal_distribution<double> noise(0.0, 0.005);
+  std::vector<MapPoint> pts;
+  for (double x = 1.0; x <= 7.5; x += 0.02) pts.push_back({static_cast<float>(x), 0.01f, static_cast<float>(noise(rng))});
+  return pts;
+}
+
+TEST(FreespaceFilter, GrazingFloorRaysDoNotEraseTheFloor) {
+  const Vec3 sensor{0.0, 0.0, 0.46};
+  auto removed_share = [&](const FreespaceOptions& o) {
+    FreespaceFilter f(o);
+    std::vector<std::vector<MapPoint>> scans;
+    for (int s = 0; s < 10; ++s) scans.push_back(floor_line(s + 1));
+    for (const auto& pts : scans) f.observe(view_of(1, sensor, pts));
+    std::size_t removed_n = 0, n = 0;
+    for (const auto& pts : scans) {
+      std::vector<std::uint8_t> removed(pts.size());
+      f.classify(view_of(1, sensor, pts), removed);
+      removed_n += static_cast<std::size_t>(std::count(removed.begin(), removed.end(), 1));
+      n += pts.size();
+    }
+    return static_cast<double>(removed_n) / static_cast<double>(n);
+  };
+  // Without the grazing rule and with only 1 pass per hit needed, far floor rays cut through the
+  // floor layer and erase it: the case the rule is for.
+  FreespaceOptions naive = plain_options();
+  naive.min_free = 1;
+  naive.free_per_hit = 0.0;
+  EXPECT_GT(removed_share(naive), 0.2);
+  // The default: rays stop clearance/sin(elevation) short of the hit, above the floor's layer.
+  FreespaceOptions o;
+  o.min_free = 1;
+  o.free_per_hit = 0.0;
+  EXPECT_EQ(removed_share(o), 0.0);
+}
+
+TEST(FreespaceFilter, ASolidNeighbourKeepsAPartlyCrossedSurfaceVoxel) {
+  // A slab's edge voxel at x = 1.0..1.05 (hit twice) next to a solid slab voxel (hit 10 times, never
+  // crossed); three rays pass through the edge voxel's lower part to a wall, never through the slab.
+  auto run = [](bool guard) {
+    FreespaceOptions o = plain_options();
+    o.solid_neighbour_guard = guard;
+    FreespaceFilter f(o);
+    const Vec3 sensor{1.025, -3.0, 0.51};
+    const std::vector<MapPoint> edge{{1.01f, 0.01f, 0.51f}, {1.02f, 0.02f, 0.52f}};
+    const std::vector<MapPoint> slab(10, MapPoint{1.01f, 0.06f, 0.52f});
+    const std::vector<MapPoint> wall{{1.025f, 3.0f, 0.51f}};
+    f.observe(view_of(1, {1.025, 3.0, 0.51}, edge));   // seen from the far side: no ray crosses it
+    f.observe(view_of(1, {1.025, 3.0, 0.51}, slab));
+    for (int i = 0; i < 3; ++i) f.observe(view_of(2, sensor, wall));
+    std::vector<std::uint8_t> removed(edge.size());
+    f.classify(view_of(1, sensor, edge), removed);
+    return removed;
+  };
+  EXPECT_EQ(run(false), (std::vector<std::uint8_t>{1, 1}));
+  EXPECT_EQ(run(true), (std::vector<std::uint8_t>{0, 0}));
+}
+
+// ---- tracked -------------------------------------------------------------------------------------
+
+TeamState team_with(std::uint8_t id, Vec2 pos, double heading, double sigma_m, Vec2 vel = {0, 0}) {
+  TeamState t;
+  RobotEstimate e;
+  e.robot = id;
+  e.valid = true;
+  e.position_m = pos;
+  e.velocity_mps = vel;
+  e.heading_rad = heading;
+  e.position_cov_m2 = Eigen::Matrix2d::Identity() * sigma_m * sigma_m;
+  t.robots.push_back(e);
+  return t;
+}
+
+// The inflated half-extent along the length, from the options as docs/beyond.md states it.
+double expected_half_length(const TrackedOptions& o, double sigma_m) {
+  return o.half_length_m + o.margin_m + o.n_sigma * sigma_m +
+         std::hypot(o.half_length_m, o.half_width_m) * std::sin(o.n_sigma * o.heading_sigma_rad);
+}
+
+std::vector<std::uint8_t> classify_tracked(const TrackedOptions& o, const TeamState& team, const std::vector<MapPoint>& pts,
+                                           std::uint8_t self = 1) {
+  TrackedFilter f(o);
+  std::vector<std::uint8_t> removed(pts.size());
+  f.classify(view_of(self, {0, 0, 0.46}, pts, &team), removed);
+  return removed;
+}
+
+TEST(TrackedFilter, APointInsideTheInflatedBoxGoesOneJustOutsideStays) {
+  TrackedOptions o;
+  o.sweep_s = 0.0;
+  const double sigma = 0.02;
+  const TeamState team = team_with(2, {2.0, 1.0}, 0.0, sigma);
+  const double h = expected_half_length(o, sigma);
+  const std::vector<MapPoint> pts{{static_cast<float>(2.0 + h - 0.004), 1.0f, 0.2f},
+                                  {static_cast<float>(2.0 + h + 0.004), 1.0f, 0.2f},
+                                  {2.0f, 1.0f, static_cast<float>(o.height_m + o.margin_m - 0.004)},
+                                  {2.0f, 1.0f, static_cast<float>(o.height_m + o.margin_m + 0.004)}};
+  EXPECT_EQ(classify_tracked(o, team, pts), (std::vector<std::uint8_t>{1, 0, 1, 0}));
+  // The robot's own body is not a teammate.
+  EXPECT_EQ(classify_tracked(o, team, pts, 2), (std::vector<std::uint8_t>{0, 0, 0, 0}));
+}
+
+TEST(TrackedFilter, BelowTheLowBandOnlyTheBareFootprintCounts) {
+  TrackedOptions o;
+  o.sweep_s = 0.0;
+  const double sigma = 0.05;
+  const double inflated = expected_half_length(o, sigma), bare = o.half_length_m + o.margin_m;
+  ASSERT_GT(inflated - bare, 0.02);
+  const float x_between = static_cast<float>((inflated + bare) / 2.0), x_inside = static_cast<float>(bare - 0.005);
+  const std::vector<MapPoint> pts{{x_between, 0.0f, 0.2f}, {x_between, 0.0f, 0.005f}, {x_inside, 0.0f, 0.005f}, {x_inside, 0.0f, -0.01f}};
+  EXPECT_EQ(classify_tracked(o, team_with(2, {0, 0}, 0.0, sigma), pts), (std::vector<std::uint8_t>{1, 0, 1, 1}));
+}
+
+TEST(TrackedFilter, TheBoxTurnsWithTheHeadingAndGrowsWithTheCovariance) {
+  TrackedOptions o;
+  o.sweep_s = 0.0;
+  const double h = expected_half_length(o, 0.01);
+  // Heading 90°: the length lies along y; at x offset h the point is outside the (narrower) width.
+  const std::vector<MapPoint> along_y{{0.0f, static_cast<float>(h - 0.004), 0.2f}, {static_cast<float>(h - 0.004), 0.0f, 0.2f}};
+  EXPECT_EQ(classify_tracked(o, team_with(2, {0, 0}, M_PI / 2, 0.01), along_y), (std::vector<std::uint8_t>{1, 0}));
+  // σ 1 cm → 10 cm: the box grows by n·9 cm along each axis.
+  const std::vector<MapPoint> beyond{{static_cast<float>(h + 0.1), 0.0f, 0.2f}};
+  EXPECT_EQ(classify_tracked(o, team_with(2, {0, 0}, 0.0, 0.01), beyond)[0], 0);
+  EXPECT_EQ(classify_tracked(o, team_with(2, {0, 0}, 0.0, 0.10), beyond)[0], 1);
+}
+
+TEST(TrackedFilter, TeammatesAreMovedToEachBeamsTime) {
+  TrackedOptions o;
+  o.sweep_s = 0.1;  // exaggerated sweep: the first of 2 beams is 75 ms before the stamp
+  const double h = expected_half_length(o, 0.01);
+  // Teammate drives +x at 1 m/s, at x = 0 at the stamp. A point 3 cm behind its front at the stamp:
+  const float x = static_cast<float>(h - 0.03);
+  const std::vector<MapPoint> pts{{x, 0.0f, 0.2f}, {x, 0.0f, 0.2f}};
+  // Beam 0 at −75 ms sees the front 7.5 cm further back: outside; beam 1 at −25 ms (2.5 cm back): inside.
+  EXPECT_EQ(classify_tracked(o, team_with(2, {0, 0}, 0.0, 0.01, {1.0, 0.0}), pts), (std::vector<std::uint8_t>{0, 1}));
+}
+
+TEST(TrackedFilter, InvalidTracksAndNoTeamRemoveNothing) {
+  TrackedOptions o;
+  TeamState team = team_with(2, {0, 0}, 0.0, 0.01);
+  team.robots[0].valid = false;
+  const std::vector<MapPoint> pts{{0.0f, 0.0f, 0.2f}};
+  EXPECT_EQ(classify_tracked(o, team, pts)[0], 0);
+  TrackedFilter f(o);
+  std::vector<std::uint8_t> removed(1, 1);
+  f.classify(view_of(1, {0, 0, 0}, pts, nullptr), removed);
+  EXPECT_EQ(removed[0], 0);
+}
+
+// ---- best and eval ---------------------------------------------------------------------------------
+
+TEST(BestFilter, RemovesWhatEitherPartRemoves) {
+  MethodOptions m;
+  m.best_freespace = plain_options();
+  auto best = make_filter("best", m);
+  ASSERT_NE(best, nullptr);
+  EXPECT_EQ(best->method(), "best");
+  const TeamState team = team_with(2, {5.0, 5.0}, 0.0, 0.01);
+  const Vec3 sensor{0.0, 0.0, 0.3};
+  const std::vector<MapPoint> ghost{{1.0f, 0.0f, 0.3f}, {5.0f, 5.0f, 0.2f}};  // a stale hit, a hit on robot 2
+  const std::vector<MapPoint> wall{{3.0f, 0.0f, 0.3f}};
+  best->observe(view_of(1, sensor, ghost, &team));
+  best->observe(view_of(1, sensor, wall, &team));
+  best->observe(view_of(1, sensor, wall, &team));
+  std::vector<std::uint8_t> removed(2);
+  best->classify(view_of(1, sensor, ghost, &team), removed);
+  EXPECT_EQ(removed, (std::vector<std::uint8_t>{1, 1}));
+}
+
+TEST(BeyondEval, NewMethodsParseAndAreNotPartOfAll) {
+  auto all = parse_methods("all", std::nullopt, std::nullopt);
+  ASSERT_TRUE(all);
+  for (const MethodSpec& s : all.value()) EXPECT_TRUE(s.method != "freespace" && s.method != "tracked" && s.method != "best");
+  auto ours = parse_methods("freespace,tracked,best", 0.1, std::nullopt);
+  ASSERT_TRUE(ours);
+  ASSERT_EQ(ours.value().size(), 3u);
+  EXPECT_EQ(ours.value()[0].name, "freespace@0.10m");
+  EXPECT_DOUBLE_EQ(ours.value()[0].options.freespace.resolution_m, 0.1);
+  EXPECT_DOUBLE_EQ(ours.value()[0].options.freespace.grid_origin_z_m, -0.05);
+}
+
+TEST(BeyondEval, IsDeterministicAndPoseNoiseChangesOnlyWhatTheFiltersSee) {
+  SurveyOptions so;
+  so.duration_s = 8.0;
+  const Dataset d = synthetic_survey(so);
+  EvalOptions o;
+  o.methods = parse_methods("freespace,tracked,best", std::nullopt, std::nullopt).value();
+  o.ransac.iterations = 50;
+  const std::string a = report_json(evaluate(d, o), "x");
+  const std::string b = report_json(evaluate(d, o), "x");
+  EXPECT_EQ(a, b);
+  o.pose_noise.sigma_m = 0.05;
+  o.pose_noise.sigma_rad = 0.035;
+  const EvalReport noisy1 = evaluate(d, o);
+  const EvalReport noisy2 = evaluate(d, o);
+  EXPECT_EQ(report_json(noisy1, "x"), report_json(noisy2, "x"));
+  EXPECT_NE(report_json(noisy1, "x"), a);
+  EXPECT_EQ(noisy1.points, d.points.size());
+  // The perturbation is of the poses: the cloud and its labels are the same, so the counts are too.
+  EXPECT_EQ(noisy1.ghosts, evaluate(d, EvalOptions{o.methods, o.ransac, o.tracker, {}, {}}).ghosts);
+}
+
+TEST(BeyondEval, LiveAndOfflineAgreeForTrackedAndOnTheLastScanForFreespace) {
+  SurveyOptions so;
+  so.duration_s = 6.0;
+  const PreparedDataset p = prepare_dataset(synthetic_survey(so), {});
+  MethodOptions m;
+  auto tracked = make_filter("tracked", m);
+  EXPECT_EQ(run_live(p, *tracked), run_offline(p, *tracked));
+  auto fs = make_filter("freespace", m);
+  const auto live = run_live(p, *fs);
+  const auto offline = run_offline(p, *fs);
+  const PreparedScan& last = p.scans.back();
+  for (std::size_t i = last.first; i < last.first + last.count; ++i)
+    EXPECT_EQ(live[p.source_index[i]], offline[p.source_index[i]]);
+}
+
+}  // namespace
+}  // namespace teamscan::mapping
