@@ -172,10 +172,14 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
                    r.number("fusion.map_interval_s", map_s, 0.0, 3600.0, true) &&
                    r.number("fusion.map_resolution_m", f.map_resolution_m, 0.0, 10.0);
   if (!ok3) return false;
-  if (f.method != "frequency" && f.method != "visibility" && f.method != "position" && f.method != "direction" &&
-      f.method != "combined") {
-    return r.fail("fusion.method",
-                  "must be frequency, visibility, position, direction or combined, got \"" + f.method + "\"");
+  // The paper's methods and issue 7's (groundstation/mapping make_filter; docs/beyond.md).
+  static const char* const kMethods[] = {"frequency", "visibility", "position", "direction", "combined",
+                                         "freespace", "tracked",    "best"};
+  bool known_method = false;
+  for (const char* m : kMethods) known_method = known_method || f.method == m;
+  if (!known_method) {
+    return r.fail("fusion.method", "must be frequency, visibility, position, direction, combined, freespace, tracked "
+                                   "or best, got \"" + f.method + "\"");
   }
   f.write_interval = from_seconds(write_s);
   f.map_interval = from_seconds(map_s);

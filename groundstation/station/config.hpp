@@ -23,7 +23,7 @@ struct KalmanConfig {
 // the mapping library. Defaults: the paper's combined method (direction 7°, then visibility 0.1 m).
 struct FusionConfig {
   bool enabled = true;
-  std::string method = "combined";     // frequency | visibility | position | direction | combined
+  std::string method = "combined";     // frequency | visibility | position | direction | combined (| issue 7: freespace, tracked, best)
   double resolution_m = 0.1;           // frequency / visibility / combined voxel edge
   double half_angle_deg = 7.0;         // direction / combined cone half-angle
   double grid_origin_z_m = 0.0;        // vertical voxel grid offset (paper: 0)

@@ -128,7 +128,8 @@ TEST_P(FusionMethods, LiveEqualsEvalLiveAndModelEqualsEvalOffline) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllMethods, FusionMethods,
-                         ::testing::Values("frequency", "visibility", "position", "direction", "combined"));
+                         ::testing::Values("frequency", "visibility", "position", "direction", "combined", "tracked",
+                                           "freespace", "best"));
 
 TEST(Fusion, MapVoxelsAccountForEveryPointAndFlagFullyRemovedVoxels) {
   const Dataset d = survey();
