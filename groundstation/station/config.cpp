@@ -50,6 +50,14 @@ class Reader {
     return true;
   }
 
+  bool boolean(const char* path, bool& out) {
+    const toml::node_view<const toml::node> n = root_.at_path(path);
+    if (!n) return true;
+    if (!n.is_boolean()) return fail(path, "must be true or false");
+    out = *n.value<bool>();
+    return true;
+  }
+
   bool fail(const char* path, const std::string& what) {
     error_.message = std::string(path) + ": " + what;
     return false;
@@ -69,7 +77,11 @@ bool known_keys(const toml::table& root, ConfigError& error) {
       "team.body", "team.body.length_m", "team.body.width_m", "team.body.height_m",
       "team.last_pose", "team.last_pose.sigma0_m", "team.last_pose.sigma_velocity_mps",
       "team.last_pose.max_extrapolation_s", "team.source", "team.kalman", "team.kalman.accel_noise_mps2",
-      "team.kalman.position_noise_m", "team.kalman.velocity_noise_mps", "team.kalman.lost_after_s"};
+      "team.kalman.position_noise_m", "team.kalman.velocity_noise_mps", "team.kalman.lost_after_s",
+      "fusion", "fusion.enabled", "fusion.method", "fusion.resolution_m", "fusion.half_angle_deg",
+      "fusion.grid_origin_z_m", "fusion.frequency_k", "fusion.position_sigma_m", "fusion.position_n",
+      "fusion.direction_from_flags", "fusion.write_interval_s", "fusion.write_all_points", "fusion.map_interval_s",
+      "fusion.map_resolution_m"};
   std::string bad;
   const std::function<void(const toml::table&, const std::string&)> walk = [&](const toml::table& t, const std::string& prefix) {
     for (const auto& [k, v] : t) {
@@ -144,6 +156,33 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
                    r.number("team.kalman.velocity_noise_mps", c.kalman.velocity_noise_mps, 0.0, 100.0) &&
                    r.number("team.kalman.lost_after_s", c.kalman.lost_after_s, 0.0, 3600.0);
   if (!ok2) return false;
+  FusionConfig& f = c.fusion;
+  double write_s = to_seconds(f.write_interval);
+  double map_s = to_seconds(f.map_interval);
+  const bool ok3 = r.boolean("fusion.enabled", f.enabled) && r.string("fusion.method", f.method) &&
+                   r.number("fusion.resolution_m", f.resolution_m, 0.0, 10.0) &&
+                   r.number("fusion.half_angle_deg", f.half_angle_deg, 0.0, 60.0) &&
+                   r.number("fusion.grid_origin_z_m", f.grid_origin_z_m, -10.0, 10.0, true) &&
+                   r.number("fusion.frequency_k", f.frequency_k, -100.0, 100.0, true) &&
+                   r.number("fusion.position_sigma_m", f.position_sigma_m, 0.0, 100.0) &&
+                   r.number("fusion.position_n", f.position_n, 0.0, 100.0) &&
+                   r.boolean("fusion.direction_from_flags", f.direction_from_flags) &&
+                   r.number("fusion.write_interval_s", write_s, 0.0, 86400.0, true) &&
+                   r.boolean("fusion.write_all_points", f.write_all_points) &&
+                   r.number("fusion.map_interval_s", map_s, 0.0, 3600.0, true) &&
+                   r.number("fusion.map_resolution_m", f.map_resolution_m, 0.0, 10.0);
+  if (!ok3) return false;
+  // The paper's methods and issue 7's (groundstation/mapping make_filter; docs/beyond.md).
+  static const char* const kMethods[] = {"frequency", "visibility", "position", "direction", "combined",
+                                         "freespace", "tracked",    "best"};
+  bool known_method = false;
+  for (const char* m : kMethods) known_method = known_method || f.method == m;
+  if (!known_method) {
+    return r.fail("fusion.method", "must be frequency, visibility, position, direction, combined, freespace, tracked "
+                                   "or best, got \"" + f.method + "\"");
+  }
+  f.write_interval = from_seconds(write_s);
+  f.map_interval = from_seconds(map_s);
   if (source == "kalman") {
     if (!kalman_tracker_available()) return r.fail("team.source", "\"kalman\" is not in this build (no groundstation/mapping)");
     c.team_source = TeamSourceKind::kKalman;

@@ -19,6 +19,24 @@ struct KalmanConfig {
   double lost_after_s = 1.0;
 };
 
+// The live fusion stage (groundstation/station/fusion.hpp), plain values so the config parses without
+// the mapping library. Defaults: the paper's combined method (direction 7°, then visibility 0.1 m).
+struct FusionConfig {
+  bool enabled = true;
+  std::string method = "combined";     // frequency | visibility | position | direction | combined (| issue 7: freespace, tracked, best)
+  double resolution_m = 0.1;           // frequency / visibility / combined voxel edge
+  double half_angle_deg = 7.0;         // direction / combined cone half-angle
+  double grid_origin_z_m = 0.0;        // vertical voxel grid offset (paper: 0)
+  double frequency_k = 0.0;            // eq. 4: removed below mean − k·σ
+  double position_sigma_m = 0.35;      // eq. 6
+  double position_n = 1.0;
+  bool direction_from_flags = false;   // use the onboard decisions instead of recomputing eq. 7
+  Duration write_interval = std::chrono::seconds(10);  // fused PCD; 0 = only on shutdown
+  bool write_all_points = false;       // also fused_all.pcd with a `keep` field
+  Duration map_interval = std::chrono::seconds(1);     // teamscan/map; 0 = off
+  double map_resolution_m = 0.1;
+};
+
 enum class TeamSourceKind { kKalman, kLastPose };
 
 struct GroundStationConfig {
@@ -30,6 +48,7 @@ struct GroundStationConfig {
   // "kalman" (default; needs groundstation/mapping in the build) or "last_pose".
   TeamSourceKind team_source = TeamSourceKind::kKalman;
   KalmanConfig kalman;
+  FusionConfig fusion;
 };
 
 // True when this build has the Kalman tracker (groundstation/mapping).

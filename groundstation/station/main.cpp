@@ -16,7 +16,9 @@
 #include "groundstation/station/team_source.hpp"
 #include "onboard/dds/notify.hpp"
 #ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+#include "groundstation/station/fusion.hpp"
 #include "groundstation/station/kalman_team_source.hpp"
+#include "teamscan.h"
 #endif
 
 namespace {
@@ -67,6 +69,10 @@ int main(int argc, char** argv) {
     std::printf("session_root = %s\nscan_history_depth = %u\nteam_rate_hz = %.3f\nsilence_timeout_s = %.3f\n",
                 cfg.session_root.c_str(), cfg.station.scan_history_depth, 1.0 / to_seconds(cfg.station.team_period),
                 to_seconds(cfg.station.silence_timeout));
+    std::printf("fusion.enabled = %s\nfusion.method = %s\nfusion.resolution_m = %.3f\nfusion.half_angle_deg = %.3f\n"
+                "fusion.write_interval_s = %.3f\nfusion.map_interval_s = %.3f\n",
+                cfg.fusion.enabled ? "true" : "false", cfg.fusion.method.c_str(), cfg.fusion.resolution_m,
+                cfg.fusion.half_angle_deg, to_seconds(cfg.fusion.write_interval), to_seconds(cfg.fusion.map_interval));
     return 0;
   }
 
@@ -100,7 +106,38 @@ int main(int argc, char** argv) {
     return 1;
   }
   Station& st = **station;
-  // The live mapping stage plugs in here: st.add_scan_hook(...), st.add_pose_hook(...).
+  // The live fusion stage runs from the hooks, after each sample is stored (storage first: a failing
+  // fusion stage never costs a received sample; the station counts the failure and goes on).
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+  std::unique_ptr<FusionStage> fusion;
+  std::vector<teamscan_msg_MapVoxel> map_voxels;
+  if (cfg.fusion.enabled) {
+    auto created = FusionStage::create(fusion_options_from_config(cfg.fusion, cfg.kalman), store->dir());
+    if (!created) {
+      log(kErr, created.error().what);
+      return 1;
+    }
+    fusion = std::move(created.value());
+    st.add_pose_hook([&](const PoseObservation& p) { fusion->add_pose(p); });
+    st.add_scan_hook([&](const StoredScan& s) { fusion->add_scan(s); });
+    log(kInfo, "fusion: method " + cfg.fusion.method + ", model " + store->dir() + "/fused.pcd");
+  }
+  auto write_model = [&](const char* why) {
+    if (!fusion) return;
+    const Status w = fusion->write_model();
+    if (!w.ok()) {
+      log(kErr, std::string("fusion: ") + w.error().what + " (" + std::strerror(w.error().sys_errno) + ")");
+      store->log_event(now_realtime(), std::string("fused model write failed: ") + w.error().what);
+    } else {
+      store->log_event(now_realtime(), std::string("fused model written (") + why + "): " +
+                                           std::to_string(fusion->counters().last_write_kept) + " kept, " +
+                                           std::to_string(fusion->counters().last_write_removed) + " removed");
+    }
+  };
+#else
+  if (cfg.fusion.enabled) log(kWarning, "fusion: not in this build (no groundstation/mapping)");
+  auto write_model = [](const char*) {};
+#endif
 
   const Duration wd = onboard::watchdog_interval();
   const Duration ping_period = wd.count() > 0 ? wd / 2 : Duration{0};
@@ -112,6 +149,9 @@ int main(int argc, char** argv) {
   Time next_ping = now;
   Time next_sync = now + cfg.sync_interval;
   Time next_status = now + cfg.status_interval;
+  Time next_write = now + cfg.fusion.write_interval;
+  Time next_map = now + cfg.fusion.map_interval;
+  std::uint64_t scans_at_write = 0;
   std::uint32_t lost_before = 0;
   while (g_stop == 0) {
     // One loop, one tick: wait for data at most until the next team publication is due.
@@ -126,6 +166,21 @@ int main(int argc, char** argv) {
       store->sync();
       next_sync = now + cfg.sync_interval;
     }
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+    if (fusion && cfg.fusion.write_interval.count() > 0 && now >= next_write) {
+      if (fusion->counters().scans != scans_at_write) write_model("periodic");
+      scans_at_write = fusion->counters().scans;
+      next_write = now + cfg.fusion.write_interval;
+    }
+    if (fusion && cfg.fusion.map_interval.count() > 0 && now >= next_map) {
+      fusion->map_voxels(map_voxels);
+      const auto total = static_cast<std::uint32_t>(map_voxels.size());
+      if (total > 0 && !st.publish_map(map_voxels, fusion->map_resolution_mm(), total).ok()) {
+        log(kWarning, "fusion: teamscan/map write failed");
+      }
+      next_map = now + cfg.fusion.map_interval;
+    }
+#endif
     if (now >= next_status) {
       const std::string line = st.status_line();
       onboard::notify_status(line.c_str());
@@ -140,6 +195,14 @@ int main(int argc, char** argv) {
   log(kInfo, "stopping: " + st.status_line());
   store->log_event(now_realtime(), "station stopping: " + st.status_line());
   station.value().reset();  // leave DDS before closing the files
-  store->sync();
+  store->sync();  // the session is complete on disk before the (longer) final fusion pass
+  write_model("shutdown");
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+  if (fusion && !fusion->options().received_dataset.empty()) {
+    const std::string dir = store->dir() + "/" + fusion->options().received_dataset;
+    const Status w = fusion->write_received_dataset(dir);
+    if (!w.ok()) log(kErr, std::string("fusion: received data set: ") + w.error().what);
+  }
+#endif
   return 0;
 }

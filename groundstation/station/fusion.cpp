@@ -1,0 +1,273 @@
+// FusionStage: live tracker + filter + voxel map over the received samples, and the fused PCD written
+// by the offline evaluation code (docs/groundstation.md).
+#include "groundstation/station/fusion.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <span>
+
+#include "common/dataset/pcd.hpp"
+#include "common/scan_points.hpp"
+#include "common/units.hpp"
+#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/station/config.hpp"
+#include "teamscan.h"
+
+namespace teamscan::station {
+
+std::uint16_t dataset_flags_from_wire(std::uint16_t w) {
+  std::uint16_t f = 0;
+  if (w & kPointDirectionFiltered) f |= point_flags::kDirectionFiltered;
+  if (w & (kPointInvalid | kPointNoPose)) f |= point_flags::kInvalid;
+  if (w & kPointDazzled) f |= point_flags::kDazzled;
+  if (w & kPointOutOfRange) f |= point_flags::kOutOfRange;
+  if (w & kPointTeamStale) f |= point_flags::kTeamStale;
+  return f;
+}
+
+FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConfig& k) {
+  FusionOptions o;
+  o.method = f.method;
+  mapping::MethodOptions& m = o.methods;
+  m.frequency.resolution_m = f.resolution_m;
+  m.frequency.k = f.frequency_k;
+  m.frequency.grid_origin_z_m = f.grid_origin_z_m;
+  m.visibility.resolution_m = f.resolution_m;
+  m.visibility.grid_origin_z_m = f.grid_origin_z_m;
+  m.position.sigma_m = f.position_sigma_m;
+  m.position.n = f.position_n;
+  m.direction.half_angle_rad = deg_to_rad(f.half_angle_deg);
+  m.direction.source = f.direction_from_flags ? mapping::DirectionSource::flags : mapping::DirectionSource::recompute;
+  m.combined_half_angle_rad = deg_to_rad(f.half_angle_deg);
+  m.combined_resolution_m = f.resolution_m;
+  m.combined_grid_origin_z_m = f.grid_origin_z_m;
+  o.tracker.accel_noise_mps2 = k.accel_noise_mps2;
+  o.tracker.position_noise_m = k.position_noise_m;
+  o.tracker.velocity_noise_mps = k.velocity_noise_mps;
+  o.tracker.lost_after_s = k.lost_after_s;
+  o.map_resolution_m = f.map_resolution_m;
+  if (f.write_all_points) o.all_points_pcd = "fused_all.pcd";
+  return o;
+}
+
+Result<std::unique_ptr<FusionStage>> FusionStage::create(const FusionOptions& options, std::string session_dir) {
+  std::unique_ptr<mapping::Filter> live = mapping::make_filter(options.method, options.methods);
+  if (!live) return Error{"fusion: unknown filter method (fusion.method)"};
+  if (!(options.map_resolution_m > 0.0)) return Error{"fusion: map resolution must be > 0 (fusion.map_resolution_m)"};
+  return std::unique_ptr<FusionStage>(new FusionStage(options, std::move(session_dir), std::move(live)));
+}
+
+FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, std::unique_ptr<mapping::Filter> live)
+    : options_{options},
+      session_dir_{std::move(session_dir)},
+      live_{std::move(live)},
+      tracker_{options.tracker},
+      map_all_{options.map_resolution_m},
+      map_kept_{options.map_resolution_m},
+      poses_by_robot_(kMaxRobots + 1) {
+  received_.scenario = "live";
+  scratch_points_.reserve(kMaxBeams);
+  scratch_flags_.reserve(kMaxBeams);
+  scratch_removed_.reserve(kMaxBeams);
+}
+
+namespace {
+// Forward speed as KalmanTeamSource feeds the tracker: the map-frame velocity projected on the heading.
+double forward_speed(const PoseObservation& p) { return p.vx_mps * std::cos(p.yaw_rad) + p.vy_mps * std::sin(p.yaw_rad); }
+}  // namespace
+
+void FusionStage::add_pose(const PoseObservation& p) {
+  if (p.robot_id == 0 || p.robot_id > kMaxRobots) return;
+  ++counters_.poses;
+  const double v = forward_speed(p);
+  tracker_.add_pose(static_cast<std::uint8_t>(p.robot_id), p.stamp.ns(), Pose2{p.x_m, p.y_m, p.yaw_rad}, v);
+  // Kept in stamp order (DDS delivers a robot's samples in order; a restarted robot may go back).
+  auto& list = poses_by_robot_[p.robot_id];
+  auto at = std::upper_bound(list.begin(), list.end(), p.stamp.ns(),
+                             [](std::int64_t t, const PoseObservation& q) { return t < q.stamp.ns(); });
+  list.insert(at, p);
+  received_.odom.push_back({static_cast<std::uint8_t>(p.robot_id), p.stamp.ns(), Pose2{p.x_m, p.y_m, p.yaw_rad}, v,
+                            p.yaw_rate_radps});
+}
+
+Pose2 FusionStage::own_pose(std::uint32_t robot, std::int64_t stamp_ns, double ox, double oy) const {
+  const auto& list = poses_by_robot_[robot];
+  if (list.empty()) return Pose2{ox, oy, 0.0};
+  auto after = std::upper_bound(list.begin(), list.end(), stamp_ns,
+                                [](std::int64_t t, const PoseObservation& q) { return t < q.stamp.ns(); });
+  const PoseObservation& p = after == list.begin() ? *after : *(after - 1);
+  const double dt_s = static_cast<double>(stamp_ns - p.stamp.ns()) * 1e-9;
+  return Pose2{p.x_m + p.vx_mps * dt_s, p.y_m + p.vy_mps * dt_s, p.yaw_rad + p.yaw_rate_radps * dt_s};
+}
+
+void FusionStage::add_scan(const StoredScan& s) {
+  if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
+  ++counters_.scans;
+  const std::size_t n = std::min<std::size_t>(s.count, kMaxBeams);
+  ScanRecord rec;
+  rec.robot = static_cast<std::uint8_t>(s.robot_id);
+  rec.scan = s.seq;
+  rec.stamp_ns = s.stamp_ns;
+  rec.beams = static_cast<std::uint16_t>(n);
+  rec.origin = {s.origin_x_mm * 1e-3, s.origin_y_mm * 1e-3, s.origin_z_mm * 1e-3};
+  rec.pose = own_pose(s.robot_id, s.stamp_ns, rec.origin.x, rec.origin.y);
+  rec.true_pose = rec.pose;
+
+  scratch_points_.clear();
+  scratch_flags_.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    const StoredPoint& sp = s.points[i];
+    // Beams without a 3-D point (no echo, dazzled, unplaced) are stored in scans.bin but are not part
+    // of the model, as in the data set's points.pcd.
+    if (sp.flags & kPointUnplaced) continue;
+    LabelledPoint lp;
+    lp.x = static_cast<float>(sp.x_mm * 1e-3);
+    lp.y = static_cast<float>(sp.y_mm * 1e-3);
+    lp.z = static_cast<float>(sp.z_mm * 1e-3);
+    lp.robot = rec.robot;
+    lp.scan = s.seq;
+    lp.beam = sp.beam;
+    lp.flags = dataset_flags_from_wire(sp.flags);
+    lp.tx = lp.x;
+    lp.ty = lp.y;
+    lp.tz = lp.z;
+    received_.points.push_back(lp);
+    scratch_points_.push_back({lp.x, lp.y, lp.z});
+    scratch_flags_.push_back(lp.flags);
+  }
+  rec.points = static_cast<std::uint16_t>(scratch_points_.size());
+  received_.scans.push_back(rec);
+  counters_.points += scratch_points_.size();
+
+  // Live: the team predicted to the scan's stamp, observe then classify against the map so far.
+  const mapping::TeamState team = tracker_.predict(s.stamp_ns);
+  mapping::ScanView view;
+  view.robot = rec.robot;
+  view.scan = rec.scan;
+  view.stamp_ns = rec.stamp_ns;
+  view.origin_m = rec.origin;
+  view.map_from_robot = rec.pose;
+  view.points = scratch_points_;
+  view.flags = scratch_flags_;
+  view.team = &team;
+  live_->observe(view);
+  scratch_removed_.assign(scratch_points_.size(), 0);
+  live_->classify(view, scratch_removed_);
+  for (std::size_t i = 0; i < scratch_points_.size(); ++i) {
+    map_all_.insert(scratch_points_[i]);
+    if (scratch_removed_[i]) {
+      ++counters_.live_removed;
+    } else {
+      map_kept_.insert(scratch_points_[i]);
+    }
+  }
+}
+
+namespace {
+
+Status write_atomically(const std::string& path, const PcdCloud& cloud, const std::vector<PcdField>& layout) {
+  const std::string tmp = path + ".tmp";
+  if (Status st = write_pcd(tmp, cloud, layout); !st.ok()) return st;
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) return Error{"fusion: cannot rename the fused PCD into place", errno};
+  return ok_status();
+}
+
+}  // namespace
+
+void FusionStage::refresh_scan_poses() {
+  for (ScanRecord& r : received_.scans) {
+    r.pose = own_pose(r.robot, r.stamp_ns, r.origin.x, r.origin.y);
+    r.true_pose = r.pose;
+  }
+}
+
+Status FusionStage::write_received_dataset(const std::string& dir) {
+  refresh_scan_poses();
+  received_.truth = received_.odom;  // no ground truth at the station: the odometry stands in
+  received_.robots.clear();
+  for (std::uint32_t id = 1; id <= kMaxRobots; ++id) {
+    if (poses_by_robot_[id].empty()) continue;
+    DatasetRobot r;
+    r.id = static_cast<std::uint8_t>(id);
+    r.name = "robot" + std::to_string(id);
+    received_.robots.push_back(r);
+  }
+  Status st = write_dataset(dir, received_);
+  received_.truth.clear();
+  return st;
+}
+
+Status FusionStage::write_model() {
+  refresh_scan_poses();
+  const mapping::PreparedDataset prepared = mapping::prepare_dataset(received_, options_.tracker);
+  std::unique_ptr<mapping::Filter> filter = mapping::make_filter(options_.method, options_.methods);
+  last_removed_ = mapping::run_offline(prepared, *filter);
+
+  const bool all = !options_.all_points_pcd.empty();
+  PcdCloud kept, every;
+  kept.fields = {"x", "y", "z", "robot", "scan", "beam"};
+  kept.columns.assign(kept.fields.size(), {});
+  std::vector<PcdField> layout = {{"x", 4, 'F', 1},     {"y", 4, 'F', 1},    {"z", 4, 'F', 1},
+                                  {"robot", 1, 'U', 1}, {"scan", 4, 'U', 1}, {"beam", 2, 'U', 1}};
+  if (all) {
+    every.fields = kept.fields;
+    every.fields.push_back("keep");
+    every.columns.assign(every.fields.size(), {});
+  }
+  std::uint64_t n_kept = 0;
+  for (std::size_t i = 0; i < received_.points.size(); ++i) {
+    const LabelledPoint& p = received_.points[i];
+    const double row[6] = {p.x, p.y, p.z, static_cast<double>(p.robot), static_cast<double>(p.scan),
+                           static_cast<double>(p.beam)};
+    const bool keep = last_removed_[i] == 0;
+    if (keep) {
+      ++n_kept;
+      for (std::size_t c = 0; c < 6; ++c) kept.columns[c].push_back(row[c]);
+    }
+    if (all) {
+      for (std::size_t c = 0; c < 6; ++c) every.columns[c].push_back(row[c]);
+      every.columns[6].push_back(keep ? 1.0 : 0.0);
+    }
+  }
+  kept.width = n_kept;
+  kept.height = 1;
+  Status st = write_atomically(session_dir_ + "/" + options_.kept_pcd, kept, layout);
+  if (st.ok() && all) {
+    every.width = received_.points.size();
+    every.height = 1;
+    std::vector<PcdField> layout_all = layout;
+    layout_all.push_back({"keep", 1, 'U', 1});
+    st = write_atomically(session_dir_ + "/" + options_.all_points_pcd, every, layout_all);
+  }
+  if (!st.ok()) {
+    ++counters_.write_failures;
+    return st;
+  }
+  ++counters_.writes;
+  counters_.last_write_kept = n_kept;
+  counters_.last_write_removed = received_.points.size() - n_kept;
+  return ok_status();
+}
+
+std::uint32_t FusionStage::map_resolution_mm() const {
+  return static_cast<std::uint32_t>(std::lround(options_.map_resolution_m * 1000.0));
+}
+
+void FusionStage::map_voxels(std::vector<teamscan_msg_MapVoxel>& out) const {
+  out.clear();
+  out.reserve(map_all_.occupied_voxels());
+  const double r = map_all_.resolution_m();
+  map_all_.for_each_voxel([&](mapping::VoxelKey k, std::uint32_t hits) {
+    teamscan_msg_MapVoxel v{};
+    v.x_mm = static_cast<std::int32_t>(std::lround((k.x + 0.5) * r * 1000.0));
+    v.y_mm = static_cast<std::int32_t>(std::lround((k.y + 0.5) * r * 1000.0));
+    v.z_mm = static_cast<std::int32_t>(std::lround((k.z + 0.5) * r * 1000.0));
+    v.hits = static_cast<std::uint16_t>(std::min<std::uint32_t>(hits, 0xFFFFu));
+    v.flags = map_kept_.count(k) == 0 ? 1 : 0;
+    out.push_back(v);
+  });
+}
+
+}  // namespace teamscan::station

@@ -1,0 +1,113 @@
+// The ground station's live fusion stage (issue 5): every received pose feeds a Kalman tracker, every
+// received scan goes into the configured filter (observe + classify, live) and an incremental voxel map
+// for teamscan/map; the fused model is written as PCD by the offline path of `teamscan eval` over
+// everything received so far (docs/groundstation.md "Live vs offline").
+// It runs from Station hooks, after the sample is stored: a failure here never loses a received sample.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/dataset/dataset.hpp"
+#include "common/result.hpp"
+#include "groundstation/mapping/filter.hpp"
+#include "groundstation/mapping/tracker.hpp"
+#include "groundstation/mapping/voxel_map.hpp"
+#include "groundstation/station/scan_record.hpp"
+#include "groundstation/station/team_source.hpp"
+
+struct teamscan_msg_MapVoxel;
+
+namespace teamscan::station {
+
+struct FusionOptions {
+  // One of mapping::known_methods(); default the paper's combined method (direction 7°, then
+  // visibility 0.1 m, PAPER_NOTES 8 / Table 6).
+  std::string method = "combined";
+  mapping::MethodOptions methods;
+  mapping::TrackerOptions tracker;
+  // Voxel edge of the teamscan/map updates (metres).
+  double map_resolution_m = 0.1;
+  // File names inside the session folder. `all_points_pcd` empty: not written.
+  std::string kept_pcd = "fused.pcd";
+  std::string all_points_pcd;
+  // Sub-folder of the session written on shutdown with everything received as a data set; empty: none.
+  std::string received_dataset = "received";
+};
+
+struct FusionCounters {
+  std::uint64_t scans = 0;
+  std::uint64_t poses = 0;
+  std::uint64_t points = 0;
+  std::uint64_t live_removed = 0;     // points the live classification removed at arrival
+  std::uint64_t writes = 0;           // fused PCDs written
+  std::uint64_t write_failures = 0;
+  std::uint64_t last_write_kept = 0;  // points in the last fused PCD
+  std::uint64_t last_write_removed = 0;
+};
+
+struct FusionConfig;
+struct KalmanConfig;
+// The daemon's [fusion] and [team.kalman] config as FusionOptions (the tracker is the team source's).
+[[nodiscard]] FusionOptions fusion_options_from_config(const FusionConfig& fusion, const KalmanConfig& kalman);
+
+// Point flags on the wire (teamscan.idl POINT_*, common/scan_points.hpp kPoint*) → the data set's
+// point_flags (common/dataset/dataset.hpp), so the offline code sees the onboard decisions as eval does.
+[[nodiscard]] std::uint16_t dataset_flags_from_wire(std::uint16_t wire_flags);
+
+class FusionStage {
+ public:
+  // Fails if `options.method` is not a known method.
+  [[nodiscard]] static Result<std::unique_ptr<FusionStage>> create(const FusionOptions& options,
+                                                                   std::string session_dir);
+
+  // Hooks (Station::add_pose_hook / add_scan_hook).
+  void add_pose(const PoseObservation& pose);
+  void add_scan(const StoredScan& scan);
+
+  // Runs the offline path (prepare_dataset + run_offline, the code of `teamscan eval`) over every
+  // received scan and writes the kept points (and optionally all points with a `keep` field) as
+  // binary PCD: written to NAME.tmp, then rename(2), so a reader never sees a half file.
+  [[nodiscard]] Status write_model();
+  // Writes everything received as a data set folder (common/dataset: points.pcd, scans.csv, odom.csv,
+  // ...; no labels), so `teamscan eval DIR --method M` reproduces the fused model's decisions offline.
+  [[nodiscard]] Status write_received_dataset(const std::string& dir);
+  // Removed flags of the last write_model(), in received().points order.
+  [[nodiscard]] const std::vector<std::uint8_t>& last_removed() const { return last_removed_; }
+
+  // The occupied voxels of the live map as teamscan/map voxels (flags 1: every point in the voxel
+  // was removed by the live classification). Returns the number written to `out`.
+  void map_voxels(std::vector<teamscan_msg_MapVoxel>& out) const;
+  [[nodiscard]] std::uint32_t map_resolution_mm() const;
+
+  // Everything received, as a data set (points in mm-exact metres, scan = seq, pose at the stamp).
+  [[nodiscard]] const Dataset& received() const { return received_; }
+  [[nodiscard]] const FusionCounters& counters() const { return counters_; }
+  [[nodiscard]] const FusionOptions& options() const { return options_; }
+
+ private:
+  FusionStage(const FusionOptions& options, std::string session_dir, std::unique_ptr<mapping::Filter> live);
+  // The robot's own pose at `stamp_ns`: its newest received pose stamped at or before the scan, moved
+  // on with its velocity; else its newest pose; else the scan origin.
+  // Recomputes every scan's own pose from all poses received so far (a pose may arrive after its scan).
+  void refresh_scan_poses();
+  [[nodiscard]] Pose2 own_pose(std::uint32_t robot, std::int64_t stamp_ns, double origin_x_m, double origin_y_m) const;
+
+  FusionOptions options_;
+  std::string session_dir_;
+  std::unique_ptr<mapping::Filter> live_;
+  mapping::TeamTracker tracker_;
+  mapping::VoxelMap map_all_;
+  mapping::VoxelMap map_kept_;
+  Dataset received_;
+  std::vector<std::vector<PoseObservation>> poses_by_robot_;  // index robot id, stamp order as received
+  std::vector<mapping::MapPoint> scratch_points_;
+  std::vector<std::uint16_t> scratch_flags_;
+  std::vector<std::uint8_t> scratch_removed_;
+  std::vector<std::uint8_t> last_removed_;
+  FusionCounters counters_;
+};
+
+}  // namespace teamscan::station

@@ -1,0 +1,227 @@
+// FusionStage fed directly (no DDS) with a small survey: live decisions equal the evaluation's live
+// run for every method, the written model equals its offline run, the model write is atomic, the
+// teamscan/map voxels account for every point, the wire flags map to the data set's, and the
+// [fusion] config keys parse and name themselves in errors.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <numeric>
+
+#include "common/dataset/pcd.hpp"
+#include "common/scan_points.hpp"
+#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/station/config.hpp"
+#include "groundstation/station/fusion.hpp"
+#include "teamscan.h"
+#include "tests/bench/mapping/synthetic_survey.hpp"
+
+namespace teamscan::station {
+namespace {
+
+std::int32_t mm(double m) { return static_cast<std::int32_t>(std::lround(m * 1000.0)); }
+
+// A survey already on the millimetre grid, so the stage sees exactly the data set's values.
+Dataset survey() {
+  bench::SurveyOptions o;
+  o.duration_s = 3.0;
+  o.room_m = 6.0;
+  o.seed = 3;
+  Dataset d = bench::synthetic_survey(o);
+  for (LabelledPoint& p : d.points) {
+    p.x = static_cast<float>(mm(p.x) * 1e-3);
+    p.y = static_cast<float>(mm(p.y) * 1e-3);
+    p.z = static_cast<float>(mm(p.z) * 1e-3);
+  }
+  for (ScanRecord& r : d.scans) r.origin = {mm(r.origin.x) * 1e-3, mm(r.origin.y) * 1e-3, mm(r.origin.z) * 1e-3};
+  // Odometry with zero speed and on the mm/µrad grid, so the extrapolated own pose is the pose itself.
+  for (TrajectorySample& s : d.odom) {
+    s.pose = Pose2{mm(s.pose.x_m) * 1e-3, mm(s.pose.y_m) * 1e-3, std::lround(s.pose.theta_rad * 1e6) * 1e-6};
+    s.v_mps = 0;
+    s.w_radps = 0;
+  }
+  for (ScanRecord& r : d.scans) {
+    for (const TrajectorySample& s : d.odom)
+      if (s.robot == r.robot && s.stamp_ns == r.stamp_ns) r.pose = s.pose;
+  }
+  return d;
+}
+
+// Feeds the stage in time order: each stamp's poses, then its scans (as the robots send them).
+void feed(FusionStage& stage, const Dataset& d) {
+  static StoredScan scan;
+  std::size_t next_odom = 0;
+  for (const ScanRecord& r : d.scans) {
+    while (next_odom < d.odom.size() && d.odom[next_odom].stamp_ns <= r.stamp_ns) {
+      const TrajectorySample& s = d.odom[next_odom++];
+      PoseObservation p;
+      p.robot_id = s.robot;
+      p.stamp = Time::from_ns(s.stamp_ns);
+      p.x_m = s.pose.x_m;
+      p.y_m = s.pose.y_m;
+      p.yaw_rad = s.pose.theta_rad;
+      stage.add_pose(p);
+    }
+    scan = StoredScan{};
+    scan.robot_id = r.robot;
+    scan.seq = r.scan;
+    scan.stamp_ns = r.stamp_ns;
+    scan.origin_x_mm = mm(r.origin.x);
+    scan.origin_y_mm = mm(r.origin.y);
+    scan.origin_z_mm = mm(r.origin.z);
+    for (const LabelledPoint& p : d.points) {
+      if (p.robot != r.robot || p.scan != r.scan) continue;
+      scan.points[scan.count++] = StoredPoint{mm(p.x), mm(p.y), mm(p.z), p.beam, 0};
+    }
+    // One beam without an echo: stored by the station, never part of the model.
+    scan.points[scan.count++] = StoredPoint{0, 0, 0, 400, kPointInvalid};
+    stage.add_scan(scan);
+  }
+}
+
+std::string temp_dir() {
+  char tmpl[] = "/tmp/teamscan-gslive-unit-XXXXXX";
+  return ::mkdtemp(tmpl);
+}
+
+class FusionMethods : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(FusionMethods, LiveEqualsEvalLiveAndModelEqualsEvalOffline) {
+  const Dataset d = survey();
+  const std::string dir = temp_dir();
+  FusionOptions o;
+  o.method = GetParam();
+  o.all_points_pcd = "fused_all.pcd";
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  feed(**stage, d);
+  EXPECT_EQ((*stage)->counters().points, d.points.size());  // the invalid beams are not points
+
+  const mapping::PreparedDataset prepared = mapping::prepare_dataset(d, o.tracker);
+  auto filter = mapping::make_filter(o.method, o.methods);
+  const std::vector<std::uint8_t> live = mapping::run_live(prepared, *filter);
+  const std::vector<std::uint8_t> offline = mapping::run_offline(prepared, *filter);
+  EXPECT_EQ((*stage)->counters().live_removed, std::accumulate(live.begin(), live.end(), std::uint64_t{0}));
+
+  ASSERT_TRUE((*stage)->write_model().ok());
+  // received() holds the points in arrival order, the data set in scan order: compare by (robot, scan, beam).
+  const Dataset& got = (*stage)->received();
+  ASSERT_EQ(got.points.size(), d.points.size());
+  std::map<std::tuple<int, std::uint32_t, int>, std::uint8_t> decided;
+  for (std::size_t i = 0; i < got.points.size(); ++i)
+    decided[{got.points[i].robot, got.points[i].scan, got.points[i].beam}] = (*stage)->last_removed()[i];
+  std::size_t removed = 0;
+  for (std::size_t i = 0; i < d.points.size(); ++i) {
+    ASSERT_EQ((decided[{d.points[i].robot, d.points[i].scan, d.points[i].beam}]), offline[i]) << "point " << i;
+    removed += offline[i];
+  }
+  EXPECT_GT(removed, 0u);
+  auto kept = read_pcd(dir + "/fused.pcd");
+  ASSERT_TRUE(kept.ok());
+  EXPECT_EQ(kept->size(), d.points.size() - removed);
+  auto all = read_pcd(dir + "/fused_all.pcd");
+  ASSERT_TRUE(all.ok());
+  EXPECT_EQ(all->size(), d.points.size());
+  EXPECT_GE(all->field("keep"), 0);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/fused.pcd.tmp"));
+  std::filesystem::remove_all(dir);
+}
+
+INSTANTIATE_TEST_SUITE_P(AllMethods, FusionMethods,
+                         ::testing::Values("frequency", "visibility", "position", "direction", "combined", "tracked",
+                                           "freespace", "best"));
+
+TEST(Fusion, MapVoxelsAccountForEveryPointAndFlagFullyRemovedVoxels) {
+  const Dataset d = survey();
+  const std::string dir = temp_dir();
+  FusionOptions o;  // combined
+  o.map_resolution_m = 0.2;
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  feed(**stage, d);
+  std::vector<teamscan_msg_MapVoxel> voxels;
+  (*stage)->map_voxels(voxels);
+  ASSERT_FALSE(voxels.empty());
+  EXPECT_EQ((*stage)->map_resolution_mm(), 200u);
+  std::uint64_t hits = 0, flagged = 0;
+  for (const teamscan_msg_MapVoxel& v : voxels) {
+    hits += v.hits;
+    flagged += v.flags;
+    // Centres on the 0.2 m grid: 100 mm + k·200 mm.
+    EXPECT_EQ(((v.x_mm % 200) + 200) % 200, 100);
+    EXPECT_EQ(((v.z_mm % 200) + 200) % 200, 100);
+  }
+  EXPECT_EQ(hits, d.points.size());
+  EXPECT_GT(flagged, 0u);
+  EXPECT_LT(flagged, voxels.size());
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Fusion, WriteIntoAMissingFolderFailsAsAValueAndIsCounted) {
+  FusionOptions o;
+  auto stage = FusionStage::create(o, "/nonexistent/teamscan/gslive");
+  ASSERT_TRUE(stage.ok());
+  EXPECT_FALSE((*stage)->write_model().ok());
+  EXPECT_EQ((*stage)->counters().write_failures, 1u);
+}
+
+TEST(Fusion, UnknownMethodIsRejected) {
+  FusionOptions o;
+  o.method = "magic";
+  EXPECT_FALSE(FusionStage::create(o, "/tmp").ok());
+}
+
+TEST(Fusion, WireFlagsMapToTheDataSetFlags) {
+  EXPECT_EQ(dataset_flags_from_wire(0), 0);
+  EXPECT_EQ(dataset_flags_from_wire(kPointDirectionFiltered), point_flags::kDirectionFiltered);
+  EXPECT_EQ(dataset_flags_from_wire(kPointInvalid), point_flags::kInvalid);
+  EXPECT_EQ(dataset_flags_from_wire(kPointNoPose), point_flags::kInvalid);
+  EXPECT_EQ(dataset_flags_from_wire(kPointDazzled), point_flags::kDazzled);
+  EXPECT_EQ(dataset_flags_from_wire(kPointOutOfRange), point_flags::kOutOfRange);
+  EXPECT_EQ(dataset_flags_from_wire(kPointTeamStale), point_flags::kTeamStale);
+  EXPECT_EQ(dataset_flags_from_wire(kPointPositionFiltered), 0);  // a ground-station decision, recomputed here
+}
+
+TEST(FusionConfig, KeysParseIntoOptions) {
+  GroundStationConfig c;
+  ConfigError e;
+  ASSERT_TRUE(parse_groundstation_config(
+      "[fusion]\nmethod = \"visibility\"\nresolution_m = 0.05\nhalf_angle_deg = 5.0\nwrite_interval_s = 2.5\n"
+      "write_all_points = true\nmap_interval_s = 0.0\nfrequency_k = 0.5\n",
+      "t.toml", c, e))
+      << e.message;
+  EXPECT_EQ(c.fusion.method, "visibility");
+  EXPECT_EQ(c.fusion.write_interval, std::chrono::milliseconds(2500));
+  EXPECT_EQ(c.fusion.map_interval.count(), 0);
+  const FusionOptions o = fusion_options_from_config(c.fusion, c.kalman);
+  EXPECT_DOUBLE_EQ(o.methods.visibility.resolution_m, 0.05);
+  EXPECT_DOUBLE_EQ(o.methods.combined_resolution_m, 0.05);
+  EXPECT_NEAR(o.methods.direction.half_angle_rad, 5.0 * M_PI / 180.0, 1e-12);
+  EXPECT_DOUBLE_EQ(o.methods.frequency.k, 0.5);
+  EXPECT_EQ(o.all_points_pcd, "fused_all.pcd");
+}
+
+TEST(FusionConfig, DefaultsAreThePapersCombinedMethod) {
+  GroundStationConfig c;
+  const FusionOptions o = fusion_options_from_config(c.fusion, c.kalman);
+  EXPECT_EQ(o.method, "combined");
+  EXPECT_DOUBLE_EQ(o.methods.combined_resolution_m, 0.1);
+  EXPECT_NEAR(o.methods.combined_half_angle_rad, 7.0 * M_PI / 180.0, 1e-12);
+  EXPECT_TRUE(o.all_points_pcd.empty());
+}
+
+TEST(FusionConfig, BadValuesNameTheirKey) {
+  GroundStationConfig c;
+  ConfigError e;
+  EXPECT_FALSE(parse_groundstation_config("[fusion]\nmethod = \"magic\"\n", "t.toml", c, e));
+  EXPECT_EQ(e.message.rfind("fusion.method:", 0), 0u) << e.message;
+  EXPECT_FALSE(parse_groundstation_config("[fusion]\nresolution_m = -1.0\n", "t.toml", c, e));
+  EXPECT_EQ(e.message.rfind("fusion.resolution_m:", 0), 0u) << e.message;
+  EXPECT_FALSE(parse_groundstation_config("[fusion]\nwrite_all_points = 1\n", "t.toml", c, e));
+  EXPECT_EQ(e.message.rfind("fusion.write_all_points:", 0), 0u) << e.message;
+  EXPECT_FALSE(parse_groundstation_config("[fusion]\nmethd = \"visibility\"\n", "t.toml", c, e));
+  EXPECT_EQ(e.message, "fusion.methd: unknown key");
+}
+
+}  // namespace
+}  // namespace teamscan::station
