@@ -1,6 +1,7 @@
 // teamscan-groundstation: receives every robot's poses, scans and status over DDS, stores them in a
 // session folder, marks robots that stop as lost, and publishes teamscan/team (issue 5). A systemd
 // Type=notify service: READY=1 once subscribed, WATCHDOG=1 from the loop, STOPPING=1 on SIGTERM.
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -152,6 +153,9 @@ int main(int argc, char** argv) {
   Time next_write = now + cfg.fusion.write_interval;
   Time next_map = now + cfg.fusion.map_interval;
   std::uint64_t scans_at_write = 0;
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+  bool periodic_writes = true;
+#endif
   std::uint32_t lost_before = 0;
   while (g_stop == 0) {
     // One loop, one tick: wait for data at most until the next team publication is due.
@@ -167,10 +171,28 @@ int main(int argc, char** argv) {
       next_sync = now + cfg.sync_interval;
     }
 #ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
-    if (fusion && cfg.fusion.write_interval.count() > 0 && now >= next_write) {
-      if (fusion->counters().scans != scans_at_write) write_model("periodic");
+    if (fusion && periodic_writes && cfg.fusion.write_interval.count() > 0 && now >= next_write) {
+      Duration took{0};
+      if (fusion->counters().scans != scans_at_write) {
+        write_model("periodic");
+        took = now_monotonic() - now;
+        now = now_monotonic();
+        if (ping_period.count() > 0) {
+          onboard::notify_watchdog();
+          next_ping = now + ping_period;
+        }
+      }
       scans_at_write = fusion->counters().scans;
-      next_write = now + cfg.fusion.write_interval;
+      // The periodic write re-runs the whole offline pass in this loop, so its cost grows with the
+      // session. Keep it a small share of the loop's time, and stop it before it can starve the
+      // watchdog (the shutdown write still runs; everything received is on disk regardless).
+      next_write = now + std::max<Duration>(cfg.fusion.write_interval, 10 * took);
+      if (ping_period.count() > 0 && took > ping_period / 2) {
+        periodic_writes = false;
+        log(kWarning, "fusion: periodic model writes stopped: one took " + std::to_string(to_seconds(took)) +
+                          " s, close to the watchdog; the model is written at shutdown");
+        store->log_event(now_realtime(), "periodic fused model writes stopped (too slow for the watchdog)");
+      }
     }
     if (fusion && cfg.fusion.map_interval.count() > 0 && now >= next_map) {
       fusion->map_voxels(map_voxels);
