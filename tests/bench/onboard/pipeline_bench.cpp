@@ -13,6 +13,7 @@
 #include "drivers/lms200/codec.hpp"
 #include "drivers/lms200/scan.hpp"
 #include "onboard/core/pipeline.hpp"
+#include "tests/support/onboard_config_fixture.hpp"
 #include "onboard/daemon/lms_scan.hpp"
 
 namespace teamscan::onboard {
@@ -20,23 +21,7 @@ namespace {
 
 OnboardConfig bench_config(bool gates) {
   std::string msg;
-  auto c = parse_onboard_config(R"(
-[robot]
-id = 1
-[arcos]
-device = "/dev/a"
-[lms]
-device = "/dev/b"
-fov_deg = 180
-resolution_deg = 0.5
-[mount]
-x_m = 0.16
-y_m = 0
-z_m = 0.45
-pitch_deg = 15
-)", msg);
-  c->filter.range_gate = gates;
-  c->filter.height_gate = gates;
+  auto c = parse_onboard_config(test::pipeline_test_config_toml(1, gates), msg);
   return c.value();
 }
 

@@ -15,6 +15,7 @@
 #include "drivers/lms200/codec.hpp"
 #include "drivers/lms200/scan.hpp"
 #include "onboard/core/pipeline.hpp"
+#include "tests/support/onboard_config_fixture.hpp"
 #include "onboard/daemon/lms_scan.hpp"
 #include "onboard/dds/bridge.hpp"
 #include "tests/support/alloc_counter.hpp"
@@ -28,24 +29,7 @@ TEST(PipelineDdsAllocations, CounterIsLinkedIn) { EXPECT_TRUE(test::alloc_counte
 
 TEST(PipelineDdsAllocations, DecodeFilterPublishTenThousandScans) {
   std::string msg;
-  auto config = parse_onboard_config(R"(
-[robot]
-id = 7
-[arcos]
-device = "/dev/a"
-[lms]
-device = "/dev/b"
-fov_deg = 180
-resolution_deg = 0.5
-[mount]
-x_m = 0.16
-y_m = 0
-z_m = 0.45
-pitch_deg = 15
-[filter]
-range_gate = true
-height_gate = true
-)", msg);
+  auto config = parse_onboard_config(test::pipeline_test_config_toml(7, true), msg);
   ASSERT_TRUE(config.ok()) << msg;
   auto pipeline = OnboardPipeline::create(config.value());
   ASSERT_TRUE(pipeline.ok());

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "onboard/core/pipeline.hpp"
+#include "tests/support/onboard_config_fixture.hpp"
 #if TEAMSCAN_HAVE_LMS200
 #include "drivers/lms200/codec.hpp"
 #include "drivers/lms200/scan.hpp"
@@ -69,24 +70,7 @@ TEST(Allocation, TheCounterSeesAllocations) {
 
 TEST(Allocation, TenThousandScansAllocateNothing) {
   std::string msg;
-  auto config = parse_onboard_config(R"(
-[robot]
-id = 1
-[arcos]
-device = "/dev/a"
-[lms]
-device = "/dev/b"
-fov_deg = 180
-resolution_deg = 0.5
-[mount]
-x_m = 0.16
-y_m = 0
-z_m = 0.45
-pitch_deg = 15
-[filter]
-range_gate = true
-height_gate = true
-)", msg);
+  auto config = parse_onboard_config(test::pipeline_test_config_toml(1, true), msg);
   ASSERT_TRUE(config.ok()) << msg;
   auto pipeline = OnboardPipeline::create(config.value());
   ASSERT_TRUE(pipeline.ok());
