@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <span>
 
+#include "common/clock.hpp"
 #include "common/dataset/pcd.hpp"
 #include "common/scan_points.hpp"
 #include "common/units.hpp"
@@ -157,12 +158,31 @@ void FusionStage::add_scan(const StoredScan& s) {
   live_->classify(view, scratch_removed_);
   for (std::size_t i = 0; i < scratch_points_.size(); ++i) {
     map_all_.insert(scratch_points_[i]);
+    live_removed_points_.push_back(scratch_removed_[i]);
     if (scratch_removed_[i]) {
       ++counters_.live_removed;
     } else {
       map_kept_.insert(scratch_points_[i]);
     }
   }
+  // The scan is now in the fused map (classified, inserted): its latency from the end of its sweep.
+  // Both stamps are CLOCK_REALTIME (the robots' clocks are NTP-disciplined, DESIGN.md "Frames, units, time").
+  fused_latency_.add(now_realtime().ns() - s.stamp_ns);
+  stored_latency_.add(s.recv_realtime_ns - s.stamp_ns);
+}
+
+Status FusionStage::write_latency() const {
+  if (options_.latency_csv.empty()) return ok_status();
+  const std::string path = session_dir_ + "/" + options_.latency_csv, tmp = path + ".tmp";
+  const std::string text = "# scan -> stored: stamp (end of sweep) -> taken from DDS and written to scans.bin\n" +
+                           stored_latency_.csv("scan -> stored") + "\n# scan -> fused map: stamp -> classified and in the live map\n" +
+                           fused_latency_.csv("scan -> fused map");
+  std::FILE* f = std::fopen(tmp.c_str(), "w");
+  if (f == nullptr) return Error{"fusion: cannot write the latency file", errno};
+  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  if (std::fclose(f) != 0 || !ok) return Error{"fusion: cannot write the latency file", errno};
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) return Error{"fusion: cannot rename the latency file into place", errno};
+  return ok_status();
 }
 
 namespace {
@@ -214,6 +234,7 @@ Status FusionStage::write_model() {
   if (all) {
     every.fields = kept.fields;
     every.fields.push_back("keep");
+    every.fields.push_back("live_keep");
     every.columns.assign(every.fields.size(), {});
   }
   std::uint64_t n_kept = 0;
@@ -229,6 +250,8 @@ Status FusionStage::write_model() {
     if (all) {
       for (std::size_t c = 0; c < 6; ++c) every.columns[c].push_back(row[c]);
       every.columns[6].push_back(keep ? 1.0 : 0.0);
+      // The decision the live stage took at arrival (map-based filters: against the map so far).
+      every.columns[7].push_back(i < live_removed_points_.size() && live_removed_points_[i] ? 0.0 : 1.0);
     }
   }
   kept.width = n_kept;
@@ -239,6 +262,7 @@ Status FusionStage::write_model() {
     every.height = 1;
     std::vector<PcdField> layout_all = layout;
     layout_all.push_back({"keep", 1, 'U', 1});
+    layout_all.push_back({"live_keep", 1, 'U', 1});
     st = write_atomically(session_dir_ + "/" + options_.all_points_pcd, every, layout_all);
   }
   if (!st.ok()) {

@@ -15,6 +15,7 @@
 #include "groundstation/mapping/filter.hpp"
 #include "groundstation/mapping/tracker.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
+#include "groundstation/station/latency_histogram.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "groundstation/station/team_source.hpp"
 
@@ -35,6 +36,9 @@ struct FusionOptions {
   std::string all_points_pcd;
   // Sub-folder of the session written on shutdown with everything received as a data set; empty: none.
   std::string received_dataset = "received";
+  // Per-scan latency histograms (scan stamp -> taken from DDS, scan stamp -> in the fused map), written
+  // by write_latency(); empty: not written.
+  std::string latency_csv = "latency.csv";
 };
 
 struct FusionCounters {
@@ -74,6 +78,14 @@ class FusionStage {
   // Writes everything received as a data set folder (common/dataset: points.pcd, scans.csv, odom.csv,
   // ...; no labels), so `teamscan eval DIR --method M` reproduces the fused model's decisions offline.
   [[nodiscard]] Status write_received_dataset(const std::string& dir);
+  // Writes the latency histograms (options().latency_csv) into the session folder, atomically.
+  [[nodiscard]] Status write_latency() const;
+  // Scan stamp (end of sweep, CLOCK_REALTIME) -> the scan classified and inserted into the live map, and
+  // scan stamp -> taken from DDS (the station stores it right then, before fusion), one sample per scan.
+  [[nodiscard]] const LatencyHistogram& fused_latency() const { return fused_latency_; }
+  [[nodiscard]] const LatencyHistogram& stored_latency() const { return stored_latency_; }
+  // The live classification at arrival, per point in received().points order (1 = removed).
+  [[nodiscard]] const std::vector<std::uint8_t>& live_removed() const { return live_removed_points_; }
   // Removed flags of the last write_model(), in received().points order.
   [[nodiscard]] const std::vector<std::uint8_t>& last_removed() const { return last_removed_; }
 
@@ -107,6 +119,9 @@ class FusionStage {
   std::vector<std::uint16_t> scratch_flags_;
   std::vector<std::uint8_t> scratch_removed_;
   std::vector<std::uint8_t> last_removed_;
+  std::vector<std::uint8_t> live_removed_points_;  // grows with received_.points (amortised, as they do)
+  LatencyHistogram fused_latency_;
+  LatencyHistogram stored_latency_;
   FusionCounters counters_;
 };
 

@@ -134,6 +134,14 @@ int main(int argc, char** argv) {
                                            std::to_string(fusion->counters().last_write_kept) + " kept, " +
                                            std::to_string(fusion->counters().last_write_removed) + " removed");
     }
+    // Scan -> fused-map latency so far (latency.csv; docs/demo.md "Scale").
+    const LatencyHistogram& lat = fusion->fused_latency();
+    char line[160];
+    std::snprintf(line, sizeof line, "scan -> fused map latency: %llu scans, p50 %.1f ms, p99 %.1f ms, max %.1f ms",
+                  static_cast<unsigned long long>(lat.count()), static_cast<double>(lat.quantile_ns(0.5)) * 1e-6,
+                  static_cast<double>(lat.quantile_ns(0.99)) * 1e-6, static_cast<double>(lat.max_ns()) * 1e-6);
+    store->log_event(now_realtime(), line);
+    if (const Status l = fusion->write_latency(); !l.ok()) log(kWarning, std::string("fusion: ") + l.error().what);
   };
 #else
   if (cfg.fusion.enabled) log(kWarning, "fusion: not in this build (no groundstation/mapping)");
