@@ -67,7 +67,8 @@ FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, 
       tracker_{options.tracker},
       map_all_{options.map_resolution_m},
       map_kept_{options.map_resolution_m},
-      poses_by_robot_(kMaxRobots + 1) {
+      poses_by_robot_(kMaxRobots + 1),
+      seq_windows_(kMaxRobots + 1) {
   received_.scenario = "live";
   scratch_points_.reserve(kMaxBeams);
   scratch_flags_.reserve(kMaxBeams);
@@ -103,8 +104,50 @@ Pose2 FusionStage::own_pose(std::uint32_t robot, std::int64_t stamp_ns, double o
   return Pose2{p.x_m + p.vx_mps * dt_s, p.y_m + p.vy_mps * dt_s, p.yaw_rad + p.yaw_rate_radps * dt_s};
 }
 
+bool FusionStage::seen_before(std::uint32_t robot, std::uint32_t seq) {
+  SeqWindow& w = seq_windows_[robot];
+  auto bit = [&](std::uint32_t k) -> bool { return (w.seen[k / 64] >> (k % 64)) & 1u; };
+  auto set = [&](std::uint32_t k) { w.seen[k / 64] |= std::uint64_t{1} << (k % 64); };
+  if (w.any && seq <= w.newest) {
+    const std::uint32_t back = w.newest - seq;
+    if (back <= std::min(options_.replay_window, kSeqWindow - 1)) {
+      if (bit(back)) return true;
+      set(back);  // late but new (out of order)
+      return false;
+    }
+    // Far below the newest: a restarted robot counts from 1 again.
+    w = SeqWindow{};
+  }
+  if (!w.any) {
+    w.any = true;
+    w.newest = seq;
+    w.seen = {};
+    set(0);
+    return false;
+  }
+  // Newer: shift the bitmap by (seq − newest) bits.
+  const std::uint32_t shift = seq - w.newest;
+  if (shift >= kSeqWindow) {
+    w.seen = {};
+  } else {
+    const std::uint32_t words = shift / 64, bits = shift % 64;
+    for (std::size_t i = w.seen.size(); i-- > 0;) {
+      std::uint64_t v = i >= words ? w.seen[i - words] << bits : 0;
+      if (bits != 0 && i >= words + 1) v |= w.seen[i - words - 1] >> (64 - bits);
+      w.seen[i] = v;
+    }
+  }
+  w.newest = seq;
+  set(0);
+  return false;
+}
+
 void FusionStage::add_scan(const StoredScan& s) {
   if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
+  if (seen_before(s.robot_id, s.seq)) {
+    ++counters_.duplicates;
+    return;
+  }
   ++counters_.scans;
   const std::size_t n = std::min<std::size_t>(s.count, kMaxBeams);
   ScanRecord rec;

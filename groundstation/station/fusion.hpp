@@ -5,6 +5,7 @@
 // It runs from Station hooks, after the sample is stored: a failure here never loses a received sample.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -39,6 +40,9 @@ struct FusionOptions {
   // Per-scan latency histograms (scan stamp -> taken from DDS, scan stamp -> in the fused map), written
   // by write_latency(); empty: not written.
   std::string latency_csv = "latency.csv";
+  // A scan seq up to this far below a robot's newest is a replay of its DDS history (fused already, or
+  // late); further below, a restarted robot. As the station's dds.scan_history_depth (at most 1023).
+  std::uint32_t replay_window = 300;
 };
 
 struct FusionCounters {
@@ -46,6 +50,7 @@ struct FusionCounters {
   std::uint64_t poses = 0;
   std::uint64_t points = 0;
   std::uint64_t live_removed = 0;     // points the live classification removed at arrival
+  std::uint64_t duplicates = 0;       // scans received again (DDS history replay): stored, not fused twice
   std::uint64_t writes = 0;           // fused PCDs written
   std::uint64_t write_failures = 0;
   std::uint64_t last_write_kept = 0;  // points in the last fused PCD
@@ -67,7 +72,8 @@ class FusionStage {
   [[nodiscard]] static Result<std::unique_ptr<FusionStage>> create(const FusionOptions& options,
                                                                    std::string session_dir);
 
-  // Hooks (Station::add_pose_hook / add_scan_hook).
+  // Hooks (Station::add_pose_hook / add_scan_hook). A scan whose (robot, seq) was fused recently (within
+  // kSeqWindow) is a replay of the robots' DDS history: counted in `duplicates`, not fused again.
   void add_pose(const PoseObservation& pose);
   void add_scan(const StoredScan& scan);
 
@@ -123,6 +129,16 @@ class FusionStage {
   LatencyHistogram fused_latency_;
   LatencyHistogram stored_latency_;
   FusionCounters counters_;
+  // Per robot: the newest seq fused and a bitmap of the kSeqWindow seqs up to it (bit k = newest − k).
+  static constexpr std::uint32_t kSeqWindow = 1024;  // > the robots' scan history (300, dds.scan_history_depth)
+  struct SeqWindow {
+    bool any = false;
+    std::uint32_t newest = 0;
+    std::array<std::uint64_t, kSeqWindow / 64> seen{};
+  };
+  // True if (robot, seq) was fused before; else marks it. A seq far below the newest is a restarted robot.
+  bool seen_before(std::uint32_t robot, std::uint32_t seq);
+  std::vector<SeqWindow> seq_windows_;
 };
 
 }  // namespace teamscan::station

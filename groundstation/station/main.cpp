@@ -113,7 +113,9 @@ int main(int argc, char** argv) {
   std::unique_ptr<FusionStage> fusion;
   std::vector<teamscan_msg_MapVoxel> map_voxels;
   if (cfg.fusion.enabled) {
-    auto created = FusionStage::create(fusion_options_from_config(cfg.fusion, cfg.kalman), store->dir());
+    FusionOptions fusion_options = fusion_options_from_config(cfg.fusion, cfg.kalman);
+    fusion_options.replay_window = cfg.station.scan_history_depth;  // the robots' history: replays are not fused twice
+    auto created = FusionStage::create(fusion_options, store->dir());
     if (!created) {
       log(kErr, created.error().what);
       return 1;
