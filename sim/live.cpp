@@ -4,8 +4,11 @@
 #include "sim/live.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <ctime>
 #include <filesystem>
+#include <thread>
 
 #include "common/clock.hpp"
 #include "drivers/arcos/emulator.hpp"
@@ -84,14 +87,35 @@ class LiveLaser final : public lms200::RangeSource {
     LiveScanTruth truth;
     truth.sweep_end_realtime_ns = sweep.sweep_end.ns() + realtime_offset_ns_;
     truth.beams.resize(n);
+    // Which teammates can a beam of this sweep hit at all? Placed once at mid-sweep: teammate k is a
+    // candidate for a beam only if the beam's horizontal direction passes within its bounding radius
+    // (plus a margin for the motion of both robots during the 13 ms sweep) of its centre. The others
+    // are left out of that beam's cast: same hits, without placing and testing every body per beam,
+    // which at 32 robots was most of the feeder's CPU (docs/demo.md "Scale").
+    const Time mid_time = sweep.sweep_end - sweep.variant.beam_age(static_cast<std::uint16_t>(n / 2));
+    team_.place(std::max(0.0, clock_.at(mid_time)), placed_);
+    const Ray mid_ray = team_.beam_ray(ri_, placed_[ri_].map_from_robot, Vec3{1.0, 0.0, 0.0});
+    cull_.clear();
+    for (std::size_t k = 0; k < placed_.size(); ++k) {
+      if (k == ri_ || placed_[k].body == nullptr) continue;
+      const double dx = placed_[k].map_from_robot.x_m - mid_ray.origin.x, dy = placed_[k].map_from_robot.y_m - mid_ray.origin.y;
+      const double d = std::hypot(dx, dy), r = bound_radius_m_[k] + kCullMarginM;
+      // cos of the half-angle the bounding circle subtends; inside it (d <= r) every beam is a candidate.
+      cull_.push_back({k, d > r ? dx / d : 0.0, d > r ? dy / d : 0.0, d > r ? std::sqrt(1.0 - (r / d) * (r / d)) : -2.0});
+    }
     for (std::uint16_t i = 0; i < n && i < beams.size(); ++i) {
       const Time beam_time = sweep.sweep_end - sweep.variant.beam_age(i);
       const double t_s = std::max(0.0, clock_.at(beam_time));
-      team_.place(t_s, placed_);
       const double a = sweep.variant.beam_angle_rad(i);
       const Vec3 dir = spec.robot_from_laser.rotation.apply({std::cos(a), std::sin(a), 0.0});
-      const Ray ray = team_.beam_ray(ri_, placed_[ri_].map_from_robot, dir);
-      const Hit hit = team_.world().cast(ray, placed_, spec.id);
+      const Ray ray = team_.beam_ray(ri_, team_.motion(ri_).pose_at(t_s), dir);
+      const double h = std::hypot(ray.direction.x, ray.direction.y);
+      beam_robots_.clear();
+      for (const Candidate& c : cull_) {
+        if (h > 1e-9 && (ray.direction.x * c.ux + ray.direction.y * c.uy) / h < c.cos_half) continue;
+        beam_robots_.push_back({team_.spec(c.index).id, team_.motion(c.index).pose_at(t_s), &team_.body(c.index)});
+      }
+      const Hit hit = team_.world().cast(ray, beam_robots_, spec.id);
       const std::uint16_t word = lms_value_word(hit.hit, hit.range_m, spec.range_noise_mm, rng_);
       lms200::BeamReading& r = beams[i];
       r = {};
@@ -128,12 +152,34 @@ class LiveLaser final : public lms200::RangeSource {
   }
 
  private:
+  struct Candidate {
+    std::size_t index;
+    double ux, uy;    // unit vector laser -> teammate centre (horizontal)
+    double cos_half;  // a beam is a candidate if cos(angle to u) >= this
+  };
+  static constexpr double kCullMarginM = 0.15;  // > 2 × 13 ms × the fastest track speed, plus the mount offset's swing
+
   const TeamWorld& team_;
   std::size_t ri_;
   const WorldClock& clock_;
   std::int64_t realtime_offset_ns_;
   Rng rng_;
+  std::vector<double> bound_radius_m_ = bound_radii(team_);
   std::vector<PlacedRobot> placed_;
+  std::vector<Candidate> cull_;
+  std::vector<PlacedRobot> beam_robots_;
+
+  // Horizontal bounding radius of every robot's body around its centre.
+  static std::vector<double> bound_radii(const TeamWorld& team) {
+    std::vector<double> r(team.robot_count());
+    for (std::size_t k = 0; k < r.size(); ++k) {
+      const RobotBody& b = team.body(k);
+      const double x = std::max(std::fabs(b.bound_min_m.x), std::fabs(b.bound_max_m.x));
+      const double y = std::max(std::fabs(b.bound_min_m.y), std::fabs(b.bound_max_m.y));
+      r[k] = std::hypot(x, y);
+    }
+    return r;
+  }
   mutable std::mutex mutex_;
   std::vector<LiveScanTruth> truths_;
   std::uint64_t measured_ = 0;
@@ -161,6 +207,10 @@ struct LiveTeam::Impl {
   WorldClock clock;
   std::vector<std::unique_ptr<LiveRobot>> robots;
   bool started = false;
+  // The shared feeder (LiveOptions::feed_period > 0): one thread steps every robot's two ptys.
+  std::thread feeder;
+  std::atomic<bool> feeder_stop{false};
+  std::atomic<std::uint64_t> feeder_errors{0};
 };
 
 LiveTeam::LiveTeam(const Scenario& scenario, const LiveOptions& options)
@@ -216,16 +266,52 @@ Status LiveTeam::start() {
   t0_monotonic_ns_ = now_monotonic().ns() + bring_ns;
   t0_realtime_ns_ = now_realtime().ns() + bring_ns;
   im.clock.t0_monotonic_ns = t0_monotonic_ns_;
-  for (auto& r : im.robots) {
-    if (Status s = r->arcos_runner->start(); !s) return s;
-    if (Status s = r->lms->start(); !s) return s;
+  if (options_.feed_period <= Duration::zero()) {
+    // One thread per pty (serial::PtyRunner::start): each wakes for every byte it releases.
+    for (auto& r : im.robots) {
+      if (Status s = r->arcos_runner->start(); !s) return s;
+      if (Status s = r->lms->start(); !s) return s;
+    }
+    im.started = true;
+    return ok_status();
   }
+  // One thread for all 2N ptys, every feed_period: each step releases the bytes that are due (at most a
+  // period's worth, ~50 bytes at 500 kBd), as a USB-serial adapter hands over its buffer on its latency
+  // timer (FTDI: 1-16 ms). A thread per pty woke for every byte, 2N threads × up to 50 k wake-ups/s:
+  // at 32 robots that, not the system under test, saturated the machine (docs/demo.md "Scale").
+  const Time power_up = now_monotonic();
+  for (auto& r : im.robots) r->lms->with_emulator([&](lms200::LmsEmulator& e) { e.power_up(power_up); });
+  im.feeder_stop = false;
+  im.feeder = std::thread([&im, period = options_.feed_period] {
+    timespec next{};
+    ::clock_gettime(CLOCK_MONOTONIC, &next);
+    while (!im.feeder_stop.load()) {
+      for (auto& r : im.robots) {
+        // An I/O fault is counted (the runner's io_errors) and the device carries on, as with its own thread.
+        if (!r->arcos_runner->step(Duration::zero())) ++im.feeder_errors;
+        if (!r->lms->runner().step(Duration::zero())) ++im.feeder_errors;
+      }
+      next.tv_nsec += static_cast<long>(period.count());
+      while (next.tv_nsec >= 1'000'000'000L) {
+        next.tv_nsec -= 1'000'000'000L;
+        ++next.tv_sec;
+      }
+      timespec now{};
+      ::clock_gettime(CLOCK_MONOTONIC, &now);
+      if (now.tv_sec > next.tv_sec || (now.tv_sec == next.tv_sec && now.tv_nsec > next.tv_nsec)) next = now;  // overran: no catch-up burst
+      (void)::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
+    }
+  });
   im.started = true;
   return ok_status();
 }
 
 void LiveTeam::stop() {
   if (!impl_ || !impl_->started) return;
+  if (impl_->feeder.joinable()) {
+    impl_->feeder_stop = true;
+    impl_->feeder.join();
+  }
   for (auto& r : impl_->robots) {
     r->lms->stop();
     r->arcos_runner->stop();

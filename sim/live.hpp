@@ -25,6 +25,9 @@ struct LiveOptions {
   double bringup_s = 5.0;              // robots stand still this long after start() (device bring-up)
   std::optional<std::uint64_t> seed;   // overrides the scenario's
   std::vector<std::uint8_t> robot_ids; // robots to run (empty: all of the scenario)
+  // > 0: one thread steps every pty this often and releases the bytes due, in chunks, as a USB-serial
+  // adapter does on its latency timer; 0: a thread per pty, each byte on time (serial::PtyRunner::start).
+  Duration feed_period = std::chrono::milliseconds(1);
 };
 
 // Truth of one beam as cast (what the scanner's value word was made from).
