@@ -70,6 +70,9 @@ FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, 
       poses_by_robot_(kMaxRobots + 1),
       seq_windows_(kMaxRobots + 1) {
   received_.scenario = "live";
+  received_.points.reserve(options.reserve_points);
+  received_.scans.reserve(options.reserve_points / 128);
+  live_removed_points_.reserve(options.reserve_points);
   scratch_points_.reserve(kMaxBeams);
   scratch_flags_.reserve(kMaxBeams);
   scratch_removed_.reserve(kMaxBeams);

@@ -43,6 +43,11 @@ struct FusionOptions {
   // A scan seq up to this far below a robot's newest is a replay of its DDS history (fused already, or
   // late); further below, a restarted robot. As the station's dds.scan_history_depth (at most 1023).
   std::uint32_t replay_window = 300;
+  // Points reserved up front for everything received (kept in memory for the model writes). Growing a
+  // vector of millions of points by doubling copied up to ~200 MB inside the receive loop and held scans
+  // back for hundreds of ms at 32 robots (docs/demo.md "Scale"); a reservation costs address space only,
+  // pages are touched as points arrive. 16 M points ≈ 37 s of 32 robots at 75 Hz; beyond it, doubling.
+  std::size_t reserve_points = 16u << 20;
 };
 
 struct FusionCounters {

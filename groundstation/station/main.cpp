@@ -167,10 +167,16 @@ int main(int argc, char** argv) {
   bool periodic_writes = true;
 #endif
   std::uint32_t lost_before = 0;
+  // Loop-time counters (STYLE.md 8): the longest handling of one poll's samples, and the teamscan/map
+  // publications, which run in this loop too and hold the next take back (docs/demo.md "Scale").
+  Duration handle_max{0}, map_max{0}, map_total{0};
+  std::uint64_t map_count = 0;
   while (g_stop == 0) {
     // One loop, one tick: wait for data at most until the next team publication is due.
-    st.poll(std::min<Duration>(cfg.station.team_period, std::chrono::milliseconds(50)));
+    const Time before_poll = now_monotonic();
+    const std::size_t handled = st.poll(std::min<Duration>(cfg.station.team_period, std::chrono::milliseconds(50)));
     now = now_monotonic();
+    if (handled > 0) handle_max = std::max(handle_max, now - before_poll);
     st.publish_team_if_due(now);
     if (ping_period.count() > 0 && now >= next_ping) {
       onboard::notify_watchdog();
@@ -210,6 +216,11 @@ int main(int argc, char** argv) {
       if (total > 0 && !st.publish_map(map_voxels, fusion->map_resolution_mm(), total).ok()) {
         log(kWarning, "fusion: teamscan/map write failed");
       }
+      const Duration took = now_monotonic() - now;
+      map_max = std::max(map_max, took);
+      map_total += took;
+      ++map_count;
+      now = now_monotonic();
       next_map = now + cfg.fusion.map_interval;
     }
 #endif
@@ -224,10 +235,23 @@ int main(int argc, char** argv) {
     }
   }
   onboard::notify_stopping();
+  {
+    char line[200];
+    std::snprintf(line, sizeof line, "loop: longest poll (wait + handling) that took samples %.1f ms; teamscan/map %llu publications, longest %.1f ms, mean %.1f ms",
+                  to_seconds(handle_max) * 1e3, static_cast<unsigned long long>(map_count), to_seconds(map_max) * 1e3,
+                  map_count ? to_seconds(map_total) * 1e3 / static_cast<double>(map_count) : 0.0);
+    store->log_event(now_realtime(), line);
+  }
   log(kInfo, "stopping: " + st.status_line());
   store->log_event(now_realtime(), "station stopping: " + st.status_line());
   station.value().reset();  // leave DDS before closing the files
   store->sync();  // the session is complete on disk before the (longer) final fusion pass
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+  // The latency histograms first: cheap, and complete once nothing more is received.
+  if (fusion) {
+    if (const Status l = fusion->write_latency(); !l.ok()) log(kWarning, std::string("fusion: ") + l.error().what);
+  }
+#endif
   write_model("shutdown");
 #ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
   if (fusion && !fusion->options().received_dataset.empty()) {
