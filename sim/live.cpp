@@ -84,7 +84,7 @@ class SweepCaster {
   // Casts the sweep ending at monotonic `sweep_end`, world time from `clock`; fills n readings and truths.
   // Returns the beams that hit a teammate.
   std::uint64_t cast(Time sweep_end, const LaserVariant& variant, const WorldClock& clock, Rng& rng,
-                     lms200::BeamReading* readings, LiveBeamTruth* truths) {
+                     lms200::BeamReading* readings, LiveBeamTruth* truths, Hit* hits_out = nullptr) {
     const RobotSpec& spec = team_.spec(ri_);
     const std::uint16_t n = variant.beams();
     std::uint64_t ghosts = 0;
@@ -117,21 +117,25 @@ class SweepCaster {
         beam_robots_.push_back({team_.spec(c.index).id, team_.motion(c.index).pose_at(t_s), &team_.body(c.index)});
       }
       const Hit hit = team_.world().cast(ray, beam_robots_, spec.id);
-      const std::uint16_t word = lms_value_word(hit.hit, hit.range_m, spec.range_noise_mm, rng);
-      lms200::BeamReading& r = readings[i];
-      r = {};
-      if (word == kLmsCodeNotValid) r.invalid = lms200::BeamInvalid::not_valid;
-      else if (word == kLmsCodeTooFar) r.invalid = lms200::BeamInvalid::over_range;
-      else r.range_mm = word;
-      LiveBeamTruth& b = truths[i];
-      b.tx = static_cast<float>(hit.point_m.x);
-      b.ty = static_cast<float>(hit.point_m.y);
-      b.tz = static_cast<float>(hit.point_m.z);
-      b.label = hit.label;
-      b.hit_robot = hit.hit_robot;
-      if (hit.label == PointClass::robot) ++ghosts;
+      if (hits_out != nullptr) hits_out[i] = hit;
+      if (reading(hit, spec.range_noise_mm, rng, readings[i], truths[i])) ++ghosts;
     }
     return ghosts;
+  }
+
+  // The scanner's reading of one hit (range noise drawn from `rng`) and its truth; true on a teammate.
+  static bool reading(const Hit& hit, double range_noise_mm, Rng& rng, lms200::BeamReading& r, LiveBeamTruth& b) {
+    const std::uint16_t word = lms_value_word(hit.hit, hit.range_m, range_noise_mm, rng);
+    r = {};
+    if (word == kLmsCodeNotValid) r.invalid = lms200::BeamInvalid::not_valid;
+    else if (word == kLmsCodeTooFar) r.invalid = lms200::BeamInvalid::over_range;
+    else r.range_mm = word;
+    b.tx = static_cast<float>(hit.point_m.x);
+    b.ty = static_cast<float>(hit.point_m.y);
+    b.tz = static_cast<float>(hit.point_m.z);
+    b.label = hit.label;
+    b.hit_robot = hit.hit_robot;
+    return hit.label == PointClass::robot;
   }
 
  private:
@@ -197,13 +201,22 @@ class LiveLaser final : public lms200::RangeSource {
       grid_known_.store(true);
     }
     const Precast* pc = lookup(sweep, n);
+    // Before world time 0 every robot stands at its start pose: a sweep that ends by then sees what the
+    // first standing sweep saw, only the range noise is new (bring-up costs no casting).
+    const bool standing = clock_.at(sweep.sweep_end) <= 0.0;
     if (pc != nullptr) {
       const std::size_t k = static_cast<std::size_t>((sweep.sweep_end.ns() - pc->first_end_ns) / pc->period_ns);
       std::copy_n(pc->readings.begin() + static_cast<std::ptrdiff_t>(k * n), n, beams.begin());
       std::copy_n(pc->truths.begin() + static_cast<std::ptrdiff_t>(k * n), n, truth.beams.begin());
       ghosts = pc->ghosts[k];
+    } else if (standing && standing_hits_.size() == n && sweep.variant == standing_variant_) {
+      const double noise_mm = team_.spec(ri_).range_noise_mm;
+      for (std::uint16_t i = 0; i < n; ++i) ghosts += SweepCaster::reading(standing_hits_[i], noise_mm, rng_, beams[i], truth.beams[i]) ? 1 : 0;
     } else {
-      ghosts = caster_.cast(sweep.sweep_end, sweep.variant, clock_, rng_, beams.data(), truth.beams.data());
+      if (standing) standing_hits_.resize(n);
+      ghosts = caster_.cast(sweep.sweep_end, sweep.variant, clock_, rng_, beams.data(), truth.beams.data(),
+                            standing ? standing_hits_.data() : nullptr);
+      standing_variant_ = sweep.variant;
     }
     std::lock_guard<std::mutex> lock{mutex_};
     truths_.push_back(std::move(truth));
@@ -215,9 +228,10 @@ class LiveLaser final : public lms200::RangeSource {
 
   // The sweep grid once the scanner streams (first sweep end, period; monotonic ns).
   [[nodiscard]] bool grid_known() const { return grid_known_.load(); }
-  // Casts every sweep of the grid ending in [from, to) (monotonic) into the table; measure() uses a
-  // sweep once its `ready` flag is set. Runs on a worker thread; returns the CPU time spent.
-  std::int64_t precast(Time from, Time to) {
+  // Casts every sweep of the grid ending in [from, to) (monotonic) into a table, world time from
+  // `clock` (a provisional t0); publish_precast() hands it to measure(). Runs on a worker thread;
+  // returns the CPU time spent.
+  std::int64_t precast(Time from, Time to, const WorldClock& clock) {
     const std::int64_t cpu_start_ns = thread_cpu_ns();
     auto pc = std::make_unique<Precast>();
     pc->first_end_ns = grid_first_end_ns_;
@@ -233,19 +247,23 @@ class LiveLaser final : public lms200::RangeSource {
     pc->truths.resize(count * n);
     pc->ghosts.resize(count);
     pc->ready = std::make_unique<std::atomic<bool>[]>(count);
-    Precast* raw = pc.get();
-    {
-      std::lock_guard<std::mutex> lock{mutex_};
-      precast_ = std::move(pc);
-    }
     SweepCaster caster{team_, ri_};
     Rng rng{seed_ ^ 0x5eedULL, team_.spec(ri_).id, RngStream::range_noise};
     for (std::size_t k = 0; k < count; ++k) {
-      const Time end = Time::from_ns(raw->first_end_ns + static_cast<std::int64_t>(k) * raw->period_ns);
-      raw->ghosts[k] = caster.cast(end, variant_, clock_, rng, &raw->readings[k * n], &raw->truths[k * n]);
-      raw->ready[k].store(true, std::memory_order_release);
+      const Time end = Time::from_ns(pc->first_end_ns + static_cast<std::int64_t>(k) * pc->period_ns);
+      pc->ghosts[k] = caster.cast(end, variant_, clock, rng, &pc->readings[k * n], &pc->truths[k * n]);
+      pc->ready[k].store(true, std::memory_order_release);
     }
+    pending_precast_ = std::move(pc);
     return thread_cpu_ns() - cpu_start_ns;
+  }
+  // The table moves `shift_ns` later (the final t0 is the provisional one plus `shift_ns`, a whole number
+  // of this scanner's periods, so every sweep keeps its world time) and measure() starts to use it.
+  void publish_precast(std::int64_t shift_ns) {
+    if (!pending_precast_) return;
+    pending_precast_->first_end_ns += shift_ns;
+    std::lock_guard<std::mutex> lock{mutex_};
+    precast_ = std::move(pending_precast_);
   }
 
   std::uint64_t ghost_beams() const {
@@ -303,10 +321,13 @@ class LiveLaser final : public lms200::RangeSource {
   std::int64_t realtime_offset_ns_;
   Rng rng_;
   SweepCaster caster_;  // the feeder thread's
+  std::vector<Hit> standing_hits_;  // the first sweep before world time 0 (robots at their start poses)
+  LaserVariant standing_variant_{};
   std::atomic<bool> grid_known_{false};
   std::int64_t grid_first_end_ns_ = 0, grid_period_ns_ = 1;  // written once before grid_known_
   LaserVariant variant_{};
   std::unique_ptr<Precast> precast_;
+  std::unique_ptr<Precast> pending_precast_;  // cast, not yet published
   mutable std::mutex mutex_;
   std::vector<LiveScanTruth> truths_;
   std::uint64_t measured_ = 0;
@@ -480,39 +501,41 @@ Result<PrecastReport> LiveTeam::precast(double world_duration_s, Duration grid_t
     if (now_monotonic() - wait_from > grid_timeout) return Error{"live: not every scanner streams yet (no sweep grid to precast)"};
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  // 2. A generous estimate of the casting time, from the scans cast live so far, then world time 0 moved
-  // that far on (the robots still stand: nothing has moved), so the casting is done before they drive.
-  const double scans = static_cast<double>(im.robots.size()) * (world_duration_s / options_.speed + 1.0) * 75.0;
-  double per_scan_s = 0;
-  std::uint64_t cast_live = 0;
-  for (auto& r : im.robots) {
-    per_scan_s += static_cast<double>(r->laser.cast_cpu_ns()) * 1e-9;
-    cast_live += r->laser.measured();
-  }
-  per_scan_s = cast_live > 0 ? per_scan_s / static_cast<double>(cast_live) : 2e-4;
-  const unsigned threads = std::max(1u, std::min(2u, std::thread::hardware_concurrency()));
-  const Duration need = from_seconds(1.5 * scans * per_scan_s / threads + 0.5);
+  // 2. Cast every sweep from a provisional world time 0 (t0p, half a second from now) to the end, on up
+  // to 2 threads (robots shared out). The robots keep standing meanwhile.
   const std::int64_t old_t0 = im.clock.t0_monotonic_ns.load();
-  const std::int64_t new_t0 = std::max(old_t0, (now_monotonic() + need).ns());
-  im.clock.t0_monotonic_ns.store(new_t0);
-  t0_monotonic_ns_ = new_t0;
-  t0_realtime_ns_ += new_t0 - old_t0;
-  rep.delayed_s = static_cast<double>(new_t0 - old_t0) * 1e-9;
-  // 3. Cast every sweep from world time 0 to the end on `threads` workers, robots shared out.
-  const Time from = Time::from_ns(new_t0);
+  WorldClock provisional;
+  provisional.speed = options_.speed;
+  provisional.t0_monotonic_ns = std::max(old_t0, (now_monotonic() + std::chrono::milliseconds(500)).ns());
+  const Time from = Time::from_ns(provisional.t0_monotonic_ns.load());
   const Time to = from + from_seconds(world_duration_s / options_.speed + 1.0);
+  const unsigned threads = std::max(1u, std::min(2u, std::thread::hardware_concurrency()));
   std::atomic<std::size_t> next{0};
   std::atomic<std::int64_t> cpu_ns{0};
   std::vector<std::thread> workers;
   for (unsigned w = 0; w < threads; ++w) {
     workers.emplace_back([&] {
-      for (std::size_t i = next++; i < im.robots.size(); i = next++) cpu_ns += im.robots[i]->laser.precast(from, to);
+      for (std::size_t i = next++; i < im.robots.size(); i = next++) cpu_ns += im.robots[i]->laser.precast(from, to, provisional);
     });
   }
   for (std::thread& t : workers) t.join();
+  // 3. World time 0 = t0p moved on by whole multiples of 4 revolutions (a multiple of every scanner's
+  // period: 1, 2 or 4 revolutions), far enough to be still ahead; every table moves with it, so each
+  // precast sweep keeps its world time. Then the tables go live.
+  const std::int64_t step_ns = (4 * kLmsRevolution).count();
+  const std::int64_t earliest = std::max(old_t0, (now_monotonic() + std::chrono::milliseconds(200)).ns());
+  const std::int64_t t0p = provisional.t0_monotonic_ns.load();
+  const std::int64_t shift_ns = earliest > t0p ? (earliest - t0p + step_ns - 1) / step_ns * step_ns : 0;
+  for (auto& r : im.robots) r->laser.publish_precast(shift_ns);
+  const std::int64_t new_t0 = t0p + shift_ns;
+  im.clock.t0_monotonic_ns.store(new_t0);
+  t0_monotonic_ns_ = new_t0;
+  t0_realtime_ns_ += new_t0 - old_t0;
+  rep.delayed_s = static_cast<double>(new_t0 - old_t0) * 1e-9;
   rep.cpu_s = static_cast<double>(cpu_ns.load()) * 1e-9;
   rep.wall_s = to_seconds(now_monotonic() - wait_from);
   rep.finished_before_t0 = now_monotonic().ns() < new_t0;
+  const double scans = static_cast<double>(im.robots.size()) * (world_duration_s / options_.speed + 1.0) * 75.0;
   rep.scans = static_cast<std::uint64_t>(scans);
   return rep;
 }

@@ -780,6 +780,10 @@ int run_demo(const DemoArgs& a) {
 
   // CPU of each process over the run itself (before the station's final model write), /proc/PID/stat.
   for (Child& c : children) c.run_cpu_s = proc_cpu_s(c.pid);
+  // This process during the run: the device feeder (pty pacing, SIP source, ray casting) and the demo's
+  // loop, without the casting done ahead of time.
+  const double feeder_cpu_s = self_cpu_s() - feeder_cpu_start_s - precast_cpu_s;
+  const double run_cast_cpu_s = live.cast_cpu_s();
   const double run_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
   // Stop in order: the robots first (their last scans reach the station), then the station, which
   // writes its final model (an offline pass over the whole session: seconds for many robots).
@@ -787,9 +791,6 @@ int run_demo(const DemoArgs& a) {
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   stop_child(children[0], std::chrono::milliseconds(120000));
   live.stop();
-  // This process during the run: the device feeder (pty pacing, SIP source, ray casting) and the demo's
-  // loop, without the casting done ahead of time.
-  const double feeder_cpu_s = self_cpu_s() - feeder_cpu_start_s - precast_cpu_s;
   for (std::size_t i = 0; i < live.robot_count(); ++i)
     for (sim::LiveScanTruth& t : live.take_truth(i)) truths[i].push_back(std::move(t));
   if (g_pgid > 0) ::kill(-g_pgid, SIGKILL);  // anything left in the group (none expected)
@@ -1069,7 +1070,7 @@ int run_demo(const DemoArgs& a) {
   std::printf("CPU over the run (%.1f s): ground station %.2f s (%.0f %% of a core; %.2f s with its final model write), "
               "onboard daemons %.2f s together, device feeder (this process) %.2f s (ray casting %.2f s)\n",
               run_wall_s, station_run_cpu_s, 100.0 * station_run_cpu_s / run_wall_s, station_cpu_s, onboard_cpu_s,
-              feeder_cpu_s, live.cast_cpu_s());
+              feeder_cpu_s, run_cast_cpu_s);
   std::printf("scans from the precast table: %llu of %llu sent (casting ahead took %.2f s CPU before the run)\n",
               static_cast<unsigned long long>(live.scans_from_precast()),
               static_cast<unsigned long long>([&] {
@@ -1121,7 +1122,7 @@ int run_demo(const DemoArgs& a) {
      << ",\n  \"point_error_mm_p99\": " << sorted_pct(err_mm, 0.99) << ",\n  \"point_error_mm_max\": "
      << (err_mm.empty() ? 0.0 : err_mm.back()) << ",\n  \"max_hold_s\": " << (a.max_hold_s ? *a.max_hold_s : -1.0)
      << ",\n  \"station_cpu_s\": " << station_cpu_s << ",\n  \"station_run_cpu_s\": " << station_run_cpu_s
-     << ",\n  \"feeder_cpu_s\": " << feeder_cpu_s << ",\n  \"cast_cpu_s\": " << live.cast_cpu_s()
+     << ",\n  \"feeder_cpu_s\": " << feeder_cpu_s << ",\n  \"cast_cpu_s\": " << run_cast_cpu_s
      << ",\n  \"precast_cpu_s\": " << precast_cpu_s << ",\n  \"scans_from_precast\": " << live.scans_from_precast()
      << ",\n  \"onboard_cpu_s\": " << onboard_cpu_s
      << ",\n  \"scan_file_bad_crc\": " << L.decode.bad_crc << ",\n" << fj.str() << stj.str() << "  \"robots\": [\n" << dj.str() << "\n  ],\n  \"methods\": [\n"
