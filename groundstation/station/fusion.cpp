@@ -50,6 +50,7 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   o.tracker.lost_after_s = k.lost_after_s;
   o.map_resolution_m = f.map_resolution_m;
   if (f.write_all_points) o.all_points_pcd = "fused_all.pcd";
+  if (f.latency_log) o.latency_log_csv = "fused_latency.csv";
   return o;
 }
 
@@ -73,6 +74,10 @@ FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, 
   received_.points.reserve(options.reserve_points);
   received_.scans.reserve(options.reserve_points / 128);
   live_removed_points_.reserve(options.reserve_points);
+  if (!options_.latency_log_csv.empty()) {
+    latency_log_ = std::fopen((session_dir_ + "/" + options_.latency_log_csv).c_str(), "w");
+    if (latency_log_ != nullptr) std::fputs("robot,seq,stamp_ns,received_ns,fused_ns\n", latency_log_);
+  }
   scratch_points_.reserve(kMaxBeams);
   scratch_flags_.reserve(kMaxBeams);
   scratch_removed_.reserve(kMaxBeams);
@@ -213,11 +218,21 @@ void FusionStage::add_scan(const StoredScan& s) {
   }
   // The scan is now in the fused map (classified, inserted): its latency from the end of its sweep.
   // Both stamps are CLOCK_REALTIME (the robots' clocks are NTP-disciplined, DESIGN.md "Frames, units, time").
-  fused_latency_.add(now_realtime().ns() - s.stamp_ns);
+  const std::int64_t fused_ns = now_realtime().ns();
+  fused_latency_.add(fused_ns - s.stamp_ns);
   stored_latency_.add(s.recv_realtime_ns - s.stamp_ns);
+  if (latency_log_ != nullptr) {
+    std::fprintf(latency_log_, "%u,%u,%lld,%lld,%lld\n", s.robot_id, s.seq, static_cast<long long>(s.stamp_ns),
+                 static_cast<long long>(s.recv_realtime_ns), static_cast<long long>(fused_ns));
+  }
+}
+
+FusionStage::~FusionStage() {
+  if (latency_log_ != nullptr) std::fclose(latency_log_);
 }
 
 Status FusionStage::write_latency() const {
+  if (latency_log_ != nullptr) std::fflush(latency_log_);
   if (options_.latency_csv.empty()) return ok_status();
   const std::string path = session_dir_ + "/" + options_.latency_csv, tmp = path + ".tmp";
   const std::string text = "# scan -> stored: stamp (end of sweep) -> taken from DDS and written to scans.bin\n" +

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -40,6 +41,9 @@ struct FusionOptions {
   // Per-scan latency histograms (scan stamp -> taken from DDS, scan stamp -> in the fused map), written
   // by write_latency(); empty: not written.
   std::string latency_csv = "latency.csv";
+  // Per fused scan a line `robot,seq,stamp_ns,received_ns,fused_ns` (CLOCK_REALTIME), through one stdio
+  // buffer (no allocation per scan); empty: none. For measuring a time window (the demo's run).
+  std::string latency_log_csv;
   // A scan seq up to this far below a robot's newest is a replay of its DDS history (fused already, or
   // late); further below, a restarted robot. As the station's dds.scan_history_depth (at most 1023).
   std::uint32_t replay_window = 300;
@@ -144,6 +148,12 @@ class FusionStage {
   // True if (robot, seq) was fused before; else marks it. A seq far below the newest is a restarted robot.
   bool seen_before(std::uint32_t robot, std::uint32_t seq);
   std::vector<SeqWindow> seq_windows_;
+  std::FILE* latency_log_ = nullptr;
+
+ public:
+  ~FusionStage();
+  FusionStage(const FusionStage&) = delete;
+  FusionStage& operator=(const FusionStage&) = delete;
 };
 
 }  // namespace teamscan::station

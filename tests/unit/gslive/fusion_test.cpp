@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <set>
 #include <numeric>
 
 #include "common/dataset/pcd.hpp"
@@ -173,6 +176,7 @@ TEST(Fusion, HistoryReplaysAreNotFusedTwiceButRestartsAre) {
   FusionOptions o;
   o.method = "direction";
   o.replay_window = 300;
+  o.latency_log_csv = "fused_latency.csv";
   auto stage = FusionStage::create(o, dir);
   ASSERT_TRUE(stage.ok());
   FusionStage& f = **stage;
@@ -211,6 +215,23 @@ TEST(Fusion, HistoryReplaysAreNotFusedTwiceButRestartsAre) {
   EXPECT_LE(f.stored_latency().quantile_ns(0.5), 1'000'000 + LatencyHistogram::kBucketNs);
   ASSERT_TRUE(f.write_latency().ok());
   EXPECT_TRUE(std::filesystem::exists(dir + "/latency.csv"));
+  // The per-scan log (flushed by write_latency): a header and one line per fused scan, never a replay.
+  std::ifstream log(dir + "/fused_latency.csv");
+  std::string line;
+  std::getline(log, line);
+  EXPECT_EQ(line, "robot,seq,stamp_ns,received_ns,fused_ns");
+  std::size_t lines = 0;
+  std::set<std::pair<unsigned, unsigned>> scans;
+  while (std::getline(log, line)) {
+    unsigned robot = 0, seq = 0;
+    long long stamp = 0, received = 0, fused = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%u,%u,%lld,%lld,%lld", &robot, &seq, &stamp, &received, &fused), 5) << line;
+    EXPECT_EQ(received, stamp + 1'000'000);
+    ++lines;
+    scans.insert({robot, seq});
+  }
+  EXPECT_EQ(lines, 456u);
+  EXPECT_EQ(scans.size(), 454u);  // robot 1 seq 1 and 2 fused twice: before and after its restart
   std::filesystem::remove_all(dir);
 }
 
