@@ -3,10 +3,12 @@
 # of a large room, down- and up-lasers alternating, LMS-200 at 500 kBd = 75 scans/s) through real
 # teamscan-onboard processes and one teamscan-groundstation on loopback DDS, at real time.
 # Prints per N: scans sent by the emulated scanners / published by the daemons (their last status) /
-# stored by the station / fused into its live map (does it keep up?), missing sequence numbers, CPU
-# seconds of the station, of all daemons together and of the device feeder (the demo process), the
-# scan -> stored and scan -> fused-map latency p50/p99 (ms; scan stamp = end of sweep), the wall time and
-# the 1-minute load average before/after the run (other work on the machine shows there).
+# stored by the station (incl. history replays at shutdown) / fused into its live map (does it keep
+# up?), missing sequence numbers, CPU seconds over the run (bring-up + run, without the station's final
+# model write) of the station, of all daemons together and of the device feeder (the demo process), the
+# scan -> stored and scan -> fused-map latency p50/p99 (ms; scan stamp = end of sweep) of the scans
+# stamped in the run window, the wall time and the 1-minute load average before/after the run (other
+# work on the machine shows there). Per-process detail: outN/summary.json, demoN.log.
 #
 # usage: [MAX_HOLD=S] [FEED_PERIOD=MS] tests/bench/scale/run_scale.sh [BUILD_DIR] [DURATION_S] [N ...]
 #   default: build/dev, 10 s of robot time, N = 2 8 16 32; MAX_HOLD: onboard [odometry] max_hold_s
@@ -72,7 +74,7 @@ extra=()
 [ -n "${MAX_HOLD:-}" ] && extra+=(--max-hold "$MAX_HOLD")
 [ -n "${FEED_PERIOD:-}" ] && extra+=(--feed-period "$FEED_PERIOD")
 echo "# $(date -u +%FT%TZ) build $build, ${duration} s of robot time + 4 s bring-up, max_hold_s ${MAX_HOLD:-default}, feed period ${FEED_PERIOD:-1} ms"
-printf '%4s %7s %7s %7s %7s %5s %7s %7s %7s %8s %8s %8s %8s %6s %s\n' N sent publ stored fused miss gs_cpu obd_cpu feed_cpu st_p50 st_p99 fu_p50 fu_p99 wall load1
+printf '%4s %7s %7s %7s %7s %5s %7s %7s %8s %8s %8s %8s %8s %6s %s\n' N sent publ stored fused miss gs_cpu obd_cpu feed_cpu st_p50 st_p99 fu_p50 fu_p99 wall load1
 sum() { grep -o "\"$1\": [0-9.e+-]*" "$2" | awk '{ t += $2 } END { printf "%d", t }'; }
 val() { grep -o "\"$1\": [0-9.e+-]*" "$2" | head -1 | awk '{ print $2 }'; }
 for n in "${counts[@]}"; do
@@ -86,7 +88,7 @@ for n in "${counts[@]}"; do
   if [ ! -f "$s" ]; then echo "N=$n: no summary (see $work/demo$n.log)"; continue; fi
   printf '%4d %7d %7d %7d %7d %5d %7.2f %7.2f %8.2f %8.1f %8.1f %8.1f %8.1f %6.1f %s\n' "$n" \
     "$(sum lms_sent "$s")" "$(sum last_status_published "$s")" "$(sum stored "$s")" "$(val fused_latency_scans "$s")" \
-    "$(sum missing "$s")" "$(val station_cpu_s "$s")" "$(val onboard_cpu_s "$s")" "$(val feeder_cpu_s "$s")" \
+    "$(sum missing "$s")" "$(val station_run_cpu_s "$s")" "$(val onboard_cpu_s "$s")" "$(val feeder_cpu_s "$s")" \
     "$(val latency_ms_p50 "$s")" "$(val latency_ms_p99 "$s")" "$(val fused_latency_ms_p50 "$s")" "$(val fused_latency_ms_p99 "$s")" \
     "$(val wall_s "$s")" "$load_before/$load_after"
 done
