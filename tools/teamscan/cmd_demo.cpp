@@ -357,7 +357,11 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
     o.robot = id;
     o.stamp_ns = t;
     o.pose = {std::stod(f[5]) * 1e-3, std::stod(f[6]) * 1e-3, std::stod(f[7]) * 1e-6};
-    o.v_mps = std::stod(f[8]) * 1e-3;
+    // Forward speed: the map-frame velocity (vx, vy) projected on the heading, as the station's tracker
+    // is fed (groundstation/station/kalman_team_source.cpp). Taking vx alone zeroed it for a robot
+    // heading along y, and the tracker's teammate predictions lagged (position DA −17 points on 60 s).
+    const double vx = std::stod(f[8]) * 1e-3, vy = std::stod(f[9]) * 1e-3;
+    o.v_mps = vx * std::cos(o.pose.theta_rad) + vy * std::sin(o.pose.theta_rad);
     o.w_radps = std::stod(f[10]) * 1e-3;
     ds.odom.push_back(o);
     const sim::Motion& m = team.motion(team_index(id));
