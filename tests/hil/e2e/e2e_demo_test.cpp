@@ -49,6 +49,9 @@ TEST(E2eDemo, Lap2LiveRunDeliversEveryScanAndAgreesWithOfflineEval) {
   EXPECT_GE(json_number(s, "fused_latency_scans"), 0.95 * 2 * 1425) << s;
   EXPECT_GE(json_number(s, "fused_latency_ms_p99"), json_number(s, "fused_latency_ms_p50")) << s;
   EXPECT_GT(json_number(s, "fused_latency_ms_p50"), 0.0) << s;
+  // The scans of the run window came from the table cast during bring-up (sim/live.hpp precast), and
+  // still matched their truth sweeps (truth_unmatched above) and agree with offline eval.
+  EXPECT_GE(json_number(s, "scans_from_precast"), 2 * 1425) << s;
   EXPECT_EQ(json_value(s, "none_lost"), "true") << s;
   EXPECT_EQ(json_value(s, "clean_exit"), "true") << s;
   EXPECT_EQ(json_value(s, "agree"), "true") << log;
