@@ -148,9 +148,10 @@ int main(int argc, char** argv) {
       store->log_event(now_realtime(), "fused model write failed: " + r.error);
     } else {
       char text[200];
-      std::snprintf(text, sizeof text, "fused model written (%s): %llu kept, %llu removed, %llu scans, %.2f s off the loop",
+      std::snprintf(text, sizeof text, "fused model written (%s): %llu kept, %llu removed, %llu scans, %.2f s%s",
                     r.why.c_str(), static_cast<unsigned long long>(r.kept), static_cast<unsigned long long>(r.removed),
-                    static_cast<unsigned long long>(r.scans), r.seconds);
+                    static_cast<unsigned long long>(r.scans), r.seconds,
+                    r.why == "periodic" ? " on the writer thread" : "");
       store->log_event(now_realtime(), text);
     }
     // Scan -> fused-map latency so far (latency.csv; docs/demo.md "Scale").

@@ -2,6 +2,7 @@
 #include "groundstation/station/model_writer.hpp"
 
 #include <fcntl.h>
+#include <malloc.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -212,6 +213,9 @@ ModelWriteReport ModelWriter::run(const SessionSnapshot& snap, const std::string
     r.ok = false;
     r.error = std::string("fusion: model write failed: ") + e.what();
   }
+  // The read-back data set is gone: hand its pages back (glibc keeps a thread's freed arena otherwise,
+  // and the station's RSS would stay at the size of the largest write).
+  ::malloc_trim(0);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }
