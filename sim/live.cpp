@@ -23,9 +23,13 @@ namespace {
 struct WorldClock {
   std::int64_t t0_monotonic_ns = 0;
   double speed = 1.0;
+  double loop_s = 0;  // > 0: the scene (tracks) repeats with this period (LiveOptions::loop)
   [[nodiscard]] double at(Time monotonic) const {
     return static_cast<double>(monotonic.ns() - t0_monotonic_ns) * 1e-9 * speed;
   }
+  // Where the scene is at world time t_s. Looping keeps world time (and so the wheel model's dt)
+  // continuous and only wraps the tracks; a closed track (lap2's ovals) ends where it started.
+  [[nodiscard]] double scene(double t_s) const { return loop_s > 0 && t_s > 0 ? std::fmod(t_s, loop_s) : t_s; }
 };
 
 // The Pioneer's wheel model behind the SIP hook (as in simulator.cpp's device path): true motion at
@@ -42,7 +46,7 @@ class LiveWheels final : public arcos::SipSource {
 
   bool fill_sip(Time now, arcos::SipPacket& sip) override {
     const double t_s = std::max(0.0, clock_.at(now));
-    const Pose2 truth = team_.motion(ri_).pose_at(t_s);
+    const Pose2 truth = team_.motion(ri_).pose_at(clock_.scene(t_s));
     const double dt_s = have_last_ ? std::max(0.0, t_s - last_s_) : 0.0;
     const SipOdometry o = firmware_.step(truth, dt_s);
     last_s_ = t_s;
@@ -87,7 +91,7 @@ class LiveLaser final : public lms200::RangeSource {
     for (std::uint16_t i = 0; i < n && i < beams.size(); ++i) {
       const Time beam_time = sweep.sweep_end - sweep.variant.beam_age(i);
       const double t_s = std::max(0.0, clock_.at(beam_time));
-      team_.place(t_s, placed_);
+      team_.place(clock_.scene(t_s), placed_);
       const double a = sweep.variant.beam_angle_rad(i);
       const Vec3 dir = spec.robot_from_laser.rotation.apply({std::cos(a), std::sin(a), 0.0});
       const Ray ray = team_.beam_ray(ri_, placed_[ri_].map_from_robot, dir);
@@ -173,6 +177,7 @@ Result<std::unique_ptr<LiveTeam>> LiveTeam::create(const Scenario& scenario, con
   std::unique_ptr<LiveTeam> live{new LiveTeam(scenario, options)};
   Impl& im = *live->impl_;
   im.clock.speed = options.speed;
+  if (options.loop) im.clock.loop_s = scenario.duration_s.value_or(im.team.finish_s());
   std::error_code ec;
   if (!options.run_dir.empty()) std::filesystem::create_directories(options.run_dir, ec);
   const std::uint64_t seed = options.seed.value_or(scenario.seed);

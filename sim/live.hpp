@@ -25,6 +25,7 @@ struct LiveOptions {
   double bringup_s = 5.0;              // robots stand still this long after start() (device bring-up)
   std::optional<std::uint64_t> seed;   // overrides the scenario's
   std::vector<std::uint8_t> robot_ids; // robots to run (empty: all of the scenario)
+  bool loop = false;                   // replay the scenario's motion forever (period: its duration), for soaks
 };
 
 // Truth of one beam as cast (what the scanner's value word was made from).
