@@ -300,6 +300,17 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
                           {"NOTIFY_SOCKET=" + (dir.path / "notify.sock").string(), "WATCHDOG_USEC=1000000"},
                           dir.path / "daemon.log");
   ASSERT_GT(pid, 0);
+  // A failed ASSERT returns early: the daemon must not outlive the test.
+  struct KillOnExit {
+    pid_t pid;
+    ~KillOnExit() {
+      int st = 0;
+      if (::waitpid(pid, &st, WNOHANG) == 0) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, &st, 0);
+      }
+    }
+  } kill_on_exit{pid};
   auto log_text = [&] { return file_text(dir.path / "daemon.log"); };
 
   // READY=1 once the Pioneer is connected and the LMS streams (bring-up at 9600, switch to 500 kBd).

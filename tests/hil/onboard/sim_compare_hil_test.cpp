@@ -285,6 +285,16 @@ TEST(OnboardSimCompareHil, DaemonPointsEqualTheSimulatorsAndFlagsTheOfflineFilte
     ::_exit(127);
   }
   ASSERT_GT(pid, 0);
+  struct KillOnExit {  // a failed ASSERT returns early: the daemon must not outlive the test
+    pid_t pid;
+    ~KillOnExit() {
+      int st = 0;
+      if (::waitpid(pid, &st, WNOHANG) == 0) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, &st, 0);
+      }
+    }
+  } kill_on_exit{pid};
 
   // Drive: publish robot 2's true pose at 20 Hz (valid now, velocity by finite difference) until the
   // world has run kDriveS, collecting scans meanwhile.
