@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -117,6 +118,8 @@ TEST(OnboardWatchdogHil, StoppedLoopIsDetectedAndAbortedLikeSystemd) {
   const auto missed = h.supervise(5 * kWatchdog);
   ASSERT_TRUE(missed.has_value()) << "the stopped daemon kept the watchdog fed";
   const auto last_ping = h.times_of("WATCHDOG").back();
+  std::printf("SIGSTOP -> watchdog miss seen %lld ms after the last ping (WATCHDOG_USEC %lld ms)\n",
+              static_cast<long long>((*missed - last_ping).count() / 1'000'000), static_cast<long long>(kWatchdog.count() / 1'000'000));
   // No ping from the stopped process: the miss is seen one watchdog timeout after the last ping.
   EXPECT_GE(*missed - last_ping, kWatchdog);
   EXPECT_LE(*missed - last_ping, kWatchdog + kMargin) << "last ping before SIGSTOP at " << last_ping_before.count() << " ns";
