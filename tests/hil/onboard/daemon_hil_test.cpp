@@ -121,6 +121,17 @@ class NotifySocket {
     return false;
   }
   const std::vector<std::string>& log() const { return log_; }
+  // Reads whatever is queued, without matching. The daemon's sd_notify blocks once the socket holds
+  // net.unix.max_dgram_qlen (10) unread datagrams, so a test that waits on DDS for seconds must keep
+  // draining, as systemd always reads.
+  void drain() {
+    char buf[4096];
+    for (;;) {
+      const ssize_t n = ::recv(fd_, buf, sizeof buf - 1, MSG_DONTWAIT);
+      if (n <= 0) return;
+      log_.emplace_back(buf, static_cast<std::size_t>(n));
+    }
+  }
 
  private:
   fs::path path_;
@@ -151,6 +162,8 @@ class StatusWatch {
   };
   explicit StatusWatch(dds_domainid_t domain) : sub_{&teamscan_msg_RobotStatus_desc, onboard::kTopicStatus, qos(), 16, domain} {}
   bool ok() const { return sub_.ok(); }
+  // Called on every poll (the test drains the notify socket there).
+  std::function<void()> on_poll;
 
   // Waits for a status (newer than any returned before) for which `pred` is true.
   std::optional<Seen> wait_for(const std::function<bool(const teamscan_msg_RobotStatus&)>& pred, std::chrono::milliseconds timeout) {
@@ -174,6 +187,7 @@ class StatusWatch {
     return q;
   }
   void poll(std::chrono::milliseconds wait) {
+    if (on_poll) on_poll();
     std::vector<teamscan_msg_RobotStatus> got;
     if (wait.count() > 0) (void)sub_.take_until(got, 1, wait); else (void)sub_.take_available(got);
     const auto now = Clock::now();
@@ -186,6 +200,16 @@ class StatusWatch {
 
 long long ms_between(Clock::time_point a, Clock::time_point b) {
   return static_cast<long long>(std::chrono::duration_cast<std::chrono::milliseconds>(b - a).count());
+}
+
+// The states of the last `n` statuses received, for failure messages.
+std::string recent_states(StatusWatch& w, std::size_t n = 40) {
+  const auto& all = w.all();
+  std::string out = "statuses (seq arcos lms):";
+  for (std::size_t i = all.size() > n ? all.size() - n : 0; i < all.size(); ++i)
+    out += " " + std::to_string(all[i].status.seq) + ":" + std::to_string(all[i].status.arcos_state) + "/" +
+           std::to_string(all[i].status.lms_state);
+  return out;
 }
 
 std::string daemon_path() {
@@ -296,6 +320,7 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
   ASSERT_TRUE(status.ok());
   NotifySocket notify{dir.path / "notify.sock"};
   ASSERT_TRUE(notify.bound());
+  status.on_poll = [&notify] { notify.drain(); };
   const pid_t pid = spawn({daemon_path(), "--config", (dir.path / "onboard.toml").string()},
                           {"NOTIFY_SOCKET=" + (dir.path / "notify.sock").string(), "WATCHDOG_USEC=1000000"},
                           dir.path / "daemon.log");
@@ -491,14 +516,14 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
     EXPECT_EQ(later->status.sip_rate_mhz, 0u);
     EXPECT_GT(later->status.scans_published, silent->status.scans_published);
   }
-  ::usleep(1'000'000);
+  status.wait_for([](const teamscan_msg_RobotStatus&) { return false; }, std::chrono::seconds(1));  // muted 1 s more
   ASSERT_TRUE(alive(pid)) << log_text();
   const std::uint32_t opens_while_muted = status.all().back().status.arcos_reopens;
   pioneer_line.muted = false;
   const auto unmuted = Clock::now();
   {
     auto up = status.wait_for([](const teamscan_msg_RobotStatus& x) { return x.arcos_state == kArcosUp; }, std::chrono::seconds(5));
-    ASSERT_TRUE(up.has_value()) << log_text();
+    ASSERT_TRUE(up.has_value()) << recent_states(status) << "\n" << log_text();
     const long long ms = ms_between(unmuted, up->arrival);
     std::printf("Pioneer answering again -> connected on teamscan/status: %lld ms\n", ms);
     EXPECT_LE(ms, 2000 + 200);
