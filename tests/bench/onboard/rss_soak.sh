@@ -159,17 +159,19 @@ awk -F, -v c0="$c0" -v c1="$c1" -v wall="$wall_s" -v hz="$hz" -v st="$start_tick
     mxm = sx / n; mym = sy / n
     for (i = 1; i <= n; i++) { num += (t[i] - mxm) * (r[i] - mym); den += (t[i] - mxm) ^ 2 }
     slope = den > 0 ? num / den * 3600 : 0
-    # The same over the second half alone: start-up effects (Cyclone touching its 1 MiB receive
-    # buffer page by page, malloc arenas warming up) fade; a leak does not.
-    h0 = int(n / 2) + 1; m = n - h0 + 1; sx = sy = num = den = 0
-    for (i = h0; i <= n; i++) { sx += t[i]; sy += r[i] }
-    mxm = sx / m; mym = sy / m
-    for (i = h0; i <= n; i++) { num += (t[i] - mxm) * (r[i] - mym); den += (t[i] - mxm) ^ 2 }
-    slope2 = den > 0 ? num / den * 3600 : 0
+    # Peak and trough of each half: the Cyclone 1 MiB receive buffer is touched page by page and then
+    # replaced, so RSS is a sawtooth (~24 min period here); a leak raises the second-half peak and
+    # trough, a sawtooth does not.
+    h0 = int(n / 2) + 1
+    for (i = 1; i <= n; i++) {
+      if (i < h0) { if (i == 1 || r[i] > p1) p1 = r[i]; if (i == 1 || r[i] < q1) q1 = r[i] }
+      else { if (i == h0 || r[i] > p2) p2 = r[i]; if (i == h0 || r[i] < q2) q2 = r[i] }
+    }
     printf "samples %d over %d s\n", n, t[n]
     printf "VmRSS KiB: start %d  min %d  max %d  end %d  (end %.2f MiB)\n", r[1], mn, mx, r[n], r[n] / 1024
     printf "VmHWM KiB: start %d  end %d\n", h[1], h[n]
-    printf "VmRSS slope (least squares): %.1f KiB/hour over the run, %.1f KiB/hour over its second half\n", slope, slope2
+    printf "VmRSS slope (least squares): %.1f KiB/hour\n", slope
+    printf "VmRSS KiB first half: min %d max %d; second half: min %d max %d\n", q1, p1, q2, p2
     printf "daemon CPU share over the soak: %.2f %% of one core (utime+stime %.1f s / wall %d s)\n",
            100 * (c1 - c0) / hz / wall, (c1 - c0) / hz, wall
     life = up - st / hz
