@@ -53,6 +53,16 @@ struct TrackedOptions {
   // the covariance and heading inflation: the floor around a teammate is scanned far more than its
   // wheels, and those wheel hits lie within the footprint (lap2: |y| ≤ 0.268 m vs 0.2525 m).
   double low_band_m = 0.02;
+  // The body's height profile (sim/world.cpp make_pioneer3at_body): up to the top plate (277 mm) the
+  // full footprint; above it only the LMS-200 housing and its post stand, 156 × 155 mm around the
+  // mount (x 0.125 m; housing centre 15 mm behind it, pitched ±20°: x from −0.027 to 0.247 m). A
+  // surface above the top plate next to a teammate (a coffee-table top at 0.40 m beside which a robot
+  // drives) is therefore outside the box unless it is at the housing. Off: one box up to height_m.
+  bool height_profile = true;
+  double upper_z_m = 0.277;
+  double upper_centre_x_m = 0.11;
+  double upper_half_length_m = 0.137;
+  double upper_half_width_m = 0.08;
   double margin_m = 0.04;           // range noise, quantisation, odometry between poses
   double n_sigma = 3.0;
   double heading_sigma_rad = 0.035; // ~2°: heading is not in the tracker's state
