@@ -75,6 +75,14 @@ bool FreespaceGrid::transient(const MapPoint& p) const {
     const VoxelKey n{k.x + f[0], k.y + f[1], k.z + f[2]};
     if (cell(n).hits > 0 && !void_voxel(n)) return false;
   }
+  if (options_.guard_neighbours < 26) return true;
+  for (std::int32_t dz = -1; dz <= 1; ++dz)
+    for (std::int32_t dy = -1; dy <= 1; ++dy)
+      for (std::int32_t dx = -1; dx <= 1; ++dx) {
+        if (std::abs(dx) + std::abs(dy) + std::abs(dz) < 2) continue;  // itself and the faces: done
+        const VoxelKey n{k.x + dx, k.y + dy, k.z + dz};
+        if (cell(n).hits > 0 && !void_voxel(n)) return false;
+      }
   return true;
 }
 
@@ -170,7 +178,8 @@ FilterParams FreespaceFilter::params() const {
           {"min_range_m", options_.min_range_m},     {"max_range_m", options_.max_range_m},
           {"end_margin_m", options_.end_margin_m},   {"clearance_m", options_.clearance_m},
           {"grazing_cap_m", options_.grazing_cap_m}, {"min_free", static_cast<double>(options_.min_free)},
-          {"free_per_hit", options_.free_per_hit},   {"solid_neighbour_guard", options_.solid_neighbour_guard ? 1.0 : 0.0}};
+          {"free_per_hit", options_.free_per_hit},   {"solid_neighbour_guard", options_.solid_neighbour_guard ? 1.0 : 0.0},
+          {"guard_neighbours", static_cast<double>(options_.guard_neighbours)}};
 }
 
 void FreespaceFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {

@@ -18,6 +18,7 @@ struct BodyBox {
   double half_x_m = 0, half_y_m = 0, z_min_m = 0, z_max_m = 0;
   // Below low_band_m: the bare footprint + margin (TrackedOptions::low_band_m).
   double low_band_m = 0, low_half_x_m = 0, low_half_y_m = 0;
+  double low_inner_y_m = 0;  // wheel strips: |across| from this to low_half_y_m (0: the whole footprint)
   // Above upper_from_z_m: only the housing box, centred upper_centre_x_m ahead along axis_x
   // (TrackedOptions::height_profile; +inf when off).
   double upper_from_z_m = 0, upper_centre_x_m = 0, upper_half_x_m = 0, upper_half_y_m = 0;

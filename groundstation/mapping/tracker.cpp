@@ -37,6 +37,7 @@ void RobotTrack::update(std::int64_t stamp_ns, const Pose2& pose, double v_mps) 
                                             : options_.initial_velocity_sigma_mps * options_.initial_velocity_sigma_mps;
     p_.diagonal() << sp, sp, sv, sv;
     stamp_ns_ = stamp_ns;
+    start_ = pose;
     initialised_ = true;
     return;
   }
@@ -44,9 +45,14 @@ void RobotTrack::update(std::int64_t stamp_ns, const Pose2& pose, double v_mps) 
   // Dead-reckoning drift (TrackerOptions::drift_*): linear growth with distance and turn.
   const double ds = std::abs(v_mps) * std::max(0.0, dt_s);
   const double dtheta = std::abs(std::remainder(pose.theta_rad - previous_heading, 2.0 * 3.14159265358979323846));
-  drift_position_sigma_m_ += options_.drift_m_per_m * ds + drift_heading_sigma_rad_ * ds;
   drift_heading_sigma_rad_ += options_.drift_heading_rad_per_m * ds + options_.drift_heading_rad_per_rad * dtheta;
   distance_m_ += ds;
+  // A heading error δθ accumulated so far turns the dead-reckoned path about where the robot started:
+  // the position is off by δθ times the distance from the registration point (exact for a constant
+  // δθ; bounded for a robot that loops in a room, unlike δθ·distance driven).
+  slip_sigma_m_ += options_.drift_m_per_m * ds;
+  const double from_start_m = std::hypot(pose.x_m - start_.x_m, pose.y_m - start_.y_m);
+  drift_position_sigma_m_ = slip_sigma_m_ + drift_heading_sigma_rad_ * from_start_m;
   propagate(dt_s, x_, p_);
   stamp_ns_ = stamp_ns;
   const double rp = options_.position_noise_m * options_.position_noise_m;

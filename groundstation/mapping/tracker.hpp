@@ -37,10 +37,14 @@ struct TrackerOptions {
   // errors are dominated by systematic ones (wheel diameter, wheelbase, skid-steer slip in turns:
   // Borenstein & Feng's UMBmark), so σ grows linearly, as a worst-case sum over the robot's motion:
   //   σ_θ += drift_heading_rad_per_m · ds + drift_heading_rad_per_rad · |dθ|
-  //   σ_p += drift_m_per_m · ds + σ_θ · ds          (a heading error turns every later step)
-  // with ds = |v|·dt from the reported speed and dθ the reported heading change. σ_p is added to the
+  //   σ_p  = drift_m_per_m · distance + σ_θ · |p − p_registration|
+  // (a heading error turns the dead-reckoned path about its start), with ds = |v|·dt from the reported
+  // speed and dθ the reported heading change. σ_p is added to the
   // position covariance (isotropic), σ_θ is reported for the box's heading inflation. 0 = off.
-  double drift_m_per_m = 0.0;
+  // Default: 0.5 % of the distance driven, the order of a calibrated odometry's error (UMBmark:
+  // a few cm over a 16 m square after calibration, decimetres before); heading terms off by default
+  // (their lever arm costs far more static points than they recover ghosts, docs/beyond.md "Drift").
+  double drift_m_per_m = 0.005;
   double drift_heading_rad_per_m = 0.0;
   double drift_heading_rad_per_rad = 0.0;
 };
@@ -103,6 +107,8 @@ class RobotTrack {
   double heading_rad_ = 0;
   // Dead-reckoning drift accumulated since the first pose (TrackerOptions::drift_*).
   double distance_m_ = 0;
+  Pose2 start_;
+  double slip_sigma_m_ = 0;
   double drift_heading_sigma_rad_ = 0;
   double drift_position_sigma_m_ = 0;
   State x_ = State::Zero();

@@ -19,7 +19,7 @@ struct KalmanConfig {
   double lost_after_s = 1.0;
   // Odometry drift model (TrackerOptions::drift_*, docs/beyond.md "Drift"), used by the fusion stage's
   // filters; the team state published to the robots does not carry it.
-  double drift_m_per_m = 0.0;
+  double drift_m_per_m = 0.005;
   double drift_deg_per_m = 0.0;
   double drift_deg_per_deg = 0.0;
 };

@@ -65,7 +65,9 @@ struct EvalArgs {
   double fs_free_per_hit = 1.0;
   double fs_clearance_m = 0.05;
   double fs_end_margin_m = 0.1;
+  int fs_guard_neighbours = mapping::FreespaceOptions{}.guard_neighbours;
   double best_fs_free_per_hit = 8.0;
+  double best_drift_band_free_per_hit = 2.0;
   double tracked_n_sigma = 3.0;
   double tracked_margin_m = 0.04;
   int tracked_height_profile = 1;
@@ -112,7 +114,10 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.fs_free_per_hit != d.fs_free_per_hit) o << " --fs-free-per-hit " << number(a.fs_free_per_hit);
   if (a.fs_clearance_m != d.fs_clearance_m) o << " --fs-clearance " << number(a.fs_clearance_m);
   if (a.fs_end_margin_m != d.fs_end_margin_m) o << " --fs-end-margin " << number(a.fs_end_margin_m);
+  if (a.fs_guard_neighbours != d.fs_guard_neighbours) o << " --fs-guard-neighbours " << a.fs_guard_neighbours;
   if (a.best_fs_free_per_hit != d.best_fs_free_per_hit) o << " --best-fs-free-per-hit " << number(a.best_fs_free_per_hit);
+  if (a.best_drift_band_free_per_hit != d.best_drift_band_free_per_hit)
+    o << " --best-drift-band-free-per-hit " << number(a.best_drift_band_free_per_hit);
   if (a.tracked_n_sigma != d.tracked_n_sigma) o << " --tracked-n-sigma " << number(a.tracked_n_sigma);
   if (a.tracked_margin_m != d.tracked_margin_m) o << " --tracked-margin " << number(a.tracked_margin_m);
   if (a.tracked_height_profile != d.tracked_height_profile) o << " --tracked-height-profile " << a.tracked_height_profile;
@@ -221,8 +226,10 @@ int run_eval(const EvalArgs& a) {
     fs->free_per_hit = a.fs_free_per_hit;
     fs->clearance_m = a.fs_clearance_m;
     fs->end_margin_m = a.fs_end_margin_m;
+    fs->guard_neighbours = a.fs_guard_neighbours;
   }
   base.best_freespace.free_per_hit = a.best_fs_free_per_hit;
+  base.best_drift_band_free_per_hit = a.best_drift_band_free_per_hit;
   base.tracked.n_sigma = a.tracked_n_sigma;
   base.tracked.margin_m = a.tracked_margin_m;
   base.tracked.height_profile = a.tracked_height_profile != 0;
@@ -378,7 +385,13 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--fs-end-margin", a->fs_end_margin_m, "freespace/best: rays stop this far short of their hit (m)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--fs-guard-neighbours", a->fs_guard_neighbours,
+                 "freespace/best: a void voxel with a solid neighbour stays; 6 = face neighbours, 26 = also edges and corners")
+      ->check(CLI::IsMember({6, 26}))->capture_default_str();
   app.add_option("--best-fs-free-per-hit", a->best_fs_free_per_hit, "best: its freespace part's free passes per hit")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--best-drift-band-free-per-hit", a->best_drift_band_free_per_hit,
+                 "best: a point only in the drift band of a body box goes when its voxel has this many free passes per hit")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--tracked-n-sigma", a->tracked_n_sigma, "tracked/best: body box inflated by n Kalman sigma")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
