@@ -60,6 +60,10 @@ struct TrackedOptions {
   // centres x ±0.134 m, 215 mm diameter, y from ±0.1425 to ±0.2525 m) + margin: the floor under the
   // chassis (90 mm clearance) and under the bumpers is visible floor a down-laser sees past a teammate.
   double wheel_half_length_m = 0.2415;
+  // Margin of the wheel strips: 4σ of the 5 mm range noise of a wheel-face hit (< 0: margin_m); the
+  // pose error is covered by the Kalman σ. The floor beside a wheel is scanned far more than the
+  // wheel's lowest 2 cm, so this margin costs floor (docs/beyond.md: 0.04 m took 0.08–7 % of it).
+  double low_margin_m = 0.02;
   double wheel_inner_y_m = 0.1425;
   // The body's height profile (sim/world.cpp make_pioneer3at_body): up to the top plate (277 mm) the
   // full footprint; above it only the LMS-200 housing and its post stand, 156 × 155 mm around the

@@ -41,9 +41,10 @@ BodyBox body_box(const RobotEstimate& other, const TrackedOptions& o, const Eige
     // chassis stays); not the drift part, which grows to decimetres and would take the floor around.
     const Eigen::Matrix2d kalman = other.position_cov_m2 - other.drift_cov_m2;
     const double kx = std::sqrt(std::max(0.0, ux.dot(kalman * ux))), ky = std::sqrt(std::max(0.0, uy.dot(kalman * uy)));
-    b.low_half_x_m = o.wheel_half_length_m + o.margin_m + o.n_sigma * kx;
-    b.low_half_y_m = o.half_width_m + o.margin_m + o.n_sigma * ky;
-    b.low_inner_y_m = std::max(0.0, o.wheel_inner_y_m - o.margin_m);
+    const double low_margin = o.low_margin_m < 0.0 ? o.margin_m : o.low_margin_m;
+    b.low_half_x_m = o.wheel_half_length_m + low_margin + o.n_sigma * kx;
+    b.low_half_y_m = o.half_width_m + low_margin + o.n_sigma * ky;
+    b.low_inner_y_m = std::max(0.0, o.wheel_inner_y_m - low_margin);
     const double upper_turn_m =
         std::hypot(std::abs(o.upper_centre_x_m) + o.upper_half_length_m, o.upper_half_width_m) * sin_turn;
     b.upper_from_z_m = o.upper_z_m + o.margin_m;
@@ -71,7 +72,7 @@ FilterParams TrackedFilter::params() const {
           {"height_m", options_.height_m},           {"floor_clearance_m", options_.floor_clearance_m},
           {"margin_m", options_.margin_m},           {"n_sigma", options_.n_sigma},
           {"heading_sigma_deg", options_.heading_sigma_rad * 180.0 / 3.14159265358979323846},
-          {"sweep_s", options_.sweep_s},             {"low_band_m", options_.low_band_m},
+          {"sweep_s", options_.sweep_s},             {"low_band_m", options_.low_band_m}, {"low_margin_m", options_.low_margin_m},
           {"height_profile", options_.height_profile ? 1.0 : 0.0},
           {"include_drift", options_.include_drift ? 1.0 : 0.0}};
 }

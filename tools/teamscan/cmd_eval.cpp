@@ -71,6 +71,7 @@ struct EvalArgs {
   double tracked_n_sigma = 3.0;
   double tracked_margin_m = 0.04;
   int tracked_height_profile = 1;
+  double tracked_low_margin_m = mapping::TrackedOptions{}.low_margin_m;
   // Table-top heights (m): report the kept share of furniture points whose true z is within 3 cm of one.
   std::vector<double> top_heights_m;
 };
@@ -121,6 +122,7 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.tracked_n_sigma != d.tracked_n_sigma) o << " --tracked-n-sigma " << number(a.tracked_n_sigma);
   if (a.tracked_margin_m != d.tracked_margin_m) o << " --tracked-margin " << number(a.tracked_margin_m);
   if (a.tracked_height_profile != d.tracked_height_profile) o << " --tracked-height-profile " << a.tracked_height_profile;
+  if (a.tracked_low_margin_m != d.tracked_low_margin_m) o << " --tracked-low-margin " << number(a.tracked_low_margin_m);
   for (double h : a.top_heights_m) o << " --top-height " << number(h);
   return o.str();
 }
@@ -233,6 +235,7 @@ int run_eval(const EvalArgs& a) {
   base.tracked.n_sigma = a.tracked_n_sigma;
   base.tracked.margin_m = a.tracked_margin_m;
   base.tracked.height_profile = a.tracked_height_profile != 0;
+  base.tracked.low_margin_m = a.tracked_low_margin_m;
   auto methods = mapping::parse_methods(a.methods, a.resolution_m, a.half_angle_deg, base);
   if (!methods) {
     std::fprintf(stderr, "teamscan eval: --method %s: %s\n", a.methods.c_str(), methods.error().what);
@@ -400,6 +403,9 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
   app.add_option("--tracked-height-profile", a->tracked_height_profile,
                  "tracked/best: 1 = body box follows the Pioneer's height profile (housing only above the top plate), 0 = one box")
       ->check(CLI::Range(0, 1))->capture_default_str();
+  app.add_option("--tracked-low-margin", a->tracked_low_margin_m,
+                 "tracked/best: margin of the wheel strips below 2 cm (m; negative = --tracked-margin)")
+      ->capture_default_str();
   app.add_option("--top-height", a->top_heights_m,
                  "Table-top height (m, repeatable): also report the kept share of furniture points within 3 cm of it");
   return [a] { return run_eval(*a); };
