@@ -25,6 +25,9 @@ struct LiveOptions {
   double bringup_s = 5.0;              // robots stand still this long after start() (device bring-up)
   std::optional<std::uint64_t> seed;   // overrides the scenario's
   std::vector<std::uint8_t> robot_ids; // robots to run (empty: all of the scenario)
+  // > 0: one thread steps every pty this often and releases the bytes due, in chunks, as a USB-serial
+  // adapter does on its latency timer; 0: a thread per pty, each byte on time (serial::PtyRunner::start).
+  Duration feed_period = std::chrono::milliseconds(1);
 };
 
 // Truth of one beam as cast (what the scanner's value word was made from).
@@ -43,6 +46,15 @@ struct LiveScanTruth {
 
 class LiveRobot;
 
+// What LiveTeam::precast did.
+struct PrecastReport {
+  std::uint64_t scans = 0;          // sweeps cast ahead (about)
+  double cpu_s = 0;                 // CPU time of the casting workers
+  double wall_s = 0;                // waiting for the scanners + casting
+  double delayed_s = 0;             // how much later world time 0 is than start() said
+  bool finished_before_t0 = false;  // else the first sweeps after t0 were cast live
+};
+
 class LiveTeam {
  public:
   [[nodiscard]] static Result<std::unique_ptr<LiveTeam>> create(const Scenario& scenario, const LiveOptions& options);
@@ -52,6 +64,14 @@ class LiveTeam {
 
   // Starts every device now; world time 0 (the robots start to drive) is bringup_s later.
   [[nodiscard]] Status start();
+  // Casts every sweep of every scanner from world time 0 to `world_duration_s` (+1 s) ahead of time, so
+  // that during the run the feeder only looks scans up and paces bytes (docs/demo.md "Scale"). Waits
+  // until every scanner streams (its sweep grid is then known), moves world time 0 on by the expected
+  // casting time (the robots still stand), and casts on up to 2 threads. A sweep not in the table (a
+  // restarted scanner, a late table) is cast live as before. Call after start(), during bring-up.
+  [[nodiscard]] Result<PrecastReport> precast(double world_duration_s, Duration grid_timeout = std::chrono::seconds(30));
+  // Scans the LMS emulators took from the precast table.
+  [[nodiscard]] std::uint64_t scans_from_precast() const;
   void stop();
 
   [[nodiscard]] std::size_t robot_count() const;
@@ -75,6 +95,8 @@ class LiveTeam {
   [[nodiscard]] std::uint64_t scans_measured(std::size_t i) const;
   // Beams of robot i whose ray hit a teammate (ghosts in the making).
   [[nodiscard]] std::uint64_t ghost_beams(std::size_t i) const;
+  // CPU time (thread CPU clock) spent ray casting scans, all robots together, seconds.
+  [[nodiscard]] double cast_cpu_s() const;
 
  private:
   LiveTeam(const Scenario& scenario, const LiveOptions& options);

@@ -82,7 +82,7 @@ bool known_keys(const toml::table& root, ConfigError& error) {
       "fusion", "fusion.enabled", "fusion.method", "fusion.resolution_m", "fusion.half_angle_deg",
       "fusion.grid_origin_z_m", "fusion.frequency_k", "fusion.position_sigma_m", "fusion.position_n",
       "fusion.direction_from_flags", "fusion.write_interval_s", "fusion.write_all_points", "fusion.map_interval_s",
-      "fusion.map_resolution_m"};
+      "fusion.map_resolution_m", "fusion.latency_log"};
   std::string bad;
   const std::function<void(const toml::table&, const std::string&)> walk = [&](const toml::table& t, const std::string& prefix) {
     for (const auto& [k, v] : t) {
@@ -173,6 +173,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
                    r.boolean("fusion.direction_from_flags", f.direction_from_flags) &&
                    r.number("fusion.write_interval_s", write_s, 0.0, 86400.0, true) &&
                    r.boolean("fusion.write_all_points", f.write_all_points) &&
+                   r.boolean("fusion.latency_log", f.latency_log) &&
                    r.number("fusion.map_interval_s", map_s, 0.0, 3600.0, true) &&
                    r.number("fusion.map_resolution_m", f.map_resolution_m, 0.0, 10.0);
   if (!ok3) return false;

@@ -38,6 +38,7 @@ struct FusionConfig {
   bool direction_from_flags = false;   // use the onboard decisions instead of recomputing eq. 7
   Duration write_interval = std::chrono::seconds(10);  // fused PCD; 0 = only on shutdown
   bool write_all_points = false;       // also fused_all.pcd with a `keep` field
+  bool latency_log = false;            // also fused_latency.csv: one line per fused scan (docs/demo.md)
   Duration map_interval = std::chrono::seconds(1);     // teamscan/map; 0 = off
   double map_resolution_m = 0.1;
 };

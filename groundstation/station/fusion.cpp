@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <span>
 
+#include "common/clock.hpp"
 #include "common/dataset/pcd.hpp"
 #include "common/scan_points.hpp"
 #include "common/units.hpp"
@@ -52,6 +53,7 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   o.tracker.drift_heading_rad_per_rad = k.drift_deg_per_deg;
   o.map_resolution_m = f.map_resolution_m;
   if (f.write_all_points) o.all_points_pcd = "fused_all.pcd";
+  if (f.latency_log) o.latency_log_csv = "fused_latency.csv";
   return o;
 }
 
@@ -69,8 +71,16 @@ FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, 
       tracker_{options.tracker},
       map_all_{options.map_resolution_m},
       map_kept_{options.map_resolution_m},
-      poses_by_robot_(kMaxRobots + 1) {
+      poses_by_robot_(kMaxRobots + 1),
+      seq_windows_(kMaxRobots + 1) {
   received_.scenario = "live";
+  received_.points.reserve(options.reserve_points);
+  received_.scans.reserve(options.reserve_points / 128);
+  live_removed_points_.reserve(options.reserve_points);
+  if (!options_.latency_log_csv.empty()) {
+    latency_log_ = std::fopen((session_dir_ + "/" + options_.latency_log_csv).c_str(), "w");
+    if (latency_log_ != nullptr) std::fputs("robot,seq,stamp_ns,received_ns,fused_ns\n", latency_log_);
+  }
   scratch_points_.reserve(kMaxBeams);
   scratch_flags_.reserve(kMaxBeams);
   scratch_removed_.reserve(kMaxBeams);
@@ -105,8 +115,50 @@ Pose2 FusionStage::own_pose(std::uint32_t robot, std::int64_t stamp_ns, double o
   return Pose2{p.x_m + p.vx_mps * dt_s, p.y_m + p.vy_mps * dt_s, p.yaw_rad + p.yaw_rate_radps * dt_s};
 }
 
+bool FusionStage::seen_before(std::uint32_t robot, std::uint32_t seq) {
+  SeqWindow& w = seq_windows_[robot];
+  auto bit = [&](std::uint32_t k) -> bool { return (w.seen[k / 64] >> (k % 64)) & 1u; };
+  auto set = [&](std::uint32_t k) { w.seen[k / 64] |= std::uint64_t{1} << (k % 64); };
+  if (w.any && seq <= w.newest) {
+    const std::uint32_t back = w.newest - seq;
+    if (back <= std::min(options_.replay_window, kSeqWindow - 1)) {
+      if (bit(back)) return true;
+      set(back);  // late but new (out of order)
+      return false;
+    }
+    // Far below the newest: a restarted robot counts from 1 again.
+    w = SeqWindow{};
+  }
+  if (!w.any) {
+    w.any = true;
+    w.newest = seq;
+    w.seen = {};
+    set(0);
+    return false;
+  }
+  // Newer: shift the bitmap by (seq − newest) bits.
+  const std::uint32_t shift = seq - w.newest;
+  if (shift >= kSeqWindow) {
+    w.seen = {};
+  } else {
+    const std::uint32_t words = shift / 64, bits = shift % 64;
+    for (std::size_t i = w.seen.size(); i-- > 0;) {
+      std::uint64_t v = i >= words ? w.seen[i - words] << bits : 0;
+      if (bits != 0 && i >= words + 1) v |= w.seen[i - words - 1] >> (64 - bits);
+      w.seen[i] = v;
+    }
+  }
+  w.newest = seq;
+  set(0);
+  return false;
+}
+
 void FusionStage::add_scan(const StoredScan& s) {
   if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
+  if (seen_before(s.robot_id, s.seq)) {
+    ++counters_.duplicates;
+    return;
+  }
   ++counters_.scans;
   const std::size_t n = std::min<std::size_t>(s.count, kMaxBeams);
   ScanRecord rec;
@@ -160,12 +212,41 @@ void FusionStage::add_scan(const StoredScan& s) {
   live_->classify(view, scratch_removed_);
   for (std::size_t i = 0; i < scratch_points_.size(); ++i) {
     map_all_.insert(scratch_points_[i]);
+    live_removed_points_.push_back(scratch_removed_[i]);
     if (scratch_removed_[i]) {
       ++counters_.live_removed;
     } else {
       map_kept_.insert(scratch_points_[i]);
     }
   }
+  // The scan is now in the fused map (classified, inserted): its latency from the end of its sweep.
+  // Both stamps are CLOCK_REALTIME (the robots' clocks are NTP-disciplined, DESIGN.md "Frames, units, time").
+  const std::int64_t fused_ns = now_realtime().ns();
+  fused_latency_.add(fused_ns - s.stamp_ns);
+  stored_latency_.add(s.recv_realtime_ns - s.stamp_ns);
+  if (latency_log_ != nullptr) {
+    std::fprintf(latency_log_, "%u,%u,%lld,%lld,%lld\n", s.robot_id, s.seq, static_cast<long long>(s.stamp_ns),
+                 static_cast<long long>(s.recv_realtime_ns), static_cast<long long>(fused_ns));
+  }
+}
+
+FusionStage::~FusionStage() {
+  if (latency_log_ != nullptr) std::fclose(latency_log_);
+}
+
+Status FusionStage::write_latency() const {
+  if (latency_log_ != nullptr) std::fflush(latency_log_);
+  if (options_.latency_csv.empty()) return ok_status();
+  const std::string path = session_dir_ + "/" + options_.latency_csv, tmp = path + ".tmp";
+  const std::string text = "# scan -> stored: stamp (end of sweep) -> taken from DDS and written to scans.bin\n" +
+                           stored_latency_.csv("scan -> stored") + "\n# scan -> fused map: stamp -> classified and in the live map\n" +
+                           fused_latency_.csv("scan -> fused map");
+  std::FILE* f = std::fopen(tmp.c_str(), "w");
+  if (f == nullptr) return Error{"fusion: cannot write the latency file", errno};
+  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  if (std::fclose(f) != 0 || !ok) return Error{"fusion: cannot write the latency file", errno};
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) return Error{"fusion: cannot rename the latency file into place", errno};
+  return ok_status();
 }
 
 namespace {
@@ -217,6 +298,7 @@ Status FusionStage::write_model() {
   if (all) {
     every.fields = kept.fields;
     every.fields.push_back("keep");
+    every.fields.push_back("live_keep");
     every.columns.assign(every.fields.size(), {});
   }
   std::uint64_t n_kept = 0;
@@ -232,6 +314,8 @@ Status FusionStage::write_model() {
     if (all) {
       for (std::size_t c = 0; c < 6; ++c) every.columns[c].push_back(row[c]);
       every.columns[6].push_back(keep ? 1.0 : 0.0);
+      // The decision the live stage took at arrival (map-based filters: against the map so far).
+      every.columns[7].push_back(i < live_removed_points_.size() && live_removed_points_[i] ? 0.0 : 1.0);
     }
   }
   kept.width = n_kept;
@@ -242,6 +326,7 @@ Status FusionStage::write_model() {
     every.height = 1;
     std::vector<PcdField> layout_all = layout;
     layout_all.push_back({"keep", 1, 'U', 1});
+    layout_all.push_back({"live_keep", 1, 'U', 1});
     st = write_atomically(session_dir_ + "/" + options_.all_points_pcd, every, layout_all);
   }
   if (!st.ok()) {

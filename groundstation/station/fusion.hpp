@@ -5,7 +5,9 @@
 // It runs from Station hooks, after the sample is stored: a failure here never loses a received sample.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -15,6 +17,7 @@
 #include "groundstation/mapping/filter.hpp"
 #include "groundstation/mapping/tracker.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
+#include "groundstation/station/latency_histogram.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "groundstation/station/team_source.hpp"
 
@@ -35,6 +38,20 @@ struct FusionOptions {
   std::string all_points_pcd;
   // Sub-folder of the session written on shutdown with everything received as a data set; empty: none.
   std::string received_dataset = "received";
+  // Per-scan latency histograms (scan stamp -> taken from DDS, scan stamp -> in the fused map), written
+  // by write_latency(); empty: not written.
+  std::string latency_csv = "latency.csv";
+  // Per fused scan a line `robot,seq,stamp_ns,received_ns,fused_ns` (CLOCK_REALTIME), through one stdio
+  // buffer (no allocation per scan); empty: none. For measuring a time window (the demo's run).
+  std::string latency_log_csv;
+  // A scan seq up to this far below a robot's newest is a replay of its DDS history (fused already, or
+  // late); further below, a restarted robot. As the station's dds.scan_history_depth (at most 1023).
+  std::uint32_t replay_window = 300;
+  // Points reserved up front for everything received (kept in memory for the model writes). Growing a
+  // vector of millions of points by doubling copied up to ~200 MB inside the receive loop and held scans
+  // back for hundreds of ms at 32 robots (docs/demo.md "Scale"); a reservation costs address space only,
+  // pages are touched as points arrive. 16 M points ≈ 37 s of 32 robots at 75 Hz; beyond it, doubling.
+  std::size_t reserve_points = 16u << 20;
 };
 
 struct FusionCounters {
@@ -42,6 +59,7 @@ struct FusionCounters {
   std::uint64_t poses = 0;
   std::uint64_t points = 0;
   std::uint64_t live_removed = 0;     // points the live classification removed at arrival
+  std::uint64_t duplicates = 0;       // scans received again (DDS history replay): stored, not fused twice
   std::uint64_t writes = 0;           // fused PCDs written
   std::uint64_t write_failures = 0;
   std::uint64_t last_write_kept = 0;  // points in the last fused PCD
@@ -63,7 +81,8 @@ class FusionStage {
   [[nodiscard]] static Result<std::unique_ptr<FusionStage>> create(const FusionOptions& options,
                                                                    std::string session_dir);
 
-  // Hooks (Station::add_pose_hook / add_scan_hook).
+  // Hooks (Station::add_pose_hook / add_scan_hook). A scan whose (robot, seq) was fused recently (within
+  // kSeqWindow) is a replay of the robots' DDS history: counted in `duplicates`, not fused again.
   void add_pose(const PoseObservation& pose);
   void add_scan(const StoredScan& scan);
 
@@ -74,6 +93,14 @@ class FusionStage {
   // Writes everything received as a data set folder (common/dataset: points.pcd, scans.csv, odom.csv,
   // ...; no labels), so `teamscan eval DIR --method M` reproduces the fused model's decisions offline.
   [[nodiscard]] Status write_received_dataset(const std::string& dir);
+  // Writes the latency histograms (options().latency_csv) into the session folder, atomically.
+  [[nodiscard]] Status write_latency() const;
+  // Scan stamp (end of sweep, CLOCK_REALTIME) -> the scan classified and inserted into the live map, and
+  // scan stamp -> taken from DDS (the station stores it right then, before fusion), one sample per scan.
+  [[nodiscard]] const LatencyHistogram& fused_latency() const { return fused_latency_; }
+  [[nodiscard]] const LatencyHistogram& stored_latency() const { return stored_latency_; }
+  // The live classification at arrival, per point in received().points order (1 = removed).
+  [[nodiscard]] const std::vector<std::uint8_t>& live_removed() const { return live_removed_points_; }
   // Removed flags of the last write_model(), in received().points order.
   [[nodiscard]] const std::vector<std::uint8_t>& last_removed() const { return last_removed_; }
 
@@ -107,7 +134,26 @@ class FusionStage {
   std::vector<std::uint16_t> scratch_flags_;
   std::vector<std::uint8_t> scratch_removed_;
   std::vector<std::uint8_t> last_removed_;
+  std::vector<std::uint8_t> live_removed_points_;  // grows with received_.points (amortised, as they do)
+  LatencyHistogram fused_latency_;
+  LatencyHistogram stored_latency_;
   FusionCounters counters_;
+  // Per robot: the newest seq fused and a bitmap of the kSeqWindow seqs up to it (bit k = newest − k).
+  static constexpr std::uint32_t kSeqWindow = 1024;  // > the robots' scan history (300, dds.scan_history_depth)
+  struct SeqWindow {
+    bool any = false;
+    std::uint32_t newest = 0;
+    std::array<std::uint64_t, kSeqWindow / 64> seen{};
+  };
+  // True if (robot, seq) was fused before; else marks it. A seq far below the newest is a restarted robot.
+  bool seen_before(std::uint32_t robot, std::uint32_t seq);
+  std::vector<SeqWindow> seq_windows_;
+  std::FILE* latency_log_ = nullptr;
+
+ public:
+  ~FusionStage();
+  FusionStage(const FusionStage&) = delete;
+  FusionStage& operator=(const FusionStage&) = delete;
 };
 
 }  // namespace teamscan::station

@@ -113,7 +113,9 @@ int main(int argc, char** argv) {
   std::unique_ptr<FusionStage> fusion;
   std::vector<teamscan_msg_MapVoxel> map_voxels;
   if (cfg.fusion.enabled) {
-    auto created = FusionStage::create(fusion_options_from_config(cfg.fusion, cfg.kalman), store->dir());
+    FusionOptions fusion_options = fusion_options_from_config(cfg.fusion, cfg.kalman);
+    fusion_options.replay_window = cfg.station.scan_history_depth;  // the robots' history: replays are not fused twice
+    auto created = FusionStage::create(fusion_options, store->dir());
     if (!created) {
       log(kErr, created.error().what);
       return 1;
@@ -134,6 +136,14 @@ int main(int argc, char** argv) {
                                            std::to_string(fusion->counters().last_write_kept) + " kept, " +
                                            std::to_string(fusion->counters().last_write_removed) + " removed");
     }
+    // Scan -> fused-map latency so far (latency.csv; docs/demo.md "Scale").
+    const LatencyHistogram& lat = fusion->fused_latency();
+    char line[160];
+    std::snprintf(line, sizeof line, "scan -> fused map latency: %llu scans, p50 %.1f ms, p99 %.1f ms, max %.1f ms",
+                  static_cast<unsigned long long>(lat.count()), static_cast<double>(lat.quantile_ns(0.5)) * 1e-6,
+                  static_cast<double>(lat.quantile_ns(0.99)) * 1e-6, static_cast<double>(lat.max_ns()) * 1e-6);
+    store->log_event(now_realtime(), line);
+    if (const Status l = fusion->write_latency(); !l.ok()) log(kWarning, std::string("fusion: ") + l.error().what);
   };
 #else
   if (cfg.fusion.enabled) log(kWarning, "fusion: not in this build (no groundstation/mapping)");
@@ -157,10 +167,16 @@ int main(int argc, char** argv) {
   bool periodic_writes = true;
 #endif
   std::uint32_t lost_before = 0;
+  // Loop-time counters (STYLE.md 8): the longest handling of one poll's samples, and the teamscan/map
+  // publications, which run in this loop too and hold the next take back (docs/demo.md "Scale").
+  Duration handle_max{0}, map_max{0}, map_total{0};
+  std::uint64_t map_count = 0;
   while (g_stop == 0) {
     // One loop, one tick: wait for data at most until the next team publication is due.
-    st.poll(std::min<Duration>(cfg.station.team_period, std::chrono::milliseconds(50)));
+    const Time before_poll = now_monotonic();
+    const std::size_t handled = st.poll(std::min<Duration>(cfg.station.team_period, std::chrono::milliseconds(50)));
     now = now_monotonic();
+    if (handled > 0) handle_max = std::max(handle_max, now - before_poll);
     st.publish_team_if_due(now);
     if (ping_period.count() > 0 && now >= next_ping) {
       onboard::notify_watchdog();
@@ -200,6 +216,11 @@ int main(int argc, char** argv) {
       if (total > 0 && !st.publish_map(map_voxels, fusion->map_resolution_mm(), total).ok()) {
         log(kWarning, "fusion: teamscan/map write failed");
       }
+      const Duration took = now_monotonic() - now;
+      map_max = std::max(map_max, took);
+      map_total += took;
+      ++map_count;
+      now = now_monotonic();
       next_map = now + cfg.fusion.map_interval;
     }
 #endif
@@ -214,10 +235,23 @@ int main(int argc, char** argv) {
     }
   }
   onboard::notify_stopping();
+  {
+    char line[200];
+    std::snprintf(line, sizeof line, "loop: longest poll (wait + handling) that took samples %.1f ms; teamscan/map %llu publications, longest %.1f ms, mean %.1f ms",
+                  to_seconds(handle_max) * 1e3, static_cast<unsigned long long>(map_count), to_seconds(map_max) * 1e3,
+                  map_count ? to_seconds(map_total) * 1e3 / static_cast<double>(map_count) : 0.0);
+    store->log_event(now_realtime(), line);
+  }
   log(kInfo, "stopping: " + st.status_line());
   store->log_event(now_realtime(), "station stopping: " + st.status_line());
   station.value().reset();  // leave DDS before closing the files
   store->sync();  // the session is complete on disk before the (longer) final fusion pass
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+  // The latency histograms first: cheap, and complete once nothing more is received.
+  if (fusion) {
+    if (const Status l = fusion->write_latency(); !l.ok()) log(kWarning, std::string("fusion: ") + l.error().what);
+  }
+#endif
   write_model("shutdown");
 #ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
   if (fusion && !fusion->options().received_dataset.empty()) {

@@ -386,13 +386,27 @@ Result<OnboardConfig> parse_onboard_config(std::string_view toml_text, std::stri
 
   // [odometry]
   const toml::table* odom = r.section("odometry", false);
-  r.only(odom, "odometry", {"max_extrapolation_s"});
+  r.only(odom, "odometry", {"max_extrapolation_s", "max_hold_s"});
   double extrap_s = to_seconds(c.odometry_max_extrapolation);
   if (r.number(odom, "odometry", "max_extrapolation_s", extrap_s, false)) {
     if (!(extrap_s >= 0.0 && extrap_s <= 1.0))
       r.fail("odometry.max_extrapolation_s", fmt_double(extrap_s) + " is outside [0, 1]", r.node(odom, "max_extrapolation_s"));
     else
       c.odometry_max_extrapolation = from_seconds(extrap_s);
+  }
+  // How long a scan waits for the SIP that covers its stamp (docs/demo.md "Latency"); unset: as long as
+  // the extrapolation limit allows (the behaviour before the key existed). More than that would only
+  // publish beams without a pose.
+  c.odometry_max_hold = c.odometry_max_extrapolation;
+  double hold_s = to_seconds(c.odometry_max_hold);
+  if (r.number(odom, "odometry", "max_hold_s", hold_s, false)) {
+    if (!(hold_s >= 0.0 && hold_s <= to_seconds(c.odometry_max_extrapolation)))
+      r.fail("odometry.max_hold_s",
+             fmt_double(hold_s) + " is outside [0, odometry.max_extrapolation_s = " +
+                 fmt_double(to_seconds(c.odometry_max_extrapolation)) + "]",
+             r.node(odom, "max_hold_s"));
+    else
+      c.odometry_max_hold = from_seconds(hold_s);
   }
 
   // Consistency across sections.
@@ -422,7 +436,8 @@ std::string describe(const OnboardConfig& c) {
   std::snprintf(buf, sizeof buf,
                 "robot %u; arcos %s @ %u; lms %s @ %u, %u°/%.2f°, %s, max %.2f m; mount (%.3f, %.3f, %.3f) m "
                 "rpy (%.1f, %.1f, %.1f)°; registration (%.3f, %.3f) m %.1f°; filter %s ha %.1f° range gate %s "
-                "height gate %s, team age %.2f s, stale %s; dds domain %u, publish %s, history %u; status %.2f s",
+                "height gate %s, team age %.2f s, stale %s; dds domain %u, publish %s, history %u; status %.2f s; "
+                "odometry extrapolation %.3f s, hold %.3f s",
                 c.robot_id, c.arcos_device.c_str(), c.arcos_baud, c.lms_device.c_str(), c.lms_baud, c.lms_variant.fov_deg,
                 c.lms_variant.resolution_cdeg / 100.0, c.lms_units == LmsUnits::mm ? "mm" : "cm", c.lms_max_range_m,
                 c.mount.x_m, c.mount.y_m, c.mount.z_m, c.mount.roll_deg, c.mount.pitch_deg, c.mount.yaw_deg,
@@ -430,7 +445,7 @@ std::string describe(const OnboardConfig& c) {
                 c.filter.half_angle_deg, c.filter.range_gate ? "on" : "off", c.filter.height_gate ? "on" : "off",
                 to_seconds(c.filter.max_team_age), c.filter.stale_policy == StalePolicy::widen ? "widen" : "disable",
                 c.dds_domain, c.publish == PublishMode::all ? "all" : "kept", c.scan_history_depth,
-                to_seconds(c.status_period));
+                to_seconds(c.status_period), to_seconds(c.odometry_max_extrapolation), to_seconds(c.odometry_max_hold));
   return buf;
 }
 

@@ -50,6 +50,10 @@ struct OnboardConfig {
 
   Duration status_period = 1s;             // teamscan/status and sd_notify STATUS= period
   Duration odometry_max_extrapolation = kDefaultMaxExtrapolation;
+  // [odometry] max_hold_s: the longest a scan waits for a SIP stamped at or after its sweep end before it
+  // is published with its last beams extrapolated from the two newest SIPs (0: at once). Default: the
+  // extrapolation limit (every scan interpolated whenever the SIPs keep coming).
+  Duration odometry_max_hold = kDefaultMaxExtrapolation;
 
   [[nodiscard]] Pose2 map_from_odom() const;
   [[nodiscard]] std::uint32_t max_range_mm() const;

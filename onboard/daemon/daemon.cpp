@@ -230,7 +230,9 @@ void OnboardDaemon::drain_scans(Time now, bool force) {
     PendingScan& p = pending_[pending_head_];
     const OdometryHistory<>& odometry = pipeline_.odometry();
     const bool covered = !odometry.empty() && odometry.newest().stamp >= p.stamp;
-    const bool overdue = now_rt - p.stamp > config_.odometry_max_extrapolation;
+    // Held at most odometry.max_hold_s for the covering SIP (ARCOS sends one every SipCycle = 100 ms,
+    // PROTOCOLS.md §1.7); then published, the beams after the newest SIP extrapolated (odometry_history.hpp).
+    const bool overdue = now_rt - p.stamp >= config_.odometry_max_hold;
     if (!covered && !force && !overdue) return;
     if (!covered && !force) ++scans_forced_;
     pending_head_ = (pending_head_ + 1) % kPendingScans;
@@ -314,6 +316,8 @@ Time OnboardDaemon::next_wakeup(Time now) const {
   consider(next_team_poll_);
   if (watchdog_period_ > Duration::zero()) consider(next_watchdog_);
   if (stopping_) consider(std::min(stop_deadline_, now + 10ms));
+  // The oldest held scan is due when its hold ends (stamps are CLOCK_REALTIME, the loop runs on monotonic).
+  if (pending_size_ > 0) consider(pending_[pending_head_].stamp - realtime_offset_ + config_.odometry_max_hold);
   return std::max(t, now);
 }
 

@@ -68,7 +68,7 @@ class OnboardDaemon {
   void take_scans(Time now);
   // Projects, filters and publishes the scans waiting for odometry: each waits until a SIP at or after
   // its stamp has arrived (so its beams are interpolated, as sim/receiver.cpp does for the data set),
-  // unless `force`, or the queue is full, or it has waited longer than the odometry extrapolation limit.
+  // unless `force`, or the queue is full, or it has waited odometry.max_hold_s (config.hpp).
   void drain_scans(Time now, bool force);
   void publish_status(Time now);
   void log_state_changes();

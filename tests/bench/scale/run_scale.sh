@@ -2,11 +2,17 @@
 # Scale benchmark for the live system (issue 6 "Scale"): N emulated robots (each an oval in its own cell
 # of a large room, down- and up-lasers alternating, LMS-200 at 500 kBd = 75 scans/s) through real
 # teamscan-onboard processes and one teamscan-groundstation on loopback DDS, at real time.
-# Prints per N: scans stored vs sent (does the station keep up?), missing scans, the station's CPU,
-# and the scan -> stored latency p50/p99 (scan stamp = end of sweep, to the station's write).
+# Prints per N: scans sent by the emulated scanners / published by the daemons (their last status) /
+# stored by the station (incl. history replays at shutdown) / fused into its live map (does it keep
+# up?), missing sequence numbers, CPU seconds over the run (bring-up + run, without the station's final
+# model write) of the station, of all daemons together and of the device feeder (the demo process), the
+# scan -> stored and scan -> fused-map latency p50/p99 (ms; scan stamp = end of sweep) of the scans
+# stamped in the run window, the wall time and the 1-minute load average before/after the run (other
+# work on the machine shows there). Per-process detail: outN/summary.json, demoN.log.
 #
-# usage: tests/bench/scale/run_scale.sh [BUILD_DIR] [DURATION_S] [N ...]
-#   default: build/dev, 10 s of robot time, N = 2 8 16 32
+# usage: [MAX_HOLD=S] [FEED_PERIOD=MS] tests/bench/scale/run_scale.sh [BUILD_DIR] [DURATION_S] [N ...]
+#   default: build/dev, 10 s of robot time, N = 2 8 16 32; MAX_HOLD: onboard [odometry] max_hold_s
+#   (unset: the daemon's default); FEED_PERIOD: the demo's --feed-period (0: a thread per pty)
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
 build="${1:-$here/../../../build/dev}"
@@ -64,22 +70,26 @@ TOML
   done
 }
 
-printf '%4s %9s %9s %8s %8s %10s %10s %10s %8s\n' N sent stored missing cpu_s cpu_%core p50_ms p99_ms wall_s
+extra=()
+[ -n "${MAX_HOLD:-}" ] && extra+=(--max-hold "$MAX_HOLD")
+[ -n "${FEED_PERIOD:-}" ] && extra+=(--feed-period "$FEED_PERIOD")
+echo "# $(date -u +%FT%TZ) build $build, ${duration} s of robot time + 4 s bring-up, max_hold_s ${MAX_HOLD:-default}, feed period ${FEED_PERIOD:-1} ms"
+printf '%4s %7s %7s %7s %7s %5s %7s %7s %8s %8s %8s %8s %8s %6s %s\n' N sent publ stored fused miss gs_cpu obd_cpu feed_cpu st_p50 st_p99 fu_p50 fu_p99 wall load1
+sum() { grep -o "\"$1\": [0-9.e+-]*" "$2" | awk '{ t += $2 } END { printf "%d", t }'; }
+val() { grep -o "\"$1\": [0-9.e+-]*" "$2" | head -1 | awk '{ print $2 }'; }
 for n in "${counts[@]}"; do
   scenario "$n" > "$work/scale$n.toml"
   out="$work/out$n"
+  load_before=$(cut -d' ' -f1 /proc/loadavg)
   "$teamscan" demo --scenario "$work/scale$n.toml" --duration "$duration" --bringup 4 --method direction \
-      --quiet --out "$out" > "$work/demo$n.log" 2>&1
+      --quiet --out "$out" "${extra[@]}" > "$work/demo$n.log" 2>&1
+  load_after=$(cut -d' ' -f1 /proc/loadavg)
   s="$out/summary.json"
   if [ ! -f "$s" ]; then echo "N=$n: no summary (see $work/demo$n.log)"; continue; fi
-  sent=$(grep -o '"lms_sent": [0-9]*' "$s" | awk '{ t += $2 } END { print t }')
-  stored=$(grep -o '"stored": [0-9]*' "$s" | awk '{ t += $2 } END { print t }')
-  missing=$(grep -o '"missing": [0-9]*' "$s" | awk '{ t += $2 } END { print t }')
-  cpu=$(grep -o '"station_cpu_s": [0-9.e+-]*' "$s" | awk '{ print $2 }')
-  p50=$(grep -o '"latency_ms_p50": [0-9.e+-]*' "$s" | awk '{ print $2 }')
-  p99=$(grep -o '"latency_ms_p99": [0-9.e+-]*' "$s" | awk '{ print $2 }')
-  wall=$(grep -o '"wall_s": [0-9.e+-]*' "$s" | awk '{ print $2 }')
-  pct=$(awk -v c="$cpu" -v d="$duration" 'BEGIN { printf "%.1f", 100 * c / (d + 4) }')
-  printf '%4d %9d %9d %8d %8.2f %10s %10.1f %10.1f %8.1f\n' "$n" "$sent" "$stored" "$missing" "$cpu" "$pct" "$p50" "$p99" "$wall"
+  printf '%4d %7d %7d %7d %7d %5d %7.2f %7.2f %8.2f %8.1f %8.1f %8.1f %8.1f %6.1f %s\n' "$n" \
+    "$(sum lms_sent "$s")" "$(sum last_status_published "$s")" "$(sum stored "$s")" "$(val fused_latency_scans "$s")" \
+    "$(sum missing "$s")" "$(val station_run_cpu_s "$s")" "$(val onboard_cpu_s "$s")" "$(val feeder_cpu_s "$s")" \
+    "$(val latency_ms_p50 "$s")" "$(val latency_ms_p99 "$s")" "$(val fused_latency_ms_p50 "$s")" "$(val fused_latency_ms_p99 "$s")" \
+    "$(val wall_s "$s")" "$load_before/$load_after"
 done
-echo "outputs in $work"
+echo "outputs in $work (demoN.log: the demo's output; outN/: its folder)"

@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <set>
 #include <numeric>
 
 #include "common/dataset/pcd.hpp"
@@ -154,6 +157,106 @@ TEST(Fusion, MapVoxelsAccountForEveryPointAndFlagFullyRemovedVoxels) {
   EXPECT_EQ(hits, d.points.size());
   EXPECT_GT(flagged, 0u);
   EXPECT_LT(flagged, voxels.size());
+  std::filesystem::remove_all(dir);
+}
+
+// One scan of `robot` with `seq` and three points, stamped `stamp_ns`.
+StoredScan small_scan(std::uint32_t robot, std::uint32_t seq, std::int64_t stamp_ns) {
+  StoredScan s{};
+  s.robot_id = robot;
+  s.seq = seq;
+  s.stamp_ns = stamp_ns;
+  s.recv_realtime_ns = stamp_ns + 1'000'000;
+  for (std::uint16_t b = 0; b < 3; ++b) s.points[s.count++] = StoredPoint{1000 + 10 * b, 2000, 300, b, 0};
+  return s;
+}
+
+TEST(Fusion, HistoryReplaysAreNotFusedTwiceButRestartsAre) {
+  const std::string dir = temp_dir();
+  FusionOptions o;
+  o.method = "direction";
+  o.replay_window = 300;
+  o.latency_log_csv = "fused_latency.csv";
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  FusionStage& f = **stage;
+  const std::int64_t t0 = 1'700'000'000'000'000'000;
+  constexpr std::int64_t kPeriod = 13'333'333;  // 75 Hz
+  for (std::uint32_t seq = 1; seq <= 400; ++seq) f.add_scan(small_scan(1, seq, t0 + seq * kPeriod));
+  for (std::uint32_t seq = 1; seq <= 50; ++seq) f.add_scan(small_scan(2, seq, t0 + seq * kPeriod));
+  ASSERT_EQ(f.counters().scans, 450u);
+  // Robot 1's history (the newest 300) delivered again, and robot 2's last scan: all duplicates.
+  for (std::uint32_t seq = 101; seq <= 400; ++seq) f.add_scan(small_scan(1, seq, t0 + seq * kPeriod));
+  f.add_scan(small_scan(2, 50, t0));
+  EXPECT_EQ(f.counters().duplicates, 301u);
+  EXPECT_EQ(f.counters().scans, 450u);
+  EXPECT_EQ(f.received().points.size(), 450u * 3);
+  // A gap filled late is new; the same scan again is not.
+  f.add_scan(small_scan(2, 60, t0));
+  f.add_scan(small_scan(2, 55, t0));
+  f.add_scan(small_scan(2, 55, t0));
+  EXPECT_EQ(f.counters().scans, 452u);
+  EXPECT_EQ(f.counters().duplicates, 302u);
+  // Robot 1 restarted: seq 1 again, far below its newest (400 − 1 > 300) is a new scan.
+  f.add_scan(small_scan(1, 1, t0 + 500 * kPeriod));
+  f.add_scan(small_scan(1, 2, t0 + 501 * kPeriod));
+  EXPECT_EQ(f.counters().scans, 454u);
+  EXPECT_EQ(f.counters().duplicates, 302u);
+  // Jumps larger than the bitmap forget the old window without confusing the new one.
+  f.add_scan(small_scan(2, 5000, t0));
+  f.add_scan(small_scan(2, 4999, t0));
+  f.add_scan(small_scan(2, 5000, t0));
+  EXPECT_EQ(f.counters().scans, 456u);
+  EXPECT_EQ(f.counters().duplicates, 303u);
+  // Every fused scan has one latency sample (stamp -> fused) and one stored sample (stamp -> received).
+  EXPECT_EQ(f.fused_latency().count(), 456u);
+  EXPECT_EQ(f.stored_latency().count(), 456u);
+  EXPECT_GE(f.stored_latency().quantile_ns(0.5), 1'000'000);
+  EXPECT_LE(f.stored_latency().quantile_ns(0.5), 1'000'000 + LatencyHistogram::kBucketNs);
+  ASSERT_TRUE(f.write_latency().ok());
+  EXPECT_TRUE(std::filesystem::exists(dir + "/latency.csv"));
+  // The per-scan log (flushed by write_latency): a header and one line per fused scan, never a replay.
+  std::ifstream log(dir + "/fused_latency.csv");
+  std::string line;
+  std::getline(log, line);
+  EXPECT_EQ(line, "robot,seq,stamp_ns,received_ns,fused_ns");
+  std::size_t lines = 0;
+  std::set<std::pair<unsigned, unsigned>> scans;
+  while (std::getline(log, line)) {
+    unsigned robot = 0, seq = 0;
+    long long stamp = 0, received = 0, fused = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%u,%u,%lld,%lld,%lld", &robot, &seq, &stamp, &received, &fused), 5) << line;
+    EXPECT_EQ(received, stamp + 1'000'000);
+    ++lines;
+    scans.insert({robot, seq});
+  }
+  EXPECT_EQ(lines, 456u);
+  EXPECT_EQ(scans.size(), 454u);  // robot 1 seq 1 and 2 fused twice: before and after its restart
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Fusion, AllPointsModelCarriesTheLiveDecisions) {
+  const Dataset d = survey();
+  const std::string dir = temp_dir();
+  FusionOptions o;  // combined: live decisions against the map so far differ from the final ones
+  o.all_points_pcd = "fused_all.pcd";
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  feed(**stage, d);
+  ASSERT_TRUE((*stage)->write_model().ok());
+  auto all = read_pcd(dir + "/fused_all.pcd");
+  ASSERT_TRUE(all.ok());
+  const int live = all->field("live_keep");
+  ASSERT_GE(live, 0);
+  const auto& live_removed = (*stage)->live_removed();
+  ASSERT_EQ(live_removed.size(), all->size());
+  std::uint64_t removed = 0;
+  for (std::size_t i = 0; i < all->size(); ++i) {
+    EXPECT_EQ(all->columns[static_cast<std::size_t>(live)][i], live_removed[i] ? 0.0 : 1.0) << i;
+    removed += live_removed[i];
+  }
+  EXPECT_EQ(removed, (*stage)->counters().live_removed);
+  EXPECT_GT(removed, 0u);
   std::filesystem::remove_all(dir);
 }
 
