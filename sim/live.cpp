@@ -28,9 +28,13 @@ namespace {
 struct WorldClock {
   std::atomic<std::int64_t> t0_monotonic_ns{0};
   double speed = 1.0;
+  double loop_s = 0;  // > 0: the scene (tracks) repeats with this period (LiveOptions::loop)
   [[nodiscard]] double at(Time monotonic) const {
     return static_cast<double>(monotonic.ns() - t0_monotonic_ns.load(std::memory_order_relaxed)) * 1e-9 * speed;
   }
+  // Where the scene is at world time t_s. Looping keeps world time (and so the wheel model's dt)
+  // continuous and only wraps the tracks; a closed track (lap2's ovals) ends where it started.
+  [[nodiscard]] double scene(double t_s) const { return loop_s > 0 && t_s > 0 ? std::fmod(t_s, loop_s) : t_s; }
 };
 
 // The Pioneer's wheel model behind the SIP hook (as in simulator.cpp's device path): true motion at
@@ -47,7 +51,7 @@ class LiveWheels final : public arcos::SipSource {
 
   bool fill_sip(Time now, arcos::SipPacket& sip) override {
     const double t_s = std::max(0.0, clock_.at(now));
-    const Pose2 truth = team_.motion(ri_).pose_at(t_s);
+    const Pose2 truth = team_.motion(ri_).pose_at(clock_.scene(t_s));
     const double dt_s = have_last_ ? std::max(0.0, t_s - last_s_) : 0.0;
     const SipOdometry o = firmware_.step(truth, dt_s);
     last_s_ = t_s;
@@ -94,7 +98,7 @@ class SweepCaster {
     // are left out of that beam's cast: the same hits (checked against the full cast: 0 differences in
     // 1.8 M beams, 46 k of them on a teammate, 8 robots), without placing and testing every body per beam.
     const Time mid_time = sweep_end - variant.beam_age(static_cast<std::uint16_t>(n / 2));
-    team_.place(std::max(0.0, clock.at(mid_time)), placed_);
+    team_.place(clock.scene(std::max(0.0, clock.at(mid_time))), placed_);
     const Ray mid_ray = team_.beam_ray(ri_, placed_[ri_].map_from_robot, Vec3{1.0, 0.0, 0.0});
     cull_.clear();
     for (std::size_t k = 0; k < placed_.size(); ++k) {
@@ -106,7 +110,7 @@ class SweepCaster {
     }
     for (std::uint16_t i = 0; i < n; ++i) {
       const Time beam_time = sweep_end - variant.beam_age(i);
-      const double t_s = std::max(0.0, clock.at(beam_time));
+      const double t_s = clock.scene(std::max(0.0, clock.at(beam_time)));
       const double a = variant.beam_angle_rad(i);
       const Vec3 dir = spec.robot_from_laser.rotation.apply({std::cos(a), std::sin(a), 0.0});
       const Ray ray = team_.beam_ray(ri_, team_.motion(ri_).pose_at(t_s), dir);
@@ -373,6 +377,7 @@ Result<std::unique_ptr<LiveTeam>> LiveTeam::create(const Scenario& scenario, con
   std::unique_ptr<LiveTeam> live{new LiveTeam(scenario, options)};
   Impl& im = *live->impl_;
   im.clock.speed = options.speed;
+  if (options.loop) im.clock.loop_s = scenario.duration_s.value_or(im.team.finish_s());
   std::error_code ec;
   if (!options.run_dir.empty()) std::filesystem::create_directories(options.run_dir, ec);
   const std::uint64_t seed = options.seed.value_or(scenario.seed);

@@ -28,6 +28,7 @@ struct LiveOptions {
   // > 0: one thread steps every pty this often and releases the bytes due, in chunks, as a USB-serial
   // adapter does on its latency timer; 0: a thread per pty, each byte on time (serial::PtyRunner::start).
   Duration feed_period = std::chrono::milliseconds(1);
+  bool loop = false;                   // replay the scenario's motion forever (period: its duration), for soaks
 };
 
 // Truth of one beam as cast (what the scanner's value word was made from).

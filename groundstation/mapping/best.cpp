@@ -1,9 +1,9 @@
 // The winning combination (issue 7 "best"), chosen in docs/beyond.md from `teamscan eval` figures.
 #include "groundstation/mapping/best.hpp"
 
+#include <algorithm>
+
 #include "common/result.hpp"
-#include "groundstation/mapping/freespace_filter.hpp"
-#include "groundstation/mapping/tracked_filter.hpp"
 
 namespace teamscan::mapping {
 
@@ -24,11 +24,55 @@ void UnionFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed
   }
 }
 
+namespace {
+TrackedOptions with_drift(TrackedOptions o, bool drift) {
+  o.include_drift = drift;
+  return o;
+}
+}  // namespace
+
+BestFilter::BestFilter(TrackedOptions tracked, FreespaceOptions freespace, double drift_band_free_per_hit)
+    : core_{with_drift(tracked, false)},
+      outer_{with_drift(tracked, true)},
+      freespace_{freespace},
+      drift_band_free_per_hit_{drift_band_free_per_hit},
+      min_free_{freespace.min_free} {}
+
+FilterParams BestFilter::params() const {
+  FilterParams out;
+  for (const auto& [k, v] : outer_.params())
+    if (k != "include_drift") out.emplace_back("tracked." + k, v);
+  for (const auto& [k, v] : freespace_.params()) out.emplace_back("freespace." + k, v);
+  out.emplace_back("drift_band_free_per_hit", drift_band_free_per_hit_);
+  return out;
+}
+
+void BestFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
+  const std::size_t n = scan.points.size();
+  // Scratch per call (not a firmware path: the ground station's fusion stage, docs/groundstation.md).
+  std::vector<std::uint8_t> part(n), band(n);
+  core_.classify(scan, removed);
+  freespace_.classify(scan, part);
+  outer_.classify(scan, band);
+  const FreespaceGrid& grid = freespace_.grid();
+  const double min_free = static_cast<double>(std::max<std::uint32_t>(1, min_free_));
+  for (std::size_t i = 0; i < n; ++i) {
+    if (removed[i]) continue;
+    if (part[i]) {
+      removed[i] = 1;
+      continue;
+    }
+    if (!band[i]) continue;
+    const MapPoint& p = scan.points[i];
+    const FreeCell c = grid.cell(grid.key_of(p.x, p.y, p.z));
+    const double f = static_cast<double>(c.free);
+    if (f >= min_free && f >= drift_band_free_per_hit_ * static_cast<double>(c.hits)) removed[i] = 1;
+  }
+}
+
 std::unique_ptr<Filter> make_best(const MethodOptions& options) {
-  std::vector<std::unique_ptr<Filter>> parts;
-  parts.push_back(std::make_unique<TrackedFilter>(options.tracked));
-  parts.push_back(std::make_unique<FreespaceFilter>(options.best_freespace));
-  return std::make_unique<UnionFilter>("best", std::move(parts));
+  return std::make_unique<BestFilter>(options.tracked, options.best_freespace, options.best_drift_band_free_per_hit);
 }
 
 }  // namespace teamscan::mapping

@@ -35,6 +35,9 @@ struct FreespaceOptions {
   // static when one of its 6 face neighbours is solid (hit and not void): a surface continues there.
   // A teammate that left has no solid neighbour: its whole body's voxels went void together.
   bool solid_neighbour_guard = true;
+  // 6: face neighbours only; 26: also edge and corner neighbours (a table edge at a yaw to the grid
+  // is a staircase of voxels whose solid neighbours are often diagonal).
+  int guard_neighbours = 26;
 };
 
 // `tracked`: the paper's position and direction filters made one 3-D body test (issue 7): every
@@ -53,6 +56,29 @@ struct TrackedOptions {
   // the covariance and heading inflation: the floor around a teammate is scanned far more than its
   // wheels, and those wheel hits lie within the footprint (lap2: |y| ≤ 0.268 m vs 0.2525 m).
   double low_band_m = 0.02;
+  // With the height profile, the low band is only the four wheels' contact strips (sim/world.cpp: wheel
+  // centres x ±0.134 m, 215 mm diameter, y from ±0.1425 to ±0.2525 m) + margin: the floor under the
+  // chassis (90 mm clearance) and under the bumpers is visible floor a down-laser sees past a teammate.
+  double wheel_half_length_m = 0.2415;
+  // Margin of the wheel strips: 4σ of the 5 mm range noise of a wheel-face hit (< 0: margin_m); the
+  // pose error is covered by the Kalman σ. The floor beside a wheel is scanned far more than the
+  // wheel's lowest 2 cm, so this margin costs floor (docs/beyond.md: 0.04 m took 0.08–7 % of it).
+  double low_margin_m = 0.02;
+  double wheel_inner_y_m = 0.1425;
+  // The body's height profile (sim/world.cpp make_pioneer3at_body): up to the top plate (277 mm) the
+  // full footprint; above it only the LMS-200 housing and its post stand, 156 × 155 mm around the
+  // mount (x 0.125 m; housing centre 15 mm behind it, pitched ±20°: x from −0.027 to 0.247 m). A
+  // surface above the top plate next to a teammate (a coffee-table top at 0.40 m beside which a robot
+  // drives) is therefore outside the box unless it is at the housing. Off: one box up to height_m.
+  bool height_profile = true;
+  double upper_z_m = 0.277;
+  double upper_centre_x_m = 0.11;
+  double upper_half_length_m = 0.137;
+  double upper_half_width_m = 0.08;
+  // Whether the box takes the odometry drift (TrackerOptions::drift_*: the teammate's and the scanning
+  // robot's own) on top of the Kalman covariance. `best` uses both: the box without drift decides
+  // alone, the band the drift adds needs the map's free-space evidence too (best.hpp).
+  bool include_drift = true;
   double margin_m = 0.04;           // range noise, quantisation, odometry between poses
   double n_sigma = 3.0;
   double heading_sigma_rad = 0.035; // ~2°: heading is not in the tracker's state

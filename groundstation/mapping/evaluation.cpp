@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <tuple>
@@ -259,6 +260,25 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
   if (options.progress) options.progress("table 1 (floor plane with and without the ghosts)");
   report.table1 = table1(dataset.points, cloud, options.ransac);
   report.plane_before = report.table1.with_ghosts;
+  const bool have_reference = report.table1.without_ghosts.found;
+  {
+    std::vector<std::uint8_t> ghost(dataset.points.size());
+    for (std::size_t i = 0; i < ghost.size(); ++i) ghost[i] = dataset.points[i].is_ghost() ? 1 : 0;
+    // The reference: least squares on the ghost-free points within the threshold, refitted until its
+    // inlier set settles, so the ghost-free cloud's bias against it is 0 up to rounding.
+    report.floor_reference = report.table1.without_ghosts.plane;
+    std::vector<std::size_t> inliers;
+    for (int iteration = 0; have_reference && iteration < 10; ++iteration) {
+      const std::size_t previous = inliers.size();
+      inliers.clear();
+      for (std::size_t i = 0; i < cloud.size(); ++i)
+        if (!ghost[i] && std::abs(report.floor_reference.signed_distance(cloud[i])) <= options.ransac.threshold_m) inliers.push_back(i);
+      if (inliers.size() < 3 || (iteration > 0 && inliers.size() == previous)) break;
+      report.floor_reference = fit_plane_least_squares(cloud, inliers);
+    }
+    report.floor_bias_before_m = have_reference ? floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m) : std::numeric_limits<double>::quiet_NaN();
+    report.floor_bias_ghost_free_m = have_reference ? floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m, ghost) : std::numeric_limits<double>::quiet_NaN();
+  }
   for (const MethodSpec& m : options.methods) {
     if (options.progress) options.progress(m.name);
     std::unique_ptr<Filter> filter = make_filter(m.method, m.options);
@@ -272,6 +292,8 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
     r.plane_after = fit_plane_ransac(cloud, options.ransac, r.removed);
     r.plane_error_improvement_pct = plane_error_improvement_pct(report.plane_before, r.plane_after);
     r.plane_inlier_improvement_pct = plane_inlier_improvement_pct(report.plane_before, r.plane_after);
+    r.floor_bias_after_m = have_reference ? floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m, r.removed) : std::numeric_limits<double>::quiet_NaN();
+    r.floor_bias_improvement_pct = floor_bias_improvement_pct(report.floor_bias_before_m, r.floor_bias_after_m);
     report.methods.push_back(std::move(r));
   }
   return report;
@@ -350,12 +372,19 @@ std::string report_json(const EvalReport& r, const std::string& command) {
     << ", \"position_noise_m\": " << json_number(tr.position_noise_m)
     << ", \"velocity_noise_mps\": " << json_number(tr.velocity_noise_mps)
     << ", \"use_velocity\": " << (tr.use_velocity ? "true" : "false") << ", \"lost_after_s\": " << json_number(tr.lost_after_s)
-    << "},\n";
+    << ", \"drift_m_per_m\": " << json_number(tr.drift_m_per_m)
+    << ", \"drift_heading_rad_per_m\": " << json_number(tr.drift_heading_rad_per_m)
+    << ", \"drift_heading_rad_per_rad\": " << json_number(tr.drift_heading_rad_per_rad) << "},\n";
   o << "  \"table1\": {\"with_ghosts\": " << json_plane(r.table1.with_ghosts)
     << ",\n             \"without_ghosts\": " << json_plane(r.table1.without_ghosts)
     << ",\n             \"ghost_share_of_inliers_pct\": " << json_number(r.table1.ghost_share_of_inliers_pct)
     << ", \"plane_error_improvement_pct\": " << json_number(r.table1.error_improvement_pct)
     << ", \"plane_inlier_improvement_pct\": " << json_number(r.table1.inlier_improvement_pct) << "},\n";
+  o << "  \"floor_bias\": {\"reference\": {\"a\": " << json_number(r.floor_reference.normal.x())
+    << ", \"b\": " << json_number(r.floor_reference.normal.y()) << ", \"c\": " << json_number(r.floor_reference.normal.z())
+    << ", \"d\": " << json_number(r.floor_reference.d) << "}, \"all_points_mm\": " << json_number(r.floor_bias_before_m * 1e3)
+    << ", \"ghosts_removed_mm\": " << json_number(r.floor_bias_ghost_free_m * 1e3) << ", \"ghosts_removed_improvement_pct\": "
+    << json_number(floor_bias_improvement_pct(r.floor_bias_before_m, r.floor_bias_ghost_free_m)) << "},\n";
   o << "  \"methods\": [";
   for (std::size_t i = 0; i < r.methods.size(); ++i) {
     const MethodResult& m = r.methods[i];
@@ -366,6 +395,8 @@ std::string report_json(const EvalReport& r, const std::string& command) {
       << ", \"other_removed_pct\": " << json_number(m.removal.other_removed_pct)
       << ", \"plane_error_improvement_pct\": " << json_number(m.plane_error_improvement_pct)
       << ", \"plane_inlier_improvement_pct\": " << json_number(m.plane_inlier_improvement_pct)
+      << ", \"floor_bias_mm\": " << json_number(m.floor_bias_after_m * 1e3)
+      << ", \"floor_bias_improvement_pct\": " << json_number(m.floor_bias_improvement_pct)
       << ", \"SA\": " << json_number(m.removal.sa) << ", \"DA\": " << json_number(m.removal.da)
       << ", \"AA\": " << json_number(m.removal.aa) << ", \"HA\": " << json_number(m.removal.ha) << ", \"kept_by_class\": {";
     bool first = true;
@@ -389,14 +420,14 @@ std::string report_markdown(const EvalReport& r, const std::string& command) {
     << " %), " << r.scans << " scans, " << r.robots << " robots";
   if (r.orphan_points) o << ", " << r.orphan_points << " points without a scans.csv row";
   o << ".\n\n";
-  o << "| method | % ghost | % other | % impr. plane error | % impr. inliers | SA | DA | AA | HA | floor kept | wall kept | ceiling kept | furniture kept |\n";
-  o << "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+  o << "| method | % ghost | % other | % impr. plane error | % impr. inliers | SA | DA | AA | HA | floor kept | wall kept | ceiling kept | furniture kept | % impr. floor bias |\n";
+  o << "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
   for (const MethodResult& m : r.methods) {
     o << "| " << m.name << " | " << md(m.removal.ghost_removed_pct) << " | " << md(m.removal.other_removed_pct) << " | "
       << md(m.plane_error_improvement_pct) << " | " << md(m.plane_inlier_improvement_pct) << " | " << md(m.removal.sa)
       << " | " << md(m.removal.da) << " | " << md(m.removal.aa) << " | " << md(m.removal.ha);
     for (std::size_t c : kSceneClasses) o << " | " << md(m.removal.by_class[c].kept_pct());
-    o << " |\n";
+    o << " | " << md(m.floor_bias_improvement_pct) << " |\n";
   }
   const Table1& t = r.table1;
   o << "\n**Table 1** (floor plane by RANSAC, ghosts removed by label):\n\n";
@@ -410,6 +441,10 @@ std::string report_markdown(const EvalReport& r, const std::string& command) {
   row("ghosts removed", t.without_ghosts);
   o << "\nGhosts among the inliers with all points: " << md(t.ghost_share_of_inliers_pct) << " %; improvement in plane error "
     << md(t.error_improvement_pct) << " %, in inliers " << md(t.inlier_improvement_pct) << " %.\n\n";
+  o << "Floor bias (deterministic; signed mean distance of the points within " << json_number(rs.threshold_m)
+    << " m of the fixed least-squares floor of the ghost-free cloud): all points " << md(r.floor_bias_before_m * 1e3, 4)
+    << " mm, ghosts removed " << md(r.floor_bias_ghost_free_m * 1e3, 4) << " mm (improvement "
+    << md(floor_bias_improvement_pct(r.floor_bias_before_m, r.floor_bias_ghost_free_m)) << " %).\n\n";
   o << "Parameters:\n\n";
   for (const MethodResult& m : r.methods) {
     o << "- " << m.name << ":";
@@ -423,7 +458,8 @@ std::string report_markdown(const EvalReport& r, const std::string& command) {
   const TrackerOptions& tr = r.options.tracker;
   o << "- tracker: constant velocity, σ_a " << json_number(tr.accel_noise_mps2) << " m/s², σ_pos "
     << json_number(tr.position_noise_m) << " m, σ_vel " << json_number(tr.velocity_noise_mps) << " m/s, velocity "
-    << (tr.use_velocity ? "measured" : "not measured") << "\n\n";
+    << (tr.use_velocity ? "measured" : "not measured") << ", drift " << json_number(tr.drift_m_per_m) << " m/m, "
+    << json_number(tr.drift_heading_rad_per_m) << " rad/m, " << json_number(tr.drift_heading_rad_per_rad) << " rad/rad\n\n";
   o << "Reproduce: `" << command << "`\n";
   return o.str();
 }

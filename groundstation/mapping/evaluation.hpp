@@ -87,6 +87,9 @@ struct MethodResult {
   PlaneFit plane_after;
   double plane_error_improvement_pct = 0;
   double plane_inlier_improvement_pct = 0;
+  // Deterministic floor bias against the fixed reference (metrics.hpp floor_bias_m) and its improvement.
+  double floor_bias_after_m = 0;
+  double floor_bias_improvement_pct = 0;
   std::vector<std::uint8_t> removed;  // Dataset::points order (not serialised)
 };
 
@@ -97,6 +100,11 @@ struct EvalReport {
   EvalOptions options;
   PlaneFit plane_before;
   Table1 table1;
+  // Floor-bias reference: the least-squares floor of the ghost-free cloud; bias of all points and of
+  // the ghost-free cloud against it (the latter ~0: the ideal filter's result).
+  Plane floor_reference;
+  double floor_bias_before_m = 0;
+  double floor_bias_ghost_free_m = 0;
   std::vector<MethodResult> methods;
 };
 

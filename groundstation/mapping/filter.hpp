@@ -212,6 +212,9 @@ struct MethodOptions {
     o.free_per_hit = 8.0;
     return o;
   }();
+  // best: a point only in the band the odometry drift adds to a body box goes when its voxel's free
+  // passes ≥ this many per hit (and ≥ min_free): a lenient freespace rule, applied only there (docs/beyond.md).
+  double best_drift_band_free_per_hit = 2.0;
 };
 
 // The methods this library knows, in report order.

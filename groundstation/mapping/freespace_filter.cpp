@@ -32,6 +32,7 @@ void FreespaceGrid::clear() {
   blocks_.clear();
   cached_block_key_ = ~std::uint64_t{0};
   cached_block_ = nullptr;
+  cached_bx_ = cached_by_ = cached_bz_ = INT32_MIN;
   voxels_ = 0;
   traversed_ = 0;
 }
@@ -42,9 +43,21 @@ FreeCell FreespaceGrid::cell(VoxelKey key) const {
   return b ? blocks_[*b][offset_in_block(key)] : FreeCell{};
 }
 
+FreeCell FreespaceGrid::cell(VoxelKey key, Lookup& lookup) const {
+  if (!in_range(key)) return {};
+  const std::uint64_t bk = block_key(key);
+  if (bk != lookup.block_key) {
+    const std::uint32_t* b = block_index_.find(bk);
+    lookup.block_key = bk;
+    lookup.block = b ? static_cast<std::int64_t>(*b) : -1;
+  }
+  return lookup.block >= 0 ? blocks_[static_cast<std::size_t>(lookup.block)][offset_in_block(key)] : FreeCell{};
+}
+
 FreeCell& FreespaceGrid::touch(VoxelKey k) {
-  const std::uint64_t bk = block_key(k);
-  if (bk != cached_block_key_) {
+  const std::int32_t bx = k.x >> kBlockBits, by = k.y >> kBlockBits, bz = k.z >> kBlockBits;
+  if (bx != cached_bx_ || by != cached_by_ || bz != cached_bz_ || cached_block_ == nullptr) {
+    const std::uint64_t bk = block_key(k);
     bool inserted = false;
     std::uint32_t& index = block_index_.get_or_insert(bk, 0, &inserted);
     if (inserted) {
@@ -54,27 +67,38 @@ FreeCell& FreespaceGrid::touch(VoxelKey k) {
     }
     cached_block_key_ = bk;
     cached_block_ = &blocks_[index];  // blocks_ may have moved: refresh on every miss
+    cached_bx_ = bx;
+    cached_by_ = by;
+    cached_bz_ = bz;
   }
   FreeCell& c = (*cached_block_)[offset_in_block(k)];
   if (c.hits == 0 && c.free == 0) ++voxels_;
   return c;
 }
 
-bool FreespaceGrid::void_voxel(VoxelKey k) const {
-  const FreeCell c = cell(k);
+bool FreespaceGrid::void_voxel(VoxelKey k, Lookup& lookup) const {
+  const FreeCell c = cell(k, lookup);
   const double need = std::max(static_cast<double>(options_.min_free), options_.free_per_hit * static_cast<double>(c.hits));
   return c.free > 0 && static_cast<double>(c.free) >= need;
 }
 
-bool FreespaceGrid::transient(const MapPoint& p) const {
+bool FreespaceGrid::transient(const MapPoint& p, Lookup& lookup) const {
   const VoxelKey k = key_of(p.x, p.y, p.z);
-  if (!void_voxel(k)) return false;
+  if (!void_voxel(k, lookup)) return false;
   if (!options_.solid_neighbour_guard) return true;
   static constexpr std::int32_t kFaces[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   for (const auto& f : kFaces) {
     const VoxelKey n{k.x + f[0], k.y + f[1], k.z + f[2]};
-    if (cell(n).hits > 0 && !void_voxel(n)) return false;
+    if (cell(n, lookup).hits > 0 && !void_voxel(n, lookup)) return false;
   }
+  if (options_.guard_neighbours < 26) return true;
+  for (std::int32_t dz = -1; dz <= 1; ++dz)
+    for (std::int32_t dy = -1; dy <= 1; ++dy)
+      for (std::int32_t dx = -1; dx <= 1; ++dx) {
+        if (std::abs(dx) + std::abs(dy) + std::abs(dz) < 2) continue;  // itself and the faces: done
+        const VoxelKey n{k.x + dx, k.y + dy, k.z + dz};
+        if (cell(n, lookup).hits > 0 && !void_voxel(n, lookup)) return false;
+      }
   return true;
 }
 
@@ -170,12 +194,14 @@ FilterParams FreespaceFilter::params() const {
           {"min_range_m", options_.min_range_m},     {"max_range_m", options_.max_range_m},
           {"end_margin_m", options_.end_margin_m},   {"clearance_m", options_.clearance_m},
           {"grazing_cap_m", options_.grazing_cap_m}, {"min_free", static_cast<double>(options_.min_free)},
-          {"free_per_hit", options_.free_per_hit},   {"solid_neighbour_guard", options_.solid_neighbour_guard ? 1.0 : 0.0}};
+          {"free_per_hit", options_.free_per_hit},   {"solid_neighbour_guard", options_.solid_neighbour_guard ? 1.0 : 0.0},
+          {"guard_neighbours", static_cast<double>(options_.guard_neighbours)}};
 }
 
 void FreespaceFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
   TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
-  for (std::size_t i = 0; i < scan.points.size(); ++i) removed[i] = grid_.transient(scan.points[i]) ? 1 : 0;
+  FreespaceGrid::Lookup lookup;
+  for (std::size_t i = 0; i < scan.points.size(); ++i) removed[i] = grid_.transient(scan.points[i], lookup) ? 1 : 0;
 }
 
 }  // namespace teamscan::mapping

@@ -30,9 +30,24 @@ class FreespaceGrid {
   // Marks the voxels of one ray (origin → hit, shortened as the options say) as passed.
   void cast_ray(const Vec3& origin_m, const MapPoint& hit);
   [[nodiscard]] FreeCell cell(VoxelKey key) const;
-  [[nodiscard]] bool transient(const MapPoint& p) const;
+  // The last block looked up: the points of one scan are near each other, so classify() pays the
+  // block index's hash once per block, not once per point (as cast_ray does).
+  struct Lookup {
+    std::uint64_t block_key = ~std::uint64_t{0};
+    std::int64_t block = -1;  // index in blocks_, -1: no such block
+  };
+  [[nodiscard]] FreeCell cell(VoxelKey key, Lookup& lookup) const;
+  [[nodiscard]] bool transient(const MapPoint& p) const {
+    Lookup lookup;
+    return transient(p, lookup);
+  }
+  [[nodiscard]] bool transient(const MapPoint& p, Lookup& lookup) const;
   // The voxel's own evidence says void (free passes enough, see FreespaceOptions).
-  [[nodiscard]] bool void_voxel(VoxelKey k) const;
+  [[nodiscard]] bool void_voxel(VoxelKey k) const {
+    Lookup lookup;
+    return void_voxel(k, lookup);
+  }
+  [[nodiscard]] bool void_voxel(VoxelKey k, Lookup& lookup) const;
   [[nodiscard]] std::size_t voxels() const { return voxels_; }
   [[nodiscard]] std::uint64_t traversed() const { return traversed_; }
   [[nodiscard]] std::size_t memory_bytes() const {
@@ -60,6 +75,9 @@ class FreespaceGrid {
   std::vector<Block> blocks_;
   std::uint64_t cached_block_key_ = ~std::uint64_t{0};
   Block* cached_block_ = nullptr;
+  // The cached block's coordinates (voxel key >> kBlockBits): a ray's next voxel is compared with
+  // them directly, so the block key is packed only when the ray enters another block.
+  std::int32_t cached_bx_ = INT32_MIN, cached_by_ = INT32_MIN, cached_bz_ = INT32_MIN;
   std::size_t voxels_ = 0;
   std::uint64_t traversed_ = 0;
 };

@@ -59,6 +59,26 @@ double plane_inlier_improvement_pct(const PlaneFit& before, const PlaneFit& afte
   return 100.0 * (after.inlier_share - before.inlier_share) / before.inlier_share;
 }
 
+double floor_bias_m(std::span<const MapPoint> points, const Plane& reference, double threshold_m,
+                    std::span<const std::uint8_t> removed) {
+  TEAMSCAN_EXPECTS(removed.empty() || removed.size() == points.size());
+  double sum = 0;
+  std::uint64_t n = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!removed.empty() && removed[i]) continue;
+    const double e = reference.signed_distance(points[i]);
+    if (std::abs(e) > threshold_m) continue;
+    sum += e;
+    ++n;
+  }
+  return n ? sum / static_cast<double>(n) : kNaN;
+}
+
+double floor_bias_improvement_pct(double before_m, double after_m) {
+  if (!std::isfinite(before_m) || !std::isfinite(after_m) || before_m == 0.0) return kNaN;
+  return 100.0 * (std::abs(before_m) - std::abs(after_m)) / std::abs(before_m);
+}
+
 Table1 table1(std::span<const LabelledPoint> labelled, std::span<const MapPoint> points, const RansacOptions& options) {
   TEAMSCAN_EXPECTS(labelled.size() == points.size());
   Table1 t;

@@ -38,6 +38,18 @@ struct RemovalMetrics {
 // Relative change of the inlier share in percent (NaN if a fit is missing).
 [[nodiscard]] double plane_inlier_improvement_pct(const PlaneFit& before, const PlaneFit& after);
 
+// Deterministic floor-bias measure (issue 7, docs/beyond.md "Floor-plane error"): the signed mean
+// distance to a FIXED reference plane of the kept points within `threshold_m` of it. The paper's
+// signed error is measured against each cloud's own best RANSAC sample, so it changes with which
+// 3-point sample wins (docs/evaluation.md note 4); against one reference for every cloud, the
+// measure moves only by what the filter removed. evaluate() uses the least-squares floor of the
+// ghost-free cloud (Table 1's `without_ghosts.plane`) as the reference: ghosts near the floor pull
+// the bias up, removing them brings it back to ~0. NaN when no point is within the threshold.
+[[nodiscard]] double floor_bias_m(std::span<const MapPoint> points, const Plane& reference, double threshold_m,
+                                  std::span<const std::uint8_t> removed = {});
+// (|bias_before| − |bias_after|) / |bias_before| in percent (NaN if either is NaN or before is 0).
+[[nodiscard]] double floor_bias_improvement_pct(double before_m, double after_m);
+
 // The paper's Table 1: floor plane with all points, and with the ghost points removed by label.
 struct Table1 {
   PlaneFit with_ghosts;

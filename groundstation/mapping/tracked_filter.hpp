@@ -18,10 +18,17 @@ struct BodyBox {
   double half_x_m = 0, half_y_m = 0, z_min_m = 0, z_max_m = 0;
   // Below low_band_m: the bare footprint + margin (TrackedOptions::low_band_m).
   double low_band_m = 0, low_half_x_m = 0, low_half_y_m = 0;
+  double low_inner_y_m = 0;  // wheel strips: |across| from this to low_half_y_m (0: the whole footprint)
+  // Above upper_from_z_m: only the housing box, centred upper_centre_x_m ahead along axis_x
+  // (TrackedOptions::height_profile; +inf when off).
+  double upper_from_z_m = 0, upper_centre_x_m = 0, upper_half_x_m = 0, upper_half_y_m = 0;
 };
 
-// The inflated box of `other` (RobotEstimate at the scan's stamp) for these options.
-[[nodiscard]] BodyBox body_box(const RobotEstimate& other, const TrackedOptions& options);
+// The inflated box of `other` (RobotEstimate at the scan's stamp) for these options. `extra_cov_m2`
+// is uncertainty of the scanning robot's own registration relative to the teammate (its odometry
+// drift, see TrackerOptions), added to the teammate's Kalman covariance.
+[[nodiscard]] BodyBox body_box(const RobotEstimate& other, const TrackedOptions& options,
+                               const Eigen::Matrix2d& extra_cov_m2 = Eigen::Matrix2d::Zero());
 // Whether `p` lies in `box` with the teammate moved by `dt_s` (beam time − scan stamp).
 [[nodiscard]] bool box_contains(const BodyBox& box, const MapPoint& p, double dt_s);
 

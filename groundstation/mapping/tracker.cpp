@@ -27,6 +27,7 @@ void RobotTrack::propagate(double dt_s, State& x, Covariance& p) const {
 
 void RobotTrack::update(std::int64_t stamp_ns, const Pose2& pose, double v_mps) {
   const double vx = v_mps * std::cos(pose.theta_rad), vy = v_mps * std::sin(pose.theta_rad);
+  const double previous_heading = heading_rad_;
   heading_rad_ = pose.theta_rad;
   if (!initialised_) {
     x_ << pose.x_m, pose.y_m, options_.use_velocity ? vx : 0.0, options_.use_velocity ? vy : 0.0;
@@ -36,10 +37,23 @@ void RobotTrack::update(std::int64_t stamp_ns, const Pose2& pose, double v_mps) 
                                             : options_.initial_velocity_sigma_mps * options_.initial_velocity_sigma_mps;
     p_.diagonal() << sp, sp, sv, sv;
     stamp_ns_ = stamp_ns;
+    start_ = pose;
     initialised_ = true;
     return;
   }
-  propagate(static_cast<double>(stamp_ns - stamp_ns_) * 1e-9, x_, p_);
+  const double dt_s = static_cast<double>(stamp_ns - stamp_ns_) * 1e-9;
+  // Dead-reckoning drift (TrackerOptions::drift_*): linear growth with distance and turn.
+  const double ds = std::abs(v_mps) * std::max(0.0, dt_s);
+  const double dtheta = std::abs(std::remainder(pose.theta_rad - previous_heading, 2.0 * 3.14159265358979323846));
+  drift_heading_sigma_rad_ += options_.drift_heading_rad_per_m * ds + options_.drift_heading_rad_per_rad * dtheta;
+  distance_m_ += ds;
+  // A heading error δθ accumulated so far turns the dead-reckoned path about where the robot started:
+  // the position is off by δθ times the distance from the registration point (exact for a constant
+  // δθ; bounded for a robot that loops in a room, unlike δθ·distance driven).
+  slip_sigma_m_ += options_.drift_m_per_m * ds;
+  const double from_start_m = std::hypot(pose.x_m - start_.x_m, pose.y_m - start_.y_m);
+  drift_position_sigma_m_ = slip_sigma_m_ + drift_heading_sigma_rad_ * from_start_m;
+  propagate(dt_s, x_, p_);
   stamp_ns_ = stamp_ns;
   const double rp = options_.position_noise_m * options_.position_noise_m;
   if (options_.use_velocity) {
@@ -80,8 +94,11 @@ RobotEstimate RobotTrack::predict(std::int64_t stamp_ns) const {
   e.valid = std::abs(dt_s) <= options_.lost_after_s;
   e.position_m = {x(0), x(1)};
   e.velocity_mps = {x(2), x(3)};
-  e.position_cov_m2 = p.topLeftCorner<2, 2>();
+  e.drift_cov_m2 = Eigen::Matrix2d::Identity() * (drift_position_sigma_m_ * drift_position_sigma_m_);
+  e.position_cov_m2 = p.topLeftCorner<2, 2>() + e.drift_cov_m2;
   e.heading_rad = heading_rad_;
+  e.heading_sigma_rad = drift_heading_sigma_rad_;
+  e.distance_m = distance_m_;
   return e;
 }
 

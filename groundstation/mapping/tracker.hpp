@@ -31,6 +31,22 @@ struct TrackerOptions {
   double initial_velocity_sigma_mps = 1.0;
   // A track older than this (no measurement) is reported invalid (DDS liveliness does the same live).
   double lost_after_s = 1.0;
+  // Odometry drift (issue 7, docs/beyond.md "Drift"). The Kalman filter smooths the poses a robot
+  // reports, but those poses are dead reckoning from the robot's registration: their error against the
+  // map grows with what the robot did since, and nothing in the pose stream shows it. Dead-reckoning
+  // errors are dominated by systematic ones (wheel diameter, wheelbase, skid-steer slip in turns:
+  // Borenstein & Feng's UMBmark), so σ grows linearly, as a worst-case sum over the robot's motion:
+  //   σ_θ += drift_heading_rad_per_m · ds + drift_heading_rad_per_rad · |dθ|
+  //   σ_p  = drift_m_per_m · distance + σ_θ · |p − p_registration|
+  // (a heading error turns the dead-reckoned path about its start), with ds = |v|·dt from the reported
+  // speed and dθ the reported heading change. σ_p is added to the
+  // position covariance (isotropic), σ_θ is reported for the box's heading inflation. 0 = off.
+  // Default: 0.5 % of the distance driven, the order of a calibrated odometry's error (UMBmark:
+  // a few cm over a 16 m square after calibration, decimetres before); heading terms off by default
+  // (their lever arm costs far more static points than they recover ghosts, docs/beyond.md "Drift").
+  double drift_m_per_m = 0.005;
+  double drift_heading_rad_per_m = 0.0;
+  double drift_heading_rad_per_rad = 0.0;
 };
 
 // One robot's estimate at a time: what the filters consume (DESIGN.md teamscan/team).
@@ -43,6 +59,11 @@ struct RobotEstimate {
   Vec2 velocity_mps;
   Eigen::Matrix2d position_cov_m2 = Eigen::Matrix2d::Identity();
   double heading_rad = 0;             // last measured heading (not part of the state)
+  // Odometry drift since the registration (TrackerOptions::drift_*): heading σ, and the position
+  // covariance part it adds (already included in position_cov_m2).
+  double heading_sigma_rad = 0;
+  Eigen::Matrix2d drift_cov_m2 = Eigen::Matrix2d::Zero();
+  double distance_m = 0;              // driven since the first pose (|v|·dt summed)
 };
 
 // The team's state at one time: every tracked robot predicted to `stamp_ns`.
@@ -73,6 +94,8 @@ class RobotTrack {
   [[nodiscard]] const Covariance& covariance() const { return p_; }
   [[nodiscard]] std::int64_t stamp_ns() const { return stamp_ns_; }
   [[nodiscard]] std::uint8_t robot() const { return robot_; }
+  [[nodiscard]] double drift_position_sigma_m() const { return drift_position_sigma_m_; }
+  [[nodiscard]] double drift_heading_sigma_rad() const { return drift_heading_sigma_rad_; }
 
  private:
   void propagate(double dt_s, State& x, Covariance& p) const;
@@ -82,6 +105,12 @@ class RobotTrack {
   bool initialised_ = false;
   std::int64_t stamp_ns_ = 0;
   double heading_rad_ = 0;
+  // Dead-reckoning drift accumulated since the first pose (TrackerOptions::drift_*).
+  double distance_m_ = 0;
+  Pose2 start_;
+  double slip_sigma_m_ = 0;
+  double drift_heading_sigma_rad_ = 0;
+  double drift_position_sigma_m_ = 0;
   State x_ = State::Zero();
   Covariance p_ = Covariance::Identity();
 };

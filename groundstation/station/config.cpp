@@ -77,7 +77,8 @@ bool known_keys(const toml::table& root, ConfigError& error) {
       "team.body", "team.body.length_m", "team.body.width_m", "team.body.height_m",
       "team.last_pose", "team.last_pose.sigma0_m", "team.last_pose.sigma_velocity_mps",
       "team.last_pose.max_extrapolation_s", "team.source", "team.kalman", "team.kalman.accel_noise_mps2",
-      "team.kalman.position_noise_m", "team.kalman.velocity_noise_mps", "team.kalman.lost_after_s",
+      "team.kalman.position_noise_m", "team.kalman.velocity_noise_mps", "team.kalman.lost_after_s", "team.kalman.drift_m_per_m",
+      "team.kalman.drift_deg_per_m", "team.kalman.drift_deg_per_deg",
       "fusion", "fusion.enabled", "fusion.method", "fusion.resolution_m", "fusion.half_angle_deg",
       "fusion.grid_origin_z_m", "fusion.frequency_k", "fusion.position_sigma_m", "fusion.position_n",
       "fusion.direction_from_flags", "fusion.write_interval_s", "fusion.write_all_points", "fusion.map_interval_s",
@@ -154,7 +155,10 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
                    r.number("team.kalman.accel_noise_mps2", c.kalman.accel_noise_mps2, 0.0, 100.0) &&
                    r.number("team.kalman.position_noise_m", c.kalman.position_noise_m, 0.0, 100.0) &&
                    r.number("team.kalman.velocity_noise_mps", c.kalman.velocity_noise_mps, 0.0, 100.0) &&
-                   r.number("team.kalman.lost_after_s", c.kalman.lost_after_s, 0.0, 3600.0);
+                   r.number("team.kalman.lost_after_s", c.kalman.lost_after_s, 0.0, 3600.0) &&
+                   r.number("team.kalman.drift_m_per_m", c.kalman.drift_m_per_m, 0.0, 1.0, true) &&
+                   r.number("team.kalman.drift_deg_per_m", c.kalman.drift_deg_per_m, 0.0, 90.0, true) &&
+                   r.number("team.kalman.drift_deg_per_deg", c.kalman.drift_deg_per_deg, 0.0, 1.0, true);
   if (!ok2) return false;
   FusionConfig& f = c.fusion;
   double write_s = to_seconds(f.write_interval);

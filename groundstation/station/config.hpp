@@ -17,6 +17,11 @@ struct KalmanConfig {
   double position_noise_m = 0.02;
   double velocity_noise_mps = 0.05;
   double lost_after_s = 1.0;
+  // Odometry drift model (TrackerOptions::drift_*, docs/beyond.md "Drift"), used by the fusion stage's
+  // filters; the team state published to the robots does not carry it.
+  double drift_m_per_m = 0.005;
+  double drift_deg_per_m = 0.0;
+  double drift_deg_per_deg = 0.0;
 };
 
 // The live fusion stage (groundstation/station/fusion.hpp), plain values so the config parses without

@@ -48,6 +48,9 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   o.tracker.position_noise_m = k.position_noise_m;
   o.tracker.velocity_noise_mps = k.velocity_noise_mps;
   o.tracker.lost_after_s = k.lost_after_s;
+  o.tracker.drift_m_per_m = k.drift_m_per_m;
+  o.tracker.drift_heading_rad_per_m = deg_to_rad(k.drift_deg_per_m);
+  o.tracker.drift_heading_rad_per_rad = k.drift_deg_per_deg;
   o.map_resolution_m = f.map_resolution_m;
   if (f.write_all_points) o.all_points_pcd = "fused_all.pcd";
   if (f.latency_log) o.latency_log_csv = "fused_latency.csv";

@@ -39,6 +39,11 @@ std::uint32_t rate_mhz(std::uint32_t events, Duration period) {
 
 std::uint32_t clamp_u32(std::uint64_t v) { return v > 0xFFFFFFFFull ? 0xFFFFFFFFu : static_cast<std::uint32_t>(v); }
 
+// Longest gap between the two CLOCK_MONOTONIC reads around CLOCK_REALTIME for the offset sample to
+// count: three vDSO clock reads take well under a microsecond, so a longer gap means the thread was
+// preempted in between and the difference of the clocks would be off by the preemption.
+constexpr Duration kMaxOffsetReadGap = 20us;
+
 }  // namespace
 
 Result<std::unique_ptr<OnboardDaemon>> OnboardDaemon::create(const OnboardConfig& config, Publisher& publisher,
@@ -321,8 +326,25 @@ Time OnboardDaemon::next_wakeup(Time now) const {
   return std::max(t, now);
 }
 
+void OnboardDaemon::update_realtime_offset() {
+  // Every stamp on the wire is a monotonic arrival time plus this offset: a preemption between the two
+  // clock reads on a loaded machine was seen to shift stamps by milliseconds, either way
+  // (tests/hil/onboard/sim_compare_hil_test.cpp). Read realtime between two monotonic reads and keep
+  // the sample only if they are close; otherwise the previous offset stands (it moves by NTP slew only).
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    const Time m0 = now_monotonic();
+    const Time r = now_realtime();
+    const Time m1 = now_monotonic();
+    if (m1 - m0 <= kMaxOffsetReadGap || (!have_realtime_offset_ && attempt == 2)) {
+      realtime_offset_ = r - (m0 + (m1 - m0) / 2);
+      have_realtime_offset_ = true;
+      return;
+    }
+  }
+}
+
 void OnboardDaemon::tick(Time now) {
-  realtime_offset_ = now_realtime() - now_monotonic();
+  update_realtime_offset();
   if (!arcos_dev_.open && !stopping_ && now >= arcos_dev_.next_open) try_open(arcos_dev_, arcos_, now);
   if (!lms_dev_.open && !stopping_ && now >= lms_dev_.next_open) try_open(lms_dev_, lms_, now);
   if (arcos_dev_.open) {
@@ -391,7 +413,7 @@ int OnboardDaemon::run() {
       return 1;
     }
     const Time woke = now_monotonic();
-    realtime_offset_ = now_realtime() - woke;
+    update_realtime_offset();
     for (long i = 0; i < n.value; ++i) {
       switch (events[static_cast<std::size_t>(i)].data.u32) {
         case kTagTimer: {

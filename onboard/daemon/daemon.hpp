@@ -74,6 +74,9 @@ class OnboardDaemon {
   void log_state_changes();
   [[nodiscard]] Time next_wakeup(Time now) const;
   [[nodiscard]] Time to_realtime(Time monotonic) const { return monotonic + realtime_offset_; }
+  // Re-reads CLOCK_REALTIME − CLOCK_MONOTONIC (NTP may slew it), keeping the old value when the
+  // reading was preempted (daemon.cpp).
+  void update_realtime_offset();
   static void on_sip(void* self, const arcos::SipPacket& sip, const arcos::OdometryState& odometry, Time received);
 
   OnboardConfig config_;
@@ -87,6 +90,7 @@ class OnboardDaemon {
 
   int epoll_fd_ = -1, timer_fd_ = -1, signal_fd_ = -1;
   Duration realtime_offset_{0};
+  bool have_realtime_offset_ = false;
   bool stopping_ = false;
   Time stop_deadline_{};
   bool ready_sent_ = false;

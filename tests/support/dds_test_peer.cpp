@@ -6,6 +6,11 @@
 //   sink [--count N] [--timeout S]
 //         takes teamscan/scan until N samples or S seconds; prints
 //         "received <n> in_order <0|1> first <seq> last <seq> distinct <k>".
+//   drain [--timeout S] [--report S]
+//         reads every teamscan/scan sample and discards it (memory stays bounded: a soak's sink) until
+//         SIGTERM or S seconds (0: no limit); every --report seconds and at the end prints
+//         "drained <n> robots <k> gaps <missing seqs> last <seq>".
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -126,6 +131,56 @@ int run_sink(int argc, char** argv) {
   return 0;
 }
 
+int run_drain(int argc, char** argv) {
+  const long timeout_s = arg_long(argc, argv, "--timeout", 0);
+  const long report_s = arg_long(argc, argv, "--report", 60);
+  dds_qos_t* q = teamscan::onboard::make_scan_reader_qos();
+  teamscan::test::DdsTestSubscriber<teamscan_msg_ScanPoints> sub(&teamscan_msg_ScanPoints_desc,
+                                                                 teamscan::onboard::kTopicScan, q, 64,
+      static_cast<dds_domainid_t>(arg_long(argc, argv, "--domain", DDS_DOMAIN_DEFAULT)));
+  dds_delete_qos(q);
+  if (!sub.ok()) {
+    std::fprintf(stderr, "drain: cannot create reader\n");
+    return 1;
+  }
+  std::printf("ready\n");
+  std::fflush(stdout);
+  std::vector<teamscan_msg_ScanPoints> got;
+  got.reserve(256);
+  // Per robot id (1..32): last sequence seen, to count the ones that never arrived.
+  std::uint32_t last_seq[33] = {};
+  std::uint64_t drained = 0, gaps = 0, robots = 0;
+  std::uint32_t last = 0;
+  const auto start = std::chrono::steady_clock::now();
+  auto next_report = start + std::chrono::seconds(report_s > 0 ? report_s : 60);
+  auto report = [&] {
+    std::printf("drained %llu robots %llu gaps %llu last %u\n", static_cast<unsigned long long>(drained),
+                static_cast<unsigned long long>(robots), static_cast<unsigned long long>(gaps), last);
+    std::fflush(stdout);
+  };
+  while (g_stop == 0) {
+    got.clear();
+    (void)sub.take_until(got, 64, std::chrono::milliseconds(200));
+    for (const auto& s : got) {
+      ++drained;
+      last = s.seq;
+      if (s.robot_id == 0 || s.robot_id > 32) continue;
+      std::uint32_t& prev = last_seq[s.robot_id];
+      if (prev == 0) ++robots;
+      else if (s.seq > prev + 1) gaps += s.seq - prev - 1;
+      prev = s.seq;
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= next_report) {
+      report();
+      next_report += std::chrono::seconds(report_s > 0 ? report_s : 60);
+    }
+    if (timeout_s > 0 && now - start >= std::chrono::seconds(timeout_s)) break;
+  }
+  report();
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -133,6 +188,7 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, on_signal);
   if (argc >= 2 && std::strcmp(argv[1], "robot") == 0) return run_robot(argc, argv);
   if (argc >= 2 && std::strcmp(argv[1], "sink") == 0) return run_sink(argc, argv);
-  std::fprintf(stderr, "usage: teamscan_dds_test_peer robot|sink [options]\n");
+  if (argc >= 2 && std::strcmp(argv[1], "drain") == 0) return run_drain(argc, argv);
+  std::fprintf(stderr, "usage: teamscan_dds_test_peer robot|sink|drain [options]\n");
   return 2;
 }

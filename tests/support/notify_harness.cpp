@@ -179,6 +179,15 @@ std::optional<Duration> NotifyHarness::supervise(Duration total) {
   return std::nullopt;
 }
 
+std::optional<NotifyHarness::WatchdogKill> NotifyHarness::finish_watchdog_kill(Duration abort_timeout, bool send_sigcont) {
+  if (child_ <= 0) return std::nullopt;
+  if (send_sigcont) signal(SIGCONT);
+  if (const auto st = wait_exit(abort_timeout)) return WatchdogKill{*st, false};
+  signal(SIGKILL);
+  if (const auto st = wait_exit(std::chrono::seconds(5))) return WatchdogKill{*st, true};
+  return std::nullopt;
+}
+
 void NotifyHarness::signal(int sig) {
   if (child_ > 0 && !reaped_) ::kill(child_, sig);
 }

@@ -42,6 +42,16 @@ class NotifyHarness {
   // (since spawn). nullopt if the daemon kept pinging for the whole time.
   std::optional<Duration> supervise(Duration total);
 
+  // What the service manager does after a watchdog miss once supervise() has sent SIGABRT: SIGCONT (so
+  // a stopped process gets to act on the signal; systemd's kill sends SIGCONT after every signal but
+  // SIGKILL) unless `send_sigcont` is false, then up to `abort_timeout` (TimeoutAbortSec=) for the
+  // child to die, then SIGKILL. Returns the raw wait status and whether SIGKILL was needed.
+  struct WatchdogKill {
+    int wait_status = 0;
+    bool escalated_to_sigkill = false;
+  };
+  std::optional<WatchdogKill> finish_watchdog_kill(Duration abort_timeout, bool send_sigcont = true);
+
   // Sends a signal to the child.
   void signal(int sig);
   // Waits for the child to exit; the raw wait status, or nullopt on timeout.

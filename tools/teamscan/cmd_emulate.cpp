@@ -28,6 +28,7 @@ struct EmulateArgs {
   std::optional<double> duration_s;
   std::optional<std::uint64_t> seed;
   double bringup_s = 5.0;
+  bool loop = false;
 };
 
 std::string exe_dir() {
@@ -47,6 +48,7 @@ int run_emulate(const EmulateArgs& a) {
   o.speed = a.speed;
   o.seed = a.seed;
   o.bringup_s = a.bringup_s;
+  o.loop = a.loop;
   for (int id : a.robots) o.robot_ids.push_back(static_cast<std::uint8_t>(id));
   auto live = sim::LiveTeam::create(*load.scenario, o);
   if (!live) {
@@ -90,6 +92,9 @@ const SubcommandRegistration kEmulate{
        app.add_option("--seed", a->seed, "Override the scenario's seed");
        app.add_option("--bringup", a->bringup_s, "Seconds the robots stand still after start (device bring-up)")
            ->capture_default_str();
+       app.add_flag("--loop", a->loop,
+                    "Repeat the scenario's motion forever (world time runs on; the tracks restart at their end), "
+                    "for soak runs such as tests/bench/onboard/rss_soak.sh");
        return [a] { return run_emulate(*a); };
      }}};
 

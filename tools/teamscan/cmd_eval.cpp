@@ -53,6 +53,10 @@ struct EvalArgs {
   double accel_noise_mps2 = 0.5;
   double position_noise_m = 0.02;
   double velocity_noise_mps = 0.05;
+  // Odometry drift model of the tracker (TrackerOptions::drift_*; docs/beyond.md "Drift").
+  double drift_m_per_m = mapping::TrackerOptions{}.drift_m_per_m;
+  double drift_deg_per_m = mapping::TrackerOptions{}.drift_heading_rad_per_m * 180.0 / 3.14159265358979323846;
+  double drift_deg_per_deg = mapping::TrackerOptions{}.drift_heading_rad_per_rad;
   // Issue 7 (docs/beyond.md): localisation noise on what the filters see, and the new methods' knobs.
   double pose_noise_m = 0.0;
   double pose_noise_deg = 0.0;
@@ -61,9 +65,13 @@ struct EvalArgs {
   double fs_free_per_hit = 1.0;
   double fs_clearance_m = 0.05;
   double fs_end_margin_m = 0.1;
+  int fs_guard_neighbours = mapping::FreespaceOptions{}.guard_neighbours;
   double best_fs_free_per_hit = 8.0;
+  double best_drift_band_free_per_hit = 2.0;
   double tracked_n_sigma = 3.0;
   double tracked_margin_m = 0.04;
+  int tracked_height_profile = 1;
+  double tracked_low_margin_m = mapping::TrackedOptions{}.low_margin_m;
   // Table-top heights (m): report the kept share of furniture points whose true z is within 3 cm of one.
   std::vector<double> top_heights_m;
 };
@@ -97,6 +105,9 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.accel_noise_mps2 != d.accel_noise_mps2) o << " --tracker-accel-noise " << number(a.accel_noise_mps2);
   if (a.position_noise_m != d.position_noise_m) o << " --tracker-position-noise " << number(a.position_noise_m);
   if (a.velocity_noise_mps != d.velocity_noise_mps) o << " --tracker-velocity-noise " << number(a.velocity_noise_mps);
+  if (a.drift_m_per_m != d.drift_m_per_m) o << " --tracker-drift-m-per-m " << number(a.drift_m_per_m);
+  if (a.drift_deg_per_m != d.drift_deg_per_m) o << " --tracker-drift-deg-per-m " << number(a.drift_deg_per_m);
+  if (a.drift_deg_per_deg != d.drift_deg_per_deg) o << " --tracker-drift-deg-per-deg " << number(a.drift_deg_per_deg);
   if (a.pose_noise_m != d.pose_noise_m) o << " --pose-noise-m " << number(a.pose_noise_m);
   if (a.pose_noise_deg != d.pose_noise_deg) o << " --pose-noise-deg " << number(a.pose_noise_deg);
   if (a.pose_noise_correlation_s != d.pose_noise_correlation_s) o << " --pose-noise-correlation " << number(a.pose_noise_correlation_s);
@@ -104,9 +115,14 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.fs_free_per_hit != d.fs_free_per_hit) o << " --fs-free-per-hit " << number(a.fs_free_per_hit);
   if (a.fs_clearance_m != d.fs_clearance_m) o << " --fs-clearance " << number(a.fs_clearance_m);
   if (a.fs_end_margin_m != d.fs_end_margin_m) o << " --fs-end-margin " << number(a.fs_end_margin_m);
+  if (a.fs_guard_neighbours != d.fs_guard_neighbours) o << " --fs-guard-neighbours " << a.fs_guard_neighbours;
   if (a.best_fs_free_per_hit != d.best_fs_free_per_hit) o << " --best-fs-free-per-hit " << number(a.best_fs_free_per_hit);
+  if (a.best_drift_band_free_per_hit != d.best_drift_band_free_per_hit)
+    o << " --best-drift-band-free-per-hit " << number(a.best_drift_band_free_per_hit);
   if (a.tracked_n_sigma != d.tracked_n_sigma) o << " --tracked-n-sigma " << number(a.tracked_n_sigma);
   if (a.tracked_margin_m != d.tracked_margin_m) o << " --tracked-margin " << number(a.tracked_margin_m);
+  if (a.tracked_height_profile != d.tracked_height_profile) o << " --tracked-height-profile " << a.tracked_height_profile;
+  if (a.tracked_low_margin_m != d.tracked_low_margin_m) o << " --tracked-low-margin " << number(a.tracked_low_margin_m);
   for (double h : a.top_heights_m) o << " --top-height " << number(h);
   return o.str();
 }
@@ -212,10 +228,14 @@ int run_eval(const EvalArgs& a) {
     fs->free_per_hit = a.fs_free_per_hit;
     fs->clearance_m = a.fs_clearance_m;
     fs->end_margin_m = a.fs_end_margin_m;
+    fs->guard_neighbours = a.fs_guard_neighbours;
   }
   base.best_freespace.free_per_hit = a.best_fs_free_per_hit;
+  base.best_drift_band_free_per_hit = a.best_drift_band_free_per_hit;
   base.tracked.n_sigma = a.tracked_n_sigma;
   base.tracked.margin_m = a.tracked_margin_m;
+  base.tracked.height_profile = a.tracked_height_profile != 0;
+  base.tracked.low_margin_m = a.tracked_low_margin_m;
   auto methods = mapping::parse_methods(a.methods, a.resolution_m, a.half_angle_deg, base);
   if (!methods) {
     std::fprintf(stderr, "teamscan eval: --method %s: %s\n", a.methods.c_str(), methods.error().what);
@@ -232,6 +252,9 @@ int run_eval(const EvalArgs& a) {
   options.tracker.accel_noise_mps2 = a.accel_noise_mps2;
   options.tracker.position_noise_m = a.position_noise_m;
   options.tracker.velocity_noise_mps = a.velocity_noise_mps;
+  options.tracker.drift_m_per_m = a.drift_m_per_m;
+  options.tracker.drift_heading_rad_per_m = a.drift_deg_per_m * 3.14159265358979323846 / 180.0;
+  options.tracker.drift_heading_rad_per_rad = a.drift_deg_per_deg;
   options.pose_noise.sigma_m = a.pose_noise_m;
   options.pose_noise.sigma_rad = a.pose_noise_deg * 3.14159265358979323846 / 180.0;
   options.pose_noise.correlation_s = a.pose_noise_correlation_s;
@@ -343,6 +366,13 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
       ->capture_default_str();
   app.add_option("--tracker-velocity-noise", a->velocity_noise_mps, "Kalman measurement noise: odometry velocity sigma (m/s)")
       ->capture_default_str();
+  app.add_option("--tracker-drift-m-per-m", a->drift_m_per_m,
+                 "Tracker odometry drift: position sigma grows this much per metre driven (docs/beyond.md)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--tracker-drift-deg-per-m", a->drift_deg_per_m, "Tracker odometry drift: heading sigma per metre driven (deg/m)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--tracker-drift-deg-per-deg", a->drift_deg_per_deg, "Tracker odometry drift: heading sigma per degree turned")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--pose-noise-m", a->pose_noise_m,
                  "Localisation noise added to the poses the filters see: sigma per axis (m; issue 7, docs/beyond.md)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
@@ -358,12 +388,24 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--fs-end-margin", a->fs_end_margin_m, "freespace/best: rays stop this far short of their hit (m)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--fs-guard-neighbours", a->fs_guard_neighbours,
+                 "freespace/best: a void voxel with a solid neighbour stays; 6 = face neighbours, 26 = also edges and corners")
+      ->check(CLI::IsMember({6, 26}))->capture_default_str();
   app.add_option("--best-fs-free-per-hit", a->best_fs_free_per_hit, "best: its freespace part's free passes per hit")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--best-drift-band-free-per-hit", a->best_drift_band_free_per_hit,
+                 "best: a point only in the drift band of a body box goes when its voxel has this many free passes per hit")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--tracked-n-sigma", a->tracked_n_sigma, "tracked/best: body box inflated by n Kalman sigma")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--tracked-margin", a->tracked_margin_m, "tracked/best: fixed body box margin (m)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--tracked-height-profile", a->tracked_height_profile,
+                 "tracked/best: 1 = body box follows the Pioneer's height profile (housing only above the top plate), 0 = one box")
+      ->check(CLI::Range(0, 1))->capture_default_str();
+  app.add_option("--tracked-low-margin", a->tracked_low_margin_m,
+                 "tracked/best: margin of the wheel strips below 2 cm (m; negative = --tracked-margin)")
+      ->capture_default_str();
   app.add_option("--top-height", a->top_heights_m,
                  "Table-top height (m, repeatable): also report the kept share of furniture points within 3 cm of it");
   return [a] { return run_eval(*a); };

@@ -1,7 +1,8 @@
 // Per-scan cost of the onboard data path: decode a 361-value 0xB0 telegram -> 3-D points in the map
 // frame (per-beam odometry interpolation) -> direction filter against 8 teammates -> scan message.
-// Reports the median and p99 of single-scan times (goal: <= 20 µs median) and the CPU share at the
-// LMS's 75 Hz. A figure, not a pass/fail test.
+// Reports the median and p99 of single-scan times (goal: <= 20 µs median), the CPU share at the
+// LMS's 75 Hz and the heap allocations per scan (tests/support alloc counter; the data path's own,
+// without DDS: tests/hil/onboard/pipeline_dds_alloc_test counts dds_write). A figure, not a pass/fail test.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include "onboard/core/pipeline.hpp"
 #include "tests/support/onboard_config_fixture.hpp"
 #include "onboard/daemon/lms_scan.hpp"
+#include "tests/support/alloc_counter.hpp"
 
 namespace teamscan::onboard {
 namespace {
@@ -58,6 +60,7 @@ void BM_ScanPipeline(benchmark::State& state) {
   us.reserve(1'000'000);
   std::int64_t k = 0;
   std::uint64_t filtered = 0;
+  const test::AllocScope allocs;  // from here on: odometry, team, decode, geometry, filter, message
   for (auto _ : state) {
     const Time stamp = t0 + Duration{k * 26'666'666};
     if (k % 4 == 0) (void)pipeline->on_odometry(stamp, {0.0004 * static_cast<double>(k), 0.0, 0.0}, 100, 0.0, pose);
@@ -77,6 +80,9 @@ void BM_ScanPipeline(benchmark::State& state) {
     filtered += pipeline->last_filter_stats().filtered;
     if (us.size() < us.capacity()) us.push_back(std::chrono::duration<double, std::micro>(b - a).count());
   }
+  const test::AllocStats heap = allocs.delta();
+  state.counters["allocs_per_scan"] = static_cast<double>(heap.allocs) / static_cast<double>(std::max<std::int64_t>(1, k));
+  state.counters["alloc_counter_active"] = test::alloc_counter_active() ? 1 : 0;
   std::sort(us.begin(), us.end());
   if (!us.empty()) {
     const double median = us[us.size() / 2];

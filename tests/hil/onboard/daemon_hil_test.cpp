@@ -1,8 +1,9 @@
 // Hardware-in-loop test of teamscan-onboard: the real daemon process against an emulated Pioneer 3-AT
 // and an emulated LMS-200 on pseudo-terminals (PtyRunner), observed through a NOTIFY_SOCKET harness
-// (READY=1, STATUS=, WATCHDOG=1, STOPPING=1). Covers reaching the streaming state, unplugging and
-// replugging each device while the other keeps running, a Pioneer that stops answering, a scanner
-// reset, and a clean SIGTERM.
+// (READY=1, STATUS=, WATCHDOG=1, STOPPING=1) and, as a ground-station operator sees it, through
+// teamscan/status on loopback DDS. Covers reaching the streaming state, unplugging and replugging each
+// device while the other keeps running, a corrupted line on each device, a Pioneer that stops
+// answering, a scanner reset, and a clean SIGTERM.
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
@@ -20,13 +21,16 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "common/clock.hpp"
+#include "drivers/arcos/client.hpp"
 #include "drivers/arcos/emulator.hpp"
+#include "drivers/lms200/client.hpp"
 #include "drivers/lms200/emulator.hpp"
 #include "drivers/serial/pty_runner.hpp"
 #include "onboard/dds/bridge.hpp"
@@ -61,7 +65,8 @@ class FlatRanges final : public lms200::RangeSource {
 };
 
 // A device that can stop answering: while muted it neither hears nor speaks (a Pioneer whose
-// controller hangs, a cut cable), but keeps running.
+// controller hangs, a cut cable), but keeps running. `corrupt_chunks` > 0 flips one byte in each of
+// that many of its next transmissions (a noisy line).
 class Muteable final : public serial::SerialEndpoint {
  public:
   explicit Muteable(serial::SerialEndpoint& inner) : inner_{inner} {}
@@ -71,11 +76,16 @@ class Muteable final : public serial::SerialEndpoint {
   void on_tick(Time now) override { inner_.on_tick(now); }
   std::size_t take_tx(std::span<std::uint8_t> out) override {
     const std::size_t n = inner_.take_tx(out);
+    if (n > 0 && !muted && corrupt_chunks.load() > 0) {
+      --corrupt_chunks;
+      out[n / 2] ^= 0x5A;
+    }
     return muted ? 0 : n;
   }
   std::uint32_t baud() const override { return inner_.baud(); }
   Time next_deadline() const override { return inner_.next_deadline(); }
   std::atomic<bool> muted{false};
+  std::atomic<int> corrupt_chunks{0};
 
  private:
   serial::SerialEndpoint& inner_;
@@ -111,6 +121,17 @@ class NotifySocket {
     return false;
   }
   const std::vector<std::string>& log() const { return log_; }
+  // Reads whatever is queued, without matching. The daemon's sd_notify blocks once the socket holds
+  // net.unix.max_dgram_qlen (10) unread datagrams, so a test that waits on DDS for seconds must keep
+  // draining, as systemd always reads.
+  void drain() {
+    char buf[4096];
+    for (;;) {
+      const ssize_t n = ::recv(fd_, buf, sizeof buf - 1, MSG_DONTWAIT);
+      if (n <= 0) return;
+      log_.emplace_back(buf, static_cast<std::size_t>(n));
+    }
+  }
 
  private:
   fs::path path_;
@@ -127,6 +148,69 @@ long scans_in(const std::string& msg) {
   return std::stol(m[1]);
 }
 bool has(const std::string& msg, const char* what) { return msg.find(what) != std::string::npos; }
+
+// teamscan/status as the ground station's operator sees it: every sample with its arrival time.
+constexpr std::uint8_t kArcosUp = 1 + static_cast<std::uint8_t>(arcos::ArcosClientState::kConnected);  // daemon.cpp state_byte
+constexpr std::uint8_t kLmsUp = 1 + static_cast<std::uint8_t>(lms200::LmsClientState::streaming);
+constexpr std::uint8_t kPortClosed = 0;
+
+class StatusWatch {
+ public:
+  struct Seen {
+    teamscan_msg_RobotStatus status;
+    Clock::time_point arrival;
+  };
+  explicit StatusWatch(dds_domainid_t domain) : sub_{&teamscan_msg_RobotStatus_desc, onboard::kTopicStatus, qos(), 16, domain} {}
+  bool ok() const { return sub_.ok(); }
+  // Called on every poll (the test drains the notify socket there).
+  std::function<void()> on_poll;
+
+  // Waits for a status (newer than any returned before) for which `pred` is true.
+  std::optional<Seen> wait_for(const std::function<bool(const teamscan_msg_RobotStatus&)>& pred, std::chrono::milliseconds timeout) {
+    const auto deadline = Clock::now() + timeout;
+    for (;;) {
+      for (; next_ < all_.size(); ++next_)
+        if (pred(all_[next_].status)) return all_[next_++];
+      if (Clock::now() >= deadline) return std::nullopt;
+      poll(std::chrono::milliseconds(20));
+    }
+  }
+  // Every status received so far (the test checks properties over the whole run).
+  const std::vector<Seen>& all() {
+    poll(std::chrono::milliseconds(0));
+    return all_;
+  }
+
+ private:
+  static const dds_qos_t* qos() {
+    static dds_qos_t* q = onboard::make_state_reader_qos();
+    return q;
+  }
+  void poll(std::chrono::milliseconds wait) {
+    if (on_poll) on_poll();
+    std::vector<teamscan_msg_RobotStatus> got;
+    if (wait.count() > 0) (void)sub_.take_until(got, 1, wait); else (void)sub_.take_available(got);
+    const auto now = Clock::now();
+    for (const auto& g : got) all_.push_back({g, now});
+  }
+  test::DdsTestSubscriber<teamscan_msg_RobotStatus> sub_;
+  std::vector<Seen> all_;
+  std::size_t next_ = 0;
+};
+
+long long ms_between(Clock::time_point a, Clock::time_point b) {
+  return static_cast<long long>(std::chrono::duration_cast<std::chrono::milliseconds>(b - a).count());
+}
+
+// The states of the last `n` statuses received, for failure messages.
+std::string recent_states(StatusWatch& w, std::size_t n = 40) {
+  const auto& all = w.all();
+  std::string out = "statuses (seq arcos lms):";
+  for (std::size_t i = all.size() > n ? all.size() - n : 0; i < all.size(); ++i)
+    out += " " + std::to_string(all[i].status.seq) + ":" + std::to_string(all[i].status.arcos_state) + "/" +
+           std::to_string(all[i].status.lms_state);
+  return out;
+}
 
 std::string daemon_path() {
   const char* b = std::getenv("TEAMSCAN_BINARY_DIR");
@@ -209,11 +293,12 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
   lms200::LmsEmulatorOptions lms_options;
   lms_options.variant = LaserVariant{180, 50};
   lms200::LmsEmulator scanner{lms_options, &ranges};
+  Muteable scanner_line{scanner};
   scanner.power_up(now_monotonic());
 
   auto arcos_runner = serial::PtyRunner::create(pioneer_line, serial::PtyRunnerOptions{.link_path = arcos_link.string()});
   ASSERT_TRUE(arcos_runner.ok()) << arcos_runner.error().what;
-  auto lms_runner = serial::PtyRunner::create(scanner, serial::PtyRunnerOptions{.link_path = lms_link.string()});
+  auto lms_runner = serial::PtyRunner::create(scanner_line, serial::PtyRunnerOptions{.link_path = lms_link.string()});
   ASSERT_TRUE(lms_runner.ok()) << lms_runner.error().what;
   ASSERT_TRUE((*arcos_runner)->start().ok());
   ASSERT_TRUE((*lms_runner)->start().ok());
@@ -231,12 +316,26 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
                                                              64, domain};
   dds_delete_qos(scan_qos);
   ASSERT_TRUE(scans_sub.ok());
+  StatusWatch status{domain};
+  ASSERT_TRUE(status.ok());
   NotifySocket notify{dir.path / "notify.sock"};
   ASSERT_TRUE(notify.bound());
+  status.on_poll = [&notify] { notify.drain(); };
   const pid_t pid = spawn({daemon_path(), "--config", (dir.path / "onboard.toml").string()},
                           {"NOTIFY_SOCKET=" + (dir.path / "notify.sock").string(), "WATCHDOG_USEC=1000000"},
                           dir.path / "daemon.log");
   ASSERT_GT(pid, 0);
+  // A failed ASSERT returns early: the daemon must not outlive the test.
+  struct KillOnExit {
+    pid_t pid;
+    ~KillOnExit() {
+      int st = 0;
+      if (::waitpid(pid, &st, WNOHANG) == 0) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, &st, 0);
+      }
+    }
+  } kill_on_exit{pid};
   auto log_text = [&] { return file_text(dir.path / "daemon.log"); };
 
   // READY=1 once the Pioneer is connected and the LMS streams (bring-up at 9600, switch to 500 kBd).
@@ -263,14 +362,96 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
   notify.wait_for([&](const std::string& m) { return m == "WATCHDOG=1" && ++pings >= 3; }, std::chrono::seconds(3));
   EXPECT_GE(pings, 3);
 
+  // teamscan/status arrives periodically (status.period_s = 0.2), in order, and says both devices are
+  // up with their rates, counters moving and no errors on clean lines.
+  const auto healthy = [](const teamscan_msg_RobotStatus& st) { return st.arcos_state == kArcosUp && st.lms_state == kLmsUp; };
+  ASSERT_TRUE(status.wait_for(healthy, std::chrono::seconds(5))) << log_text();
+  {
+    std::vector<teamscan_msg_RobotStatus> period;
+    for (int i = 0; i < 5; ++i) {
+      auto st = status.wait_for([](const teamscan_msg_RobotStatus&) { return true; }, std::chrono::seconds(2));
+      ASSERT_TRUE(st.has_value()) << "status " << i << " of 5 did not arrive within 2 s (period 0.2 s)";
+      period.push_back(st->status);
+    }
+    for (std::size_t i = 0; i < period.size(); ++i) {
+      const auto& st = period[i];
+      EXPECT_EQ(st.robot_id, 4u);
+      EXPECT_EQ(st.arcos_state, kArcosUp);
+      EXPECT_EQ(st.lms_state, kLmsUp);
+      EXPECT_GT(st.scan_rate_mhz, 0u);  // the emulator sends 75 sweeps/s; the rate itself is not asserted
+      EXPECT_GT(st.sip_rate_mhz, 0u);
+      EXPECT_EQ(st.arcos_bad_packets, 0u);
+      EXPECT_EQ(st.lms_bad_telegrams, 0u);
+      EXPECT_EQ(st.dds_write_errors, 0u);
+      EXPECT_EQ(st.arcos_reopens, 1u);
+      EXPECT_EQ(st.lms_reopens, 1u);
+      if (i > 0) {
+        const auto& prev = period[i - 1];
+        // Keep-last 1: a slow reader may skip one, never sees one twice or out of order.
+        EXPECT_GT(st.seq, prev.seq);
+        // The daemon's own stamps: one status per period, never sooner.
+        EXPECT_GE(st.stamp_ns - prev.stamp_ns, static_cast<std::int64_t>(st.seq - prev.seq) * 199'000'000);
+        EXPECT_GT(st.scans_published, prev.scans_published);
+        EXPECT_GE(st.uptime_s, prev.uptime_s);
+      }
+    }
+  }
+
+  // A noisy laser line: corrupted telegrams are counted (bad CRC / resync), the stream goes on.
+  {
+    const std::uint32_t published = status.all().back().status.scans_published;
+    scanner_line.corrupt_chunks = 20;
+    auto st = status.wait_for([&](const teamscan_msg_RobotStatus& x) {
+      return x.lms_bad_telegrams > 0 && x.lms_state == kLmsUp && x.scans_published > published + 10;
+    }, std::chrono::seconds(5));
+    ASSERT_TRUE(st.has_value()) << log_text();
+    EXPECT_EQ(st->status.dds_write_errors, 0u);
+    EXPECT_EQ(st->status.lms_reopens, 1u);  // errors on the line are not a lost device
+  }
+  // And on the Pioneer's line: bad packets counted, the connection kept.
+  {
+    pioneer_line.corrupt_chunks = 5;
+    auto st = status.wait_for([](const teamscan_msg_RobotStatus& x) { return x.arcos_bad_packets > 0; }, std::chrono::seconds(5));
+    ASSERT_TRUE(st.has_value()) << log_text();
+    EXPECT_EQ(st->status.arcos_reopens, 1u);
+  }
+
   // Unplug the LMS: the daemon keeps running and keeps the Pioneer; after the replug the scans resume.
   (*lms_runner)->unplug();
   ASSERT_TRUE(notify.wait_for([](const std::string& m) { return has(m, "lms closed") && has(m, "arcos connected"); },
                               std::chrono::seconds(5)))
       << log_text();
+  {
+    // On DDS: the laser down (port closed), the Pioneer up, no scans counted while the laser is away.
+    auto down = status.wait_for([](const teamscan_msg_RobotStatus& x) { return x.lms_state == kPortClosed; }, std::chrono::seconds(5));
+    ASSERT_TRUE(down.has_value()) << log_text();
+    EXPECT_EQ(down->status.arcos_state, kArcosUp);
+    auto later = status.wait_for([](const teamscan_msg_RobotStatus& x) { return x.lms_state == kPortClosed; }, std::chrono::seconds(2));
+    ASSERT_TRUE(later.has_value());
+    EXPECT_EQ(later->status.scans_published, down->status.scans_published);
+    EXPECT_EQ(later->status.scan_rate_mhz, 0u);
+    EXPECT_GT(later->status.sip_rate_mhz, 0u);
+    EXPECT_EQ(later->status.arcos_state, kArcosUp);
+  }
   ::usleep(700'000);  // at least one failed reopen attempt (every 500 ms)
   ASSERT_TRUE(alive(pid)) << log_text();
+  const std::uint32_t lms_opens_before = status.all().back().status.lms_reopens;
+  const std::uint32_t published_before = status.all().back().status.scans_published;
   ASSERT_TRUE((*lms_runner)->replug().ok());
+  const auto lms_back = Clock::now();
+  {
+    auto up = status.wait_for([&](const teamscan_msg_RobotStatus& x) {
+      return x.lms_state == kLmsUp && x.scans_published > published_before;
+    }, std::chrono::seconds(10));
+    ASSERT_TRUE(up.has_value()) << log_text();
+    const long long ms = ms_between(lms_back, up->arrival);
+    std::printf("laser replugged -> streaming on teamscan/status: %lld ms\n", ms);
+    // The bound: recovered within 2 s of the device's return (reopen every 500 ms, bring-up
+    // at 9600 and the switch to 500 kBd), seen by the operator one status period (0.2 s) later.
+    EXPECT_LE(ms, 2000 + 200);
+    EXPECT_EQ(up->status.lms_reopens, lms_opens_before + 1);
+    EXPECT_EQ(up->status.arcos_state, kArcosUp);
+  }
   long before = -1;
   ASSERT_TRUE(notify.wait_for([&](const std::string& m) {
     const long s = scans_in(m);
@@ -289,10 +470,31 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
     return s > at_unplug + 10;  // the LMS keeps streaming while the Pioneer is gone
   }, std::chrono::seconds(10))) << log_text();
   ASSERT_TRUE(alive(pid)) << log_text();
+  {
+    // On DDS: the Pioneer down (port closed), no SIPs, the laser up and its scans still counted.
+    auto down = status.wait_for([](const teamscan_msg_RobotStatus& x) { return x.arcos_state == kPortClosed; }, std::chrono::seconds(5));
+    ASSERT_TRUE(down.has_value()) << log_text();
+    auto later = status.wait_for([](const teamscan_msg_RobotStatus& x) { return x.arcos_state == kPortClosed; }, std::chrono::seconds(2));
+    ASSERT_TRUE(later.has_value());
+    EXPECT_EQ(later->status.lms_state, kLmsUp);
+    EXPECT_EQ(later->status.sip_rate_mhz, 0u);
+    EXPECT_GT(later->status.scans_published, down->status.scans_published);
+  }
+  const std::uint32_t arcos_opens_before = status.all().back().status.arcos_reopens;
   ASSERT_TRUE((*arcos_runner)->replug().ok());
+  const auto arcos_back = Clock::now();
   ASSERT_TRUE(notify.wait_for([](const std::string& m) { return has(m, "arcos connected") && has(m, "lms streaming"); },
                               std::chrono::seconds(10)))
       << log_text();
+  {
+    auto up = status.wait_for([](const teamscan_msg_RobotStatus& x) { return x.arcos_state == kArcosUp; }, std::chrono::seconds(5));
+    ASSERT_TRUE(up.has_value()) << log_text();
+    const long long ms = ms_between(arcos_back, up->arrival);
+    std::printf("Pioneer replugged -> connected on teamscan/status: %lld ms\n", ms);
+    EXPECT_LE(ms, 2000 + 200);  // within 2 s of its return, plus one status period
+    EXPECT_EQ(up->status.arcos_reopens, arcos_opens_before + 1);
+    EXPECT_EQ(up->status.lms_state, kLmsUp);
+  }
 
   // The Pioneer stops answering for 2.5 s: the client notices (no SIP for 1 s), the LMS streams on,
   // and after the Pioneer answers again it is connected again (the time is printed, not asserted:
@@ -301,10 +503,32 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
   ASSERT_TRUE(notify.wait_for([](const std::string& m) { return has(m, "STATUS=") && !has(m, "arcos connected"); },
                               std::chrono::seconds(5)))
       << log_text();
-  ::usleep(1'500'000);
+  {
+    // On DDS: reported while its port is still open (state not "closed", not "connected"), no SIPs;
+    // the laser streams on.
+    auto silent = status.wait_for([](const teamscan_msg_RobotStatus& x) {
+      return x.arcos_state != kArcosUp && x.arcos_state != kPortClosed;
+    }, std::chrono::seconds(5));
+    ASSERT_TRUE(silent.has_value()) << log_text();
+    EXPECT_EQ(silent->status.lms_state, kLmsUp);
+    auto later = status.wait_for([](const teamscan_msg_RobotStatus& x) { return x.arcos_state != kArcosUp; }, std::chrono::seconds(2));
+    ASSERT_TRUE(later.has_value());
+    EXPECT_EQ(later->status.sip_rate_mhz, 0u);
+    EXPECT_GT(later->status.scans_published, silent->status.scans_published);
+  }
+  status.wait_for([](const teamscan_msg_RobotStatus&) { return false; }, std::chrono::seconds(1));  // muted 1 s more
   ASSERT_TRUE(alive(pid)) << log_text();
+  const std::uint32_t opens_while_muted = status.all().back().status.arcos_reopens;
   pioneer_line.muted = false;
   const auto unmuted = Clock::now();
+  {
+    auto up = status.wait_for([](const teamscan_msg_RobotStatus& x) { return x.arcos_state == kArcosUp; }, std::chrono::seconds(5));
+    ASSERT_TRUE(up.has_value()) << recent_states(status) << "\n" << log_text();
+    const long long ms = ms_between(unmuted, up->arrival);
+    std::printf("Pioneer answering again -> connected on teamscan/status: %lld ms\n", ms);
+    EXPECT_LE(ms, 2000 + 200);
+    EXPECT_EQ(up->status.arcos_reopens, opens_while_muted);  // recovered on the open port, no reopen
+  }
   ASSERT_TRUE(notify.wait_for([](const std::string& m) { return has(m, "arcos connected") && has(m, "lms streaming"); },
                               std::chrono::seconds(5)))
       << log_text();

@@ -254,6 +254,7 @@ TEST(TrackedFilter, APointInsideTheInflatedBoxGoesOneJustOutsideStays) {
 TEST(TrackedFilter, BelowTheLowBandOnlyTheBareFootprintCounts) {
   TrackedOptions o;
   o.sweep_s = 0.0;
+  o.height_profile = false;  // one box; the profile's wheel strips: WheelStripsAndHousing below
   const double sigma = 0.05;
   const double inflated = expected_half_length(o, sigma), bare = o.half_length_m + o.margin_m;
   ASSERT_GT(inflated - bare, 0.02);
@@ -298,6 +299,53 @@ TEST(TrackedFilter, InvalidTracksAndNoTeamRemoveNothing) {
   EXPECT_EQ(removed[0], 0);
 }
 
+TEST(TrackedFilter, TheHeightProfileKeepsWhatIsBesideTheHousingAndUnderTheChassis) {
+  TrackedOptions o;
+  o.sweep_s = 0.0;
+  const double sigma = 0.01;
+  const TeamState team = team_with(2, {0, 0}, 0.0, sigma);
+  // Beside the chassis at 0.40 m (a coffee-table top's height): inside the one-box body, outside the
+  // housing box, which stands only around x = 0.11 m.
+  const std::vector<MapPoint> pts{{-0.25f, 0.0f, 0.40f},   // behind the housing, above the top plate
+                                  {0.11f, 0.0f, 0.40f},    // the housing
+                                  {-0.25f, 0.0f, 0.20f},   // the chassis
+                                  {0.0f, 0.0f, 0.005f},    // floor under the chassis, between the wheels
+                                  {0.0f, 0.20f, 0.005f},   // a wheel's contact strip
+                                  {0.34f, 0.20f, 0.005f}}; // floor under the front bumper, beyond the wheel strip
+  EXPECT_EQ(classify_tracked(o, team, pts), (std::vector<std::uint8_t>{0, 1, 1, 0, 1, 0}));
+  o.height_profile = false;
+  EXPECT_EQ(classify_tracked(o, team, pts), (std::vector<std::uint8_t>{1, 1, 1, 1, 1, 1}));
+}
+
+TEST(TrackedFilter, DriftWidensTheBoxForTheTeammatesAndTheScannersOwnOdometry) {
+  TrackedOptions o;
+  o.sweep_s = 0.0;
+  const double h = expected_half_length(o, 0.01);
+  // A point 10 cm beyond the box at chassis height.
+  const std::vector<MapPoint> pts{{static_cast<float>(h + 0.10), 0.0f, 0.2f}};
+  TeamState team = team_with(2, {0, 0}, 0.0, 0.01);
+  EXPECT_EQ(classify_tracked(o, team, pts)[0], 0);
+  // The teammate's drift σ 5 cm (in its covariance, as the tracker reports it): 3σ = 15 cm covers it.
+  TeamState drifting = team;
+  drifting.robots[0].drift_cov_m2 = Eigen::Matrix2d::Identity() * 0.05 * 0.05;
+  drifting.robots[0].position_cov_m2 += drifting.robots[0].drift_cov_m2;
+  EXPECT_EQ(classify_tracked(o, drifting, pts)[0], 1);
+  TrackedOptions core = o;
+  core.include_drift = false;
+  EXPECT_EQ(classify_tracked(core, drifting, pts)[0], 0);
+  // The scanning robot (1) drifts instead: its points are off by its own error.
+  TeamState self_drifts = team;
+  RobotEstimate self;
+  self.robot = 1;
+  self.valid = true;
+  self.position_m = {-3.0, 0.0};
+  self.drift_cov_m2 = Eigen::Matrix2d::Identity() * 0.05 * 0.05;
+  self.position_cov_m2 = self.drift_cov_m2;
+  self_drifts.robots.push_back(self);
+  EXPECT_EQ(classify_tracked(o, self_drifts, pts)[0], 1);
+  EXPECT_EQ(classify_tracked(core, self_drifts, pts)[0], 0);
+}
+
 // ---- best and eval ---------------------------------------------------------------------------------
 
 TEST(BestFilter, RemovesWhatEitherPartRemoves) {
@@ -316,6 +364,60 @@ TEST(BestFilter, RemovesWhatEitherPartRemoves) {
   std::vector<std::uint8_t> removed(2);
   best->classify(view_of(1, sensor, ghost, &team), removed);
   EXPECT_EQ(removed, (std::vector<std::uint8_t>{1, 1}));
+}
+
+TEST(BestFilter, TheDriftBandNeedsFreeSpaceEvidenceTheCoreBoxDoesNot) {
+  MethodOptions m;
+  m.best_freespace = plain_options();
+  m.best_freespace.free_per_hit = 8.0;
+  m.best_drift_band_free_per_hit = 2.0;
+  m.tracked.sweep_s = 0.0;
+  auto best = make_filter("best", m);
+  ASSERT_NE(best, nullptr);
+  // Teammate 2 at (2, 0) heading +x with drift σ 10 cm; robot 1 scans from (0, 3) at 0.3 m height.
+  TeamState team = team_with(2, {2.0, 0.0}, 0.0, 0.01);
+  team.robots[0].drift_cov_m2 = Eigen::Matrix2d::Identity() * 0.01;
+  team.robots[0].position_cov_m2 += team.robots[0].drift_cov_m2;
+  const double h = expected_half_length(m.tracked, 0.01);
+  const float band_x = static_cast<float>(2.0 + h + 0.10);  // beyond the core box, within the 3σ band
+  const Vec3 sensor{band_x, 3.0, 0.3};
+  // A post hit once in the band, then crossed by 2 rays to a wall beyond it (2 passes per hit): goes.
+  // A table edge hit 3 times in the band and crossed twice (< 2 per hit): stays. A point in the core box stays
+  // removed without any evidence.
+  const std::vector<MapPoint> first{{band_x, 0.0f, 0.3f}};
+  const std::vector<MapPoint> wall{{band_x, -3.0f, 0.3f}};
+  best->observe(view_of(1, sensor, first, &team));
+  best->observe(view_of(1, sensor, wall, &team));
+  best->observe(view_of(1, sensor, wall, &team));
+  std::vector<std::uint8_t> removed(1);
+  best->classify(view_of(1, sensor, first, &team), removed);
+  EXPECT_EQ(removed[0], 1);
+  best->observe(view_of(1, sensor, first, &team));
+  best->observe(view_of(1, sensor, first, &team));
+  best->classify(view_of(1, sensor, first, &team), removed);
+  EXPECT_EQ(removed[0], 0) << "3 hits, 2 passes";
+  const std::vector<MapPoint> core{{2.0f, 0.0f, 0.2f}};
+  best->classify(view_of(1, sensor, core, &team), removed);
+  EXPECT_EQ(removed[0], 1);
+}
+
+TEST(FreespaceFilter, ADiagonalSolidNeighbourKeepsAVoidVoxelWith26Neighbours) {
+  // A void voxel (hit once, crossed 3 times) whose only solid neighbour touches it at an edge.
+  auto run = [](int neighbours) {
+    FreespaceOptions o = plain_options();
+    o.guard_neighbours = neighbours;
+    FreespaceFilter f(o);
+    const std::vector<MapPoint> edge{{1.025f, 0.025f, 0.5f}};
+    const std::vector<MapPoint> solid(10, MapPoint{1.075f, 0.075f, 0.5f});  // voxel (+1, +1, 0)
+    f.observe(view_of(1, {1.025, 3.0, 0.5}, edge));
+    f.observe(view_of(1, {1.075, 3.0, 0.5}, solid));
+    for (int i = 0; i < 3; ++i) f.observe(view_of(2, {1.025, -3.0, 0.5}, std::vector<MapPoint>{{1.025f, 2.0f, 0.5f}}));
+    std::vector<std::uint8_t> removed(1);
+    f.classify(view_of(1, {1.025, 3.0, 0.5}, edge), removed);
+    return removed[0];
+  };
+  EXPECT_EQ(run(6), 1);
+  EXPECT_EQ(run(26), 0);
 }
 
 TEST(BeyondEval, NewMethodsParseAndAreNotPartOfAll) {
@@ -349,6 +451,34 @@ TEST(BeyondEval, IsDeterministicAndPoseNoiseChangesOnlyWhatTheFiltersSee) {
   EXPECT_EQ(noisy1.points, d.points.size());
   // The perturbation is of the poses: the cloud and its labels are the same, so the counts are too.
   EXPECT_EQ(noisy1.ghosts, evaluate(d, EvalOptions{o.methods, o.ransac, o.tracker, {}, {}}).ghosts);
+}
+
+TEST(BeyondEval, TheFloorBiasReferenceIsTheGhostFreeFloorAndEveryMethodIsMeasuredAgainstIt) {
+  SurveyOptions so;
+  so.duration_s = 6.0;
+  const Dataset d = synthetic_survey(so);
+  EvalOptions o;
+  o.methods = parse_methods("tracked,best", std::nullopt, std::nullopt).value();
+  o.ransac.iterations = 50;
+  const EvalReport r = evaluate(d, o);
+  ASSERT_TRUE(r.table1.without_ghosts.found);
+  // Least squares through the ghost-free band: its signed mean distance is 0 up to rounding.
+  EXPECT_LT(std::abs(r.floor_bias_ghost_free_m), 1e-9);
+  EXPECT_GT(r.floor_reference.normal.z(), 0.99);
+  // Nearly independent of the RANSAC seed (the paper's measure moves by tens of % with it): the
+  // reference is refitted until its inliers settle, from wherever the seed's RANSAC started it.
+  EvalOptions o2 = o;
+  o2.ransac.seed = 7;
+  const EvalReport r2 = evaluate(d, o2);
+  EXPECT_NEAR(r2.floor_bias_before_m, r.floor_bias_before_m, 1e-3 * std::abs(r.floor_bias_before_m));
+  for (std::size_t m = 0; m < r.methods.size(); ++m) {
+    EXPECT_NEAR(r2.methods[m].floor_bias_after_m, r.methods[m].floor_bias_after_m, 1e-3 * std::abs(r.methods[m].floor_bias_after_m));
+    // The method's figure is the bias of exactly the points it kept.
+    std::vector<MapPoint> cloud;
+    for (const LabelledPoint& p : d.points) cloud.push_back({p.x, p.y, p.z});
+    EXPECT_DOUBLE_EQ(r.methods[m].floor_bias_after_m, floor_bias_m(cloud, r.floor_reference, o.ransac.threshold_m, r.methods[m].removed));
+  }
+  EXPECT_NE(report_json(r, "x").find("\"floor_bias_improvement_pct\""), std::string::npos);
 }
 
 TEST(BeyondEval, LiveAndOfflineAgreeForTrackedAndOnTheLastScanForFreespace) {

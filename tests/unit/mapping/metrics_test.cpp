@@ -102,5 +102,33 @@ TEST(Metrics, Table1OnAFloorWithGhostsJustAboveIt) {
   EXPECT_NEAR(t.without_ghosts.mean_abs_error_m, 0.0, 1e-7);
 }
 
+TEST(Metrics, FloorBiasAgainstAFixedReferenceByHand) {
+  // Reference z = 0; threshold 2 cm. Floor points at ±4 mm and 0 (mean 0), two ghosts at 1.5 cm,
+  // one point at 5 cm (outside the band: ignored).
+  const std::vector<MapPoint> pts{{0, 0, 0.004f}, {1, 0, -0.004f}, {2, 0, 0.0f}, {3, 0, 0.0f},
+                                  {4, 0, 0.015f}, {5, 0, 0.015f}, {6, 0, 0.05f}};
+  Plane ref;  // z = 0
+  const double before = floor_bias_m(pts, ref, 0.02);
+  EXPECT_NEAR(before, 0.030 / 6.0, 1e-7);
+  const std::vector<std::uint8_t> ghosts_gone{0, 0, 0, 0, 1, 1, 0};
+  EXPECT_NEAR(floor_bias_m(pts, ref, 0.02, ghosts_gone), 0.0, 1e-9);
+  const std::vector<std::uint8_t> one_gone{0, 0, 0, 0, 1, 0, 0};
+  const double after = floor_bias_m(pts, ref, 0.02, one_gone);
+  EXPECT_NEAR(after, 0.015 / 5.0, 1e-7);
+  EXPECT_NEAR(floor_bias_improvement_pct(before, after), 100.0 * (0.005 - 0.003) / 0.005, 1e-3);
+  // Removing a low floor point instead makes the bias worse: the measure can go negative.
+  const std::vector<std::uint8_t> low_gone{0, 1, 0, 0, 0, 0, 0};
+  EXPECT_LT(floor_bias_improvement_pct(before, floor_bias_m(pts, ref, 0.02, low_gone)), 0.0);
+  // A tilted reference: distances are along its normal.
+  Plane tilted;
+  tilted.normal = Eigen::Vector3d(0, 0.6, 0.8);
+  tilted.d = 0.0;
+  const std::vector<MapPoint> one{{0, 0.01f, 0.0f}};
+  EXPECT_NEAR(floor_bias_m(one, tilted, 0.02), 0.006, 1e-7);
+  const std::vector<MapPoint> far{{0, 0, 1.0f}};
+  EXPECT_TRUE(std::isnan(floor_bias_m(far, ref, 0.02)));
+  EXPECT_TRUE(std::isnan(floor_bias_improvement_pct(0.0, 0.001)));
+}
+
 }  // namespace
 }  // namespace teamscan::mapping

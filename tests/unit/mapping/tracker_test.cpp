@@ -89,5 +89,61 @@ TEST(Tracker, CovarianceStaysSymmetricPositiveDefinite) {
   EXPECT_GT(p.determinant(), 0.0);
 }
 
+// ---- odometry drift (issue 7, docs/beyond.md "Drift") ----------------------------------------------
+
+namespace drift {
+constexpr double kPi = 3.14159265358979323846;
+}
+
+TEST(TrackerDrift, PositionSigmaGrowsWithTheDistanceDrivenAndIsAddedToTheKalmanCovariance) {
+  TrackerOptions with;
+  with.drift_m_per_m = 0.01;
+  TrackerOptions without = with;
+  without.drift_m_per_m = 0.0;
+  TeamTracker a(with), b(without);
+  // 0.5 m/s along x for 10 s: 100 steps of 5 cm = 5 m driven (distance from the reported speed).
+  for (int i = 0; i <= 100; ++i) {
+    a.add_pose(3, i * kPosePeriodNs, {0.05 * i, 0.0, 0.0}, 0.5);
+    b.add_pose(3, i * kPosePeriodNs, {0.05 * i, 0.0, 0.0}, 0.5);
+  }
+  const RobotEstimate ea = *a.predict(100 * kPosePeriodNs).find(3), eb = *b.predict(100 * kPosePeriodNs).find(3);
+  EXPECT_NEAR(ea.distance_m, 5.0, 1e-9);
+  EXPECT_NEAR(ea.drift_cov_m2(0, 0), 0.05 * 0.05, 1e-12);
+  EXPECT_NEAR(ea.drift_cov_m2(1, 1), 0.05 * 0.05, 1e-12);
+  EXPECT_EQ(ea.drift_cov_m2(0, 1), 0.0);
+  EXPECT_TRUE(((ea.position_cov_m2 - ea.drift_cov_m2) - eb.position_cov_m2).cwiseAbs().maxCoeff() < 1e-15);
+  EXPECT_EQ(eb.drift_cov_m2, Eigen::Matrix2d::Zero());
+  EXPECT_EQ(ea.heading_sigma_rad, 0.0);
+  // Same estimate otherwise: drift is uncertainty, not a correction.
+  EXPECT_EQ(ea.position_m.x, eb.position_m.x);
+}
+
+TEST(TrackerDrift, TurningGrowsTheHeadingSigmaWhoseLeverIsTheDistanceFromTheStart) {
+  TrackerOptions o;
+  o.drift_m_per_m = 0.0;
+  o.drift_heading_rad_per_rad = 0.1;
+  TeamTracker t(o);
+  // Turn on the spot by 90° in 10 steps (speed 0): σ_θ = 0.1 · π/2, position σ 0 (still at the start).
+  for (int i = 0; i <= 10; ++i) t.add_pose(1, i * kPosePeriodNs, {0.0, 0.0, drift::kPi / 2 * i / 10.0}, 0.0);
+  RobotEstimate e = *t.predict(10 * kPosePeriodNs).find(1);
+  EXPECT_NEAR(e.heading_sigma_rad, 0.1 * drift::kPi / 2, 1e-12);
+  EXPECT_NEAR(e.drift_cov_m2(0, 0), 0.0, 1e-18);
+  // Then 2 m straight along +y (heading 90°, no turn): the heading error turns the path about the
+  // start, so the position σ is σ_θ · 2 m.
+  for (int i = 1; i <= 20; ++i) t.add_pose(1, (10 + i) * kPosePeriodNs, {0.0, 0.1 * i, drift::kPi / 2}, 1.0);
+  e = *t.predict(30 * kPosePeriodNs).find(1);
+  EXPECT_NEAR(e.heading_sigma_rad, 0.1 * drift::kPi / 2, 1e-12);
+  EXPECT_NEAR(std::sqrt(e.drift_cov_m2(0, 0)), 0.1 * drift::kPi / 2 * 2.0, 1e-9);
+}
+
+TEST(TrackerDrift, AHeadingWrapCountsTheShortTurn) {
+  TrackerOptions o;
+  o.drift_heading_rad_per_rad = 1.0;
+  TeamTracker t(o);
+  t.add_pose(1, 0, {0.0, 0.0, 3.1}, 0.0);
+  t.add_pose(1, kPosePeriodNs, {0.0, 0.0, -3.1}, 0.0);  // 0.083 rad across ±π, not 6.2 rad
+  EXPECT_NEAR(t.predict(kPosePeriodNs).find(1)->heading_sigma_rad, 2 * drift::kPi - 6.2, 1e-9);
+}
+
 }  // namespace
 }  // namespace teamscan::mapping
