@@ -71,6 +71,7 @@ FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, 
       tracker_{options.tracker},
       map_all_{options.map_resolution_m},
       map_kept_{options.map_resolution_m},
+      map_touched_{options.map_resolution_m},
       received_{options.keep_received, options.replay_window, options.reserve_points} {
   keep_live_ = options.keep_received || !options.all_points_pcd.empty();
   if (options.keep_received) live_removed_points_.reserve(options.reserve_points);
@@ -248,6 +249,7 @@ void FusionStage::add_scan(const StoredScan& s) {
   live_->classify(view, scratch_removed_);
   for (std::size_t i = 0; i < scratch_points_.size(); ++i) {
     map_all_.insert(scratch_points_[i]);
+    map_touched_.insert(scratch_points_[i]);
     if (keep_live_) live_removed_points_.push_back(scratch_removed_[i]);
     if (scratch_removed_[i]) {
       ++counters_.live_removed;
@@ -321,11 +323,12 @@ Status FusionStage::write_received_dataset(const std::string& dir) {
 
 Status write_fused_model(Dataset& received, const FusionOptions& options, const std::string& dir,
                          std::span<const std::uint8_t> live_removed, std::vector<std::uint8_t>& removed,
-                         ModelFigures& figures) {
+                         ModelFigures& figures, const std::function<bool()>& cancelled) {
   const mapping::PreparedDataset prepared = mapping::prepare_dataset(received, options.tracker);
   std::unique_ptr<mapping::Filter> filter = mapping::make_filter(options.method, options.methods);
   if (!filter) return Error{"fusion: unknown filter method (fusion.method)"};
   removed = mapping::run_offline(prepared, *filter);
+  if (cancelled && cancelled()) return Error{"fusion: model write cancelled"};
 
   const bool all = !options.all_points_pcd.empty();
   PcdCloud kept, every;
@@ -393,6 +396,21 @@ Status FusionStage::write_model() {
 
 std::uint32_t FusionStage::map_resolution_mm() const {
   return static_cast<std::uint32_t>(std::lround(options_.map_resolution_m * 1000.0));
+}
+
+void FusionStage::map_voxels_changed(std::vector<teamscan_msg_MapVoxel>& out) {
+  out.clear();
+  const double r = map_all_.resolution_m();
+  map_touched_.for_each_voxel([&](mapping::VoxelKey k, std::uint32_t) {
+    teamscan_msg_MapVoxel v{};
+    v.x_mm = static_cast<std::int32_t>(std::lround((k.x + 0.5) * r * 1000.0));
+    v.y_mm = static_cast<std::int32_t>(std::lround((k.y + 0.5) * r * 1000.0));
+    v.z_mm = static_cast<std::int32_t>(std::lround((k.z + 0.5) * r * 1000.0));
+    v.hits = static_cast<std::uint16_t>(std::min<std::uint32_t>(map_all_.count(k), 0xFFFFu));
+    v.flags = map_kept_.count(k) == 0 ? 1 : 0;
+    out.push_back(v);
+  });
+  map_touched_.clear();
 }
 
 void FusionStage::map_voxels(std::vector<teamscan_msg_MapVoxel>& out) const {

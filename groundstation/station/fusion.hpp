@@ -8,6 +8,7 @@
 #include <array>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -108,7 +109,7 @@ struct ModelFigures {
 };
 [[nodiscard]] Status write_fused_model(Dataset& received, const FusionOptions& options, const std::string& dir,
                                        std::span<const std::uint8_t> live_removed, std::vector<std::uint8_t>& removed,
-                                       ModelFigures& figures);
+                                       ModelFigures& figures, const std::function<bool()>& cancelled = {});
 // Writes `received` (with its robots listed and the odometry as truth) as a data set folder.
 [[nodiscard]] Status write_received_as_dataset(Dataset& received, const std::string& dir);
 
@@ -167,6 +168,14 @@ class FusionStage {
   // The occupied voxels of the live map as teamscan/map voxels (flags 1: every point in the voxel
   // was removed by the live classification). Returns the number written to `out`.
   void map_voxels(std::vector<teamscan_msg_MapVoxel>& out) const;
+  // Only the voxels that changed (new points) since the last call or clear_map_changes(), with their
+  // whole counts and flags (a viewer replaces its voxel), then forgets them: teamscan/map's work per
+  // publication is the change, not the map (issue 6). total: map_total_voxels().
+  void map_voxels_changed(std::vector<teamscan_msg_MapVoxel>& out);
+  void clear_map_changes() { map_touched_.clear(); }
+  [[nodiscard]] std::uint32_t map_total_voxels() const {
+    return static_cast<std::uint32_t>(map_all_.occupied_voxels());
+  }
   [[nodiscard]] std::uint32_t map_resolution_mm() const;
 
   // Everything received, as a data set (points in mm-exact metres, scan = seq, pose at the stamp).
@@ -185,6 +194,7 @@ class FusionStage {
   mapping::TeamTracker tracker_;
   mapping::VoxelMap map_all_;
   mapping::VoxelMap map_kept_;
+  mapping::VoxelMap map_touched_;  // voxels with new points since the last teamscan/map publication
   ReceivedBuilder received_;
   std::vector<mapping::MapPoint> scratch_points_;
   std::vector<std::uint16_t> scratch_flags_;

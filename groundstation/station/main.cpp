@@ -143,6 +143,10 @@ int main(int argc, char** argv) {
   };
   // A finished write, logged from the loop (the session files are the loop's alone).
   auto log_write = [&](const ModelWriteReport& r) {
+    if (r.cancelled) {
+      store->log_event(now_realtime(), "fused model write (" + r.why + ") cancelled at shutdown");
+      return;
+    }
     if (!r.ok) {
       log(kErr, "fusion: " + r.error + " (" + std::strerror(r.sys_errno) + ")");
       store->log_event(now_realtime(), "fused model write failed: " + r.error);
@@ -215,9 +219,19 @@ int main(int argc, char** argv) {
       }
     }
     if (fusion && cfg.fusion.map_interval.count() > 0 && now >= next_map) {
-      fusion->map_voxels(map_voxels);
-      const auto total = static_cast<std::uint32_t>(map_voxels.size());
-      if (total > 0 && !st.publish_map(map_voxels, fusion->map_resolution_mm(), total).ok()) {
+      // Only the voxels changed since the last publication, and the whole map every kFullMapEvery-th
+      // (teamscan/map is keep-last 1, volatile: a late or lagging viewer catches up from a full one;
+      // total_voxels == the update's length marks a full map). Was the whole map every time: up to
+      // 149 ms per publication in this loop at 32 robots (docs/demo.md "Scale").
+      constexpr std::uint64_t kFullMapEvery = 10;
+      if (map_count % kFullMapEvery == 0) {
+        fusion->map_voxels(map_voxels);
+        fusion->clear_map_changes();
+      } else {
+        fusion->map_voxels_changed(map_voxels);
+      }
+      const std::uint32_t total = fusion->map_total_voxels();
+      if (!map_voxels.empty() && !st.publish_map(map_voxels, fusion->map_resolution_mm(), total).ok()) {
         log(kWarning, "fusion: teamscan/map write failed");
       }
       const Duration took = now_monotonic() - now;
@@ -252,7 +266,9 @@ int main(int argc, char** argv) {
   store->sync();  // the session is complete on disk before the (longer) final fusion pass
 #ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
   if (writer) {
-    // A periodic write in flight finishes first (it publishes by rename; the final one replaces it).
+    // A periodic write in flight is cancelled at its next phase boundary (it publishes nothing then),
+    // so the stop does not wait for a whole pass before the final one.
+    writer->cancel();
     writer->wait();
     if (auto r = writer->take_report()) log_write(*r);
     // The final model and the received data set from one read-back of the complete session files.

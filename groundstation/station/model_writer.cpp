@@ -163,10 +163,11 @@ bool ModelWriter::start(SessionSnapshot snapshot) {
   if (in_flight_.load(std::memory_order_acquire)) return false;
   wait();  // the previous worker has finished: reap it
   in_flight_.store(true, std::memory_order_release);
+  cancel_.store(false, std::memory_order_release);
   ++started_;
   worker_ = std::thread([this, snap = std::move(snapshot)]() {
     if (worker_hook_) worker_hook_();
-    ModelWriteReport r = run(snap);
+    ModelWriteReport r = write(snap, {}, true);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       report_ = std::move(r);
@@ -184,9 +185,14 @@ std::optional<ModelWriteReport> ModelWriter::take_report() {
 }
 
 ModelWriteReport ModelWriter::run(const SessionSnapshot& snap, const std::string& dataset_dir) {
+  return write(snap, dataset_dir, false);
+}
+
+ModelWriteReport ModelWriter::write(const SessionSnapshot& snap, const std::string& dataset_dir, bool cancellable) {
   const auto t0 = std::chrono::steady_clock::now();
   ModelWriteReport r;
   r.why = snap.why;
+  auto cancelled = [&] { return cancellable && cancel_.load(std::memory_order_acquire); };
   auto fail = [&](const Error& e) {
     r.ok = false;
     r.error = e.what;
@@ -195,16 +201,22 @@ ModelWriteReport ModelWriter::run(const SessionSnapshot& snap, const std::string
   try {
     Dataset received;
     Status st = read_received(dir_, snap, options_.replay_window, received, r.bad_records);
-    if (st.ok()) {
+    if (st.ok() && cancelled()) {
+      r.cancelled = true;
+      r.error = "fusion: model write cancelled";
+    } else if (st.ok()) {
       r.scans = received.scans.size();
       std::vector<std::uint8_t> removed;
       ModelFigures fig;
-      st = write_fused_model(received, options_, dir_, snap.live_removed, removed, fig);
+      st = write_fused_model(received, options_, dir_, snap.live_removed, removed, fig, cancelled);
+      if (!st.ok() && cancelled()) r.cancelled = true;
       r.kept = fig.kept;
       r.removed = fig.removed;
     }
     if (st.ok() && !dataset_dir.empty()) st = write_received_as_dataset(received, dataset_dir);
-    if (st.ok()) {
+    if (r.cancelled) {
+      r.ok = false;
+    } else if (st.ok()) {
       r.ok = true;
     } else {
       fail(st.error());

@@ -32,6 +32,7 @@ struct SessionSnapshot {
 
 struct ModelWriteReport {
   bool ok = false;
+  bool cancelled = false;  // stopped by cancel(): nothing published
   std::string error;
   int sys_errno = 0;
   std::string why;
@@ -62,9 +63,18 @@ class ModelWriter {
   std::optional<ModelWriteReport> take_report();
   // Waits for a write in flight (shutdown).
   void wait();
+  // Asks a write in flight to stop at its next phase boundary (after the read-back, after the offline
+  // pass): it then publishes nothing and reports "cancelled". Shutdown: cancel, wait, then run() the
+  // final write, so a periodic write never delays the stop by a whole pass.
+  void cancel() { cancel_.store(true, std::memory_order_release); }
   // The same write on the caller's thread (shutdown: the final model); with `dataset_dir` non-empty
   // also writes the received data set there from the same read-back.
   ModelWriteReport run(const SessionSnapshot& snapshot, const std::string& dataset_dir = {});
+
+ private:
+  ModelWriteReport write(const SessionSnapshot& snapshot, const std::string& dataset_dir, bool cancellable);
+
+ public:
 
   // Tests: called on the worker thread at the start of each write started by start().
   void set_worker_hook(std::function<void()> hook) { worker_hook_ = std::move(hook); }
@@ -75,6 +85,7 @@ class ModelWriter {
   std::string dir_;
   std::thread worker_;
   std::atomic<bool> in_flight_{false};
+  std::atomic<bool> cancel_{false};
   std::mutex mutex_;  // guards report_
   std::optional<ModelWriteReport> report_;
   std::function<void()> worker_hook_;

@@ -1,7 +1,8 @@
 // ModelWriter (groundstation/station/model_writer.hpp): the model written from the session files read
 // back from disk equals, byte for byte, the one the live stage builds from memory (replays included);
 // a snapshot's torn tail is ignored; a write in flight does not hold the loop's fusion work back (the
-// worker is held on a latch while the loop goes on); at most one write in flight; the loop's stage
+// worker is held on a latch while the loop goes on); at most one write in flight; a cancelled write
+// publishes nothing; the loop's stage
 // keeps no received points and a bounded number of poses.
 #include <gtest/gtest.h>
 
@@ -251,6 +252,45 @@ TEST(ModelWriter, AWriteInFlightDoesNotHoldTheLoopBack) {
   // The next write may start now.
   EXPECT_TRUE(writer.start(snap));
   writer.wait();
+  std::filesystem::remove_all(session);
+}
+
+TEST(ModelWriter, ACancelledWriteInFlightPublishesNothingAndTheNextOneDoes) {
+  const std::string session = temp_dir();
+  auto store = SessionStore::open(session);
+  ASSERT_TRUE(store.ok());
+  Feeder f{*store, {}};
+  feed_survey(f, 40);
+  store->sync();
+  SessionSnapshot snap;
+  snap.scans_bytes = store->scans_file_bytes();
+  snap.poses_bytes = store->poses_file_bytes();
+  ModelWriter writer(options(false), session);
+  std::promise<void> release;
+  std::shared_future<void> released = release.get_future().share();
+  writer.set_worker_hook([&] { released.wait(); });
+  ASSERT_TRUE(writer.start(snap));
+  writer.cancel();  // as at shutdown: while the write is in flight
+  release.set_value();
+  writer.wait();
+  auto r = writer.take_report();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_TRUE(r->cancelled);
+  EXPECT_FALSE(r->ok);
+  EXPECT_FALSE(std::filesystem::exists(session + "/fused.pcd"));
+  EXPECT_FALSE(std::filesystem::exists(session + "/fused_all.pcd"));
+  // A cancel applies to the write in flight only: the next start() and run() publish.
+  ASSERT_TRUE(writer.start(snap));
+  writer.wait();
+  r = writer.take_report();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_TRUE(r->ok) << r->error;
+  EXPECT_FALSE(r->cancelled);
+  EXPECT_TRUE(std::filesystem::exists(session + "/fused.pcd"));
+  std::filesystem::remove(session + "/fused.pcd");
+  writer.cancel();
+  EXPECT_TRUE(writer.run(snap).ok);  // the final write is never cancelled
+  EXPECT_TRUE(std::filesystem::exists(session + "/fused.pcd"));
   std::filesystem::remove_all(session);
 }
 
