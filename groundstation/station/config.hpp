@@ -25,10 +25,11 @@ struct KalmanConfig {
 };
 
 // The live fusion stage (groundstation/station/fusion.hpp), plain values so the config parses without
-// the mapping library. Defaults: the paper's combined method (direction 7°, then visibility 0.1 m).
+// the mapping library. Default method: `best` (issue 7: chosen by the numbers, docs/beyond.md); the
+// paper's combined method (direction 7°, then visibility 0.1 m) keeps its parameters below.
 struct FusionConfig {
   bool enabled = true;
-  std::string method = "combined";     // frequency | visibility | position | direction | combined (| issue 7: freespace, tracked, best)
+  std::string method = "best";         // frequency | visibility | position | direction | combined | freespace | tracked | best
   double resolution_m = 0.1;           // frequency / visibility / combined voxel edge
   double half_angle_deg = 7.0;         // direction / combined cone half-angle
   double grid_origin_z_m = 0.0;        // vertical voxel grid offset (paper: 0)

@@ -85,7 +85,7 @@ struct DemoArgs {
   // Station [fusion] write_interval_s (0: the model is written once, at shutdown).
   double write_interval_s = 0.0;
   // The ground station's live fusion method (its [fusion] method); the demo scores its model.
-  std::string station_method = "combined";
+  std::string station_method = "best";
   // The device feeder: one thread steps every pty this often (ms); 0: a thread per pty (sim/live.hpp).
   double feed_period_ms = 1.0;
   bool no_precast = false;  // cast every scan in real time instead of ahead (sim/live.hpp precast)
@@ -859,6 +859,14 @@ int run_demo(const DemoArgs& a) {
   }
   mapping::EvalOptions eo;
   eo.methods = methods.value();
+  // The station's own method is always evaluated offline too, so its live model has its comparison.
+  if (std::none_of(eo.methods.begin(), eo.methods.end(),
+                   [&](const mapping::MethodSpec& m) { return m.method == a.station_method; })) {
+    if (auto extra = mapping::parse_methods(a.station_method, std::nullopt, std::nullopt, {})) {
+      const std::vector<mapping::MethodSpec> specs = extra.value();
+      eo.methods.insert(eo.methods.end(), specs.begin(), specs.end());
+    }
+  }
   std::printf("teamscan demo: evaluating the live map (%zu points, %zu scans) and the offline one (%zu points)...\n",
               L.ds.points.size(), L.ds.scans.size(), offline.dataset.points.size());
   std::fflush(stdout);
@@ -978,10 +986,10 @@ int run_demo(const DemoArgs& a) {
   if (Status s = write_dataset(live_ds_dir, L.ds); !s) std::fprintf(stderr, "teamscan demo: %s: %s\n", live_ds_dir.c_str(), s.error().what);
   if (Status s = write_dataset(off_ds_dir, offline.dataset); !s) std::fprintf(stderr, "teamscan demo: %s: %s\n", off_ds_dir.c_str(), s.error().what);
   // The fused map: the labelled live points the ground station's own model keeps (its fused_all.pcd);
-  // without it, the points the combined filter (direction then visibility, Table 6) keeps post-run.
+  // without it, the points the station's method keeps post-run.
   const mapping::MethodResult* fused_by = nullptr;
   for (const mapping::MethodResult& m : live_report.methods)
-    if (m.method == "combined") fused_by = &m;
+    if (m.method == a.station_method) fused_by = &m;
   if (!fused_by && !live_report.methods.empty()) fused_by = &live_report.methods.front();
   const std::vector<std::uint8_t>* fused_removed = station.present ? &station.removed : (fused_by ? &fused_by->removed : nullptr);
   std::vector<LabelledPoint> fused;

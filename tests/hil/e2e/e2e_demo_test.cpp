@@ -34,15 +34,17 @@ TEST(E2eDemo, Lap2LiveRunDeliversEveryScanAndAgreesWithOfflineEval) {
     // What the emulated scanner sent was published and stored, up to the daemon's misses above.
     EXPECT_GE(json_number(s, "stored", r), 0.95 * json_number(s, "lms_sent", r)) << s;
   }
-  // The ground station's own live model (its fused_all.pcd, method combined), scored against the truth:
-  // it covers the labelled live points, removes the ghosts, and agrees with offline `teamscan eval` of
-  // the same method within the demo's tolerance for the map-based methods.
+  // The ground station's own live model (its fused_all.pcd, the default method best), scored against the
+  // truth: it covers the labelled live points, removes the ghosts, keeps the scene, and agrees with
+  // offline `teamscan eval` of the same method within the demo's tolerance.
   const std::size_t sm = s.find("\"station_model\":");
   ASSERT_NE(sm, std::string::npos) << s;
   EXPECT_EQ(json_value(s, "present", sm), "true") << log;
   EXPECT_EQ(json_value(s, "within_tolerance", sm), "true") << log;
   EXPECT_GE(json_number(s, "matched", sm), 0.99 * (json_number(s, "matched", sm) + json_number(s, "unmatched", sm))) << s;
-  EXPECT_GT(json_number(s, "da", sm), 90.0) << s;        // combined = direction 7° then visibility
+  EXPECT_EQ(json_value(s, "method", sm), "\"best\"") << s;
+  EXPECT_GT(json_number(s, "da", sm), 90.0) << s;
+  EXPECT_GT(json_number(s, "sa", sm), 99.0) << s;        // best keeps the scene (combined: ~12 %)
   EXPECT_GT(json_number(s, "live_da", sm), 90.0) << s;   // the decisions taken at arrival
   // The station measured scan -> fused map for every scan it fused; it cannot be faster than storing.
   EXPECT_EQ(json_value(s, "fused_latency_present"), "true") << log;

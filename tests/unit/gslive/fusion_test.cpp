@@ -304,10 +304,10 @@ TEST(FusionConfig, KeysParseIntoOptions) {
   EXPECT_EQ(o.all_points_pcd, "fused_all.pcd");
 }
 
-TEST(FusionConfig, DefaultsAreThePapersCombinedMethod) {
+TEST(FusionConfig, DefaultsAreBestWithThePapersCombinedParameters) {
   GroundStationConfig c;
   const FusionOptions o = fusion_options_from_config(c.fusion, c.kalman);
-  EXPECT_EQ(o.method, "combined");
+  EXPECT_EQ(o.method, "best");  // docs/beyond.md: the recommended default
   EXPECT_DOUBLE_EQ(o.methods.combined_resolution_m, 0.1);
   EXPECT_NEAR(o.methods.combined_half_angle_rad, 7.0 * M_PI / 180.0, 1e-12);
   EXPECT_TRUE(o.all_points_pcd.empty());
