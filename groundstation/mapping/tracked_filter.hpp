@@ -19,6 +19,9 @@ struct BodyBox {
   // Below low_band_m: the bare footprint + margin (TrackedOptions::low_band_m).
   double low_band_m = 0, low_half_x_m = 0, low_half_y_m = 0;
   double low_inner_y_m = 0;  // wheel strips: |across| from this to low_half_y_m (0: the whole footprint)
+  // Floor-consistent low points (|z| ≤ low_floor_noise_m) only within the wheels' outline + margin
+  // (TrackedOptions::low_floor_noise_m; low_floor_noise_m < 0: off).
+  double low_floor_noise_m = -1, outline_half_x_m = 0, outline_half_y_m = 0, outline_inner_y_m = 0;
   // Above upper_from_z_m: only the housing box, centred upper_centre_x_m ahead along axis_x
   // (TrackedOptions::height_profile; +inf when off).
   double upper_from_z_m = 0, upper_centre_x_m = 0, upper_half_x_m = 0, upper_half_y_m = 0;
