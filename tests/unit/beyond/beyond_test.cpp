@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <tuple>
 #include <random>
 #include <vector>
 
@@ -97,6 +99,71 @@ TEST(FreespaceGrid, RandomRaysVisitAConnectedChainOfVoxelsTheSegmentTouches) {
     EXPECT_EQ(g.cell(ka).free, 1u);
     EXPECT_EQ(g.cell(kb).free, 1u);
   }
+}
+
+// The plain Amanatides–Woo walk, one voxel key at a time (the form before the block walk of
+// FreespaceGrid::cast_ray): the voxels of the segment a→b, in grid units from a grid with resolution r.
+std::vector<VoxelKey> plain_walk(const Vec3& a, const MapPoint& b, double r, double oz) {
+  // The same arithmetic as cast_ray with no min range and no stop-short (t from 0 to 1).
+  const double inv = 1.0 / r, dx = b.x - a.x, dy = b.y - a.y, dz = b.z - a.z;
+  const double sx = (a.x + dx * 0.0) * inv, sy = (a.y + dy * 0.0) * inv, sz = (a.z + dz * 0.0 - oz) * inv;
+  const double ex = (a.x + dx * 1.0) * inv, ey = (a.y + dy * 1.0) * inv, ez = (a.z + dz * 1.0 - oz) * inv;
+  const double v[3] = {ex - sx, ey - sy, ez - sz}, s[3] = {sx, sy, sz};
+  std::int32_t k[3] = {static_cast<std::int32_t>(std::floor(sx)), static_cast<std::int32_t>(std::floor(sy)),
+                       static_cast<std::int32_t>(std::floor(sz))};
+  const std::int32_t e[3] = {static_cast<std::int32_t>(std::floor(ex)), static_cast<std::int32_t>(std::floor(ey)),
+                             static_cast<std::int32_t>(std::floor(ez))};
+  std::int32_t step[3];
+  double tm[3], td[3];
+  for (int i = 0; i < 3; ++i) {
+    step[i] = v[i] > 0 ? 1 : (v[i] < 0 ? -1 : 0);
+    tm[i] = v[i] > 0 ? (k[i] + 1.0 - s[i]) / v[i] : (v[i] < 0 ? (k[i] - s[i]) / v[i] : INFINITY);
+    td[i] = v[i] != 0 ? std::abs(1.0 / v[i]) : INFINITY;
+  }
+  const std::int64_t n = 1 + std::abs(std::int64_t{e[0]} - k[0]) + std::abs(std::int64_t{e[1]} - k[1]) + std::abs(std::int64_t{e[2]} - k[2]);
+  std::vector<VoxelKey> out;
+  for (std::int64_t i = 0; i < n; ++i) {
+    out.push_back({k[0], k[1], k[2]});
+    if (k[0] == e[0] && k[1] == e[1] && k[2] == e[2]) break;
+    const int ax = (tm[0] <= tm[1] && tm[0] <= tm[2]) ? 0 : (tm[1] <= tm[2] ? 1 : 2);
+    k[ax] += step[ax];
+    tm[ax] += td[ax];
+  }
+  return out;
+}
+
+TEST(FreespaceGrid, TheBlockWalkCountsLikeAPlainPerVoxelWalk) {
+  // Long rays in every direction around the origin cross many 16³ blocks (0.8 m) forwards and
+  // backwards, with negative keys; the grid's free counts, voxel count and traversal count must be
+  // those of the plain walk summed over all rays, voxel for voxel.
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-3.0, 3.0);
+  FreespaceOptions o = plain_options();
+  o.min_range_m = 0.0;
+  o.end_margin_m = 0.0;
+  o.max_range_m = 100.0;
+  FreespaceGrid g(o);
+  std::map<std::tuple<std::int32_t, std::int32_t, std::int32_t>, std::uint32_t> expected;
+  std::uint64_t expected_traversed = 0;
+  for (int ray = 0; ray < 2000; ++ray) {
+    // Every 4th ray starts on a voxel or block boundary or runs along an axis (ties in t_max).
+    Vec3 a{u(rng), u(rng), u(rng)};
+    MapPoint b{static_cast<float>(u(rng)), static_cast<float>(u(rng)), static_cast<float>(u(rng))};
+    if (ray % 4 == 0) a = {0.8 * std::round(a.x), 0.05 * std::round(a.y / 0.05), o.grid_origin_z_m};
+    if (ray % 8 == 1) b.y = static_cast<float>(a.y);
+    g.cast_ray(a, b);
+    for (const VoxelKey k : plain_walk(a, b, o.resolution_m, o.grid_origin_z_m)) {
+      ++expected[{k.x, k.y, k.z}];
+      ++expected_traversed;
+    }
+  }
+  ASSERT_GT(expected.size(), 10000u);
+  EXPECT_EQ(g.voxels(), expected.size());
+  EXPECT_EQ(g.traversed(), expected_traversed);
+  std::size_t mismatches = 0;
+  for (const auto& [key, count] : expected)
+    if (g.cell({std::get<0>(key), std::get<1>(key), std::get<2>(key)}).free != count) ++mismatches;
+  EXPECT_EQ(mismatches, 0u);
 }
 
 TEST(FreespaceFilter, ARayThroughAVoxelFreesItAndThePointInItIsTransient) {
