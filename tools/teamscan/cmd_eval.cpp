@@ -72,7 +72,7 @@ struct EvalArgs {
   double tracked_margin_m = 0.04;
   int tracked_height_profile = 1;
   double tracked_low_margin_m = mapping::TrackedOptions{}.low_margin_m;
-  double tracked_low_floor_noise_m = mapping::TrackedOptions{}.low_floor_noise_m;
+  double tracked_low_floor_n_sigma = mapping::TrackedOptions{}.low_floor_n_sigma;
   double tracked_low_outline_margin_m = mapping::TrackedOptions{}.low_outline_margin_m;
   // Table-top heights (m): report the kept share of furniture points whose true z is within 3 cm of one.
   std::vector<double> top_heights_m;
@@ -125,8 +125,8 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.tracked_margin_m != d.tracked_margin_m) o << " --tracked-margin " << number(a.tracked_margin_m);
   if (a.tracked_height_profile != d.tracked_height_profile) o << " --tracked-height-profile " << a.tracked_height_profile;
   if (a.tracked_low_margin_m != d.tracked_low_margin_m) o << " --tracked-low-margin " << number(a.tracked_low_margin_m);
-  if (a.tracked_low_floor_noise_m != d.tracked_low_floor_noise_m)
-    o << " --tracked-low-floor-noise " << number(a.tracked_low_floor_noise_m);
+  if (a.tracked_low_floor_n_sigma != d.tracked_low_floor_n_sigma)
+    o << " --tracked-low-floor-n-sigma " << number(a.tracked_low_floor_n_sigma);
   if (a.tracked_low_outline_margin_m != d.tracked_low_outline_margin_m)
     o << " --tracked-low-outline-margin " << number(a.tracked_low_outline_margin_m);
   for (double h : a.top_heights_m) o << " --top-height " << number(h);
@@ -242,7 +242,7 @@ int run_eval(const EvalArgs& a) {
   base.tracked.margin_m = a.tracked_margin_m;
   base.tracked.height_profile = a.tracked_height_profile != 0;
   base.tracked.low_margin_m = a.tracked_low_margin_m;
-  base.tracked.low_floor_noise_m = a.tracked_low_floor_noise_m;
+  base.tracked.low_floor_n_sigma = a.tracked_low_floor_n_sigma;
   base.tracked.low_outline_margin_m = a.tracked_low_outline_margin_m;
   auto methods = mapping::parse_methods(a.methods, a.resolution_m, a.half_angle_deg, base);
   if (!methods) {
@@ -414,9 +414,10 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
   app.add_option("--tracked-low-margin", a->tracked_low_margin_m,
                  "tracked/best: margin of the wheel strips below 2 cm (m; negative = --tracked-margin)")
       ->capture_default_str();
-  app.add_option("--tracked-low-floor-noise", a->tracked_low_floor_noise_m,
-                 "tracked/best: a wheel-strip point within this height of the floor is a wheel hit only at the "
-                 "wheel's outline + --tracked-low-outline-margin (m; negative = off)")
+  app.add_option("--tracked-low-floor-n-sigma", a->tracked_low_floor_n_sigma,
+                 "tracked/best: a wheel-strip point within this many σ of the floor's height (σ = 5 mm range noise "
+                 "· |sin elevation| of its beam) is a wheel hit only at the wheel's outline + "
+                 "--tracked-low-outline-margin (negative = off)")
       ->capture_default_str();
   app.add_option("--tracked-low-outline-margin", a->tracked_low_outline_margin_m,
                  "tracked/best: margin of the wheel outline for floor-consistent low points (m; negative = off)")

@@ -384,32 +384,46 @@ TEST(TrackedFilter, TheHeightProfileKeepsWhatIsBesideTheHousingAndUnderTheChassi
   EXPECT_EQ(classify_tracked(o, team, pts), (std::vector<std::uint8_t>{1, 1, 1, 1, 1, 1}));
 }
 
-// docs/beyond.md "Floor beside the wheels": in the wheel strips, a point at the floor's height is a
-// wheel hit only at the wheel's outline + low_outline_margin_m; a low point above the floor's noise is
-// taken anywhere in the σ-inflated strip.
+// docs/beyond.md "Floor beside the wheels": in the wheel strips, a point at the floor's height (within
+// 3 σ_z, σ_z = 5 mm · |sin elevation| of its beam) is a wheel hit only at the wheel's outline +
+// low_outline_margin_m; a low point above the floor's noise is taken anywhere in the σ-inflated strip.
 TEST(TrackedFilter, FloorConsistentLowPointsAreWheelHitsOnlyAtTheWheelsOutline) {
   TrackedOptions o;
   o.sweep_s = 0.0;
   const double sigma = 0.02;  // strip: wheel end 0.2415 + 0.02 + 3·0.02 = 0.3215 m
   const TeamState team = team_with(2, {0, 0}, 0.0, sigma);
-  const double outline = o.wheel_half_length_m + o.low_outline_margin_m;                 // 0.2515 m
-  const double strip = o.wheel_half_length_m + o.low_margin_m + o.n_sigma * sigma;     // 0.3215 m
+  const double outline = o.wheel_half_length_m + o.low_outline_margin_m;              // 0.2515 m
+  const double strip = o.wheel_half_length_m + o.low_margin_m + o.n_sigma * sigma;  // 0.3215 m
   ASSERT_GT(strip - outline, 0.05);
+  // The sensor 1 m behind the teammate's centre at 0.46 m: a floor point near x = 0.3 is seen at
+  // sin elevation ≈ 0.46 / 1.4, so its floor band is 3 · 5 mm · 0.33 ≈ 5 mm.
+  const Vec3 sensor{-1.0, 0.2, 0.46};
+  const double band = o.low_floor_n_sigma * o.range_noise_m * 0.46 / std::hypot(1.3, 0.46);
   const float in_outline = static_cast<float>(outline - 0.004), beyond = static_cast<float>(outline + 0.004);
   const float in_strip = static_cast<float>(strip - 0.004), past_strip = static_cast<float>(strip + 0.004);
-  const float floor_z = static_cast<float>(o.low_floor_noise_m - 0.002), above_z = static_cast<float>(o.low_floor_noise_m + 0.002);
+  const float floor_z = static_cast<float>(0.6 * band), above_z = static_cast<float>(1.4 * band);
+  ASSERT_LT(above_z, o.low_band_m);
   const std::vector<MapPoint> pts{{in_outline, 0.20f, floor_z},     // wheel outline, floor height: wheel hit
                                   {beyond, 0.20f, floor_z},         // beside the wheel, floor height: floor
-                                  {in_strip, 0.20f, -floor_z},      // below the floor's z = 0 within noise: floor
+                                  {in_strip, 0.20f, -floor_z},      // below z = 0 within noise: floor
                                   {beyond, 0.20f, above_z},         // above the floor's noise: the strip decides
                                   {in_strip, 0.20f, above_z},
                                   {past_strip, 0.20f, above_z},     // past the strip: stays
                                   {0.10f, static_cast<float>(o.wheel_inner_y_m - o.low_outline_margin_m + 0.004), floor_z},
                                   {0.10f, static_cast<float>(o.wheel_inner_y_m - o.low_outline_margin_m - 0.004), floor_z}};
-  EXPECT_EQ(classify_tracked(o, team, pts), (std::vector<std::uint8_t>{1, 0, 0, 1, 1, 0, 1, 0}));
+  auto run = [&](const TrackedOptions& opts, const Vec3& from) {
+    TrackedFilter f(opts);
+    std::vector<std::uint8_t> removed(pts.size());
+    f.classify(view_of(1, from, pts, &team), removed);
+    return removed;
+  };
+  EXPECT_EQ(run(o, sensor), (std::vector<std::uint8_t>{1, 0, 0, 1, 1, 0, 1, 0}));
+  // The same points seen from straight above (sin elevation 1: band 15 mm): all are floor-consistent.
+  EXPECT_EQ(run(o, Vec3{0.3, 0.2, 1.0}), (std::vector<std::uint8_t>{1, 0, 0, 0, 0, 0, 1, 0}));
   // Off: the whole strip takes every low point (the previous rule).
-  o.low_floor_noise_m = -1.0;
-  EXPECT_EQ(classify_tracked(o, team, pts), (std::vector<std::uint8_t>{1, 1, 1, 1, 1, 0, 1, 1}));
+  TrackedOptions off = o;
+  off.low_floor_n_sigma = -1.0;
+  EXPECT_EQ(run(off, sensor), (std::vector<std::uint8_t>{1, 1, 1, 1, 1, 0, 1, 1}));
 }
 
 TEST(TrackedFilter, DriftWidensTheBoxForTheTeammatesAndTheScannersOwnOdometry) {
