@@ -71,12 +71,10 @@ FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, 
       tracker_{options.tracker},
       map_all_{options.map_resolution_m},
       map_kept_{options.map_resolution_m},
-      poses_by_robot_(kMaxRobots + 1),
-      seq_windows_(kMaxRobots + 1) {
-  received_.scenario = "live";
-  received_.points.reserve(options.reserve_points);
-  received_.scans.reserve(options.reserve_points / 128);
-  live_removed_points_.reserve(options.reserve_points);
+      map_touched_{options.map_resolution_m},
+      received_{options.keep_received, options.replay_window, options.reserve_points} {
+  keep_live_ = options.keep_received || !options.all_points_pcd.empty();
+  if (options.keep_received) live_removed_points_.reserve(options.reserve_points);
   if (!options_.latency_log_csv.empty()) {
     latency_log_ = std::fopen((session_dir_ + "/" + options_.latency_log_csv).c_str(), "w");
     if (latency_log_ != nullptr) std::fputs("robot,seq,stamp_ns,received_ns,fused_ns\n", latency_log_);
@@ -91,21 +89,38 @@ namespace {
 double forward_speed(const PoseObservation& p) { return p.vx_mps * std::cos(p.yaw_rad) + p.vy_mps * std::sin(p.yaw_rad); }
 }  // namespace
 
-void FusionStage::add_pose(const PoseObservation& p) {
-  if (p.robot_id == 0 || p.robot_id > kMaxRobots) return;
-  ++counters_.poses;
+ReceivedBuilder::ReceivedBuilder(bool keep, std::uint32_t replay_window, std::size_t reserve_points)
+    : keep_{keep}, replay_window_{replay_window}, poses_by_robot_(kMaxRobots + 1), seq_windows_(kMaxRobots + 1) {
+  received_.scenario = "live";
+  if (keep_) {
+    received_.points.reserve(reserve_points);
+    received_.scans.reserve(reserve_points / 128);
+  }
+}
+
+std::size_t ReceivedBuilder::poses_held() const {
+  std::size_t n = 0;
+  for (const auto& l : poses_by_robot_) n += l.size();
+  return n;
+}
+
+void ReceivedBuilder::add_pose(const PoseObservation& p) {
   const double v = forward_speed(p);
-  tracker_.add_pose(static_cast<std::uint8_t>(p.robot_id), p.stamp.ns(), Pose2{p.x_m, p.y_m, p.yaw_rad}, v);
   // Kept in stamp order (DDS delivers a robot's samples in order; a restarted robot may go back).
   auto& list = poses_by_robot_[p.robot_id];
   auto at = std::upper_bound(list.begin(), list.end(), p.stamp.ns(),
                              [](std::int64_t t, const PoseObservation& q) { return t < q.stamp.ns(); });
   list.insert(at, p);
-  received_.odom.push_back({static_cast<std::uint8_t>(p.robot_id), p.stamp.ns(), Pose2{p.x_m, p.y_m, p.yaw_rad}, v,
-                            p.yaw_rate_radps});
+  if (keep_) {
+    received_.odom.push_back({static_cast<std::uint8_t>(p.robot_id), p.stamp.ns(), Pose2{p.x_m, p.y_m, p.yaw_rad}, v,
+                              p.yaw_rate_radps});
+  } else if (list.size() >= 2 * kLivePosesPerRobot) {
+    // Bounded: drop the oldest half at once (amortised O(1) per pose, no growth with the session).
+    list.erase(list.begin(), list.end() - static_cast<std::ptrdiff_t>(kLivePosesPerRobot));
+  }
 }
 
-Pose2 FusionStage::own_pose(std::uint32_t robot, std::int64_t stamp_ns, double ox, double oy) const {
+Pose2 ReceivedBuilder::own_pose(std::uint32_t robot, std::int64_t stamp_ns, double ox, double oy) const {
   const auto& list = poses_by_robot_[robot];
   if (list.empty()) return Pose2{ox, oy, 0.0};
   auto after = std::upper_bound(list.begin(), list.end(), stamp_ns,
@@ -115,13 +130,14 @@ Pose2 FusionStage::own_pose(std::uint32_t robot, std::int64_t stamp_ns, double o
   return Pose2{p.x_m + p.vx_mps * dt_s, p.y_m + p.vy_mps * dt_s, p.yaw_rad + p.yaw_rate_radps * dt_s};
 }
 
-bool FusionStage::seen_before(std::uint32_t robot, std::uint32_t seq) {
+// True if (robot, seq) was fused before; else marks it. A seq far below the newest is a restarted robot.
+bool ReceivedBuilder::seen_before(std::uint32_t robot, std::uint32_t seq) {
   SeqWindow& w = seq_windows_[robot];
   auto bit = [&](std::uint32_t k) -> bool { return (w.seen[k / 64] >> (k % 64)) & 1u; };
   auto set = [&](std::uint32_t k) { w.seen[k / 64] |= std::uint64_t{1} << (k % 64); };
   if (w.any && seq <= w.newest) {
     const std::uint32_t back = w.newest - seq;
-    if (back <= std::min(options_.replay_window, kSeqWindow - 1)) {
+    if (back <= std::min(replay_window_, kSeqWindow - 1)) {
       if (bit(back)) return true;
       set(back);  // late but new (out of order)
       return false;
@@ -153,15 +169,11 @@ bool FusionStage::seen_before(std::uint32_t robot, std::uint32_t seq) {
   return false;
 }
 
-void FusionStage::add_scan(const StoredScan& s) {
-  if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
-  if (seen_before(s.robot_id, s.seq)) {
-    ++counters_.duplicates;
-    return;
-  }
-  ++counters_.scans;
+bool ReceivedBuilder::add_scan(const StoredScan& s, ScanRecord& rec, std::vector<mapping::MapPoint>& points,
+                               std::vector<std::uint16_t>& flags) {
+  if (seen_before(s.robot_id, s.seq)) return false;
   const std::size_t n = std::min<std::size_t>(s.count, kMaxBeams);
-  ScanRecord rec;
+  rec = ScanRecord{};
   rec.robot = static_cast<std::uint8_t>(s.robot_id);
   rec.scan = s.seq;
   rec.stamp_ns = s.stamp_ns;
@@ -170,8 +182,8 @@ void FusionStage::add_scan(const StoredScan& s) {
   rec.pose = own_pose(s.robot_id, s.stamp_ns, rec.origin.x, rec.origin.y);
   rec.true_pose = rec.pose;
 
-  scratch_points_.clear();
-  scratch_flags_.clear();
+  points.clear();
+  flags.clear();
   for (std::size_t i = 0; i < n; ++i) {
     const StoredPoint& sp = s.points[i];
     // Beams without a 3-D point (no echo, dazzled, unplaced) are stored in scans.bin but are not part
@@ -188,12 +200,37 @@ void FusionStage::add_scan(const StoredScan& s) {
     lp.tx = lp.x;
     lp.ty = lp.y;
     lp.tz = lp.z;
-    received_.points.push_back(lp);
-    scratch_points_.push_back({lp.x, lp.y, lp.z});
-    scratch_flags_.push_back(lp.flags);
+    if (keep_) received_.points.push_back(lp);
+    points.push_back({lp.x, lp.y, lp.z});
+    flags.push_back(lp.flags);
   }
-  rec.points = static_cast<std::uint16_t>(scratch_points_.size());
-  received_.scans.push_back(rec);
+  rec.points = static_cast<std::uint16_t>(points.size());
+  if (keep_) received_.scans.push_back(rec);
+  return true;
+}
+
+void ReceivedBuilder::refresh_scan_poses() {
+  for (ScanRecord& r : received_.scans) {
+    r.pose = own_pose(r.robot, r.stamp_ns, r.origin.x, r.origin.y);
+    r.true_pose = r.pose;
+  }
+}
+
+void FusionStage::add_pose(const PoseObservation& p) {
+  if (p.robot_id == 0 || p.robot_id > kMaxRobots) return;
+  ++counters_.poses;
+  tracker_.add_pose(static_cast<std::uint8_t>(p.robot_id), p.stamp.ns(), Pose2{p.x_m, p.y_m, p.yaw_rad}, forward_speed(p));
+  received_.add_pose(p);
+}
+
+void FusionStage::add_scan(const StoredScan& s) {
+  if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
+  ScanRecord rec;
+  if (!received_.add_scan(s, rec, scratch_points_, scratch_flags_)) {
+    ++counters_.duplicates;
+    return;
+  }
+  ++counters_.scans;
   counters_.points += scratch_points_.size();
 
   // Live: the team predicted to the scan's stamp, observe then classify against the map so far.
@@ -212,7 +249,8 @@ void FusionStage::add_scan(const StoredScan& s) {
   live_->classify(view, scratch_removed_);
   for (std::size_t i = 0; i < scratch_points_.size(); ++i) {
     map_all_.insert(scratch_points_[i]);
-    live_removed_points_.push_back(scratch_removed_[i]);
+    map_touched_.insert(scratch_points_[i]);
+    if (keep_live_) live_removed_points_.push_back(scratch_removed_[i]);
     if (scratch_removed_[i]) {
       ++counters_.live_removed;
     } else {
@@ -260,36 +298,39 @@ Status write_atomically(const std::string& path, const PcdCloud& cloud, const st
 
 }  // namespace
 
-void FusionStage::refresh_scan_poses() {
-  for (ScanRecord& r : received_.scans) {
-    r.pose = own_pose(r.robot, r.stamp_ns, r.origin.x, r.origin.y);
-    r.true_pose = r.pose;
-  }
-}
-
-Status FusionStage::write_received_dataset(const std::string& dir) {
-  refresh_scan_poses();
-  received_.truth = received_.odom;  // no ground truth at the station: the odometry stands in
-  received_.robots.clear();
+Status write_received_as_dataset(Dataset& received, const std::string& dir) {
+  received.truth = received.odom;  // no ground truth at the station: the odometry stands in
+  received.robots.clear();
+  std::array<bool, kMaxRobots + 1> has_pose{};
+  for (const TrajectorySample& s : received.odom) has_pose[s.robot] = true;
   for (std::uint32_t id = 1; id <= kMaxRobots; ++id) {
-    if (poses_by_robot_[id].empty()) continue;
+    if (!has_pose[id]) continue;
     DatasetRobot r;
     r.id = static_cast<std::uint8_t>(id);
     r.name = "robot" + std::to_string(id);
-    received_.robots.push_back(r);
+    received.robots.push_back(r);
   }
-  Status st = write_dataset(dir, received_);
-  received_.truth.clear();
+  Status st = write_dataset(dir, received);
+  received.truth.clear();
   return st;
 }
 
-Status FusionStage::write_model() {
-  refresh_scan_poses();
-  const mapping::PreparedDataset prepared = mapping::prepare_dataset(received_, options_.tracker);
-  std::unique_ptr<mapping::Filter> filter = mapping::make_filter(options_.method, options_.methods);
-  last_removed_ = mapping::run_offline(prepared, *filter);
+Status FusionStage::write_received_dataset(const std::string& dir) {
+  if (!options_.keep_received) return Error{"fusion: received points not kept in memory (keep_received false)"};
+  received_.refresh_scan_poses();
+  return write_received_as_dataset(received_.dataset(), dir);
+}
 
-  const bool all = !options_.all_points_pcd.empty();
+Status write_fused_model(Dataset& received, const FusionOptions& options, const std::string& dir,
+                         std::span<const std::uint8_t> live_removed, std::vector<std::uint8_t>& removed,
+                         ModelFigures& figures, const std::function<bool()>& cancelled) {
+  const mapping::PreparedDataset prepared = mapping::prepare_dataset(received, options.tracker);
+  std::unique_ptr<mapping::Filter> filter = mapping::make_filter(options.method, options.methods);
+  if (!filter) return Error{"fusion: unknown filter method (fusion.method)"};
+  removed = mapping::run_offline(prepared, *filter);
+  if (cancelled && cancelled()) return Error{"fusion: model write cancelled"};
+
+  const bool all = !options.all_points_pcd.empty();
   PcdCloud kept, every;
   kept.fields = {"x", "y", "z", "robot", "scan", "beam"};
   kept.columns.assign(kept.fields.size(), {});
@@ -302,11 +343,11 @@ Status FusionStage::write_model() {
     every.columns.assign(every.fields.size(), {});
   }
   std::uint64_t n_kept = 0;
-  for (std::size_t i = 0; i < received_.points.size(); ++i) {
-    const LabelledPoint& p = received_.points[i];
+  for (std::size_t i = 0; i < received.points.size(); ++i) {
+    const LabelledPoint& p = received.points[i];
     const double row[6] = {p.x, p.y, p.z, static_cast<double>(p.robot), static_cast<double>(p.scan),
                            static_cast<double>(p.beam)};
-    const bool keep = last_removed_[i] == 0;
+    const bool keep = removed[i] == 0;
     if (keep) {
       ++n_kept;
       for (std::size_t c = 0; c < 6; ++c) kept.columns[c].push_back(row[c]);
@@ -315,32 +356,61 @@ Status FusionStage::write_model() {
       for (std::size_t c = 0; c < 6; ++c) every.columns[c].push_back(row[c]);
       every.columns[6].push_back(keep ? 1.0 : 0.0);
       // The decision the live stage took at arrival (map-based filters: against the map so far).
-      every.columns[7].push_back(i < live_removed_points_.size() && live_removed_points_[i] ? 0.0 : 1.0);
+      every.columns[7].push_back(i < live_removed.size() && live_removed[i] ? 0.0 : 1.0);
     }
   }
   kept.width = n_kept;
   kept.height = 1;
-  Status st = write_atomically(session_dir_ + "/" + options_.kept_pcd, kept, layout);
+  Status st = write_atomically(dir + "/" + options.kept_pcd, kept, layout);
   if (st.ok() && all) {
-    every.width = received_.points.size();
+    every.width = received.points.size();
     every.height = 1;
     std::vector<PcdField> layout_all = layout;
     layout_all.push_back({"keep", 1, 'U', 1});
     layout_all.push_back({"live_keep", 1, 'U', 1});
-    st = write_atomically(session_dir_ + "/" + options_.all_points_pcd, every, layout_all);
+    st = write_atomically(dir + "/" + options.all_points_pcd, every, layout_all);
   }
+  if (!st.ok()) return st;
+  figures.kept = n_kept;
+  figures.removed = received.points.size() - n_kept;
+  return ok_status();
+}
+
+Status FusionStage::write_model() {
+  if (!options_.keep_received) {
+    ++counters_.write_failures;
+    return Error{"fusion: received points not kept in memory (keep_received false): write through ModelWriter"};
+  }
+  received_.refresh_scan_poses();
+  ModelFigures fig;
+  Status st = write_fused_model(received_.dataset(), options_, session_dir_, live_removed_points_, last_removed_, fig);
   if (!st.ok()) {
     ++counters_.write_failures;
     return st;
   }
   ++counters_.writes;
-  counters_.last_write_kept = n_kept;
-  counters_.last_write_removed = received_.points.size() - n_kept;
+  counters_.last_write_kept = fig.kept;
+  counters_.last_write_removed = fig.removed;
   return ok_status();
 }
 
 std::uint32_t FusionStage::map_resolution_mm() const {
   return static_cast<std::uint32_t>(std::lround(options_.map_resolution_m * 1000.0));
+}
+
+void FusionStage::map_voxels_changed(std::vector<teamscan_msg_MapVoxel>& out) {
+  out.clear();
+  const double r = map_all_.resolution_m();
+  map_touched_.for_each_voxel([&](mapping::VoxelKey k, std::uint32_t) {
+    teamscan_msg_MapVoxel v{};
+    v.x_mm = static_cast<std::int32_t>(std::lround((k.x + 0.5) * r * 1000.0));
+    v.y_mm = static_cast<std::int32_t>(std::lround((k.y + 0.5) * r * 1000.0));
+    v.z_mm = static_cast<std::int32_t>(std::lround((k.z + 0.5) * r * 1000.0));
+    v.hits = static_cast<std::uint16_t>(std::min<std::uint32_t>(map_all_.count(k), 0xFFFFu));
+    v.flags = map_kept_.count(k) == 0 ? 1 : 0;
+    out.push_back(v);
+  });
+  map_touched_.clear();
 }
 
 void FusionStage::map_voxels(std::vector<teamscan_msg_MapVoxel>& out) const {

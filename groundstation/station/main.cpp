@@ -19,6 +19,7 @@
 #ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
 #include "groundstation/station/fusion.hpp"
 #include "groundstation/station/kalman_team_source.hpp"
+#include "groundstation/station/model_writer.hpp"
 #include "teamscan.h"
 #endif
 
@@ -111,30 +112,51 @@ int main(int argc, char** argv) {
   // fusion stage never costs a received sample; the station counts the failure and goes on).
 #ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
   std::unique_ptr<FusionStage> fusion;
+  std::unique_ptr<ModelWriter> writer;
   std::vector<teamscan_msg_MapVoxel> map_voxels;
   if (cfg.fusion.enabled) {
     FusionOptions fusion_options = fusion_options_from_config(cfg.fusion, cfg.kalman);
     fusion_options.replay_window = cfg.station.scan_history_depth;  // the robots' history: replays are not fused twice
+    // The loop keeps only the live map and the tracker: the model writes read the session files back
+    // (ModelWriter), so the loop's memory does not grow with the session (issue 6).
+    fusion_options.keep_received = false;
     auto created = FusionStage::create(fusion_options, store->dir());
     if (!created) {
       log(kErr, created.error().what);
       return 1;
     }
     fusion = std::move(created.value());
+    writer = std::make_unique<ModelWriter>(fusion_options, store->dir());
     st.add_pose_hook([&](const PoseObservation& p) { fusion->add_pose(p); });
     st.add_scan_hook([&](const StoredScan& s) { fusion->add_scan(s); });
     log(kInfo, "fusion: method " + cfg.fusion.method + ", model " + store->dir() + "/fused.pcd");
   }
-  auto write_model = [&](const char* why) {
-    if (!fusion) return;
-    const Status w = fusion->write_model();
-    if (!w.ok()) {
-      log(kErr, std::string("fusion: ") + w.error().what + " (" + std::strerror(w.error().sys_errno) + ")");
-      store->log_event(now_realtime(), std::string("fused model write failed: ") + w.error().what);
+  // A consistent prefix of the session for the model writer: everything fsync'd right now.
+  auto snapshot = [&](const char* why) {
+    store->sync();
+    SessionSnapshot snap;
+    snap.scans_bytes = store->scans_file_bytes();
+    snap.poses_bytes = store->poses_file_bytes();
+    snap.live_removed = fusion->live_removed();  // fused_all.pcd's live_keep; empty unless written
+    snap.why = why;
+    return snap;
+  };
+  // A finished write, logged from the loop (the session files are the loop's alone).
+  auto log_write = [&](const ModelWriteReport& r) {
+    if (r.cancelled) {
+      store->log_event(now_realtime(), "fused model write (" + r.why + ") cancelled at shutdown");
+      return;
+    }
+    if (!r.ok) {
+      log(kErr, "fusion: " + r.error + " (" + std::strerror(r.sys_errno) + ")");
+      store->log_event(now_realtime(), "fused model write failed: " + r.error);
     } else {
-      store->log_event(now_realtime(), std::string("fused model written (") + why + "): " +
-                                           std::to_string(fusion->counters().last_write_kept) + " kept, " +
-                                           std::to_string(fusion->counters().last_write_removed) + " removed");
+      char text[200];
+      std::snprintf(text, sizeof text, "fused model written (%s): %llu kept, %llu removed, %llu scans, %.2f s%s",
+                    r.why.c_str(), static_cast<unsigned long long>(r.kept), static_cast<unsigned long long>(r.removed),
+                    static_cast<unsigned long long>(r.scans), r.seconds,
+                    r.why == "periodic" ? " on the writer thread" : "");
+      store->log_event(now_realtime(), text);
     }
     // Scan -> fused-map latency so far (latency.csv; docs/demo.md "Scale").
     const LatencyHistogram& lat = fusion->fused_latency();
@@ -147,7 +169,6 @@ int main(int argc, char** argv) {
   };
 #else
   if (cfg.fusion.enabled) log(kWarning, "fusion: not in this build (no groundstation/mapping)");
-  auto write_model = [](const char*) {};
 #endif
 
   const Duration wd = onboard::watchdog_interval();
@@ -163,9 +184,6 @@ int main(int argc, char** argv) {
   Time next_write = now + cfg.fusion.write_interval;
   Time next_map = now + cfg.fusion.map_interval;
   std::uint64_t scans_at_write = 0;
-#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
-  bool periodic_writes = true;
-#endif
   std::uint32_t lost_before = 0;
   // Loop-time counters (STYLE.md 8): the longest handling of one poll's samples, and the teamscan/map
   // publications, which run in this loop too and hold the next take back (docs/demo.md "Scale").
@@ -187,33 +205,33 @@ int main(int argc, char** argv) {
       next_sync = now + cfg.sync_interval;
     }
 #ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
-    if (fusion && periodic_writes && cfg.fusion.write_interval.count() > 0 && now >= next_write) {
-      Duration took{0};
-      if (fusion->counters().scans != scans_at_write) {
-        write_model("periodic");
-        took = now_monotonic() - now;
-        now = now_monotonic();
-        if (ping_period.count() > 0) {
-          onboard::notify_watchdog();
-          next_ping = now + ping_period;
+    // The periodic model write runs on ModelWriter's thread from a snapshot of the session files: the
+    // loop only fsyncs and starts it (at most one in flight; a due write waits for the previous one).
+    if (writer) {
+      if (auto r = writer->take_report()) log_write(*r);
+      if (cfg.fusion.write_interval.count() > 0 && now >= next_write && !writer->busy()) {
+        if (fusion->counters().scans != scans_at_write) {
+          scans_at_write = fusion->counters().scans;
+          writer->start(snapshot("periodic"));
+          now = now_monotonic();
         }
-      }
-      scans_at_write = fusion->counters().scans;
-      // The periodic write re-runs the whole offline pass in this loop, so its cost grows with the
-      // session. Keep it a small share of the loop's time, and stop it before it can starve the
-      // watchdog (the shutdown write still runs; everything received is on disk regardless).
-      next_write = now + std::max<Duration>(cfg.fusion.write_interval, 10 * took);
-      if (ping_period.count() > 0 && took > ping_period / 2) {
-        periodic_writes = false;
-        log(kWarning, "fusion: periodic model writes stopped: one took " + std::to_string(to_seconds(took)) +
-                          " s, close to the watchdog; the model is written at shutdown");
-        store->log_event(now_realtime(), "periodic fused model writes stopped (too slow for the watchdog)");
+        next_write = now + cfg.fusion.write_interval;
       }
     }
     if (fusion && cfg.fusion.map_interval.count() > 0 && now >= next_map) {
-      fusion->map_voxels(map_voxels);
-      const auto total = static_cast<std::uint32_t>(map_voxels.size());
-      if (total > 0 && !st.publish_map(map_voxels, fusion->map_resolution_mm(), total).ok()) {
+      // Only the voxels changed since the last publication, and the whole map every kFullMapEvery-th
+      // (teamscan/map is keep-last 1, volatile: a late or lagging viewer catches up from a full one;
+      // total_voxels == the update's length marks a full map). Was the whole map every time: up to
+      // 149 ms per publication in this loop at 32 robots (docs/demo.md "Scale").
+      constexpr std::uint64_t kFullMapEvery = 10;
+      if (map_count % kFullMapEvery == 0) {
+        fusion->map_voxels(map_voxels);
+        fusion->clear_map_changes();
+      } else {
+        fusion->map_voxels_changed(map_voxels);
+      }
+      const std::uint32_t total = fusion->map_total_voxels();
+      if (!map_voxels.empty() && !st.publish_map(map_voxels, fusion->map_resolution_mm(), total).ok()) {
         log(kWarning, "fusion: teamscan/map write failed");
       }
       const Duration took = now_monotonic() - now;
@@ -247,17 +265,16 @@ int main(int argc, char** argv) {
   station.value().reset();  // leave DDS before closing the files
   store->sync();  // the session is complete on disk before the (longer) final fusion pass
 #ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
-  // The latency histograms first: cheap, and complete once nothing more is received.
-  if (fusion) {
-    if (const Status l = fusion->write_latency(); !l.ok()) log(kWarning, std::string("fusion: ") + l.error().what);
-  }
-#endif
-  write_model("shutdown");
-#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
-  if (fusion && !fusion->options().received_dataset.empty()) {
-    const std::string dir = store->dir() + "/" + fusion->options().received_dataset;
-    const Status w = fusion->write_received_dataset(dir);
-    if (!w.ok()) log(kErr, std::string("fusion: received data set: ") + w.error().what);
+  if (writer) {
+    // A periodic write in flight is cancelled at its next phase boundary (it publishes nothing then),
+    // so the stop does not wait for a whole pass before the final one.
+    writer->cancel();
+    writer->wait();
+    if (auto r = writer->take_report()) log_write(*r);
+    // The final model and the received data set from one read-back of the complete session files.
+    const std::string dataset_dir =
+        fusion->options().received_dataset.empty() ? std::string{} : store->dir() + "/" + fusion->options().received_dataset;
+    log_write(writer->run(snapshot("shutdown"), dataset_dir));
   }
 #endif
   return 0;

@@ -126,6 +126,16 @@ void SessionStore::write_all(int fd, const void* data, std::size_t n) {
   }
 }
 
+namespace {
+std::uint64_t file_bytes(int fd) {
+  struct stat st{};
+  return fd >= 0 && ::fstat(fd, &st) == 0 ? static_cast<std::uint64_t>(st.st_size) : 0;
+}
+}  // namespace
+
+std::uint64_t SessionStore::scans_file_bytes() const { return file_bytes(scans_fd_); }
+std::uint64_t SessionStore::poses_file_bytes() const { return file_bytes(poses_fd_); }
+
 void SessionStore::append_scan(const StoredScan& scan) {
   const std::size_t n = encode_scan_record(scan, std::span<std::uint8_t>(record_, sizeof record_));
   write_all(scans_fd_, record_, n);

@@ -54,6 +54,10 @@ class SessionStore {
   void log_event(Time realtime, const std::string& text);
   // fdatasync every file.
   void sync();
+  // Current sizes of scans.bin and poses.csv (fstat): after sync(), a prefix that is on disk, which a
+  // separate reader (ModelWriter) can read back while the loop goes on appending.
+  [[nodiscard]] std::uint64_t scans_file_bytes() const;
+  [[nodiscard]] std::uint64_t poses_file_bytes() const;
 
   [[nodiscard]] const std::string& dir() const { return dir_; }
   [[nodiscard]] const SessionCounters& counters() const { return counters_; }

@@ -328,3 +328,52 @@ TEST(FusionConfig, BadValuesNameTheirKey) {
 
 }  // namespace
 }  // namespace teamscan::station
+
+namespace teamscan::station {
+namespace {
+
+// teamscan/map publishes the changed voxels (main.cpp): each changed voxel once, with its whole count,
+// then nothing until new points arrive; only the voxels the new points fell into.
+TEST(Fusion, ChangedMapVoxelsAreThoseWithNewPointsSinceTheLastCall) {
+  const std::string dir = temp_dir();
+  FusionOptions o;
+  o.method = "direction";
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  FusionStage& f = **stage;
+  const std::int64_t t0 = 1'700'000'000'000'000'000;
+  StoredScan s{};
+  s.robot_id = 1;
+  s.seq = 1;
+  s.stamp_ns = t0;
+  s.points[s.count++] = StoredPoint{1010, 2010, 310, 0, 0};
+  s.points[s.count++] = StoredPoint{1020, 2020, 320, 1, 0};  // same 0.1 m voxel
+  s.points[s.count++] = StoredPoint{5010, 2010, 310, 2, 0};
+  f.add_scan(s);
+  std::vector<teamscan_msg_MapVoxel> changed, full;
+  f.map_voxels_changed(changed);
+  ASSERT_EQ(changed.size(), 2u);
+  EXPECT_EQ(changed[0].hits + changed[1].hits, 3u);
+  f.map_voxels_changed(changed);
+  EXPECT_TRUE(changed.empty());
+  s.seq = 2;
+  s.count = 1;  // one more point into the first voxel
+  f.add_scan(s);
+  f.map_voxels_changed(changed);
+  ASSERT_EQ(changed.size(), 1u);
+  EXPECT_EQ(changed[0].x_mm, 1050);
+  EXPECT_EQ(changed[0].y_mm, 2050);
+  EXPECT_EQ(changed[0].hits, 3u);  // the whole count, not the increment
+  f.map_voxels(full);
+  EXPECT_EQ(full.size(), 2u);
+  EXPECT_EQ(f.map_total_voxels(), 2u);
+  s.seq = 3;
+  f.add_scan(s);
+  f.clear_map_changes();  // a full publication covers the changes
+  f.map_voxels_changed(changed);
+  EXPECT_TRUE(changed.empty());
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace teamscan::station
