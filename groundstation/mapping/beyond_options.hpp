@@ -65,6 +65,19 @@ struct TrackedOptions {
   // wheel's lowest 2 cm, so this margin costs floor (docs/beyond.md: 0.04 m took 0.08–7 % of it).
   double low_margin_m = 0.02;
   double wheel_inner_y_m = 0.1425;
+  // Floor-consistent low points (docs/beyond.md "Floor beside the wheels"): a point whose height is
+  // within `low_floor_n_sigma` σ_z of the floor is explained by the floor AND by the bottom of a wheel
+  // face. The floor is the map frame's z = 0 plane (the odometry is 2-D on a flat floor), so a floor
+  // point's height error is the range noise's vertical part only: σ_z = range_noise_m · |sin elevation|
+  // of its beam (5 mm · sin 25° ≈ 2 mm for a laser pitched 25°). The floor is there around every
+  // wheel, the wheel face's lowest millimetres are a small target, so such a point counts as a wheel
+  // hit only at the wheel's estimated outline + `low_outline_margin_m` (2σ of the range noise, no
+  // pose σ), not anywhere in the σ-inflated strip. A low point above the floor's noise is not floor,
+  // and the whole strip takes it. low_floor_n_sigma < 0 or low_outline_margin_m < 0: off, the whole
+  // strip takes every low point.
+  double low_floor_n_sigma = 3.0;
+  double range_noise_m = 0.005;  // the LMS-200's range σ (sim/scenario.hpp range_noise_mm)
+  double low_outline_margin_m = 0.01;
   // The body's height profile (sim/world.cpp make_pioneer3at_body): up to the top plate (277 mm) the
   // full footprint; above it only the LMS-200 housing and its post stand, 156 × 155 mm around the
   // mount (x 0.125 m; housing centre 15 mm behind it, pitched ±20°: x from −0.027 to 0.247 m). A

@@ -160,31 +160,41 @@ void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
       t_delta = kInf;
     }
   };
-  std::int32_t step_x, step_y, step_z;
-  double tmx, tmy, tmz, tdx, tdy, tdz;
-  axis(sx, vx, k.x, step_x, tmx, tdx);
-  axis(sy, vy, k.y, step_y, tmy, tdy);
-  axis(sz, vz, k.z, step_z, tmz, tdz);
+  std::int32_t step[3];
+  double t_max[3], t_delta[3];
+  axis(sx, vx, k.x, step[0], t_max[0], t_delta[0]);
+  axis(sy, vy, k.y, step[1], t_max[1], t_delta[1]);
+  axis(sz, vz, k.z, step[2], t_max[2], t_delta[2]);
   // The voxel count is bounded by the Manhattan distance between the end voxels.
   const std::int64_t n = std::int64_t{1} + std::abs(std::int64_t{end.x} - k.x) + std::abs(std::int64_t{end.y} - k.y) +
                          std::abs(std::int64_t{end.z} - k.z);
   traversed_ += static_cast<std::uint64_t>(n);
-  for (std::int64_t i = 0; i < n; ++i) {
-    FreeCell& c = touch(k);
-    if (c.free != kSaturate) ++c.free;
-    if (k == end) {
+  // The walk keeps a pointer into the current 16³ block and the voxel's offsets within it: a step
+  // moves the pointer by the axis' stride, and only a step out of the block (an offset leaving 0..15)
+  // looks the next block up. The axis is chosen as Amanatides–Woo do (x on ties, then y), by index,
+  // so the visited voxels and the counts are those of the plain per-voxel walk (test
+  // FreespaceGrid.TheBlockWalkCountsLikeAPlainPerVoxelWalk).
+  std::int32_t key[3] = {k.x, k.y, k.z};
+  std::int32_t offset[3] = {k.x & kBlockMask, k.y & kBlockMask, k.z & kBlockMask};
+  constexpr std::ptrdiff_t kStride[3] = {1, std::ptrdiff_t{1} << kBlockBits, std::ptrdiff_t{1} << (2 * kBlockBits)};
+  FreeCell* c = &touch(k);
+  for (std::int64_t i = 0;;) {
+    if (c->free != kSaturate) ++c->free;
+    if (key[0] == end.x && key[1] == end.y && key[2] == end.z) {
       traversed_ -= static_cast<std::uint64_t>(n - 1 - i);  // stopped early: count only the visited
       break;
     }
-    if (tmx <= tmy && tmx <= tmz) {
-      k.x += step_x;
-      tmx += tdx;
-    } else if (tmy <= tmz) {
-      k.y += step_y;
-      tmy += tdy;
+    if (++i >= n) break;
+    const int a = (t_max[0] <= t_max[1] && t_max[0] <= t_max[2]) ? 0 : (t_max[1] <= t_max[2] ? 1 : 2);
+    key[a] += step[a];
+    t_max[a] += t_delta[a];
+    offset[a] += step[a];
+    if (static_cast<std::uint32_t>(offset[a]) > static_cast<std::uint32_t>(kBlockMask)) {
+      offset[a] &= kBlockMask;
+      c = &touch({key[0], key[1], key[2]});
     } else {
-      k.z += step_z;
-      tmz += tdz;
+      c += step[a] * kStride[a];
+      if (c->hits == 0 && c->free == 0) ++voxels_;
     }
   }
 }

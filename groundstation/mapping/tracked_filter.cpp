@@ -45,6 +45,12 @@ BodyBox body_box(const RobotEstimate& other, const TrackedOptions& o, const Eige
     b.low_half_x_m = o.wheel_half_length_m + low_margin + o.n_sigma * kx;
     b.low_half_y_m = o.half_width_m + low_margin + o.n_sigma * ky;
     b.low_inner_y_m = std::max(0.0, o.wheel_inner_y_m - low_margin);
+    if (o.low_floor_n_sigma >= 0.0 && o.low_outline_margin_m >= 0.0) {
+      b.floor_z_per_sin_elev_m = o.low_floor_n_sigma * o.range_noise_m;
+      b.outline_half_x_m = o.wheel_half_length_m + o.low_outline_margin_m;
+      b.outline_half_y_m = o.half_width_m + o.low_outline_margin_m;
+      b.outline_inner_y_m = std::max(0.0, o.wheel_inner_y_m - o.low_outline_margin_m);
+    }
     const double upper_turn_m =
         std::hypot(std::abs(o.upper_centre_x_m) + o.upper_half_length_m, o.upper_half_width_m) * sin_turn;
     b.upper_from_z_m = o.upper_z_m + o.margin_m;
@@ -62,7 +68,17 @@ bool box_contains(const BodyBox& b, const MapPoint& p, double dt_s) {
   const double dx = p.x - (b.centre_m.x + b.velocity_mps.x * dt_s);
   const double dy = p.y - (b.centre_m.y + b.velocity_mps.y * dt_s);
   const double along = dx * b.axis_x.x + dy * b.axis_x.y, across = std::abs(dx * b.axis_y.x + dy * b.axis_y.y);
-  if (p.z < b.low_band_m) return std::abs(along) <= b.low_half_x_m && across <= b.low_half_y_m && across >= b.low_inner_y_m;
+  if (p.z < b.low_band_m) {
+    if (!(std::abs(along) <= b.low_half_x_m && across <= b.low_half_y_m && across >= b.low_inner_y_m)) return false;
+    if (b.floor_z_per_sin_elev_m < 0.0) return true;
+    // Floor-consistent (within n σ_z of z = 0, σ_z the range noise's vertical part along this beam):
+    // a wheel hit only at the wheel's outline (TrackedOptions::low_floor_n_sigma).
+    const double ex = p.x - b.sensor_m.x, ey = p.y - b.sensor_m.y, ez = p.z - b.sensor_m.z;
+    const double range_m = std::sqrt(ex * ex + ey * ey + ez * ez);
+    if (range_m > 0.0 && std::abs(p.z) * range_m <= b.floor_z_per_sin_elev_m * std::abs(ez))
+      return std::abs(along) <= b.outline_half_x_m && across <= b.outline_half_y_m && across >= b.outline_inner_y_m;
+    return true;
+  }
   if (p.z > b.upper_from_z_m) return std::abs(along - b.upper_centre_x_m) <= b.upper_half_x_m && across <= b.upper_half_y_m;
   return std::abs(along) <= b.half_x_m && across <= b.half_y_m;
 }
@@ -73,6 +89,7 @@ FilterParams TrackedFilter::params() const {
           {"margin_m", options_.margin_m},           {"n_sigma", options_.n_sigma},
           {"heading_sigma_deg", options_.heading_sigma_rad * 180.0 / 3.14159265358979323846},
           {"sweep_s", options_.sweep_s},             {"low_band_m", options_.low_band_m}, {"low_margin_m", options_.low_margin_m},
+          {"low_floor_n_sigma", options_.low_floor_n_sigma}, {"range_noise_m", options_.range_noise_m}, {"low_outline_margin_m", options_.low_outline_margin_m},
           {"height_profile", options_.height_profile ? 1.0 : 0.0},
           {"include_drift", options_.include_drift ? 1.0 : 0.0}};
 }
@@ -93,7 +110,8 @@ void TrackedFilter::classify(const ScanView& scan, std::span<std::uint8_t> remov
       const double lever_m = range_m * std::sin(std::min(1.0, self->heading_sigma_rad));
       extra = self->drift_cov_m2 + Eigen::Matrix2d::Identity() * (lever_m * lever_m);
     }
-    const BodyBox box = body_box(other, options_, extra);
+    BodyBox box = body_box(other, options_, extra);
+    box.sensor_m = scan.origin_m;
     for (std::size_t i = 0; i < scan.points.size(); ++i) {
       if (removed[i]) continue;
       // The teammates are interpolated to each beam's time within the sweep (TrackedOptions::sweep_s).

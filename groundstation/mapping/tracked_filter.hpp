@@ -19,6 +19,11 @@ struct BodyBox {
   // Below low_band_m: the bare footprint + margin (TrackedOptions::low_band_m).
   double low_band_m = 0, low_half_x_m = 0, low_half_y_m = 0;
   double low_inner_y_m = 0;  // wheel strips: |across| from this to low_half_y_m (0: the whole footprint)
+  // Floor-consistent low points (|z| ≤ low_floor_n_sigma · range_noise_m · |sin elevation| of the beam
+  // from `sensor_m`) only within the wheels' outline + margin (TrackedOptions::low_floor_n_sigma;
+  // floor_z_per_sin_elev_m < 0: off).
+  double floor_z_per_sin_elev_m = -1, outline_half_x_m = 0, outline_half_y_m = 0, outline_inner_y_m = 0;
+  Vec3 sensor_m;  // the scanning robot's sensor origin (set per scan by TrackedFilter::classify)
   // Above upper_from_z_m: only the housing box, centred upper_centre_x_m ahead along axis_x
   // (TrackedOptions::height_profile; +inf when off).
   double upper_from_z_m = 0, upper_centre_x_m = 0, upper_half_x_m = 0, upper_half_y_m = 0;
@@ -29,7 +34,8 @@ struct BodyBox {
 // drift, see TrackerOptions), added to the teammate's Kalman covariance.
 [[nodiscard]] BodyBox body_box(const RobotEstimate& other, const TrackedOptions& options,
                                const Eigen::Matrix2d& extra_cov_m2 = Eigen::Matrix2d::Zero());
-// Whether `p` lies in `box` with the teammate moved by `dt_s` (beam time − scan stamp).
+// Whether `p` lies in `box` with the teammate moved by `dt_s` (beam time − scan stamp), the beam
+// coming from box.sensor_m.
 [[nodiscard]] bool box_contains(const BodyBox& box, const MapPoint& p, double dt_s);
 
 class TrackedFilter final : public Filter {

@@ -72,6 +72,8 @@ struct EvalArgs {
   double tracked_margin_m = 0.04;
   int tracked_height_profile = 1;
   double tracked_low_margin_m = mapping::TrackedOptions{}.low_margin_m;
+  double tracked_low_floor_n_sigma = mapping::TrackedOptions{}.low_floor_n_sigma;
+  double tracked_low_outline_margin_m = mapping::TrackedOptions{}.low_outline_margin_m;
   // Table-top heights (m): report the kept share of furniture points whose true z is within 3 cm of one.
   std::vector<double> top_heights_m;
 };
@@ -123,6 +125,10 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.tracked_margin_m != d.tracked_margin_m) o << " --tracked-margin " << number(a.tracked_margin_m);
   if (a.tracked_height_profile != d.tracked_height_profile) o << " --tracked-height-profile " << a.tracked_height_profile;
   if (a.tracked_low_margin_m != d.tracked_low_margin_m) o << " --tracked-low-margin " << number(a.tracked_low_margin_m);
+  if (a.tracked_low_floor_n_sigma != d.tracked_low_floor_n_sigma)
+    o << " --tracked-low-floor-n-sigma " << number(a.tracked_low_floor_n_sigma);
+  if (a.tracked_low_outline_margin_m != d.tracked_low_outline_margin_m)
+    o << " --tracked-low-outline-margin " << number(a.tracked_low_outline_margin_m);
   for (double h : a.top_heights_m) o << " --top-height " << number(h);
   return o.str();
 }
@@ -236,6 +242,8 @@ int run_eval(const EvalArgs& a) {
   base.tracked.margin_m = a.tracked_margin_m;
   base.tracked.height_profile = a.tracked_height_profile != 0;
   base.tracked.low_margin_m = a.tracked_low_margin_m;
+  base.tracked.low_floor_n_sigma = a.tracked_low_floor_n_sigma;
+  base.tracked.low_outline_margin_m = a.tracked_low_outline_margin_m;
   auto methods = mapping::parse_methods(a.methods, a.resolution_m, a.half_angle_deg, base);
   if (!methods) {
     std::fprintf(stderr, "teamscan eval: --method %s: %s\n", a.methods.c_str(), methods.error().what);
@@ -405,6 +413,14 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
       ->check(CLI::Range(0, 1))->capture_default_str();
   app.add_option("--tracked-low-margin", a->tracked_low_margin_m,
                  "tracked/best: margin of the wheel strips below 2 cm (m; negative = --tracked-margin)")
+      ->capture_default_str();
+  app.add_option("--tracked-low-floor-n-sigma", a->tracked_low_floor_n_sigma,
+                 "tracked/best: a wheel-strip point within this many σ of the floor's height (σ = 5 mm range noise "
+                 "· |sin elevation| of its beam) is a wheel hit only at the wheel's outline + "
+                 "--tracked-low-outline-margin (negative = off)")
+      ->capture_default_str();
+  app.add_option("--tracked-low-outline-margin", a->tracked_low_outline_margin_m,
+                 "tracked/best: margin of the wheel outline for floor-consistent low points (m; negative = off)")
       ->capture_default_str();
   app.add_option("--top-height", a->top_heights_m,
                  "Table-top height (m, repeatable): also report the kept share of furniture points within 3 cm of it");

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <tuple>
 #include <random>
 #include <vector>
 
@@ -97,6 +99,71 @@ TEST(FreespaceGrid, RandomRaysVisitAConnectedChainOfVoxelsTheSegmentTouches) {
     EXPECT_EQ(g.cell(ka).free, 1u);
     EXPECT_EQ(g.cell(kb).free, 1u);
   }
+}
+
+// The plain Amanatides–Woo walk, one voxel key at a time (the form before the block walk of
+// FreespaceGrid::cast_ray): the voxels of the segment a→b, in grid units from a grid with resolution r.
+std::vector<VoxelKey> plain_walk(const Vec3& a, const MapPoint& b, double r, double oz) {
+  // The same arithmetic as cast_ray with no min range and no stop-short (t from 0 to 1).
+  const double inv = 1.0 / r, dx = b.x - a.x, dy = b.y - a.y, dz = b.z - a.z;
+  const double sx = (a.x + dx * 0.0) * inv, sy = (a.y + dy * 0.0) * inv, sz = (a.z + dz * 0.0 - oz) * inv;
+  const double ex = (a.x + dx * 1.0) * inv, ey = (a.y + dy * 1.0) * inv, ez = (a.z + dz * 1.0 - oz) * inv;
+  const double v[3] = {ex - sx, ey - sy, ez - sz}, s[3] = {sx, sy, sz};
+  std::int32_t k[3] = {static_cast<std::int32_t>(std::floor(sx)), static_cast<std::int32_t>(std::floor(sy)),
+                       static_cast<std::int32_t>(std::floor(sz))};
+  const std::int32_t e[3] = {static_cast<std::int32_t>(std::floor(ex)), static_cast<std::int32_t>(std::floor(ey)),
+                             static_cast<std::int32_t>(std::floor(ez))};
+  std::int32_t step[3];
+  double tm[3], td[3];
+  for (int i = 0; i < 3; ++i) {
+    step[i] = v[i] > 0 ? 1 : (v[i] < 0 ? -1 : 0);
+    tm[i] = v[i] > 0 ? (k[i] + 1.0 - s[i]) / v[i] : (v[i] < 0 ? (k[i] - s[i]) / v[i] : INFINITY);
+    td[i] = v[i] != 0 ? std::abs(1.0 / v[i]) : INFINITY;
+  }
+  const std::int64_t n = 1 + std::abs(std::int64_t{e[0]} - k[0]) + std::abs(std::int64_t{e[1]} - k[1]) + std::abs(std::int64_t{e[2]} - k[2]);
+  std::vector<VoxelKey> out;
+  for (std::int64_t i = 0; i < n; ++i) {
+    out.push_back({k[0], k[1], k[2]});
+    if (k[0] == e[0] && k[1] == e[1] && k[2] == e[2]) break;
+    const int ax = (tm[0] <= tm[1] && tm[0] <= tm[2]) ? 0 : (tm[1] <= tm[2] ? 1 : 2);
+    k[ax] += step[ax];
+    tm[ax] += td[ax];
+  }
+  return out;
+}
+
+TEST(FreespaceGrid, TheBlockWalkCountsLikeAPlainPerVoxelWalk) {
+  // Long rays in every direction around the origin cross many 16³ blocks (0.8 m) forwards and
+  // backwards, with negative keys; the grid's free counts, voxel count and traversal count must be
+  // those of the plain walk summed over all rays, voxel for voxel.
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-3.0, 3.0);
+  FreespaceOptions o = plain_options();
+  o.min_range_m = 0.0;
+  o.end_margin_m = 0.0;
+  o.max_range_m = 100.0;
+  FreespaceGrid g(o);
+  std::map<std::tuple<std::int32_t, std::int32_t, std::int32_t>, std::uint32_t> expected;
+  std::uint64_t expected_traversed = 0;
+  for (int ray = 0; ray < 2000; ++ray) {
+    // Every 4th ray starts on a voxel or block boundary or runs along an axis (ties in t_max).
+    Vec3 a{u(rng), u(rng), u(rng)};
+    MapPoint b{static_cast<float>(u(rng)), static_cast<float>(u(rng)), static_cast<float>(u(rng))};
+    if (ray % 4 == 0) a = {0.8 * std::round(a.x), 0.05 * std::round(a.y / 0.05), o.grid_origin_z_m};
+    if (ray % 8 == 1) b.y = static_cast<float>(a.y);
+    g.cast_ray(a, b);
+    for (const VoxelKey k : plain_walk(a, b, o.resolution_m, o.grid_origin_z_m)) {
+      ++expected[{k.x, k.y, k.z}];
+      ++expected_traversed;
+    }
+  }
+  ASSERT_GT(expected.size(), 10000u);
+  EXPECT_EQ(g.voxels(), expected.size());
+  EXPECT_EQ(g.traversed(), expected_traversed);
+  std::size_t mismatches = 0;
+  for (const auto& [key, count] : expected)
+    if (g.cell({std::get<0>(key), std::get<1>(key), std::get<2>(key)}).free != count) ++mismatches;
+  EXPECT_EQ(mismatches, 0u);
 }
 
 TEST(FreespaceFilter, ARayThroughAVoxelFreesItAndThePointInItIsTransient) {
@@ -315,6 +382,48 @@ TEST(TrackedFilter, TheHeightProfileKeepsWhatIsBesideTheHousingAndUnderTheChassi
   EXPECT_EQ(classify_tracked(o, team, pts), (std::vector<std::uint8_t>{0, 1, 1, 0, 1, 0}));
   o.height_profile = false;
   EXPECT_EQ(classify_tracked(o, team, pts), (std::vector<std::uint8_t>{1, 1, 1, 1, 1, 1}));
+}
+
+// docs/beyond.md "Floor beside the wheels": in the wheel strips, a point at the floor's height (within
+// 3 σ_z, σ_z = 5 mm · |sin elevation| of its beam) is a wheel hit only at the wheel's outline +
+// low_outline_margin_m; a low point above the floor's noise is taken anywhere in the σ-inflated strip.
+TEST(TrackedFilter, FloorConsistentLowPointsAreWheelHitsOnlyAtTheWheelsOutline) {
+  TrackedOptions o;
+  o.sweep_s = 0.0;
+  const double sigma = 0.02;  // strip: wheel end 0.2415 + 0.02 + 3·0.02 = 0.3215 m
+  const TeamState team = team_with(2, {0, 0}, 0.0, sigma);
+  const double outline = o.wheel_half_length_m + o.low_outline_margin_m;              // 0.2515 m
+  const double strip = o.wheel_half_length_m + o.low_margin_m + o.n_sigma * sigma;  // 0.3215 m
+  ASSERT_GT(strip - outline, 0.05);
+  // The sensor 1 m behind the teammate's centre at 0.46 m: a floor point near x = 0.3 is seen at
+  // sin elevation ≈ 0.46 / 1.4, so its floor band is 3 · 5 mm · 0.33 ≈ 5 mm.
+  const Vec3 sensor{-1.0, 0.2, 0.46};
+  const double band = o.low_floor_n_sigma * o.range_noise_m * 0.46 / std::hypot(1.3, 0.46);
+  const float in_outline = static_cast<float>(outline - 0.004), beyond = static_cast<float>(outline + 0.004);
+  const float in_strip = static_cast<float>(strip - 0.004), past_strip = static_cast<float>(strip + 0.004);
+  const float floor_z = static_cast<float>(0.6 * band), above_z = static_cast<float>(1.4 * band);
+  ASSERT_LT(above_z, o.low_band_m);
+  const std::vector<MapPoint> pts{{in_outline, 0.20f, floor_z},     // wheel outline, floor height: wheel hit
+                                  {beyond, 0.20f, floor_z},         // beside the wheel, floor height: floor
+                                  {in_strip, 0.20f, -floor_z},      // below z = 0 within noise: floor
+                                  {beyond, 0.20f, above_z},         // above the floor's noise: the strip decides
+                                  {in_strip, 0.20f, above_z},
+                                  {past_strip, 0.20f, above_z},     // past the strip: stays
+                                  {0.10f, static_cast<float>(o.wheel_inner_y_m - o.low_outline_margin_m + 0.004), floor_z},
+                                  {0.10f, static_cast<float>(o.wheel_inner_y_m - o.low_outline_margin_m - 0.004), floor_z}};
+  auto run = [&](const TrackedOptions& opts, const Vec3& from) {
+    TrackedFilter f(opts);
+    std::vector<std::uint8_t> removed(pts.size());
+    f.classify(view_of(1, from, pts, &team), removed);
+    return removed;
+  };
+  EXPECT_EQ(run(o, sensor), (std::vector<std::uint8_t>{1, 0, 0, 1, 1, 0, 1, 0}));
+  // The same points seen from straight above (sin elevation 1: band 15 mm): all are floor-consistent.
+  EXPECT_EQ(run(o, Vec3{0.3, 0.2, 1.0}), (std::vector<std::uint8_t>{1, 0, 0, 0, 0, 0, 1, 0}));
+  // Off: the whole strip takes every low point (the previous rule).
+  TrackedOptions off = o;
+  off.low_floor_n_sigma = -1.0;
+  EXPECT_EQ(run(off, sensor), (std::vector<std::uint8_t>{1, 1, 1, 1, 1, 0, 1, 1}));
 }
 
 TEST(TrackedFilter, DriftWidensTheBoxForTheTeammatesAndTheScannersOwnOdometry) {
