@@ -116,4 +116,17 @@ DecodedRange decode_lms_value(std::uint16_t word) {
   return r;
 }
 
+void fill_sip_odometry(const SipOdometry& o, arcos::SipPacket& sip, double diff_conv) {
+  sip.x_raw = o.xpos;
+  sip.y_raw = o.ypos;
+  sip.th_raw = o.thpos;
+  sip.left_vel = o.left_vel_mmps;
+  sip.right_vel = o.right_vel_mmps;
+  sip.type = (o.left_vel_mmps != 0 || o.right_vel_mmps != 0) ? 0x33 : 0x32;
+  if (sip.has(arcos::SipField::kRotVel)) {
+    const double w_rad_s = 0.5 * (o.right_vel_mmps - o.left_vel_mmps) * diff_conv;
+    sip.rot_vel = static_cast<std::int16_t>(std::lround(rad_to_deg(w_rad_s) * 10.0));
+  }
+}
+
 }  // namespace teamscan::sim

@@ -9,6 +9,7 @@
 #include <string_view>
 
 #include "common/pose.hpp"
+#include "drivers/arcos/codec.hpp"
 #include "sim/rng.hpp"
 
 namespace teamscan::sim {
@@ -28,6 +29,11 @@ struct SipOdometry {
   std::int16_t thpos = 0;             // 4096 counts per turn, in [-2048, 2047]
   std::int16_t left_vel_mmps = 0, right_vel_mmps = 0;
 };
+
+// Writes one SIP's odometry fields as the firmware sends them: position, wheel velocities, the
+// motors-moving type (0x33 moving, 0x32 stopped) and, when the packet carries ROTVEL, the rotation in
+// 0.1°/s from the wheel difference (PROTOCOLS.md §1.8; DiffConvFactor §1.11).
+void fill_sip_odometry(const SipOdometry& o, arcos::SipPacket& sip, double diff_conv = PioneerParams{}.diff_conv);
 
 struct OdometryNoise {
   double slip_sigma = 0.0;             // relative σ of each SIP cycle's travelled distance

@@ -56,17 +56,7 @@ class LiveWheels final : public arcos::SipSource {
     const SipOdometry o = firmware_.step(truth, dt_s);
     last_s_ = t_s;
     have_last_ = true;
-    sip.x_raw = o.xpos;
-    sip.y_raw = o.ypos;
-    sip.th_raw = o.thpos;
-    sip.left_vel = o.left_vel_mmps;
-    sip.right_vel = o.right_vel_mmps;
-    sip.type = (o.left_vel_mmps != 0 || o.right_vel_mmps != 0) ? 0x33 : 0x32;
-    if (sip.has(arcos::SipField::kRotVel)) {
-      // ROTVEL in 0.1°/s from the wheel difference (PROTOCOLS.md §1.8, DiffConvFactor §1.11).
-      const double w = 0.5 * (o.right_vel_mmps - o.left_vel_mmps) * 0.0034;
-      sip.rot_vel = static_cast<std::int16_t>(std::lround(rad_to_deg(w) * 10.0));
-    }
+    fill_sip_odometry(o, sip);
     return true;
   }
 

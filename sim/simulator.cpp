@@ -259,17 +259,7 @@ class WheelModel final : public arcos::SipSource {
     const SipOdometry o = firmware_.step(truth, dt_s);
     last_ = now;
     have_last_ = true;
-    sip.x_raw = o.xpos;
-    sip.y_raw = o.ypos;
-    sip.th_raw = o.thpos;
-    sip.left_vel = o.left_vel_mmps;
-    sip.right_vel = o.right_vel_mmps;
-    sip.type = (o.left_vel_mmps != 0 || o.right_vel_mmps != 0) ? 0x33 : 0x32;
-    if (sip.has(arcos::SipField::kRotVel)) {
-      // ROTVEL in 0.1°/s from the wheel difference (§1.8, DiffConvFactor §1.11).
-      const double w = 0.5 * (o.right_vel_mmps - o.left_vel_mmps) * 0.0034;
-      sip.rot_vel = static_cast<std::int16_t>(std::lround(rad_to_deg(w) * 10.0));
-    }
+    fill_sip_odometry(o, sip);
     if (now.ns() >= run_.t0_ns)  // the data set covers t >= 0; before that the robot stands at its start
       run_.ds.truth.push_back({run_.team.spec(ri_).id, now.ns(), truth, motion.speed_at(t_s), motion.yaw_rate_at(t_s)});
     return true;

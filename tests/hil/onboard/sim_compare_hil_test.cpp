@@ -94,16 +94,7 @@ class RecordingWheels final : public arcos::SipSource {
     const sim::SipOdometry o = firmware_.step(truth, dt_s);
     last_s_ = t_s;
     have_last_ = true;
-    sip.x_raw = o.xpos;
-    sip.y_raw = o.ypos;
-    sip.th_raw = o.thpos;
-    sip.left_vel = o.left_vel_mmps;
-    sip.right_vel = o.right_vel_mmps;
-    sip.type = (o.left_vel_mmps != 0 || o.right_vel_mmps != 0) ? 0x33 : 0x32;
-    if (sip.has(arcos::SipField::kRotVel)) {
-      const double w = 0.5 * (o.right_vel_mmps - o.left_vel_mmps) * 0.0034;
-      sip.rot_vel = static_cast<std::int16_t>(std::lround(rad_to_deg(w) * 10.0));
-    }
+    sim::fill_sip_odometry(o, sip);
     std::lock_guard<std::mutex> lock{mutex};
     sent.push_back({now, sip});
     return true;
