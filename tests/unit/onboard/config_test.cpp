@@ -179,5 +179,45 @@ TEST(OnboardConfig, MissingFileIsAnError) {
   EXPECT_NE(msg.find("/nonexistent/teamscan.toml"), std::string::npos);
 }
 
+// [odometry] max_hold_s (docs/demo.md "Latency"): default = the extrapolation limit (the behaviour
+// before the key), 0 allowed (publish at once), bounded by max_extrapolation_s, bad values named.
+Result<OnboardConfig> parse_with_odometry(const std::string& odometry, std::string& msg) {
+  return parse_onboard_config(std::string{kMinimal} + "[odometry]\n" + odometry, msg);
+}
+
+TEST(OnboardConfigHold, DefaultsToTheExtrapolationLimit) {
+  std::string msg;
+  auto c = parse_onboard_config(kMinimal, msg);
+  ASSERT_TRUE(c.ok()) << msg;
+  EXPECT_EQ(c->odometry_max_hold, c->odometry_max_extrapolation);
+  c = parse_with_odometry("max_extrapolation_s = 0.3\n", msg);
+  ASSERT_TRUE(c.ok()) << msg;
+  EXPECT_EQ(c->odometry_max_hold, from_seconds(0.3));
+}
+
+TEST(OnboardConfigHold, ZeroAndBoundaryAccepted) {
+  std::string msg;
+  auto c = parse_with_odometry("max_hold_s = 0\n", msg);
+  ASSERT_TRUE(c.ok()) << msg;
+  EXPECT_EQ(c->odometry_max_hold, Duration::zero());
+  c = parse_with_odometry("max_extrapolation_s = 0.2\nmax_hold_s = 0.2\n", msg);
+  ASSERT_TRUE(c.ok()) << msg;
+  EXPECT_EQ(c->odometry_max_hold, from_seconds(0.2));
+  c = parse_with_odometry("max_hold_s = 0.05\n", msg);
+  ASSERT_TRUE(c.ok()) << msg;
+  EXPECT_EQ(c->odometry_max_hold, from_seconds(0.05));
+  EXPECT_NE(describe(*c).find("hold 0.050 s"), std::string::npos) << describe(*c);
+}
+
+TEST(OnboardConfigHold, OutOfRangeIsRefusedByName) {
+  for (const char* bad : {"max_hold_s = -0.01\n", "max_extrapolation_s = 0.1\nmax_hold_s = 0.15\n", "max_hold_s = 2\n",
+                          "max_hold_s = \"soon\"\n"}) {
+    std::string msg;
+    const auto c = parse_with_odometry(bad, msg);
+    EXPECT_FALSE(c.ok()) << bad;
+    EXPECT_NE(msg.find("odometry.max_hold_s"), std::string::npos) << bad << " -> " << msg;
+  }
+}
+
 }  // namespace
 }  // namespace teamscan::onboard
