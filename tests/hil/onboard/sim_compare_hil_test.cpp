@@ -457,13 +457,18 @@ TEST(OnboardSimCompareHil, DaemonPointsEqualTheSimulatorsAndFlagsTheOfflineFilte
     std::size_t k = static_cast<std::size_t>(k_seq);
     if (nearest_sweep(scan.stamp_ns) != k) ++stamp_disagrees;
     if (int e = content_error_mm(k, scan); e > 1) {
-      for (std::int64_t c = k_seq - 3; c <= k_seq + 3; ++c) {
-        if (c < 0 || c >= static_cast<std::int64_t>(sweep_rt.size()) || c == k_seq) continue;
+      // Candidates: the neighbours of the sequence guess, and of the sweep nearest the daemon's stamp
+      // (a scanner re-brought-up by a starved daemon loses more sweeps than the sequence guess spans).
+      const auto nearest = static_cast<std::int64_t>(nearest_sweep(scan.stamp_ns));
+      auto try_candidate = [&](std::int64_t c) {
+        if (c < 0 || c >= static_cast<std::int64_t>(sweep_rt.size()) || c == k_seq) return;
         if (const int ec = content_error_mm(static_cast<std::size_t>(c), scan); ec < e) {
           e = ec;
           k = static_cast<std::size_t>(c);
         }
-      }
+      };
+      for (std::int64_t c = k_seq - 3; c <= k_seq + 3; ++c) try_candidate(c);
+      for (std::int64_t c = nearest - 8; c <= nearest + 8; ++c) try_candidate(c);
       if (k != static_cast<std::size_t>(k_seq)) ++repaired;
     }
     offset = static_cast<std::int64_t>(k) - static_cast<std::int64_t>(scan.seq);
