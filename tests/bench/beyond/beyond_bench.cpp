@@ -28,16 +28,7 @@ namespace {
 constexpr double kTeamLoadPointsPerS = 32.0 * 75.0 * 361.0;
 
 const Dataset& data() {
-  static const Dataset d = [] {
-    if (const char* dir = std::getenv("TEAMSCAN_BENCH_DATASET")) {
-      auto read = read_dataset(dir);
-      if (read) return std::move(read.value());
-      std::fprintf(stderr, "beyond_bench: %s: %s; using the synthetic survey\n", dir, read.error().what);
-    }
-    bench::SurveyOptions o;
-    o.duration_s = 30.0;
-    return bench::synthetic_survey(o);
-  }();
+  static const Dataset d = bench::bench_dataset_or_survey("beyond_bench", 30.0);
   return d;
 }
 

@@ -25,16 +25,7 @@ namespace {
 // TEAMSCAN_BENCH_DATASET=DIR runs the filter benchmarks on a data set from `teamscan sim` (e.g. lap2);
 // otherwise two robots in a 10 m room, 60 s of scans at 10 Hz (the paper's lap is about a minute).
 const Dataset& lap_like() {
-  static const Dataset d = [] {
-    if (const char* dir = std::getenv("TEAMSCAN_BENCH_DATASET")) {
-      auto read = read_dataset(dir);
-      if (read) return std::move(read.value());
-      std::fprintf(stderr, "mapping_bench: %s: %s; using the synthetic survey\n", dir, read.error().what);
-    }
-    bench::SurveyOptions o;
-    o.duration_s = 60.0;
-    return bench::synthetic_survey(o);
-  }();
+  static const Dataset d = bench::bench_dataset_or_survey("mapping_bench", 60.0);
   return d;
 }
 

@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <optional>
 #include <random>
@@ -164,6 +166,19 @@ inline Dataset synthetic_survey(const SurveyOptions& o) {
   }
   d.truth = d.odom;
   return d;
+}
+
+// The data set a benchmark runs on: TEAMSCAN_BENCH_DATASET=DIR (a `teamscan sim` output such as lap2),
+// else (or if DIR cannot be read, said on stderr by `who`) the synthetic survey of `duration_s`.
+inline Dataset bench_dataset_or_survey(const char* who, double duration_s) {
+  if (const char* dir = std::getenv("TEAMSCAN_BENCH_DATASET")) {
+    auto read = read_dataset(dir);
+    if (read) return std::move(read.value());
+    std::fprintf(stderr, "%s: %s: %s; using the synthetic survey\n", who, dir, read.error().what);
+  }
+  SurveyOptions o;
+  o.duration_s = duration_s;
+  return synthetic_survey(o);
 }
 
 }  // namespace teamscan::bench
