@@ -1,4 +1,4 @@
-// Hand-built cases with known answers for the issue 7 filters (docs/beyond.md): free-space ray
+// Hand-built cases with known answers for the filters beyond the paper (docs/beyond.md): free-space ray
 // casting (traversal, min range, grazing floor rays, void evidence), the inflated teammate body box,
 // and determinism of `teamscan eval` for the new methods.
 #include <gtest/gtest.h>

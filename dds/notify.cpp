@@ -1,11 +1,11 @@
 // sd_notify wrappers over libsystemd (DDS_SYSTEMD.md 5.1).
-#include "onboard/dds/notify.hpp"
+#include "dds/notify.hpp"
 
 #include <cstdint>
 
 #include <systemd/sd-daemon.h>
 
-namespace teamscan::onboard {
+namespace teamscan::dds {
 
 void notify_ready() { (void)sd_notify(0, "READY=1"); }
 
@@ -22,4 +22,4 @@ Duration watchdog_interval() {
   return std::chrono::microseconds(static_cast<std::int64_t>(usec));
 }
 
-}  // namespace teamscan::onboard
+}  // namespace teamscan::dds

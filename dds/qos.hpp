@@ -9,7 +9,7 @@
 
 #include "common/time.hpp"
 
-namespace teamscan::onboard {
+namespace teamscan::dds {
 
 // Per-robot state topics (pose, status): the writer is reliable, keep-last 1, transient-local, so a
 // ground station that (re)starts gets each robot's latest value at once. The reader keeps all: the
@@ -33,4 +33,4 @@ namespace teamscan::onboard {
 // teamscan/map (ground station -> viewers): reliable, keep-last 1, volatile.
 [[nodiscard]] dds_qos_t* make_map_qos();
 
-}  // namespace teamscan::onboard
+}  // namespace teamscan::dds

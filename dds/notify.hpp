@@ -5,7 +5,7 @@
 
 #include "common/time.hpp"
 
-namespace teamscan::onboard {
+namespace teamscan::dds {
 
 void notify_ready();
 void notify_status(const char* text);  // STATUS=<text>: shown by systemctl status
@@ -15,4 +15,4 @@ void notify_stopping();
 // process (WATCHDOG_USEC unset, or WATCHDOG_PID names another process). Ping at half of it.
 [[nodiscard]] Duration watchdog_interval();
 
-}  // namespace teamscan::onboard
+}  // namespace teamscan::dds

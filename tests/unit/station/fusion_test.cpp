@@ -83,7 +83,7 @@ void feed(FusionStage& stage, const Dataset& d) {
 }
 
 std::string temp_dir() {
-  char tmpl[] = "/tmp/teamscan-gslive-unit-XXXXXX";
+  char tmpl[] = "/tmp/teamscan-station-fusion-XXXXXX";
   return ::mkdtemp(tmpl);
 }
 
@@ -262,7 +262,7 @@ TEST(Fusion, AllPointsModelCarriesTheLiveDecisions) {
 
 TEST(Fusion, WriteIntoAMissingFolderFailsAsAValueAndIsCounted) {
   FusionOptions o;
-  auto stage = FusionStage::create(o, "/nonexistent/teamscan/gslive");
+  auto stage = FusionStage::create(o, "/nonexistent/teamscan/station");
   ASSERT_TRUE(stage.ok());
   EXPECT_FALSE((*stage)->write_model().ok());
   EXPECT_EQ((*stage)->counters().write_failures, 1u);
@@ -272,17 +272,6 @@ TEST(Fusion, UnknownMethodIsRejected) {
   FusionOptions o;
   o.method = "magic";
   EXPECT_FALSE(FusionStage::create(o, "/tmp").ok());
-}
-
-TEST(Fusion, WireFlagsMapToTheDataSetFlags) {
-  EXPECT_EQ(dataset_flags_from_wire(0), 0);
-  EXPECT_EQ(dataset_flags_from_wire(kPointDirectionFiltered), point_flags::kDirectionFiltered);
-  EXPECT_EQ(dataset_flags_from_wire(kPointInvalid), point_flags::kInvalid);
-  EXPECT_EQ(dataset_flags_from_wire(kPointNoPose), point_flags::kInvalid);
-  EXPECT_EQ(dataset_flags_from_wire(kPointDazzled), point_flags::kDazzled);
-  EXPECT_EQ(dataset_flags_from_wire(kPointOutOfRange), point_flags::kOutOfRange);
-  EXPECT_EQ(dataset_flags_from_wire(kPointTeamStale), point_flags::kTeamStale);
-  EXPECT_EQ(dataset_flags_from_wire(kPointPositionFiltered), 0);  // a ground-station decision, recomputed here
 }
 
 TEST(FusionConfig, KeysParseIntoOptions) {

@@ -10,13 +10,15 @@
 
 #include <dds/dds.h>
 
-#include "onboard/dds/bridge.hpp"
+#include "onboard/bridge/bridge.hpp"
 #include "teamscan.h"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/test_domain.hpp"
 
 namespace teamscan::onboard {
 namespace {
+
+using namespace teamscan::dds;
 
 constexpr std::uint32_t kScans = 10000;
 

@@ -6,28 +6,19 @@
 
 #include <cstdint>
 #include <memory>
+#include <utility>
 
 #include "common/result.hpp"
 #include "common/time.hpp"
+#include "dds/participant.hpp"
+#include "dds/take.hpp"
 #include "onboard/core/messages.hpp"
-
-struct teamscan_msg_ScanPoints;
-struct teamscan_msg_RobotPose;
-struct teamscan_msg_RobotStatus;
-struct teamscan_msg_TeamState;
 
 namespace teamscan::onboard {
 
-// Topic names (DESIGN.md "DDS topics").
-inline constexpr const char* kTopicPose = "teamscan/pose";
-inline constexpr const char* kTopicScan = "teamscan/scan";
-inline constexpr const char* kTopicStatus = "teamscan/status";
-inline constexpr const char* kTopicTeam = "teamscan/team";
-inline constexpr const char* kTopicMap = "teamscan/map";
-
 struct DdsBridgeOptions {
   std::uint32_t robot_id = 1;               // 1..kMaxRobots, the instance key of every topic
-  std::uint32_t domain_id = 0xFFFFFFFFu;    // DDS_DOMAIN_DEFAULT: from CYCLONEDDS_URI or 0
+  std::uint32_t domain_id = dds::kDefaultDomain;
   // Scans kept by the writer (and offered to late joiners, durability transient-local): a ground station
   // that restarts within depth / scan rate seconds receives every scan it missed. 300 = 4 s at 75 Hz.
   std::uint32_t scan_history_depth = 300;
@@ -53,11 +44,11 @@ class DdsBridge {
  public:
   [[nodiscard]] static Result<DdsBridge> create(const DdsBridgeOptions& options);
 
-  DdsBridge(DdsBridge&& other) noexcept;
-  DdsBridge& operator=(DdsBridge&& other) noexcept;
+  DdsBridge(DdsBridge&& other) noexcept = default;
+  DdsBridge& operator=(DdsBridge&& other) noexcept = default;
   DdsBridge(const DdsBridge&) = delete;
   DdsBridge& operator=(const DdsBridge&) = delete;
-  ~DdsBridge();  // disposes this robot's instances and deletes the participant
+  ~DdsBridge() = default;  // the participant's deletion disposes this robot's instances
 
   // Publish one sample. Fails (counted) if the DDS write fails or the sample's robot_id differs from
   // the bridge's (a programming error elsewhere, but a runtime fault here: never abort on the robot).
@@ -77,17 +68,24 @@ class DdsBridge {
   [[nodiscard]] const DdsBridgeCounters& counters() const { return counters_; }
 
  private:
-  struct Samples;
-  DdsBridge() = default;
-  void release();
+  // The transmit samples, allocated once in create().
+  struct Samples {
+    teamscan_msg_RobotPose pose_tx;
+    teamscan_msg_ScanPoints scan_tx;
+    teamscan_msg_RobotStatus status_tx;
+  };
+  explicit DdsBridge(dds::Participant participant)
+      : participant_{std::move(participant)}, team_rx_{1} {}
 
-  std::int32_t participant_ = 0;
-  std::int32_t pose_writer_ = 0;
-  std::int32_t scan_writer_ = 0;
-  std::int32_t status_writer_ = 0;
-  std::int32_t team_reader_ = 0;
+  // Declared first, destroyed last: the writers and reader below belong to it.
+  dds::Participant participant_;
+  dds_entity_t pose_writer_ = 0;
+  dds_entity_t scan_writer_ = 0;
+  dds_entity_t status_writer_ = 0;
+  dds_entity_t team_reader_ = 0;
   std::uint32_t robot_id_ = 0;
   std::unique_ptr<Samples> samples_;
+  dds::TakeBuffer<teamscan_msg_TeamState> team_rx_;  // keep-last 1: one sample at a time
   DdsBridgeCounters counters_{};
 };
 

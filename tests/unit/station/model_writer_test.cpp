@@ -29,7 +29,7 @@ namespace {
 std::int32_t mm(double m) { return static_cast<std::int32_t>(std::lround(m * 1000.0)); }
 
 std::string temp_dir() {
-  char tmpl[] = "/tmp/teamscan-gslive-writer-XXXXXX";
+  char tmpl[] = "/tmp/teamscan-station-writer-XXXXXX";
   return ::mkdtemp(tmpl);
 }
 

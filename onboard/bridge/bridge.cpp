@@ -1,25 +1,16 @@
 // DdsBridge: the robot's side of teamscan/pose, /scan, /status and /team over Cyclone DDS' C API.
 // Allocation discipline (DDS_SYSTEMD.md 1.8): every sample lives in Samples, allocated once in create();
 // each writer registers this robot's instance once, so a write serialises into Cyclone's pools only.
-#include "onboard/dds/bridge.hpp"
+#include "onboard/bridge/bridge.hpp"
 
 #include <cstring>
 #include <utility>
 
 #include <dds/dds.h>
 
-#include "onboard/dds/qos.hpp"
-#include "teamscan.h"
+#include "dds/qos.hpp"
 
 namespace teamscan::onboard {
-
-struct DdsBridge::Samples {
-  teamscan_msg_RobotPose pose_tx;
-  teamscan_msg_ScanPoints scan_tx;
-  teamscan_msg_RobotStatus status_tx;
-  teamscan_msg_TeamState team_rx;
-  dds_sample_info_t team_info;
-};
 
 namespace {
 
@@ -121,34 +112,26 @@ Result<DdsBridge> DdsBridge::create(const DdsBridgeOptions& options) {
   if (options.scan_history_depth == 0 || options.scan_history_depth > 100000) {
     return Error{"dds: scan_history_depth must be 1..100000", 0, static_cast<long>(options.scan_history_depth)};
   }
-  DdsBridge b;
+  Result<dds::Participant> participant = dds::Participant::create(options.domain_id);
+  if (!participant.ok()) return participant.error();
+  // Start-up allocations: the samples (about 7 kB) and the one-sample team buffer.
+  DdsBridge b{std::move(participant.value())};
   b.robot_id_ = options.robot_id;
-  // Start-up allocation: the only heap block of the bridge (about 7 kB).
   b.samples_.reset(new Samples{});
 
-  b.participant_ = dds_create_participant(options.domain_id, nullptr, nullptr);
-  if (b.participant_ < 0) return dds_error("dds: cannot create participant (check CYCLONEDDS_URI)", b.participant_);
-
-  const dds_entity_t pose_topic =
-      dds_create_topic(b.participant_, &teamscan_msg_RobotPose_desc, kTopicPose, nullptr, nullptr);
-  const dds_entity_t scan_topic =
-      dds_create_topic(b.participant_, &teamscan_msg_ScanPoints_desc, kTopicScan, nullptr, nullptr);
-  const dds_entity_t status_topic =
-      dds_create_topic(b.participant_, &teamscan_msg_RobotStatus_desc, kTopicStatus, nullptr, nullptr);
-  if (pose_topic < 0) return dds_error("dds: cannot create topic teamscan/pose", pose_topic);
-  if (scan_topic < 0) return dds_error("dds: cannot create topic teamscan/scan", scan_topic);
-  if (status_topic < 0) return dds_error("dds: cannot create topic teamscan/status", status_topic);
-
-  dds_qos_t* q = make_state_writer_qos(options.liveliness_lease, options.max_blocking);
-  b.pose_writer_ = dds_create_writer(b.participant_, pose_topic, q, nullptr);
-  b.status_writer_ = dds_create_writer(b.participant_, status_topic, q, nullptr);
+  dds_qos_t* q = dds::make_state_writer_qos(options.liveliness_lease, options.max_blocking);
+  Result<dds_entity_t> pose_writer = dds::create_writer<teamscan_msg_RobotPose>(b.participant_, q);
+  Result<dds_entity_t> status_writer = dds::create_writer<teamscan_msg_RobotStatus>(b.participant_, q);
   dds_delete_qos(q);
-  q = make_scan_writer_qos(options.scan_history_depth, options.liveliness_lease, options.max_blocking);
-  b.scan_writer_ = dds_create_writer(b.participant_, scan_topic, q, nullptr);
+  q = dds::make_scan_writer_qos(options.scan_history_depth, options.liveliness_lease, options.max_blocking);
+  Result<dds_entity_t> scan_writer = dds::create_writer<teamscan_msg_ScanPoints>(b.participant_, q);
   dds_delete_qos(q);
-  if (b.pose_writer_ < 0) return dds_error("dds: cannot create pose writer", b.pose_writer_);
-  if (b.status_writer_ < 0) return dds_error("dds: cannot create status writer", b.status_writer_);
-  if (b.scan_writer_ < 0) return dds_error("dds: cannot create scan writer", b.scan_writer_);
+  if (!pose_writer.ok()) return pose_writer.error();
+  if (!status_writer.ok()) return status_writer.error();
+  if (!scan_writer.ok()) return scan_writer.error();
+  b.pose_writer_ = pose_writer.value();
+  b.status_writer_ = status_writer.value();
+  b.scan_writer_ = scan_writer.value();
 
   // Register this robot's instance once: an unregistered instance is created and garbage-collected on
   // every write (+2 allocations and a GC request per write, DDS_SYSTEMD.md 1.8).
@@ -165,55 +148,17 @@ Result<DdsBridge> DdsBridge::create(const DdsBridgeOptions& options) {
   if (rc < 0) return dds_error("dds: cannot register status instance", rc);
 
   if (options.subscribe_team) {
-    const dds_entity_t team_topic =
-        dds_create_topic(b.participant_, &teamscan_msg_TeamState_desc, kTopicTeam, nullptr, nullptr);
-    if (team_topic < 0) return dds_error("dds: cannot create topic teamscan/team", team_topic);
-    q = make_team_reader_qos();
-    b.team_reader_ = dds_create_reader(b.participant_, team_topic, q, nullptr);
+    q = dds::make_team_reader_qos();
+    Result<dds_entity_t> team_reader = dds::create_reader<teamscan_msg_TeamState>(b.participant_, q);
     dds_delete_qos(q);
-    if (b.team_reader_ < 0) return dds_error("dds: cannot create team reader", b.team_reader_);
+    if (!team_reader.ok()) return team_reader.error();
+    b.team_reader_ = team_reader.value();
   }
   return b;
 }
 
-DdsBridge::DdsBridge(DdsBridge&& other) noexcept
-    : participant_{std::exchange(other.participant_, 0)},
-      pose_writer_{other.pose_writer_},
-      scan_writer_{other.scan_writer_},
-      status_writer_{other.status_writer_},
-      team_reader_{other.team_reader_},
-      robot_id_{other.robot_id_},
-      samples_{std::move(other.samples_)},
-      counters_{other.counters_} {}
-
-DdsBridge& DdsBridge::operator=(DdsBridge&& other) noexcept {
-  if (this != &other) {
-    release();
-    participant_ = std::exchange(other.participant_, 0);
-    pose_writer_ = other.pose_writer_;
-    scan_writer_ = other.scan_writer_;
-    status_writer_ = other.status_writer_;
-    team_reader_ = other.team_reader_;
-    robot_id_ = other.robot_id_;
-    samples_ = std::move(other.samples_);
-    counters_ = other.counters_;
-  }
-  return *this;
-}
-
-DdsBridge::~DdsBridge() { release(); }
-
-void DdsBridge::release() {
-  if (participant_ > 0) {
-    // Deleting the participant deletes its writers; autodispose (the default) then disposes this
-    // robot's instances, so the ground station sees a clean stop, not a lost robot (DDS_SYSTEMD.md 3.2).
-    (void)dds_delete(participant_);
-  }
-  participant_ = 0;
-}
-
 Status DdsBridge::publish_pose(const OnboardPose& pose) {
-  if (participant_ <= 0 || pose.robot_id != robot_id_) {
+  if (!participant_.valid() || pose.robot_id != robot_id_) {
     ++counters_.write_errors;
     return Error{"dds: pose for another robot id or bridge not created", 0, static_cast<long>(pose.robot_id)};
   }
@@ -228,7 +173,7 @@ Status DdsBridge::publish_pose(const OnboardPose& pose) {
 }
 
 Status DdsBridge::publish_scan(const OnboardScan& scan) {
-  if (participant_ <= 0 || scan.robot_id != robot_id_) {
+  if (!participant_.valid() || scan.robot_id != robot_id_) {
     ++counters_.write_errors;
     return Error{"dds: scan for another robot id or bridge not created", 0, static_cast<long>(scan.robot_id)};
   }
@@ -243,7 +188,7 @@ Status DdsBridge::publish_scan(const OnboardScan& scan) {
 }
 
 Status DdsBridge::publish_status(const OnboardStatus& status) {
-  if (participant_ <= 0 || status.robot_id != robot_id_) {
+  if (!participant_.valid() || status.robot_id != robot_id_) {
     ++counters_.write_errors;
     return Error{"dds: status for another robot id or bridge not created", 0, static_cast<long>(status.robot_id)};
   }
@@ -258,34 +203,33 @@ Status DdsBridge::publish_status(const OnboardStatus& status) {
 }
 
 bool DdsBridge::take_team(TeamSnapshot& out) {
-  if (team_reader_ <= 0 || participant_ <= 0) return false;
+  if (team_reader_ <= 0 || !participant_.valid()) return false;
   bool got = false;
-  // Keep-last 1: at most one sample waits. The sample memory is ours (buf[0] != NULL), so the take
-  // deserialises into it without allocating (fixed-size type, DDS_SYSTEMD.md 1.8).
-  for (;;) {
-    void* buf[1] = {&samples_->team_rx};
-    const dds_return_t n = dds_take(team_reader_, buf, &samples_->team_info, 1, 1);
-    if (n <= 0) break;
-    if (!samples_->team_info.valid_data) continue;  // dispose / no-writers notifications
-    if (decode_team(samples_->team_rx, out)) {
-      got = true;
-      ++counters_.teams_taken;
-    } else {
-      ++counters_.bad_team_samples;
-    }
-  }
+  // Keep-last 1: at most one sample waits. The sample memory is ours, so the take deserialises into
+  // it without allocating (fixed-size type, DDS_SYSTEMD.md 1.8).
+  (void)dds::take_all(
+      team_reader_, team_rx_, [] {},
+      [&](const teamscan_msg_TeamState& team, const dds_sample_info_t& info) {
+        if (!info.valid_data) return;  // dispose / no-writers notifications
+        if (decode_team(team, out)) {
+          got = true;
+          ++counters_.teams_taken;
+        } else {
+          ++counters_.bad_team_samples;
+        }
+      });
   return got;
 }
 
 Status DdsBridge::wait_for_scan_acks(Duration timeout) {
-  if (scan_writer_ <= 0 || participant_ <= 0) return Error{"dds: bridge not created"};
+  if (scan_writer_ <= 0 || !participant_.valid()) return Error{"dds: bridge not created"};
   const dds_return_t rc = dds_wait_for_acks(scan_writer_, static_cast<dds_duration_t>(timeout.count()));
   if (rc < 0) return dds_error("dds: scans not acknowledged in time", rc);
   return ok_status();
 }
 
 std::uint32_t DdsBridge::scan_subscribers() const {
-  if (scan_writer_ <= 0 || participant_ <= 0) return 0;
+  if (scan_writer_ <= 0 || !participant_.valid()) return 0;
   dds_publication_matched_status_t st{};
   if (dds_get_publication_matched_status(scan_writer_, &st) < 0) return 0;
   return st.current_count;

@@ -3,7 +3,7 @@
 
 #include <cstring>
 
-#include "onboard/dds/bridge.hpp"
+#include "onboard/bridge/bridge.hpp"
 #include "teamscan.h"
 
 namespace teamscan::onboard {

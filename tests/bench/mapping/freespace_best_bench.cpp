@@ -1,4 +1,4 @@
-// Issue 7 benchmarks (docs/beyond.md). Figures, not pass/fail:
+// Benchmarks of the filters beyond the paper (docs/beyond.md). Figures, not pass/fail:
 //  - freespace at 0.05 m vs OctoMap's ray-cast insertion (insertPointCloud) of the same scans at the
 //    same resolution, in one run, with the ratio (goal ≥ 10×);
 //  - best live (observe + classify per scan) in points per second against the team's live load,
@@ -18,9 +18,7 @@
 #include "groundstation/mapping/freespace_filter.hpp"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 
-#ifdef TEAMSCAN_HAVE_OCTOMAP
 #include <octomap/octomap.h>
-#endif
 
 namespace teamscan::mapping {
 namespace {
@@ -28,7 +26,7 @@ namespace {
 constexpr double kTeamLoadPointsPerS = 32.0 * 75.0 * 361.0;
 
 const Dataset& data() {
-  static const Dataset d = bench::bench_dataset_or_survey("beyond_bench", 30.0);
+  static const Dataset d = bench::bench_dataset_or_survey("mapping_freespace_best_bench", 30.0);
   return d;
 }
 
@@ -97,7 +95,6 @@ void BM_TrackedLive(benchmark::State& state) {
 }
 BENCHMARK(BM_TrackedLive)->Unit(benchmark::kMillisecond)->Iterations(1);
 
-#ifdef TEAMSCAN_HAVE_OCTOMAP
 // Side by side in one run: the same scans ray-cast into our freespace grid and into an OctoMap OcTree
 // at the same resolution (state.range(0) cm); then both decide every point. Ratio = OctoMap time /
 // freespace time for the insertion, and OctoMap removal's SA/DA beside freespace's and best's.
@@ -146,7 +143,6 @@ void BM_FreespaceVsOctomap(benchmark::State& state) {
   add_scores(state, "freespace", ours_removed);
 }
 BENCHMARK(BM_FreespaceVsOctomap)->Arg(5)->Unit(benchmark::kMillisecond)->Iterations(1);
-#endif
 
 }  // namespace
 }  // namespace teamscan::mapping

@@ -20,8 +20,8 @@
 #include "common/dataset/pcd.hpp"
 #include "groundstation/mapping/evaluation.hpp"
 #include "groundstation/mapping/filter.hpp"
-#include "onboard/dds/bridge.hpp"
-#include "onboard/dds/qos.hpp"
+#include "onboard/bridge/bridge.hpp"
+#include "dds/qos.hpp"
 #include "teamscan.h"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 #include "tests/hil/station/process.hpp"
@@ -53,7 +53,7 @@ Dataset as_received(const Dataset& d) {
     const std::int32_t vx = mm(s.v_mps * std::cos(s.pose.theta_rad)), vy = mm(s.v_mps * std::sin(s.pose.theta_rad));
     s.pose = Pose2{mm(s.pose.x_m) * 1e-3, mm(s.pose.y_m) * 1e-3,
                    static_cast<std::int32_t>(std::lround(s.pose.theta_rad * 1e6)) * 1e-6};
-    s.v_mps = vx * 1e-3 * std::cos(s.pose.theta_rad) + vy * 1e-3 * std::sin(s.pose.theta_rad);
+    s.v_mps = forward_speed_mps(vx * 1e-3, vy * 1e-3, s.pose.theta_rad);
   }
   for (ScanRecord& r : q.scans) {
     r.origin = {mm(r.origin.x) * 1e-3, mm(r.origin.y) * 1e-3, mm(r.origin.z) * 1e-3};
@@ -131,8 +131,8 @@ class MapViewer {
  public:
   MapViewer() {
     participant_ = dds_create_participant(test::test_domain_id(), nullptr, nullptr);
-    const dds_entity_t topic = dds_create_topic(participant_, &teamscan_msg_MapUpdate_desc, onboard::kTopicMap, nullptr, nullptr);
-    dds_qos_t* q = onboard::make_map_qos();
+    const dds_entity_t topic = dds_create_topic(participant_, &teamscan_msg_MapUpdate_desc, dds::kTopicMap, nullptr, nullptr);
+    dds_qos_t* q = dds::make_map_qos();
     reader_ = dds_create_reader(participant_, topic, q, nullptr);
     dds_delete_qos(q);
   }
@@ -183,7 +183,7 @@ class LiveFusion : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
   const std::string method = GetParam();
-  char tmpl[] = "/tmp/teamscan-gslive-XXXXXX";
+  char tmpl[] = "/tmp/teamscan-station-live-XXXXXX";
   const std::string root = ::mkdtemp(tmpl);
   const std::string session = root + "/session";
   const std::string config = root + "/gs.toml";

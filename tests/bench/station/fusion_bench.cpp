@@ -1,7 +1,7 @@
 // Live fusion throughput on one core: scans per second through FusionStage::add_scan (tracker
 // prediction, filter observe + classify, voxel map) for each method, and the cost of one fused-model
 // write (the offline pass over everything received) at the end of a lap2-like survey.
-// Run: build/dev/tests/bench/gslive/gslive_bench   (figures in docs/groundstation.md)
+// Run: build/dev/tests/bench/station/station_fusion_bench   (figures in docs/groundstation.md)
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -91,7 +91,7 @@ BENCHMARK_CAPTURE(BM_LiveScans, position, "position", 0.1)->Unit(benchmark::kMil
 
 // One fused-model write after the whole survey: the offline pass + two PCDs (kept, all with keep).
 void BM_WriteModel(benchmark::State& state) {
-  const std::string dir = std::filesystem::temp_directory_path() / "teamscan-gslive-bench";
+  const std::string dir = std::filesystem::temp_directory_path() / "teamscan-station-fusion-bench";
   std::filesystem::create_directories(dir);
   FusionOptions o;
   o.all_points_pcd = "fused_all.pcd";

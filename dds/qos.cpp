@@ -1,7 +1,7 @@
 // QoS recipes of the teamscan topics (DDS_SYSTEMD.md 1.3; liveliness per 3.2).
-#include "onboard/dds/qos.hpp"
+#include "dds/qos.hpp"
 
-namespace teamscan::onboard {
+namespace teamscan::dds {
 namespace {
 
 dds_duration_t to_dds(Duration d) { return static_cast<dds_duration_t>(d.count()); }
@@ -72,4 +72,4 @@ dds_qos_t* make_map_qos() {
   return q;
 }
 
-}  // namespace teamscan::onboard
+}  // namespace teamscan::dds
