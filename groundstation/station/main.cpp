@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 
 #include "common/clock.hpp"
+#include "common/version.hpp"
 #include "groundstation/station/config.hpp"
 #include "groundstation/station/session_store.hpp"
 #include "groundstation/station/station.hpp"
@@ -54,6 +55,13 @@ int main(int argc, char** argv) {
   app.add_option("--session-dir", session_dir, "store into exactly this folder instead of a new session-<time>");
   app.add_option("--domain", domain, "DDS domain id (overrides dds.domain_id)")->check(CLI::Range(-1, 232));
   app.add_flag("--check-config", check_only, "parse the config, print the effective values and exit");
+  app.add_flag_callback(
+      "--version",
+      [] {
+        print_version("teamscan-groundstation");
+        throw CLI::Success();
+      },
+      "print the version and the git commit, and exit");
   CLI11_PARSE(app, argc, argv);
 
   GroundStationConfig cfg;

@@ -418,7 +418,8 @@ int OnboardDaemon::run() {
       switch (events[static_cast<std::size_t>(i)].data.u32) {
         case kTagTimer: {
           std::uint64_t expirations = 0;
-          (void)::read(timer_fd_, &expirations, sizeof expirations);
+          // Drains the timerfd; the expiration count is not needed (the loop polls every source each tick).
+          [[maybe_unused]] const ssize_t drained = ::read(timer_fd_, &expirations, sizeof expirations);
           break;
         }
         case kTagSignal: {

@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "common/clock.hpp"
+#include "common/data_paths.hpp"
 #include "common/dataset/dataset.hpp"
 #include "common/dataset/pcd.hpp"
 #include "common/laser_geometry.hpp"
@@ -91,13 +92,7 @@ struct DemoArgs {
   bool no_precast = false;  // cast every scan in real time instead of ahead (sim/live.hpp precast)
 };
 
-std::string exe_dir() {
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string{"."} : exe.parent_path().string();
-}
-
-// A file next to the binary, in the build tree's sibling folders, or in an ancestor's `rel` path.
+// The first of `candidates` that exists.
 std::string find_file(const std::vector<std::string>& candidates) {
   for (const std::string& c : candidates) {
     std::error_code ec;
@@ -106,17 +101,8 @@ std::string find_file(const std::vector<std::string>& candidates) {
   return {};
 }
 
-std::string find_upwards(const std::string& start, const std::string& rel) {
-  for (fs::path p = start; !p.empty(); p = p.parent_path()) {
-    std::error_code ec;
-    if (fs::exists(p / rel, ec)) return (p / rel).lexically_normal().string();
-    if (p == p.parent_path()) break;
-  }
-  return {};
-}
-
 std::string find_binary(const std::string& name, const std::string& sub) {
-  const std::string d = exe_dir();
+  const std::string d = executable_dir();
   std::string f = find_file({d + "/" + name, d + "/../../" + sub + "/" + name, d + "/../bin/" + name});
   if (!f.empty()) return f;
   if (const char* path = std::getenv("PATH")) {
@@ -582,7 +568,7 @@ std::string json_escape(const std::string& s) {
 
 int run_demo(const DemoArgs& a) {
   const auto wall_start = std::chrono::steady_clock::now();
-  const sim::ScenarioLoad load = sim::resolve_scenario(a.scenario, exe_dir());
+  const sim::ScenarioLoad load = sim::resolve_scenario(a.scenario);
   if (!load.scenario) {
     std::fprintf(stderr, "teamscan demo: %s\n", load.error.c_str());
     return 2;
@@ -600,11 +586,14 @@ int run_demo(const DemoArgs& a) {
 
   // Loopback DDS, never the default config (DDS_SYSTEMD.md; the children inherit the environment).
   std::string dds = a.dds_config;
-  if (dds.empty()) dds = find_file({exe_dir() + "/../share/teamscan/cyclonedds-lo.xml"});
-  if (dds.empty()) dds = find_upwards(exe_dir(), "deploy/cyclonedds-lo.xml");
   if (dds.empty()) {
-    std::fprintf(stderr, "teamscan demo: cannot find deploy/cyclonedds-lo.xml (give --dds-config)\n");
-    return 2;
+    const DataFile lo = find_data_file("cyclonedds-lo.xml", "deploy/cyclonedds-lo.xml");
+    if (lo.path.empty()) {
+      std::fprintf(stderr, "teamscan demo: cannot find cyclonedds-lo.xml (looked in %s; give --dds-config)\n",
+                   lo.searched.c_str());
+      return 2;
+    }
+    dds = lo.path;
   }
   ::setenv("CYCLONEDDS_URI", ("file://" + fs::absolute(dds).string()).c_str(), 1);
   const int domain = a.domain.value_or(1 + static_cast<int>(::getpid() % 230));
@@ -1184,7 +1173,8 @@ const SubcommandRegistration kDemo{
        app.add_option("--seed", a->seed, "Override the scenario's seed");
        app.add_option("--bringup", a->bringup_s, "Seconds for device bring-up before the robots drive")->capture_default_str();
        app.add_option("--domain", a->domain, "DDS domain id (default: derived from the pid)");
-       app.add_option("--dds-config", a->dds_config, "Cyclone DDS config (default: deploy/cyclonedds-lo.xml, found)");
+       app.add_option("--dds-config", a->dds_config,
+                      "Cyclone DDS config (default: the installed share/teamscan/cyclonedds-lo.xml; deploy/ in a build tree)");
        app.add_option("--onboard-bin", a->onboard_bin, "teamscan-onboard executable (default: found next to teamscan)");
        app.add_option("--station-bin", a->station_bin, "teamscan-groundstation executable (default: found)");
        app.add_option("--tolerance-da", a->tolerance_da_pct, "Allowed |live DA − offline DA| in points")->capture_default_str();

@@ -18,12 +18,6 @@
 namespace teamscan::tool {
 namespace {
 
-std::string executable_dir() {
-  std::error_code ec;
-  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string{"."} : exe.parent_path().string();
-}
-
 struct SimArgs {
   std::string scenario;
   std::string out;
@@ -61,7 +55,7 @@ bool write_captures(const std::string& out_dir, const std::vector<sim::RobotCapt
 }
 
 int run_sim(const SimArgs& args) {
-  const sim::ScenarioLoad load = sim::resolve_scenario(args.scenario, executable_dir());
+  const sim::ScenarioLoad load = sim::resolve_scenario(args.scenario);
   if (!load.scenario) {
     std::fprintf(stderr, "teamscan sim: %s\n", load.error.c_str());
     return 2;

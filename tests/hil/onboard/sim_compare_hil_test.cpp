@@ -184,7 +184,7 @@ struct PublishedTeam {
 };
 
 TEST(OnboardSimCompareHil, DaemonPointsEqualTheSimulatorsAndFlagsTheOfflineFilters) {
-  const sim::ScenarioLoad load = sim::resolve_scenario("lap2", ".");
+  const sim::ScenarioLoad load = sim::resolve_scenario("lap2");
   ASSERT_TRUE(load.scenario.has_value()) << load.error;
   const sim::Scenario& scenario = *load.scenario;
   const sim::TeamWorld team{scenario};
