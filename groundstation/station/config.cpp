@@ -82,7 +82,8 @@ bool known_keys(const toml::table& root, ConfigError& error) {
       "fusion", "fusion.enabled", "fusion.method", "fusion.resolution_m", "fusion.half_angle_deg",
       "fusion.grid_origin_z_m", "fusion.frequency_k", "fusion.position_sigma_m", "fusion.position_n",
       "fusion.direction_from_flags", "fusion.write_interval_s", "fusion.write_all_points", "fusion.map_interval_s",
-      "fusion.map_resolution_m", "fusion.latency_log"};
+      "fusion.map_resolution_m", "fusion.latency_log",
+      "ros2", "ros2.enabled", "ros2.map_interval_s", "ros2.pose_rate_hz", "ros2.heading_sigma_deg"};
   std::string bad;
   const std::function<void(const toml::table&, const std::string&)> walk = [&](const toml::table& t, const std::string& prefix) {
     for (const auto& [k, v] : t) {
@@ -186,6 +187,13 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
     return r.fail("fusion.method", "must be frequency, visibility, position, direction, combined, freespace, tracked "
                                    "or best, got \"" + f.method + "\"");
   }
+  Ros2Config& ros = c.ros2;
+  double cloud_s = to_seconds(ros.map_interval);
+  const bool ok4 = r.boolean("ros2.enabled", ros.enabled) && r.number("ros2.map_interval_s", cloud_s, 0.0, 3600.0) &&
+                   r.number("ros2.pose_rate_hz", ros.pose_rate_hz, 0.0, 1000.0) &&
+                   r.number("ros2.heading_sigma_deg", ros.heading_sigma_deg, 0.0, 180.0, true);
+  if (!ok4) return false;
+  ros.map_interval = from_seconds(cloud_s);
   f.write_interval = from_seconds(write_s);
   f.map_interval = from_seconds(map_s);
   if (source == "kalman") {
