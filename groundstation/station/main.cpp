@@ -117,7 +117,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<Ros2Publisher> ros2;
   std::vector<TeamMemberEstimate> ros2_team(kMaxRobots);
   if (cfg.ros2.enabled) {
-    auto created = Ros2Publisher::create(cfg.ros2, cfg.station.domain_id);
+    auto created = Ros2Publisher::create(cfg.ros2, st.participant());
     if (!created) {
       log(kErr, created.error().what);
       return 1;

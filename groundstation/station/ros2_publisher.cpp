@@ -39,7 +39,6 @@ double heading_at(const Heading& h, Time at) {
 
 // The worker's state: the participant and writers, its copy of the map, the messages' buffers.
 struct Ros2Publisher::Worker {
-  dds_entity_t participant = 0;
   std::unique_ptr<ros2::Ros2Writers> writers;
   std::unordered_map<VoxelKey, std::uint32_t, VoxelKeyHash> index;  // voxel centre -> voxels
   std::vector<teamscan_msg_MapVoxel> voxels;
@@ -48,10 +47,6 @@ struct Ros2Publisher::Worker {
   ros2::PointCloudMessage cloud;
   ros2::TfMessage tf;
   ros2::OdometryMessage odometry;
-  ~Worker() {
-    writers.reset();
-    if (participant > 0) (void)dds_delete(participant);
-  }
 
   void merge(std::span<const teamscan_msg_MapVoxel> update) {
     for (const teamscan_msg_MapVoxel& v : update) {
@@ -69,11 +64,9 @@ struct Ros2Publisher::Worker {
   }
 };
 
-Result<std::unique_ptr<Ros2Publisher>> Ros2Publisher::create(const Ros2Config& config, std::uint32_t domain_id) {
+Result<std::unique_ptr<Ros2Publisher>> Ros2Publisher::create(const Ros2Config& config, std::int32_t participant) {
   auto worker = std::make_unique<Worker>();
-  worker->participant = dds_create_participant(domain_id, nullptr, nullptr);
-  if (worker->participant < 0) return Error{"ros2: cannot create the DDS participant"};
-  auto writers = ros2::Ros2Writers::create(worker->participant);
+  auto writers = ros2::Ros2Writers::create(participant);
   if (!writers) return writers.error();
   worker->writers = std::move(writers.value());
   return std::unique_ptr<Ros2Publisher>(new Ros2Publisher(config, std::move(worker)));

@@ -1,6 +1,6 @@
 // The ground station on ROS 2 wire names (issue 13, docs/ros2.md): the fused map as PointCloud2 on
 // rt/teamscan/map_cloud, every tracked robot on rt/tf (map -> robotN/base_link) and its odometry on
-// rt/robotN/odom, through dds/ros2 on a participant of its own. The receive loop only hands over what it
+// rt/robotN/odom, through dds/ros2 on the station's participant. The receive loop only hands over what it
 // has anyway -- each teamscan/map update (changed voxels, or the whole map) and the team source's
 // estimates at the pose rate -- by copying them into a mailbox; a worker thread merges the map updates
 // into its own copy of the map, builds the messages and writes them, so the fusion never waits on it.
@@ -53,8 +53,9 @@ struct Heading {
 
 class Ros2Publisher {
  public:
-  [[nodiscard]] static Result<std::unique_ptr<Ros2Publisher>> create(const Ros2Config& config, std::uint32_t domain_id);
-  ~Ros2Publisher();  // stops the worker, deletes the participant
+  // `participant`: the station's (Station::participant()); must outlive this object.
+  [[nodiscard]] static Result<std::unique_ptr<Ros2Publisher>> create(const Ros2Config& config, std::int32_t participant);
+  ~Ros2Publisher();  // stops the worker, deletes the writers
   Ros2Publisher(const Ros2Publisher&) = delete;
   Ros2Publisher& operator=(const Ros2Publisher&) = delete;
 
