@@ -115,7 +115,6 @@ int main(int argc, char** argv) {
   Station& st = **station;
   // ROS 2 wire names (docs/ros2.md): fed from this loop by copies, published on its own thread.
   std::unique_ptr<Ros2Publisher> ros2;
-  std::vector<TeamMemberEstimate> ros2_team(kMaxRobots);
   if (cfg.ros2.enabled) {
     auto created = Ros2Publisher::create(cfg.ros2, st.participant());
     if (!created) {
@@ -217,10 +216,7 @@ int main(int argc, char** argv) {
     now = now_monotonic();
     if (handled > 0) handle_max = std::max(handle_max, now - before_poll);
     st.publish_team_if_due(now);
-    if (ros2 && ros2->poses_due(now)) {
-      const std::size_t n = team->estimate(now_realtime(), ros2_team);
-      ros2->offer_team(std::span<const TeamMemberEstimate>(ros2_team.data(), n), now);
-    }
+    if (ros2) ros2->tick(now, *team);
     if (ping_period.count() > 0 && now >= next_ping) {
       onboard::notify_watchdog();
       next_ping = now + ping_period;
@@ -288,14 +284,15 @@ int main(int argc, char** argv) {
   }
   if (ros2) {
     const Ros2Counters c = ros2->counters();
-    char line[300];
+    char line[400];
     std::snprintf(line, sizeof line, "ros2: %llu map updates, %llu clouds (last %llu points, longest %.1f ms, mean %.1f ms on "
-                  "its thread), %llu tf, %llu odometry, %llu write errors; loop's longest hand-over %.3f ms",
+                  "its thread), %llu tf, %llu odometry, %llu write errors; loop's longest hand-over %.3f ms, %llu deferred",
                   static_cast<unsigned long long>(c.map_updates), static_cast<unsigned long long>(c.clouds),
                   static_cast<unsigned long long>(c.last_cloud_points), to_seconds(c.cloud_max) * 1e3,
                   c.clouds ? to_seconds(c.cloud_total) * 1e3 / static_cast<double>(c.clouds) : 0.0,
                   static_cast<unsigned long long>(c.tf_messages), static_cast<unsigned long long>(c.odometry),
-                  static_cast<unsigned long long>(c.write_errors), to_seconds(c.offer_max) * 1e3);
+                  static_cast<unsigned long long>(c.write_errors), to_seconds(c.offer_max) * 1e3,
+                  static_cast<unsigned long long>(c.handovers_deferred));
     store->log_event(now_realtime(), line);
     ros2.reset();
   }

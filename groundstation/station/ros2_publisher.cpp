@@ -96,36 +96,62 @@ void Ros2Publisher::add_pose(const PoseObservation& pose) {
 
 void Ros2Publisher::offer_map(std::span<const teamscan_msg_MapVoxel> voxels, std::uint32_t total_voxels) {
   const Time t0 = now_monotonic();
-  {
-    const std::lock_guard lock(mutex_);
-    if (total_voxels == voxels.size()) {  // the whole map: what is pending is superseded
-      pending_map_.clear();
-      pending_full_ = true;
-    }
-    pending_map_.insert(pending_map_.end(), voxels.begin(), voxels.end());
-    ++pending_updates_;
+  if (total_voxels == voxels.size()) {  // the whole map: what is not handed over yet is superseded
+    loop_map_.clear();
+    loop_full_ = true;
   }
-  wake_.notify_one();
+  loop_map_.insert(loop_map_.end(), voxels.begin(), voxels.end());
+  ++loop_updates_;
+  hand_over();
   offer_max_ = std::max(offer_max_, now_monotonic() - t0);
 }
 
-void Ros2Publisher::offer_team(std::span<const TeamMemberEstimate> estimates, Time now_monotonic_time) {
+void Ros2Publisher::tick(Time now_monotonic_time, const TeamSource& team) {
+  const bool poses = now_monotonic_time >= next_poses_;
+  if (!poses && loop_updates_ == 0) return;
   const Time t0 = now_monotonic();
-  next_poses_ = now_monotonic_time + from_seconds(1.0 / config_.pose_rate_hz);
-  {
-    const std::lock_guard lock(mutex_);
-    pending_team_.assign(estimates.begin(), estimates.end());
+  if (poses) {
+    loop_team_count_ = team.estimate(now_realtime(), loop_team_);
+    loop_team_pending_ = true;
+    next_poses_ = now_monotonic_time + from_seconds(1.0 / config_.pose_rate_hz);
+  }
+  hand_over();
+  offer_max_ = std::max(offer_max_, now_monotonic() - t0);
+}
+
+void Ros2Publisher::hand_over() {
+  std::unique_lock lock(mutex_, std::try_to_lock);
+  if (!lock.owns_lock()) {
+    ++deferred_;
+    return;
+  }
+  if (loop_updates_ > 0) {
+    if (loop_full_ || pending_map_.empty()) {
+      pending_map_.swap(loop_map_);  // O(1): the worker gets the loop's buffer, the loop its old one
+      pending_full_ = pending_full_ || loop_full_;
+    } else {
+      pending_map_.insert(pending_map_.end(), loop_map_.begin(), loop_map_.end());
+    }
+    loop_map_.clear();
+    loop_full_ = false;
+    pending_updates_ += loop_updates_;
+    loop_updates_ = 0;
+  }
+  if (loop_team_pending_) {
+    pending_team_.assign(loop_team_.begin(), loop_team_.begin() + static_cast<std::ptrdiff_t>(loop_team_count_));
     pending_headings_ = headings_;
     team_pending_ = true;
+    loop_team_pending_ = false;
   }
+  lock.unlock();
   wake_.notify_one();
-  offer_max_ = std::max(offer_max_, now_monotonic() - t0);
 }
 
 Ros2Counters Ros2Publisher::counters() const {
   const std::lock_guard lock(mutex_);
   Ros2Counters c = counters_;
-  c.offer_max = offer_max_;  // the loop's own figure: read from the loop's thread
+  c.offer_max = offer_max_;  // the loop's own figures: read from the loop's thread
+  c.handovers_deferred = deferred_;
   return c;
 }
 

@@ -2,8 +2,9 @@
 // rt/teamscan/map_cloud, every tracked robot on rt/tf (map -> robotN/base_link) and its odometry on
 // rt/robotN/odom, through dds/ros2 on the station's participant. The receive loop only hands over what it
 // has anyway -- each teamscan/map update (changed voxels, or the whole map) and the team source's
-// estimates at the pose rate -- by copying them into a mailbox; a worker thread merges the map updates
-// into its own copy of the map, builds the messages and writes them, so the fusion never waits on it.
+// estimates at the pose rate -- by copying them into a mailbox it never waits for (try-lock: when the
+// worker holds it, the hand-over is retried on the next loop turn); a worker thread merges the map
+// updates into its own copy of the map, builds the messages and writes them.
 #pragma once
 
 #include <array>
@@ -36,7 +37,8 @@ struct Ros2Counters {
   std::uint64_t map_voxels = 0;       // voxels in the worker's copy of the map (kept and removed)
   Duration cloud_max{0};              // build + write of one cloud on the worker thread
   Duration cloud_total{0};
-  Duration offer_max{0};              // the loop's side: the longest offer_map / offer_team call
+  Duration offer_max{0};              // the loop's side: the longest offer_map / tick call
+  std::uint64_t handovers_deferred = 0;  // the worker held the mailbox: retried on the next loop turn
 };
 
 // A tracked robot's heading: yaw and yaw rate of its newest odometry pose.
@@ -63,10 +65,9 @@ class Ros2Publisher {
   void add_pose(const PoseObservation& pose);
   // Each teamscan/map update as published: total_voxels == voxels.size() marks the whole map.
   void offer_map(std::span<const teamscan_msg_MapVoxel> voxels, std::uint32_t total_voxels);
-  // True when the pose rate asks for the next offer_team.
-  [[nodiscard]] bool poses_due(Time now_monotonic) const { return now_monotonic >= next_poses_; }
-  // The team source's estimates (TeamSource::estimate, ordered by robot id) at one time.
-  void offer_team(std::span<const TeamMemberEstimate> estimates, Time now_monotonic);
+  // Every loop turn: at the pose rate, the team source's estimates now (CLOCK_REALTIME) are handed
+  // over; a deferred map hand-over is retried.
+  void tick(Time now_monotonic, const TeamSource& team);
 
   [[nodiscard]] Ros2Counters counters() const;
   [[nodiscard]] const Ros2Config& config() const { return config_; }
@@ -75,11 +76,21 @@ class Ros2Publisher {
   struct Worker;
   Ros2Publisher(const Ros2Config& config, std::unique_ptr<Worker> worker);
   void run();
+  // Loop side: moves the loop's buffers into the mailbox if the worker does not hold it.
+  void hand_over();
 
   Ros2Config config_;
-  std::array<Heading, kMaxRobots + 1> headings_{};  // loop's own, index robot id
+  // The loop's own: headings (index robot id), map updates and estimates not handed over yet.
+  std::array<Heading, kMaxRobots + 1> headings_{};
+  std::vector<teamscan_msg_MapVoxel> loop_map_;
+  bool loop_full_ = false;
+  std::uint64_t loop_updates_ = 0;
+  std::array<TeamMemberEstimate, kMaxRobots> loop_team_{};
+  std::size_t loop_team_count_ = 0;
+  bool loop_team_pending_ = false;
   Time next_poses_;
   Duration offer_max_{0};
+  std::uint64_t deferred_ = 0;
 
   mutable std::mutex mutex_;  // guards the mailbox, stop_ and counters_
   std::condition_variable wake_;

@@ -41,7 +41,7 @@ class Ros2PublisherTest : public ::testing::Test {
     ASSERT_GT(participant_, 0);
     Ros2Config c;
     c.map_interval = std::chrono::milliseconds(20);
-    c.pose_rate_hz = 100.0;
+    c.pose_rate_hz = 1.0;  // one /tf per second: two ticks in a row publish once
     auto p = Ros2Publisher::create(c, participant_);
     ASSERT_TRUE(p.ok()) << p.error().what;
     publisher_ = std::move(p.value());
@@ -115,24 +115,21 @@ TEST_F(Ros2PublisherTest, CloudFollowsTheMapUpdatesAndKeepsOnlyKeptVoxels) {
 }
 
 TEST_F(Ros2PublisherTest, TfCarriesLiveRobotsWithAHeading) {
+  // The team source knows robots 1, 2 and 3; the publisher has seen poses of 2 and 3 only (its pose
+  // hook), and 3 is lost.
+  LastPoseTeamSource team;
   PoseObservation p;
-  p.robot_id = 2;
   p.stamp = now_realtime();
-  p.yaw_rad = 1.0;
-  publisher_->add_pose(p);
-  p.robot_id = 3;
-  p.yaw_rad = -1.0;
-  publisher_->add_pose(p);
-  std::vector<TeamMemberEstimate> team(3);
-  team[0].robot_id = 1;  // no pose seen: no heading, left out
-  team[1].robot_id = 2;
-  team[1].x_m = 4.0;
-  team[2].robot_id = 3;
-  team[2].lost = true;   // lost: left out
-  for (auto& e : team) e.valid = p.stamp;
-  ASSERT_TRUE(publisher_->poses_due(now_monotonic()));
-  publisher_->offer_team(team, now_monotonic());
-  EXPECT_FALSE(publisher_->poses_due(now_monotonic()));  // next one in 1 / pose_rate_hz
+  for (std::uint32_t id : {1u, 2u, 3u}) {
+    p.robot_id = id;
+    p.x_m = 1.0 + id;
+    p.yaw_rad = id == 2 ? 1.0 : -1.0;
+    team.add_pose(p);
+    if (id != 1) publisher_->add_pose(p);
+  }
+  team.set_lost(3, true);
+  publisher_->tick(now_monotonic(), team);
+  publisher_->tick(now_monotonic(), team);  // not due yet
   bool got = false;
   for (int i = 0; i < 500 && !got; ++i) {
     void* samples[1] = {};
@@ -142,7 +139,7 @@ TEST_F(Ros2PublisherTest, TfCarriesLiveRobotsWithAHeading) {
         const auto* m = static_cast<const tf2_msgs_msg_dds__TFMessage_*>(samples[0]);
         ASSERT_EQ(m->transforms._length, 1u);
         EXPECT_STREQ(m->transforms._buffer[0].child_frame_id, "robot2/base_link");
-        EXPECT_DOUBLE_EQ(m->transforms._buffer[0].transform.translation.x, 4.0);
+        EXPECT_NEAR(m->transforms._buffer[0].transform.translation.x, 3.0, 1e-9);
         EXPECT_NEAR(2.0 * std::atan2(m->transforms._buffer[0].transform.rotation.z, m->transforms._buffer[0].transform.rotation.w), 1.0, 1e-9);
         got = true;
       }
@@ -152,6 +149,12 @@ TEST_F(Ros2PublisherTest, TfCarriesLiveRobotsWithAHeading) {
     }
   }
   EXPECT_TRUE(got);
+  dds_sleepfor(DDS_MSECS(100));
+  void* samples[1] = {};
+  dds_sample_info_t info;
+  const int n = dds_take(tf_, samples, &info, 1, 1);
+  if (n > 0) (void)dds_return_loan(tf_, samples, n);
+  EXPECT_EQ(n, 0) << "the second tick within 1 / pose_rate_hz published again";
 }
 
 }  // namespace
