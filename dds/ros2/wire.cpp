@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstring>
 
-namespace teamscan::ros2 {
+namespace teamscan::dds::ros2 {
 namespace {
 
 // PointCloudMessage copies CloudPoints as bytes and says is_bigendian = false.
@@ -194,4 +194,4 @@ Status Ros2Writers::write_odometry(std::uint32_t robot_id, const OdometryMessage
   return ok_status();
 }
 
-}  // namespace teamscan::ros2
+}  // namespace teamscan::dds::ros2

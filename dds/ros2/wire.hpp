@@ -16,7 +16,7 @@
 #include "common/result.hpp"
 #include "ros2_wire.h"
 
-namespace teamscan::ros2 {
+namespace teamscan::dds::ros2 {
 
 // rmw naming: "rt" + the fully qualified ROS topic name (ROS2_WIRE.md 1).
 inline constexpr char kTopicMapCloud[] = "rt/teamscan/map_cloud";
@@ -158,4 +158,4 @@ class Ros2Writers {
   Ros2WriterCounters counters_;
 };
 
-}  // namespace teamscan::ros2
+}  // namespace teamscan::dds::ros2

@@ -40,14 +40,14 @@ double heading_at(const Heading& h, Time at) {
 
 // The worker's state: the participant and writers, its copy of the map, the messages' buffers.
 struct Ros2Publisher::Worker {
-  std::unique_ptr<ros2::Ros2Writers> writers;
+  std::unique_ptr<dds::ros2::Ros2Writers> writers;
   std::unordered_map<VoxelKey, std::uint32_t, VoxelKeyHash> index;  // voxel centre -> voxels
   std::vector<teamscan_msg_MapVoxel> voxels;
-  std::vector<ros2::CloudPoint> cloud_points;
-  std::vector<ros2::PlanarState> states;
-  ros2::PointCloudMessage cloud;
-  ros2::TfMessage tf;
-  ros2::OdometryMessage odometry;
+  std::vector<dds::ros2::CloudPoint> cloud_points;
+  std::vector<dds::ros2::PlanarState> states;
+  dds::ros2::PointCloudMessage cloud;
+  dds::ros2::TfMessage tf;
+  dds::ros2::OdometryMessage odometry;
 
   void merge(std::span<const teamscan_msg_MapVoxel> update) {
     for (const teamscan_msg_MapVoxel& v : update) {
@@ -67,7 +67,7 @@ struct Ros2Publisher::Worker {
 
 Result<std::unique_ptr<Ros2Publisher>> Ros2Publisher::create(const Ros2Config& config, std::int32_t participant) {
   auto worker = std::make_unique<Worker>();
-  auto writers = ros2::Ros2Writers::create(participant);
+  auto writers = dds::ros2::Ros2Writers::create(participant);
   if (!writers) return writers.error();
   worker->writers = std::move(writers.value());
   return std::unique_ptr<Ros2Publisher>(new Ros2Publisher(config, std::move(worker)));
@@ -195,7 +195,7 @@ void Ros2Publisher::run() {
       for (const TeamMemberEstimate& e : team_work) {
         // A lost robot's frame goes stale in RViz2 (tf2 keeps its last transform only for its buffer).
         if (e.lost || e.robot_id == 0 || e.robot_id > kMaxRobots || !headings[e.robot_id].known) continue;
-        ros2::PlanarState s;
+        dds::ros2::PlanarState s;
         s.robot_id = e.robot_id;
         s.stamp_ns = e.valid.ns();
         s.x_m = e.x_m;
@@ -213,7 +213,7 @@ void Ros2Publisher::run() {
       if (!w.states.empty()) {
         w.tf.set(w.states);
         if (w.writers->write_tf(w.tf).ok()) ++done.tf_messages; else ++done.write_errors;
-        for (const ros2::PlanarState& s : w.states) {
+        for (const dds::ros2::PlanarState& s : w.states) {
           w.odometry.set(s);
           if (w.writers->write_odometry(s.robot_id, w.odometry).ok()) ++done.odometry; else ++done.write_errors;
         }
@@ -227,7 +227,7 @@ void Ros2Publisher::run() {
         w.cloud_points.push_back({static_cast<float>(v.x_mm * 1e-3), static_cast<float>(v.y_mm * 1e-3),
                                   static_cast<float>(v.z_mm * 1e-3), static_cast<float>(v.hits)});
       }
-      w.cloud.set(now_realtime().ns(), ros2::kFrameMap, w.cloud_points);
+      w.cloud.set(now_realtime().ns(), dds::ros2::kFrameMap, w.cloud_points);
       if (w.writers->write_cloud(w.cloud).ok()) ++done.clouds; else ++done.write_errors;
       const Duration took = now_monotonic() - now;
       done.cloud_max = took;

@@ -299,17 +299,6 @@ struct RobotDelivery {
   std::uint64_t truth_ghost_beams = 0;  // beams cast on a teammate within the run window
 };
 
-// The wire's point flags (common/scan_points.hpp) as the data set's (common/dataset/dataset.hpp).
-std::uint16_t dataset_flags(std::uint16_t wire) {
-  std::uint16_t f = 0;
-  if (wire & kPointDirectionFiltered) f |= point_flags::kDirectionFiltered;
-  if (wire & kPointInvalid) f |= point_flags::kInvalid;
-  if (wire & kPointDazzled) f |= point_flags::kDazzled;
-  if (wire & kPointOutOfRange) f |= point_flags::kOutOfRange;
-  if (wire & kPointTeamStale) f |= point_flags::kTeamStale;
-  return f;
-}
-
 // Live session -> labelled data set on the simulator's time base (scenario start + world time).
 struct LiveDataset {
   Dataset ds;
@@ -365,11 +354,8 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
     o.robot = id;
     o.stamp_ns = t;
     o.pose = {std::stod(f[5]) * 1e-3, std::stod(f[6]) * 1e-3, std::stod(f[7]) * 1e-6};
-    // Forward speed: the map-frame velocity (vx, vy) projected on the heading, as the station's tracker
-    // is fed (groundstation/station/kalman_team_source.cpp). Taking vx alone zeroed it for a robot
-    // heading along y, and the tracker's teammate predictions lagged (position DA −17 points on 60 s).
-    const double vx = std::stod(f[8]) * 1e-3, vy = std::stod(f[9]) * 1e-3;
-    o.v_mps = vx * std::cos(o.pose.theta_rad) + vy * std::sin(o.pose.theta_rad);
+    // The tracker is fed the forward speed, as the station's (common/pose.hpp).
+    o.v_mps = forward_speed_mps(std::stod(f[8]) * 1e-3, std::stod(f[9]) * 1e-3, o.pose.theta_rad);
     o.w_radps = std::stod(f[10]) * 1e-3;
     ds.odom.push_back(o);
     const sim::Motion& m = team.motion(team_index(id));
@@ -434,7 +420,7 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
       lp.beam = p.beam;
       lp.label = b.label;
       lp.hit_robot = b.hit_robot;
-      lp.flags = dataset_flags(p.flags);
+      lp.flags = dataset_flags_from_wire(p.flags);
       lp.tx = b.tx;
       lp.ty = b.ty;
       lp.tz = b.tz;

@@ -98,17 +98,12 @@ int run_sim(const SimArgs& args) {
   const double sim_cpu_s = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
 
   if (!args.out.empty()) {
-#ifdef TEAMSCAN_HAVE_DATASET_WRITER
     const Status written = write_dataset(args.out, out.dataset);
     if (!written) {
       std::fprintf(stderr, "teamscan sim: cannot write the data set to %s: %s (%ld)\n", args.out.c_str(),
                    written.error().what, written.error().detail);
       return 1;
     }
-#else
-    std::fprintf(stderr, "teamscan sim: this build has no data set writer (common/dataset); nothing written\n");
-    return 1;
-#endif
     if (!write_captures(args.out, out.captures)) return 1;
   }
   const double total_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

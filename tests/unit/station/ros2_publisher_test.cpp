@@ -45,8 +45,8 @@ class Ros2PublisherTest : public ::testing::Test {
     auto p = Ros2Publisher::create(c, participant_);
     ASSERT_TRUE(p.ok()) << p.error().what;
     publisher_ = std::move(p.value());
-    cloud_ = reader(&sensor_msgs_msg_dds__PointCloud2__desc, ros2::kTopicMapCloud, 1);
-    tf_ = reader(&tf2_msgs_msg_dds__TFMessage__desc, ros2::kTopicTf, 100);
+    cloud_ = reader(&sensor_msgs_msg_dds__PointCloud2__desc, dds::ros2::kTopicMapCloud, 1);
+    tf_ = reader(&tf2_msgs_msg_dds__TFMessage__desc, dds::ros2::kTopicTf, 100);
   }
   void TearDown() override {
     publisher_.reset();
@@ -54,7 +54,7 @@ class Ros2PublisherTest : public ::testing::Test {
   }
   dds_entity_t reader(const dds_topic_descriptor_t* desc, const char* topic, std::int32_t depth) {
     const dds_entity_t t = dds_create_topic(participant_, desc, topic, nullptr, nullptr);
-    dds_qos_t* q = ros2::make_rmw_like_reader_qos(true, false, depth);
+    dds_qos_t* q = dds::ros2::make_rmw_like_reader_qos(true, false, depth);
     const dds_entity_t r = dds_create_reader(participant_, t, q, nullptr);
     dds_delete_qos(q);
     return r;
