@@ -45,7 +45,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   double lease_s = to_seconds(c.station.team_liveliness_lease);
   double silence_s = to_seconds(c.station.silence_timeout);
   std::string source = c.team_source == TeamSourceKind::kKalman ? "kalman" : "last_pose";
-  r.top_level({"station", "dds", "team", "fusion"});
+  r.top_level({"station", "dds", "team", "fusion", "ros2"});
 
   const toml::table* station = r.section("station", false);
   r.only(station, "station", {"session_root", "sync_interval_s", "status_interval_s"});
@@ -111,7 +111,16 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.boolean(fusion, "fusion", "latency_log", f.latency_log);
   r.number_in(fusion, "fusion", "map_interval_s", map_s, 0.0, 3600.0, true);
   r.number_in(fusion, "fusion", "map_resolution_m", f.map_resolution_m, 0.0, 10.0);
+  Ros2Config& ros = c.ros2;
+  double cloud_s = to_seconds(ros.map_interval);
+  const toml::table* ros2 = r.section("ros2", false);
+  r.only(ros2, "ros2", {"enabled", "map_interval_s", "pose_rate_hz", "heading_sigma_deg"});
+  r.boolean(ros2, "ros2", "enabled", ros.enabled);
+  r.number_in(ros2, "ros2", "map_interval_s", cloud_s, 0.0, 3600.0);
+  r.number_in(ros2, "ros2", "pose_rate_hz", ros.pose_rate_hz, 0.0, 1000.0);
+  r.number_in(ros2, "ros2", "heading_sigma_deg", ros.heading_sigma_deg, 0.0, 180.0, true);
   if (r.failed()) return false;
+  ros.map_interval = from_seconds(cloud_s);
   // The paper's methods and the ones beyond it (groundstation/mapping make_filter; docs/beyond.md).
   static const char* const kMethods[] = {"frequency", "visibility", "position", "direction", "combined",
                                          "freespace", "tracked",    "best"};

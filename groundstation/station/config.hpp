@@ -48,6 +48,17 @@ struct FusionConfig {
   double map_resolution_m = 0.1;
 };
 
+// [ros2]: the fused map and the tracked robots on ROS 2 wire names (ros2_publisher.hpp, docs/ros2.md).
+// On by default: RViz2 and Foxglove see the survey without a ROS 2 install on the station, and the cost
+// is a copy of each teamscan/map update and of the team estimates (docs/ros2.md "Cost").
+struct Ros2Config {
+  bool enabled = true;
+  Duration map_interval = std::chrono::seconds(1);   // rt/teamscan/map_cloud republished this often
+  double pose_rate_hz = 10.0;                        // rt/tf and rt/robotN/odom
+  // The tracker estimates no heading: the odometry's yaw variance is this sigma squared.
+  double heading_sigma_deg = 3.0;
+};
+
 enum class TeamSourceKind { kKalman, kLastPose };
 
 struct GroundStationConfig {
@@ -60,6 +71,7 @@ struct GroundStationConfig {
   TeamSourceKind team_source = TeamSourceKind::kKalman;
   KalmanConfig kalman;
   FusionConfig fusion;
+  Ros2Config ros2;
 };
 
 struct ConfigError {

@@ -10,9 +10,11 @@
 
 #include <CLI/CLI.hpp>
 
+#include "common/capacities.hpp"
 #include "common/clock.hpp"
 #include "common/version.hpp"
 #include "groundstation/station/config.hpp"
+#include "groundstation/station/ros2_publisher.hpp"
 #include "groundstation/station/session_store.hpp"
 #include "groundstation/station/station.hpp"
 #include "groundstation/station/team_source.hpp"
@@ -81,6 +83,9 @@ int main(int argc, char** argv) {
                 "fusion.write_interval_s = %.3f\nfusion.map_interval_s = %.3f\n",
                 cfg.fusion.enabled ? "true" : "false", cfg.fusion.method.c_str(), cfg.fusion.resolution_m,
                 cfg.fusion.half_angle_deg, to_seconds(cfg.fusion.write_interval), to_seconds(cfg.fusion.map_interval));
+    std::printf("ros2.enabled = %s\nros2.map_interval_s = %.3f\nros2.pose_rate_hz = %.3f\nros2.heading_sigma_deg = %.3f\n",
+                cfg.ros2.enabled ? "true" : "false", to_seconds(cfg.ros2.map_interval), cfg.ros2.pose_rate_hz,
+                cfg.ros2.heading_sigma_deg);
     return 0;
   }
 
@@ -107,6 +112,21 @@ int main(int argc, char** argv) {
     return 1;
   }
   Station& st = **station;
+  // ROS 2 wire names (docs/ros2.md): fed from this loop by copies, published on its own thread.
+  std::unique_ptr<Ros2Publisher> ros2;
+  if (cfg.ros2.enabled) {
+    auto created = Ros2Publisher::create(cfg.ros2, st.participant());
+    if (!created) {
+      log(kErr, created.error().what);
+      return 1;
+    }
+    ros2 = std::move(created.value());
+    st.add_pose_hook([&](const PoseObservation& p) { ros2->add_pose(p); });
+    log(kInfo, "ros2: rt/teamscan/map_cloud, rt/tf, rt/robotN/odom");
+    if (!cfg.fusion.enabled || cfg.fusion.map_interval.count() == 0) {
+      log(kWarning, "ros2: no map cloud: it follows teamscan/map (fusion.enabled, fusion.map_interval_s > 0)");
+    }
+  }
   // The live fusion stage runs from the hooks, after each sample is stored (storage first: a failing
   // fusion stage never costs a received sample; the station counts the failure and goes on).
   std::unique_ptr<FusionStage> fusion;
@@ -191,6 +211,7 @@ int main(int argc, char** argv) {
     now = now_monotonic();
     if (handled > 0) handle_max = std::max(handle_max, now - before_poll);
     st.publish_team_if_due(now);
+    if (ros2) ros2->tick(now, *team);
     if (ping_period.count() > 0 && now >= next_ping) {
       dds::notify_watchdog();
       next_ping = now + ping_period;
@@ -228,6 +249,7 @@ int main(int argc, char** argv) {
       if (!map_voxels.empty() && !st.publish_map(map_voxels, fusion->map_resolution_mm(), total).ok()) {
         log(kWarning, "fusion: teamscan/map write failed");
       }
+      if (ros2 && !map_voxels.empty()) ros2->offer_map(map_voxels, total);
       const Duration took = now_monotonic() - now;
       map_max = std::max(map_max, took);
       map_total += took;
@@ -252,6 +274,20 @@ int main(int argc, char** argv) {
                   to_seconds(handle_max) * 1e3, static_cast<unsigned long long>(map_count), to_seconds(map_max) * 1e3,
                   map_count ? to_seconds(map_total) * 1e3 / static_cast<double>(map_count) : 0.0);
     store->log_event(now_realtime(), line);
+  }
+  if (ros2) {
+    const Ros2Counters c = ros2->counters();
+    char line[400];
+    std::snprintf(line, sizeof line, "ros2: %llu map updates, %llu clouds (last %llu points, longest %.1f ms, mean %.1f ms on "
+                  "its thread), %llu tf, %llu odometry, %llu write errors; loop's longest hand-over %.3f ms, %llu deferred",
+                  static_cast<unsigned long long>(c.map_updates), static_cast<unsigned long long>(c.clouds),
+                  static_cast<unsigned long long>(c.last_cloud_points), to_seconds(c.cloud_max) * 1e3,
+                  c.clouds ? to_seconds(c.cloud_total) * 1e3 / static_cast<double>(c.clouds) : 0.0,
+                  static_cast<unsigned long long>(c.tf_messages), static_cast<unsigned long long>(c.odometry),
+                  static_cast<unsigned long long>(c.write_errors), to_seconds(c.offer_max) * 1e3,
+                  static_cast<unsigned long long>(c.handovers_deferred));
+    store->log_event(now_realtime(), line);
+    ros2.reset();
   }
   log(kInfo, "stopping: " + st.status_line());
   store->log_event(now_realtime(), "station stopping: " + st.status_line());

@@ -132,6 +132,8 @@ void Station::push_liveliness(std::uint64_t writer_handle, int alive_change, int
 
 void Station::event(const std::string& text) { store_.log_event(now_realtime(), text); }
 
+std::int32_t Station::participant() const { return dds_->participant.handle(); }
+
 std::size_t Station::poll(Duration max_wait) {
   dds_attach_t triggered[4];
   (void)dds_waitset_wait(dds_->waitset, triggered, 4, static_cast<dds_duration_t>(std::max<std::int64_t>(0, max_wait.count())));

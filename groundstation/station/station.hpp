@@ -98,6 +98,10 @@ class Station {
   void add_pose_hook(PoseHook hook) { pose_hooks_.push_back(std::move(hook)); }
   void add_lost_hook(LostHook hook) { lost_hooks_.push_back(std::move(hook)); }
 
+  // The station's DDS participant, for other publishers of the process (the ROS 2 topics): one
+  // participant per process, one participant index per host in the site's Cyclone config.
+  [[nodiscard]] std::int32_t participant() const;
+
   // teamscan/map for live viewers.
   [[nodiscard]] Status publish_map(std::span<const teamscan_msg_MapVoxel> voxels, std::uint32_t resolution_mm,
                                    std::uint32_t total_voxels);

@@ -10,7 +10,7 @@
 # stamped in the run window, the wall time and the 1-minute load average before/after the run (other
 # work on the machine shows there). Per-process detail: outN/summary.json, demoN.log.
 #
-# usage: [MAX_HOLD=S] [FEED_PERIOD=MS] [WRITE_INTERVAL=S] [STATION_METHOD=M] tests/bench/scale/run_scale.sh [BUILD_DIR] [DURATION_S] [N ...]
+# usage: [MAX_HOLD=S] [FEED_PERIOD=MS] [WRITE_INTERVAL=S] [STATION_METHOD=M] [STATION_ROS2=true|false] tests/bench/scale/run_scale.sh [BUILD_DIR] [DURATION_S] [N ...]
 #   default: build/dev, 10 s of robot time, N = 2 8 16 32; MAX_HOLD: onboard [odometry] max_hold_s
 #   (unset: the daemon's default); FEED_PERIOD: the demo's --feed-period (0: a thread per pty)
 set -u
@@ -75,7 +75,8 @@ extra=()
 [ -n "${FEED_PERIOD:-}" ] && extra+=(--feed-period "$FEED_PERIOD")
 [ -n "${WRITE_INTERVAL:-}" ] && extra+=(--write-interval "$WRITE_INTERVAL")
 [ -n "${STATION_METHOD:-}" ] && extra+=(--station-method "$STATION_METHOD")
-echo "# $(date -u +%FT%TZ) build $build, ${duration} s of robot time + 4 s bring-up, max_hold_s ${MAX_HOLD:-default}, feed period ${FEED_PERIOD:-1} ms, station write_interval_s ${WRITE_INTERVAL:-0}, station method ${STATION_METHOD:-the demo default}"
+[ -n "${STATION_ROS2:-}" ] && extra+=(--station-ros2 "$STATION_ROS2")
+echo "# $(date -u +%FT%TZ) build $build, ${duration} s of robot time + 4 s bring-up, max_hold_s ${MAX_HOLD:-default}, feed period ${FEED_PERIOD:-1} ms, station write_interval_s ${WRITE_INTERVAL:-0}, station method ${STATION_METHOD:-the demo default}, station ros2 ${STATION_ROS2:-true}"
 printf '%4s %7s %7s %7s %7s %5s %7s %7s %8s %8s %8s %8s %8s %6s %s\n' N sent publ stored fused miss gs_cpu obd_cpu feed_cpu st_p50 st_p99 fu_p50 fu_p99 wall load1
 sum() { grep -o "\"$1\": [0-9.e+-]*" "$2" | awk '{ t += $2 } END { printf "%d", t }'; }
 val() { grep -o "\"$1\": [0-9.e+-]*" "$2" | head -1 | awk '{ print $2 }'; }

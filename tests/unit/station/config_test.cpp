@@ -24,6 +24,23 @@ TEST(GroundStationConfig, DeployExampleParsesAndEqualsTheDefaults) {
   EXPECT_DOUBLE_EQ(c.last_pose.sigma_velocity_mps, d.last_pose.sigma_velocity_mps);
   EXPECT_DOUBLE_EQ(c.kalman.lost_after_s, d.kalman.lost_after_s);
   EXPECT_EQ(c.team_source, TeamSourceKind::kKalman);
+  EXPECT_EQ(c.ros2.enabled, d.ros2.enabled);
+  EXPECT_EQ(c.ros2.map_interval, d.ros2.map_interval);
+  EXPECT_DOUBLE_EQ(c.ros2.pose_rate_hz, d.ros2.pose_rate_hz);
+  EXPECT_DOUBLE_EQ(c.ros2.heading_sigma_deg, d.ros2.heading_sigma_deg);
+}
+
+TEST(GroundStationConfig, Ros2Keys) {
+  GroundStationConfig c;
+  ConfigError e;
+  EXPECT_TRUE(c.ros2.enabled);  // on by default (docs/ros2.md)
+  ASSERT_TRUE(parse_groundstation_config("[ros2]\nenabled = false\nmap_interval_s = 2.5\npose_rate_hz = 30\n"
+                                         "heading_sigma_deg = 0\n", "t.toml", c, e))
+      << e.message;
+  EXPECT_FALSE(c.ros2.enabled);
+  EXPECT_EQ(c.ros2.map_interval, std::chrono::milliseconds(2500));
+  EXPECT_DOUBLE_EQ(c.ros2.pose_rate_hz, 30.0);
+  EXPECT_DOUBLE_EQ(c.ros2.heading_sigma_deg, 0.0);
 }
 
 TEST(GroundStationConfig, TeamSourceChoice) {
@@ -65,6 +82,11 @@ TEST(GroundStationConfig, BadInputNamesTheKey) {
       {"[station]\nsession_root = \"\"\n", "station.session_root"},
       {"[team]\npublish_rate = 20\n", "team.publish_rate"},  // misspelt: unknown key
       {"[team\n", "t.toml:1"},                               // syntax error with its location
+      {"[ros2]\nenabled = 1\n", "ros2.enabled"},
+      {"[ros2]\nmap_interval_s = 0\n", "ros2.map_interval_s"},
+      {"[ros2]\npose_rate_hz = -1\n", "ros2.pose_rate_hz"},
+      {"[ros2]\nheading_sigma_deg = 200\n", "ros2.heading_sigma_deg"},
+      {"[ros2]\nmap_rate_hz = 1\n", "ros2.map_rate_hz"},     // unknown key
   };
   for (const Bad& b : cases) {
     GroundStationConfig c;

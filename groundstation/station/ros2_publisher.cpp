@@ -1,0 +1,253 @@
+// Ros2Publisher: the receive loop's mailbox and the worker thread that publishes on ROS 2 wire names.
+#include "groundstation/station/ros2_publisher.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <unordered_map>
+
+#include <dds/dds.h>
+
+#include "common/clock.hpp"
+#include "dds/ros2/wire.hpp"
+#include "teamscan.h"
+
+namespace teamscan::station {
+namespace {
+
+// A heading older than this is not moved on further (a robot that stopped sending keeps its last yaw).
+constexpr double kMaxHeadingExtrapolationS = 0.5;
+
+struct VoxelKey {
+  std::int32_t x, y, z;
+  bool operator==(const VoxelKey&) const = default;
+};
+struct VoxelKeyHash {
+  std::size_t operator()(const VoxelKey& k) const {
+    std::uint64_t h = static_cast<std::uint32_t>(k.x);
+    h = h * 0x9E3779B97F4A7C15ull ^ static_cast<std::uint32_t>(k.y);
+    h = h * 0x9E3779B97F4A7C15ull ^ static_cast<std::uint32_t>(k.z);
+    return static_cast<std::size_t>(h ^ (h >> 29));
+  }
+};
+
+}  // namespace
+
+double heading_at(const Heading& h, Time at) {
+  const double dt = std::clamp((at - h.stamp).count() * 1e-9, 0.0, kMaxHeadingExtrapolationS);
+  return std::remainder(h.yaw_rad + h.yaw_rate_radps * dt, 2.0 * std::numbers::pi);
+}
+
+// The worker's state: the participant and writers, its copy of the map, the messages' buffers.
+struct Ros2Publisher::Worker {
+  std::unique_ptr<dds::ros2::Ros2Writers> writers;
+  std::unordered_map<VoxelKey, std::uint32_t, VoxelKeyHash> index;  // voxel centre -> voxels
+  std::vector<teamscan_msg_MapVoxel> voxels;
+  std::vector<dds::ros2::CloudPoint> cloud_points;
+  std::vector<dds::ros2::PlanarState> states;
+  dds::ros2::PointCloudMessage cloud;
+  dds::ros2::TfMessage tf;
+  dds::ros2::OdometryMessage odometry;
+
+  void merge(std::span<const teamscan_msg_MapVoxel> update) {
+    for (const teamscan_msg_MapVoxel& v : update) {
+      const auto [it, added] = index.try_emplace(VoxelKey{v.x_mm, v.y_mm, v.z_mm}, static_cast<std::uint32_t>(voxels.size()));
+      if (added) {
+        voxels.push_back(v);
+      } else {
+        voxels[it->second] = v;  // an update carries the voxel's whole count and flags
+      }
+    }
+  }
+  void clear() {
+    index.clear();
+    voxels.clear();
+  }
+};
+
+Result<std::unique_ptr<Ros2Publisher>> Ros2Publisher::create(const Ros2Config& config, std::int32_t participant) {
+  auto worker = std::make_unique<Worker>();
+  auto writers = dds::ros2::Ros2Writers::create(participant);
+  if (!writers) return writers.error();
+  worker->writers = std::move(writers.value());
+  return std::unique_ptr<Ros2Publisher>(new Ros2Publisher(config, std::move(worker)));
+}
+
+Ros2Publisher::Ros2Publisher(const Ros2Config& config, std::unique_ptr<Worker> worker)
+    : config_{config}, next_poses_{now_monotonic()}, worker_{std::move(worker)} {
+  pending_team_.reserve(kMaxRobots);
+  thread_ = std::thread([this] { run(); });
+}
+
+Ros2Publisher::~Ros2Publisher() {
+  {
+    const std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_one();
+  thread_.join();
+}
+
+void Ros2Publisher::add_pose(const PoseObservation& pose) {
+  if (pose.robot_id == 0 || pose.robot_id > kMaxRobots) return;  // the station counts these as bad samples
+  Heading& h = headings_[pose.robot_id];
+  if (h.known && pose.stamp < h.stamp) return;  // a replayed older pose does not turn the robot back
+  h = Heading{true, pose.stamp, pose.yaw_rad, pose.yaw_rate_radps};
+}
+
+void Ros2Publisher::offer_map(std::span<const teamscan_msg_MapVoxel> voxels, std::uint32_t total_voxels) {
+  const Time t0 = now_monotonic();
+  if (total_voxels == voxels.size()) {  // the whole map: what is not handed over yet is superseded
+    loop_map_.clear();
+    loop_full_ = true;
+  }
+  loop_map_.insert(loop_map_.end(), voxels.begin(), voxels.end());
+  ++loop_updates_;
+  hand_over();
+  offer_max_ = std::max(offer_max_, now_monotonic() - t0);
+}
+
+void Ros2Publisher::tick(Time now_monotonic_time, const TeamSource& team) {
+  const bool poses = now_monotonic_time >= next_poses_;
+  if (!poses && loop_updates_ == 0) return;
+  const Time t0 = now_monotonic();
+  if (poses) {
+    loop_team_count_ = team.estimate(now_realtime(), loop_team_);
+    loop_team_pending_ = true;
+    next_poses_ = now_monotonic_time + from_seconds(1.0 / config_.pose_rate_hz);
+  }
+  hand_over();
+  offer_max_ = std::max(offer_max_, now_monotonic() - t0);
+}
+
+void Ros2Publisher::hand_over() {
+  std::unique_lock lock(mutex_, std::try_to_lock);
+  if (!lock.owns_lock()) {
+    ++deferred_;
+    return;
+  }
+  if (loop_updates_ > 0) {
+    if (loop_full_ || pending_map_.empty()) {
+      pending_map_.swap(loop_map_);  // O(1): the worker gets the loop's buffer, the loop its old one
+      pending_full_ = pending_full_ || loop_full_;
+    } else {
+      pending_map_.insert(pending_map_.end(), loop_map_.begin(), loop_map_.end());
+    }
+    loop_map_.clear();
+    loop_full_ = false;
+    pending_updates_ += loop_updates_;
+    loop_updates_ = 0;
+  }
+  if (loop_team_pending_) {
+    pending_team_.assign(loop_team_.begin(), loop_team_.begin() + static_cast<std::ptrdiff_t>(loop_team_count_));
+    pending_headings_ = headings_;
+    team_pending_ = true;
+    loop_team_pending_ = false;
+  }
+  lock.unlock();
+  wake_.notify_one();
+}
+
+Ros2Counters Ros2Publisher::counters() const {
+  const std::lock_guard lock(mutex_);
+  Ros2Counters c = counters_;
+  c.offer_max = offer_max_;  // the loop's own figures: read from the loop's thread
+  c.handovers_deferred = deferred_;
+  return c;
+}
+
+void Ros2Publisher::run() {
+  Worker& w = *worker_;
+  std::vector<teamscan_msg_MapVoxel> map_work;
+  std::vector<TeamMemberEstimate> team_work;
+  std::array<Heading, kMaxRobots + 1> headings{};
+  const double yaw_var = std::pow(config_.heading_sigma_deg * std::numbers::pi / 180.0, 2);
+  Time next_cloud = now_monotonic();
+  for (;;) {
+    bool full = false, team = false;
+    std::uint64_t updates = 0;
+    {
+      std::unique_lock lock(mutex_);
+      const Duration until_cloud = std::max(Duration{0}, next_cloud - now_monotonic());
+      wake_.wait_for(lock, w.voxels.empty() ? Duration(std::chrono::seconds(1)) : until_cloud,
+                     [&] { return stop_ || pending_updates_ > 0 || team_pending_; });
+      if (stop_) return;
+      map_work.swap(pending_map_);
+      pending_map_.clear();
+      full = pending_full_;
+      pending_full_ = false;
+      updates = pending_updates_;
+      pending_updates_ = 0;
+      if (team_pending_) {
+        team_work.swap(pending_team_);
+        headings = pending_headings_;
+        team_pending_ = false;
+        team = true;
+      }
+    }
+    if (full) w.clear();
+    w.merge(map_work);
+
+    Ros2Counters done;  // this round's additions
+    done.map_updates = updates;
+    if (team) {
+      w.states.clear();
+      for (const TeamMemberEstimate& e : team_work) {
+        // A lost robot's frame goes stale in RViz2 (tf2 keeps its last transform only for its buffer).
+        if (e.lost || e.robot_id == 0 || e.robot_id > kMaxRobots || !headings[e.robot_id].known) continue;
+        dds::ros2::PlanarState s;
+        s.robot_id = e.robot_id;
+        s.stamp_ns = e.valid.ns();
+        s.x_m = e.x_m;
+        s.y_m = e.y_m;
+        s.yaw_rad = heading_at(headings[e.robot_id], e.valid);
+        s.vx_mps = e.vx_mps;
+        s.vy_mps = e.vy_mps;
+        s.yaw_rate_radps = headings[e.robot_id].yaw_rate_radps;
+        s.cov_xx_m2 = e.cov_xx_m2;
+        s.cov_xy_m2 = e.cov_xy_m2;
+        s.cov_yy_m2 = e.cov_yy_m2;
+        s.yaw_var_rad2 = yaw_var;
+        w.states.push_back(s);
+      }
+      if (!w.states.empty()) {
+        w.tf.set(w.states);
+        if (w.writers->write_tf(w.tf).ok()) ++done.tf_messages; else ++done.write_errors;
+        for (const dds::ros2::PlanarState& s : w.states) {
+          w.odometry.set(s);
+          if (w.writers->write_odometry(s.robot_id, w.odometry).ok()) ++done.odometry; else ++done.write_errors;
+        }
+      }
+    }
+    const Time now = now_monotonic();
+    if (now >= next_cloud && !w.voxels.empty()) {
+      w.cloud_points.clear();
+      for (const teamscan_msg_MapVoxel& v : w.voxels) {
+        if (v.flags != 0) continue;  // every point of the voxel removed as a ghost: not in the fused map
+        w.cloud_points.push_back({static_cast<float>(v.x_mm * 1e-3), static_cast<float>(v.y_mm * 1e-3),
+                                  static_cast<float>(v.z_mm * 1e-3), static_cast<float>(v.hits)});
+      }
+      w.cloud.set(now_realtime().ns(), dds::ros2::kFrameMap, w.cloud_points);
+      if (w.writers->write_cloud(w.cloud).ok()) ++done.clouds; else ++done.write_errors;
+      const Duration took = now_monotonic() - now;
+      done.cloud_max = took;
+      done.cloud_total = took;
+      done.last_cloud_points = w.cloud_points.size();
+      next_cloud = now + config_.map_interval;
+    }
+    const std::lock_guard lock(mutex_);
+    counters_.map_updates += done.map_updates;
+    counters_.clouds += done.clouds;
+    counters_.tf_messages += done.tf_messages;
+    counters_.odometry += done.odometry;
+    counters_.write_errors += done.write_errors;
+    if (done.cloud_total.count() > 0) {
+      counters_.last_cloud_points = done.last_cloud_points;
+      counters_.cloud_max = std::max(counters_.cloud_max, done.cloud_max);
+      counters_.cloud_total += done.cloud_total;
+    }
+    counters_.map_voxels = w.voxels.size();
+  }
+}
+
+}  // namespace teamscan::station
