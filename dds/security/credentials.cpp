@@ -113,7 +113,8 @@ CredentialCheck check_credentials(const std::string& dir, std::int64_t now_s) {
 
   X509CrlPtr crl;
   const std::string crl_path = path_in(dir, kCrlFile);
-  if (std::filesystem::exists(crl_path)) {
+  std::error_code ec;
+  if (std::filesystem::exists(crl_path, ec)) {
     crl = read_crl(crl_path);
     if (!crl) problem(crl_path + ": not a PEM certificate revocation list");
   }
@@ -173,8 +174,17 @@ CredentialCheck check_credentials(const std::string& dir, std::int64_t now_s) {
   return out;
 }
 
+CredentialCheck check_credentials_for(const std::string& dir, const std::string& expected_identity, std::int64_t now_s) {
+  CredentialCheck c = check_credentials(dir, now_s);
+  if (!c.identity.empty() && c.identity != expected_identity)
+    c.problems.push_back(path_in(dir, kCertFile) + ": the identity of " + c.identity + ", not of " + expected_identity);
+  return c;
+}
+
 void add_security_properties(dds_qos_t* qos, const std::string& dir) {
-  const std::filesystem::path abs = std::filesystem::absolute(dir);
+  std::error_code ec;
+  std::filesystem::path abs = std::filesystem::absolute(dir, ec);
+  if (ec) abs = dir;
   auto file = [&](const char* name) { return "file:" + (abs / name).string(); };
   dds_qset_prop(qos, "dds.sec.auth.library.path", "dds_security_auth");
   dds_qset_prop(qos, "dds.sec.auth.library.init", "init_authentication");
@@ -191,7 +201,7 @@ void add_security_properties(dds_qos_t* qos, const std::string& dir) {
   dds_qset_prop(qos, "dds.sec.access.permissions_ca", file(kCaCertFile).c_str());
   dds_qset_prop(qos, "dds.sec.access.governance", file(kGovernanceFile).c_str());
   dds_qset_prop(qos, "dds.sec.access.permissions", file(kPermissionsFile).c_str());
-  if (std::filesystem::exists(abs / kCrlFile)) dds_qset_prop(qos, "org.eclipse.cyclonedds.sec.auth.crl", file(kCrlFile).c_str());
+  if (std::filesystem::exists(abs / kCrlFile, ec)) dds_qset_prop(qos, "org.eclipse.cyclonedds.sec.auth.crl", file(kCrlFile).c_str());
 }
 
 }  // namespace teamscan::security

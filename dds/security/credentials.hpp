@@ -41,6 +41,11 @@ struct CredentialCheck {
 // grant for the certificate's subject that is valid at now.
 [[nodiscard]] CredentialCheck check_credentials(const std::string& dir, std::int64_t now_s);
 
+// check_credentials, and cert.pem must be `expected_identity`'s ("robot3", "station"): what a daemon
+// runs before it creates its participant.
+[[nodiscard]] CredentialCheck check_credentials_for(const std::string& dir, const std::string& expected_identity,
+                                                    std::int64_t now_s);
+
 // Adds to a participant QoS the security properties naming the bundle's files (absolute paths): the
 // participant then authenticates, is access-controlled and encrypts as the signed governance says.
 // crl.pem is named only if present.

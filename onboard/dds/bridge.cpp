@@ -8,6 +8,7 @@
 
 #include <dds/dds.h>
 
+#include "dds/security/credentials.hpp"
 #include "onboard/dds/qos.hpp"
 #include "teamscan.h"
 
@@ -126,8 +127,16 @@ Result<DdsBridge> DdsBridge::create(const DdsBridgeOptions& options) {
   // Start-up allocation: the only heap block of the bridge (about 7 kB).
   b.samples_.reset(new Samples{});
 
-  b.participant_ = dds_create_participant(options.domain_id, nullptr, nullptr);
-  if (b.participant_ < 0) return dds_error("dds: cannot create participant (check CYCLONEDDS_URI)", b.participant_);
+  dds_qos_t* pq = dds_create_qos();
+  if (options.pki_dir != nullptr) security::add_security_properties(pq, options.pki_dir);
+  b.participant_ = dds_create_participant(options.domain_id, pq, nullptr);
+  dds_delete_qos(pq);
+  if (b.participant_ < 0) {
+    return dds_error(options.pki_dir != nullptr ? "dds: cannot create the secured participant (Cyclone's log says why; check the "
+                                                  "credentials with teamscan pki check, and CYCLONEDDS_URI)"
+                                                : "dds: cannot create participant (check CYCLONEDDS_URI)",
+                     b.participant_);
+  }
 
   const dds_entity_t pose_topic =
       dds_create_topic(b.participant_, &teamscan_msg_RobotPose_desc, kTopicPose, nullptr, nullptr);
@@ -139,11 +148,11 @@ Result<DdsBridge> DdsBridge::create(const DdsBridgeOptions& options) {
   if (scan_topic < 0) return dds_error("dds: cannot create topic teamscan/scan", scan_topic);
   if (status_topic < 0) return dds_error("dds: cannot create topic teamscan/status", status_topic);
 
-  dds_qos_t* q = make_state_writer_qos(options.liveliness_lease, options.max_blocking);
+  dds_qos_t* q = make_state_writer_qos(options.robot_id, options.liveliness_lease, options.max_blocking);
   b.pose_writer_ = dds_create_writer(b.participant_, pose_topic, q, nullptr);
   b.status_writer_ = dds_create_writer(b.participant_, status_topic, q, nullptr);
   dds_delete_qos(q);
-  q = make_scan_writer_qos(options.scan_history_depth, options.liveliness_lease, options.max_blocking);
+  q = make_scan_writer_qos(options.robot_id, options.scan_history_depth, options.liveliness_lease, options.max_blocking);
   b.scan_writer_ = dds_create_writer(b.participant_, scan_topic, q, nullptr);
   dds_delete_qos(q);
   if (b.pose_writer_ < 0) return dds_error("dds: cannot create pose writer", b.pose_writer_);

@@ -5,8 +5,8 @@
 //   listen    readers on all five teamscan topics (robot partitions and the default one); prints
 //             "participant <rc>", then at the end "discovered <teamscan endpoints in DCPSPublication>
 //             matched <publications matched> samples <samples received>"
-//   publish   --robot N (robot_id in the samples) --partition P ("" = default) [--team] [--rate HZ]:
-//             writes scans and poses claiming robot N in partition P (and, with --team, team states);
+//   publish   --robot N (robot_id in the samples) --partition P [--team] [--rate HZ]: writes scans
+//             and poses (the robots' writer QoS) claiming robot N in partition P (and, with --team, team states);
 //             prints "participant <rc>", "scan_writer <rc>", "team_writer <rc>", then at the end
 //             "written <n> matched <max publications' matched readers>"
 #include <time.h>
@@ -21,6 +21,7 @@
 #include <dds/dds.h>
 
 #include "dds/security/credentials.hpp"
+#include "onboard/dds/qos.hpp"
 #include "teamscan.h"
 
 namespace {
@@ -115,20 +116,26 @@ int run_publish(int argc, char** argv, double seconds) {
   const dds_entity_t pp = make_participant(argc, argv);
   if (pp < 0) return 1;
   const auto robot = static_cast<std::uint32_t>(std::atoi(arg(argc, argv, "--robot", "1")));
-  const char* partition = arg(argc, argv, "--partition", "");
+  const char* partition = arg(argc, argv, "--partition", "robot1");
   const double rate = std::atof(arg(argc, argv, "--rate", "20"));
   const dds_entity_t tp_scan = dds_create_topic(pp, &teamscan_msg_ScanPoints_desc, "teamscan/scan", nullptr, nullptr);
   const dds_entity_t tp_pose = dds_create_topic(pp, &teamscan_msg_RobotPose_desc, "teamscan/pose", nullptr, nullptr);
-  dds_qos_t* q = reliable_qos(partition);
-  const dds_entity_t pub = dds_create_publisher(pp, q, nullptr);
+  // The robots' own writer QoS (what the station expects), in the partition asked for.
+  dds_qos_t* q = teamscan::onboard::make_scan_writer_qos(robot, 300, std::chrono::seconds(2), std::chrono::milliseconds(10));
+  dds_qset_partition1(q, partition);
+  const dds_entity_t scan_wr = dds_create_writer(pp, tp_scan, q, nullptr);
   dds_delete_qos(q);
-  const dds_entity_t scan_wr = dds_create_writer(pub, tp_scan, nullptr, nullptr);
-  const dds_entity_t pose_wr = dds_create_writer(pub, tp_pose, nullptr, nullptr);
+  q = teamscan::onboard::make_state_writer_qos(robot, std::chrono::seconds(2), std::chrono::milliseconds(10));
+  dds_qset_partition1(q, partition);
+  const dds_entity_t pose_wr = dds_create_writer(pp, tp_pose, q, nullptr);
+  dds_delete_qos(q);
   std::printf("scan_writer %d\n", scan_wr < 0 ? scan_wr : 0);
   dds_entity_t team_wr = 0;
   if (flag(argc, argv, "--team")) {
     const dds_entity_t tp_team = dds_create_topic(pp, &teamscan_msg_TeamState_desc, "teamscan/team", nullptr, nullptr);
-    team_wr = tp_team < 0 ? tp_team : dds_create_writer(pp, tp_team, nullptr, nullptr);
+    q = teamscan::onboard::make_team_writer_qos(std::chrono::seconds(2));
+    team_wr = tp_team < 0 ? tp_team : dds_create_writer(pp, tp_team, q, nullptr);
+    dds_delete_qos(q);
     std::printf("team_writer %d\n", team_wr < 0 ? team_wr : 0);
   }
   std::fflush(stdout);

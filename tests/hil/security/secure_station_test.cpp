@@ -146,11 +146,13 @@ class SecureStation : public ::testing::Test {
 };
 
 TEST_F(SecureStation, NoCredentialsDiscoversNothingReceivesNothingInjectsNothing) {
-  // A legitimate robot 1 publishes all along, so there is something to see.
-  Peer robot1(args({"publish", "--robot", "1", "--partition", "robot1", "--seconds", "5"}, site("robot1")), root_ / "robot1.out");
-  Peer listener(args({"listen", "--seconds", "5"}, std::nullopt), root_ / "listen.out");
-  Peer intruder(args({"publish", "--robot", "2", "--partition", "robot2", "--seconds", "4"}, std::nullopt), root_ / "intruder.out");
-  run_until_done({&robot1, &listener, &intruder});
+  // A legitimate robot 1 publishes all along, so there is something to see. The listener and the intruder
+  // take turns (two participants without credentials would find each other).
+  Peer robot1(args({"publish", "--robot", "1", "--partition", "robot1", "--seconds", "8"}, site("robot1")), root_ / "robot1.out");
+  Peer listener(args({"listen", "--seconds", "3.5"}, std::nullopt), root_ / "listen.out");
+  run_until_done({&listener});
+  Peer intruder(args({"publish", "--robot", "2", "--partition", "robot2", "--seconds", "3"}, std::nullopt), root_ / "intruder.out");
+  run_until_done({&robot1, &intruder});
   EXPECT_EQ(listener.value("participant"), 0) << listener.output();
   EXPECT_EQ(listener.value("discovered"), 0) << listener.output();
   EXPECT_EQ(listener.value("matched"), 0) << listener.output();
