@@ -1,6 +1,8 @@
 // QoS recipes of the teamscan topics (DDS_SYSTEMD.md 1.3; liveliness per 3.2).
 #include "dds/qos.hpp"
 
+#include "dds/security/credentials.hpp"
+
 namespace teamscan::dds {
 namespace {
 
@@ -14,8 +16,9 @@ dds_qos_t* reliable(Duration max_blocking) {
 
 }  // namespace
 
-dds_qos_t* make_state_writer_qos(Duration liveliness_lease, Duration max_blocking) {
+dds_qos_t* make_state_writer_qos(std::uint32_t robot_id, Duration liveliness_lease, Duration max_blocking) {
   dds_qos_t* q = reliable(max_blocking);
+  dds_qset_partition1(q, security::robot_identity(robot_id).c_str());
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
   dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
   // Automatic: Cyclone asserts it with participant-message heartbeats at 80 % of the lease, so a
@@ -26,14 +29,17 @@ dds_qos_t* make_state_writer_qos(Duration liveliness_lease, Duration max_blockin
 
 dds_qos_t* make_state_reader_qos() {
   dds_qos_t* q = reliable(std::chrono::milliseconds(100));
+  dds_qset_partition1(q, kRobotsPartition);
   dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
   dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
   return q;
 }
 
-dds_qos_t* make_scan_writer_qos(std::uint32_t depth, Duration liveliness_lease, Duration max_blocking) {
+dds_qos_t* make_scan_writer_qos(std::uint32_t robot_id, std::uint32_t depth, Duration liveliness_lease,
+                                Duration max_blocking) {
   const auto d = static_cast<std::int32_t>(depth == 0 ? 1 : depth);
   dds_qos_t* q = reliable(max_blocking);
+  dds_qset_partition1(q, security::robot_identity(robot_id).c_str());
   // Keep-last on the writer never blocks the robot's loop: a reader that falls more than `depth`
   // sweeps behind sees gaps (DDS_SYSTEMD.md 1.3), which the ground station counts from seq.
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, d);
@@ -46,6 +52,7 @@ dds_qos_t* make_scan_writer_qos(std::uint32_t depth, Duration liveliness_lease, 
 
 dds_qos_t* make_scan_reader_qos() {
   dds_qos_t* q = reliable(std::chrono::milliseconds(100));
+  dds_qset_partition1(q, kRobotsPartition);
   dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
   dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
   return q;

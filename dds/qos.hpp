@@ -11,16 +11,24 @@
 
 namespace teamscan::dds {
 
+// Partitions: robot N writes its pose, scan and status in partition "robotN" (its identity name, the one
+// partition its DDS Security permissions let it publish in: dds/security/credentials.hpp); the readers of
+// those topics read partition "robot*" (the ground station's grant). The team state and the map stay in
+// the default partition. So the partition a sample arrived in names its sender, authenticated when the
+// domain is secured (groundstation/station/sender_identity.hpp).
+inline constexpr const char* kRobotsPartition = "robot*";
+
 // Per-robot state topics (pose, status): the writer is reliable, keep-last 1, transient-local, so a
 // ground station that (re)starts gets each robot's latest value at once. The reader keeps all: the
 // station stores every pose it is sent, even when two arrive between its takes.
-[[nodiscard]] dds_qos_t* make_state_writer_qos(Duration liveliness_lease, Duration max_blocking);
+[[nodiscard]] dds_qos_t* make_state_writer_qos(std::uint32_t robot_id, Duration liveliness_lease, Duration max_blocking);
 [[nodiscard]] dds_qos_t* make_state_reader_qos();
 
 // teamscan/scan: the writer keeps the last `depth` sweeps per robot, transient-local with the same
 // durability-service depth: a reader that joins late (a restarted ground station) receives the last
 // `depth` sweeps. Without the durability-service depth Cyclone keeps only 1 sample for late joiners.
-[[nodiscard]] dds_qos_t* make_scan_writer_qos(std::uint32_t depth, Duration liveliness_lease, Duration max_blocking);
+[[nodiscard]] dds_qos_t* make_scan_writer_qos(std::uint32_t robot_id, std::uint32_t depth, Duration liveliness_lease,
+                                              Duration max_blocking);
 // The reader keeps all (reliable, transient-local): a sample the writer delivered is never overwritten
 // in the reader's cache because the taking thread was slow; only the writer's bounded history decides
 // what a reader that is away for too long misses.

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -13,6 +14,8 @@
 #include "common/capacities.hpp"
 #include "common/clock.hpp"
 #include "common/version.hpp"
+#include "dds/security/credentials.hpp"
+#include "dds/security/openssl_util.hpp"
 #include "groundstation/station/config.hpp"
 #include "groundstation/station/ros2_publisher.hpp"
 #include "groundstation/station/session_store.hpp"
@@ -56,7 +59,11 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--session-dir", session_dir, "store into exactly this folder instead of a new session-<time>");
   app.add_option("--domain", domain, "DDS domain id (overrides dds.domain_id)")->check(CLI::Range(-1, 232));
-  app.add_flag("--check-config", check_only, "parse the config, print the effective values and exit");
+  std::string pki_dir;
+  app.add_option("--pki-dir", pki_dir,
+                 "DDS Security: the station's credential bundle (teamscan pki; the unit passes $CREDENTIALS_DIRECTORY); "
+                 "checked before DDS starts, a bad one exits 2");
+  app.add_flag("--check-config", check_only, "parse the config (and --pki-dir's credentials), print the effective values and exit");
   app.add_flag_callback(
       "--version",
       [] {
@@ -75,6 +82,17 @@ int main(int argc, char** argv) {
     }
   }
   if (domain >= 0) cfg.station.domain_id = static_cast<std::uint32_t>(domain);
+  if (!pki_dir.empty()) {
+    const security::CredentialCheck c =
+        security::check_credentials_for(pki_dir, security::kStationIdentity, static_cast<std::int64_t>(std::time(nullptr)));
+    if (!c.ok()) {
+      log(kErr, "DDS Security credentials refused: " + c.summary());
+      return 2;
+    }
+    log(kInfo, "DDS Security: identity " + c.subject + ", certificate valid until " +
+                   security::unix_to_utc(c.not_after_s));
+    cfg.station.pki_dir = pki_dir;
+  }
   if (check_only) {
     std::printf("session_root = %s\nscan_history_depth = %u\nteam_rate_hz = %.3f\nsilence_timeout_s = %.3f\n",
                 cfg.session_root.c_str(), cfg.station.scan_history_depth, 1.0 / to_seconds(cfg.station.team_period),

@@ -12,6 +12,7 @@
 #include "common/clock.hpp"
 #include "dds/participant.hpp"
 #include "dds/qos.hpp"
+#include "dds/security/credentials.hpp"
 #include "dds/take.hpp"
 #include "teamscan.h"
 
@@ -25,6 +26,26 @@ constexpr const char* kTopicNames[3] = {"pose", "scan", "status"};
 void liveliness_listener(dds_entity_t /*reader*/, const dds_liveliness_changed_status_t status, void* arg) {
   static_cast<Station*>(arg)->push_liveliness(status.last_publication_handle, status.alive_count_change,
                                               status.not_alive_count_change);
+}
+
+void matched_listener(dds_entity_t reader, const dds_subscription_matched_status_t status, void* arg) {
+  if (status.current_count_change > 0) static_cast<Station*>(arg)->push_matched(reader, status.last_publication_handle);
+}
+
+// The robot whose partition ("robotN") publication `handle` matched on `reader` is in; 0 if none.
+std::uint32_t publication_robot(dds_entity_t reader, dds_instance_handle_t handle) {
+  dds_builtintopic_endpoint_t* ep = dds_get_matched_publication_data(reader, handle);
+  if (ep == nullptr) return 0;
+  std::uint32_t id = 0;
+  std::uint32_t n = 0;
+  char** names = nullptr;
+  if (dds_qget_partition(ep->qos, &n, &names)) {
+    if (n == 1) id = security::robot_id_of_identity(names[0]);  // a writer in several partitions names no one
+    for (std::uint32_t i = 0; i < n; ++i) dds_free(names[i]);
+    dds_free(names);
+  }
+  dds_builtintopic_free_endpoint(ep);
+  return id;
 }
 
 std::int32_t to_mm(double m) {
@@ -64,7 +85,13 @@ struct Station::Dds {
 };
 
 Station::Station(const StationOptions& options, SessionStore& store, TeamSource& team)
-    : options_{options}, store_{store}, team_{team}, dds_{std::make_unique<Dds>(options.take_batch)} {
+    : options_{options},
+      store_{store},
+      team_{team},
+      dds_{std::make_unique<Dds>(options.take_batch)},
+      senders_{[this](int topic, std::uint64_t handle) {
+        return publication_robot(dds_->readers[topic], static_cast<dds_instance_handle_t>(handle));
+      }} {
   for (std::uint32_t i = 0; i <= kMaxRobots; ++i) robots_[i].robot_id = i;
 }
 
@@ -81,12 +108,13 @@ Result<std::unique_ptr<Station>> Station::create(const StationOptions& options, 
   std::unique_ptr<Station> st(new Station(options, store, team));
   Dds& d = *st->dds_;
 
-  Result<dds::Participant> participant = dds::Participant::create(options.domain_id);
-  if (!participant.ok()) return Error{"station: cannot create DDS participant (check CYCLONEDDS_URI)", 0, participant.error().detail};
+  Result<dds::Participant> participant = dds::Participant::create(options.domain_id, options.pki_dir.empty() ? nullptr : options.pki_dir.c_str());
+  if (!participant.ok()) return Error{participant.error().what, 0, participant.error().detail};
   d.participant = std::move(participant.value());
 
   dds_listener_t* listener = dds_create_listener(st.get());
   dds_lset_liveliness_changed(listener, liveliness_listener);
+  dds_lset_subscription_matched(listener, matched_listener);
   dds_qos_t* q = dds::make_state_reader_qos();
   Result<dds_entity_t> pose_reader = dds::create_reader<teamscan_msg_RobotPose>(d.participant, q, listener);
   Result<dds_entity_t> status_reader = dds::create_reader<teamscan_msg_RobotStatus>(d.participant, q, listener);
@@ -130,6 +158,11 @@ void Station::push_liveliness(std::uint64_t writer_handle, int alive_change, int
   events_.push_back(LivelinessEvent{writer_handle, alive_change, not_alive_change});
 }
 
+void Station::push_matched(std::int32_t reader, std::uint64_t publication_handle) {
+  std::lock_guard<std::mutex> lock(events_mutex_);
+  matched_.emplace_back(reader, publication_handle);
+}
+
 void Station::event(const std::string& text) { store_.log_event(now_realtime(), text); }
 
 std::int32_t Station::participant() const { return dds_->participant.handle(); }
@@ -139,6 +172,16 @@ std::size_t Station::poll(Duration max_wait) {
   (void)dds_waitset_wait(dds_->waitset, triggered, 4, static_cast<dds_duration_t>(std::max<std::int64_t>(0, max_wait.count())));
   (void)dds_set_guardcondition(dds_->guard, false);
   const std::uint64_t before = counters_.scans + counters_.poses + counters_.statuses;
+  {
+    // Newly matched publications: learn their sender before their first sample is taken.
+    std::lock_guard<std::mutex> lock(events_mutex_);
+    matched_work_.swap(matched_);
+  }
+  for (const auto& [reader, handle] : matched_work_) {
+    for (int t = 0; t < 3; ++t)
+      if (dds_->readers[t] == reader) senders_.matched(t, handle);
+  }
+  matched_work_.clear();
   // Store first, then run the hooks. The receive time of a sample is when its dds_take returned.
   take<teamscan_msg_RobotPose>(kPose, [this](const auto& p, RobotRecord& r, const ReceiveTime& at) { on_pose(p, r, at); });
   take<teamscan_msg_RobotStatus>(kStatus, [this](const auto& s, RobotRecord& r, const ReceiveTime& at) { on_status(s, r, at); });
@@ -152,6 +195,21 @@ RobotRecord* Station::heard(std::uint32_t robot_id, int topic, std::uint64_t wri
                             Time now_mono) {
   if (robot_id == 0 || robot_id > kMaxRobots) {
     ++counters_.bad_samples;
+    return nullptr;
+  }
+  const std::uint32_t sender = senders_.robot_of(topic, writer);
+  if (sender != robot_id) {
+    // Another participant publishing as this robot (robot 2 may write robot_id 1 in its own partition):
+    // refused and not stored; counted per claimed robot and logged at most once a second per robot.
+    ++counters_.identity_mismatches;
+    RobotRecord& claimed = robots_[robot_id];
+    ++claimed.identity_mismatches;
+    if (claimed.identity_mismatches == 1 || now_mono - claimed.last_identity_event >= std::chrono::seconds(1)) {
+      event((sender == 0 ? std::string("a publication outside every robot partition") : "robot " + std::to_string(sender)) +
+            " published as robot " + std::to_string(robot_id) + " on teamscan/" + kTopicNames[topic] + ": refused (" +
+            std::to_string(claimed.identity_mismatches) + " so far)");
+      claimed.last_identity_event = now_mono;
+    }
     return nullptr;
   }
   RobotRecord& r = robots_[robot_id];

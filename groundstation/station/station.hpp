@@ -16,6 +16,7 @@
 #include "common/result.hpp"
 #include "common/time.hpp"
 #include "groundstation/station/scan_record.hpp"
+#include "groundstation/station/sender_identity.hpp"
 #include "groundstation/station/session_store.hpp"
 #include "groundstation/station/team_source.hpp"
 
@@ -37,6 +38,9 @@ struct StationOptions {
   // even if its writers are alive (a hung robot loop). Zero: off.
   Duration silence_timeout = std::chrono::seconds(5);
   std::uint32_t take_batch = 64;               // samples taken per dds_take (preallocated)
+  // DDS Security credential bundle of the station (dds/security/credentials.hpp), checked by the caller;
+  // empty: an unsecured participant.
+  std::string pki_dir;
 };
 
 // Per-robot bookkeeping.
@@ -54,6 +58,8 @@ struct RobotRecord {
   Time lost_at;                        // CLOCK_MONOTONIC of the last transition to lost
   Time last_gap_event;                 // CLOCK_MONOTONIC: gap events are rate-limited to 1 per second
   std::uint64_t gaps_unreported = 0;
+  std::uint64_t identity_mismatches = 0;  // samples claiming this robot's id sent by another participant
+  Time last_identity_event;            // CLOCK_MONOTONIC: identity events are rate-limited to 1 per second
   std::uint64_t writer_handles[3] = {0, 0, 0};    // pose, scan, status publication handles
   std::uint64_t instance_handles[3] = {0, 0, 0};  // this robot's instance on each reader
 };
@@ -69,6 +75,7 @@ struct StationCounters {
   std::uint64_t liveliness_events = 0;
   std::uint64_t hook_failures = 0;     // a mapping hook threw; the station carried on
   std::uint64_t robots_lost = 0;       // transitions to lost
+  std::uint64_t identity_mismatches = 0;  // a sample whose robot_id is not its sender's: refused, not stored
 };
 
 using ScanHook = std::function<void(const StoredScan&)>;
@@ -115,6 +122,8 @@ class Station {
 
   // Called from Cyclone's listener thread on LIVELINESS_CHANGED of any reader (queued, handled in poll).
   void push_liveliness(std::uint64_t writer_handle, int alive_change, int not_alive_change);
+  // Called from Cyclone's listener thread when a reader matches a publication (resolved in poll).
+  void push_matched(std::int32_t reader, std::uint64_t publication_handle);
 
  private:
   struct Dds;
@@ -154,6 +163,9 @@ class Station {
   std::mutex events_mutex_;                  // liveliness events come on Cyclone's threads
   std::vector<LivelinessEvent> events_;
   std::vector<LivelinessEvent> events_work_;
+  std::vector<std::pair<std::int32_t, std::uint64_t>> matched_;       // (reader, publication), under events_mutex_
+  std::vector<std::pair<std::int32_t, std::uint64_t>> matched_work_;
+  SenderIdentity senders_;
 };
 
 }  // namespace teamscan::station

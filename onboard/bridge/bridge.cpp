@@ -112,18 +112,18 @@ Result<DdsBridge> DdsBridge::create(const DdsBridgeOptions& options) {
   if (options.scan_history_depth == 0 || options.scan_history_depth > 100000) {
     return Error{"dds: scan_history_depth must be 1..100000", 0, static_cast<long>(options.scan_history_depth)};
   }
-  Result<dds::Participant> participant = dds::Participant::create(options.domain_id);
+  Result<dds::Participant> participant = dds::Participant::create(options.domain_id, options.pki_dir);
   if (!participant.ok()) return participant.error();
   // Start-up allocations: the samples (about 7 kB) and the one-sample team buffer.
   DdsBridge b{std::move(participant.value())};
   b.robot_id_ = options.robot_id;
   b.samples_.reset(new Samples{});
 
-  dds_qos_t* q = dds::make_state_writer_qos(options.liveliness_lease, options.max_blocking);
+  dds_qos_t* q = dds::make_state_writer_qos(options.robot_id, options.liveliness_lease, options.max_blocking);
   Result<dds_entity_t> pose_writer = dds::create_writer<teamscan_msg_RobotPose>(b.participant_, q);
   Result<dds_entity_t> status_writer = dds::create_writer<teamscan_msg_RobotStatus>(b.participant_, q);
   dds_delete_qos(q);
-  q = dds::make_scan_writer_qos(options.scan_history_depth, options.liveliness_lease, options.max_blocking);
+  q = dds::make_scan_writer_qos(options.robot_id, options.scan_history_depth, options.liveliness_lease, options.max_blocking);
   Result<dds_entity_t> scan_writer = dds::create_writer<teamscan_msg_ScanPoints>(b.participant_, q);
   dds_delete_qos(q);
   if (!pose_writer.ok()) return pose_writer.error();

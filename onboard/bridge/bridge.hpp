@@ -29,6 +29,9 @@ struct DdsBridgeOptions {
   // How long a reliable dds_write may block when the writer history is full (keep-last never blocks).
   Duration max_blocking = std::chrono::milliseconds(10);
   bool subscribe_team = true;               // create the teamscan/team reader
+  // DDS Security credential bundle of this robot (dds/security/credentials.hpp), checked by the caller;
+  // null: an unsecured participant.
+  const char* pki_dir = nullptr;
 };
 
 struct DdsBridgeCounters {

@@ -22,8 +22,9 @@ class DdsPublisher final : public Publisher {
 
 }  // namespace
 
-Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig& config) {
+Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig& config, const char* pki_dir) {
   DdsBridgeOptions options;
+  options.pki_dir = pki_dir;
   options.robot_id = config.robot_id;
   options.domain_id = config.dds_domain;
   options.scan_history_depth = config.scan_history_depth;

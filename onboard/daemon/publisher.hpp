@@ -32,7 +32,8 @@ class NullPublisher final : public Publisher {
   unsigned long poses = 0, scans = 0, statuses = 0;
 };
 
-// The DDS bridge publisher (onboard/bridge).
-[[nodiscard]] Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig& config);
+// The DDS bridge publisher (onboard/bridge). pki_dir: the robot's DDS Security credential bundle, already
+// checked (null: unsecured).
+[[nodiscard]] Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig& config, const char* pki_dir = nullptr);
 
 }  // namespace teamscan::onboard

@@ -42,6 +42,7 @@
 #include "sim/live.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulator.hpp"
+#include "tools/pki/site_pki.hpp"
 #include "tools/teamscan/subcommand.hpp"
 #if __has_include("tools/render/render.hpp")
 #include "tools/render/render.hpp"
@@ -92,6 +93,7 @@ struct DemoArgs {
   // The device feeder: one thread steps every pty this often (ms); 0: a thread per pty (sim/live.hpp).
   double feed_period_ms = 1.0;
   bool no_precast = false;  // cast every scan in real time instead of ahead (sim/live.hpp precast)
+  bool secure = false;      // DDS Security with a throwaway site PKI in <out>/pki (docs/security.md)
 };
 
 // The first of `candidates` that exists.
@@ -617,6 +619,27 @@ int run_demo(const DemoArgs& a) {
   fs::remove_all(out + "/session", ec);
   fs::remove_all(out + "/run", ec);
   const std::string session = out + "/session";
+  // --secure: a fresh site PKI for this run's domain; every daemon gets its bundle with --pki-dir.
+  const std::string pki_dir = out + "/pki";
+  auto pki_args = [&](const std::string& name) {
+    return a.secure ? std::vector<std::string>{"--pki-dir", pki_dir + "/" + name} : std::vector<std::string>{};
+  };
+  if (a.secure) {
+    fs::remove_all(pki_dir, ec);
+    pki::SiteOptions so;
+    for (const sim::RobotSpec& r : scenario.robots) so.robots = std::max<std::uint32_t>(so.robots, static_cast<std::uint32_t>(r.id));
+    so.domain_min = so.domain_max = static_cast<std::uint32_t>(domain);
+    so.now_s = static_cast<std::int64_t>(std::time(nullptr));
+    so.identity_days = 2;
+    if (const std::string e = pki::create_site(pki_dir, so); !e.empty()) {
+      std::fprintf(stderr, "teamscan demo: --secure: %s\n", e.c_str());
+      return 1;
+    }
+  }
+  auto with = [](std::vector<std::string> v, const std::vector<std::string>& more) {
+    v.insert(v.end(), more.begin(), more.end());
+    return v;
+  };
 
   sim::LiveOptions lo;
   lo.run_dir = out + "/run";
@@ -641,13 +664,15 @@ int run_demo(const DemoArgs& a) {
   std::printf("teamscan demo: %s, %zu robots, %.0f s of robot time at %.2fx, DDS domain %d on loopback (%s)\n",
               scenario.name.c_str(), live.robot_count(), duration_s, a.speed, domain, dds.c_str());
   std::printf("teamscan demo: output in %s\n", out.c_str());
+  if (a.secure) std::printf("teamscan demo: DDS Security on: site PKI in %s (station, robot1..)\n", pki_dir.c_str());
 
   std::vector<Child> children;
   write_text(out + "/config/groundstation.toml", station_config(out, domain, a.station_method, a.write_interval_s, a.station_ros2));
   {
     Child c{"teamscan-groundstation", out + "/logs/groundstation.log"};
-    auto pid = spawn({station_bin, "--config", out + "/config/groundstation.toml", "--session-dir", session, "--domain",
-                      std::to_string(domain)},
+    auto pid = spawn(with({station_bin, "--config", out + "/config/groundstation.toml", "--session-dir", session, "--domain",
+                           std::to_string(domain)},
+                          pki_args("station")),
                      c.log);
     if (!pid) {
       std::fprintf(stderr, "teamscan demo: %s\n", pid.error().what);
@@ -677,7 +702,7 @@ int run_demo(const DemoArgs& a) {
     const std::string cfg = out + "/config/onboard-robot" + std::to_string(spec.id) + ".toml";
     write_text(cfg, onboard_config(spec, team.motion(ti).pose_at(0.0), live.arcos_path(i), live.lms_path(i), domain, a.max_hold_s));
     Child c{"teamscan-onboard robot" + std::to_string(spec.id), out + "/logs/onboard-robot" + std::to_string(spec.id) + ".log"};
-    auto pid = spawn({onboard_bin, "--config", cfg}, c.log);
+    auto pid = spawn(with({onboard_bin, "--config", cfg}, pki_args("robot" + std::to_string(spec.id))), c.log);
     if (pid) c.pid = pid.value();
     children.push_back(c);
   }
@@ -705,8 +730,9 @@ int run_demo(const DemoArgs& a) {
   const double end_s = duration_s + 0.5 * a.speed;
   double last_print = -1e9;
   bool interrupted = false, child_died = false;
-  const std::vector<std::string> station_argv{station_bin, "--config", out + "/config/groundstation.toml", "--session-dir", session,
-                                              "--domain", std::to_string(domain)};
+  const std::vector<std::string> station_argv = with(
+      {station_bin, "--config", out + "/config/groundstation.toml", "--session-dir", session, "--domain", std::to_string(domain)},
+      pki_args("station"));
   enum class Fault { pending, active, done };
   Fault station_fault = a.kill_station_at_s ? Fault::pending : Fault::done;
   Fault unplug_fault = a.unplug_robot ? Fault::pending : Fault::done;
@@ -1131,7 +1157,7 @@ int run_demo(const DemoArgs& a) {
        << ", \"log\": \"" << json_escape(c.log) << "\"}";
   }
   std::ostringstream sj;
-  sj << "{\n  \"scenario\": \"" << json_escape(scenario.name) << "\",\n  \"duration_s\": " << duration_s
+  sj << "{\n  \"scenario\": \"" << json_escape(scenario.name) << "\",\n  \"secure\": " << (a.secure ? "true" : "false") << ",\n  \"duration_s\": " << duration_s
      << ",\n  \"speed\": " << a.speed << ",\n  \"wall_s\": " << wall_s << ",\n  \"none_lost\": " << (none_lost ? "true" : "false")
      << ",\n  \"agree\": " << (agree ? "true" : "false") << ",\n  \"clean_exit\": " << (clean ? "true" : "false")
      << ",\n  \"tolerance_da_pct\": " << a.tolerance_da_pct << ",\n  \"tolerance_sa_pct\": " << a.tolerance_sa_pct
@@ -1208,6 +1234,8 @@ const SubcommandRegistration kDemo{
            ->capture_default_str()
            ->check(CLI::Range(0.0, 10.0));
        app.add_flag("--no-precast", a->no_precast, "Cast every scan in real time instead of ahead, during bring-up");
+       app.add_flag("--secure", a->secure,
+                    "DDS Security: a throwaway site PKI in <out>/pki, every daemon authenticated, encrypted, access-controlled");
        app.add_option("--station-method", a->station_method, "The ground station's live fusion method ([fusion] method)")
            ->capture_default_str();
        app.add_option("--station-ros2", a->station_ros2,

@@ -184,7 +184,7 @@ int run_pong(dds_domainid_t domain) {
   dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
   const dds_entity_t rd = dds_create_reader(pp, tp_in, q, nullptr);
   dds_delete_qos(q);
-  q = make_scan_writer_qos(8, std::chrono::seconds(2), std::chrono::milliseconds(10));
+  q = make_scan_writer_qos(1, 8, std::chrono::seconds(2), std::chrono::milliseconds(10));
   dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
   const dds_entity_t wr = dds_create_writer(pp, tp_out, q, nullptr);
   dds_delete_qos(q);

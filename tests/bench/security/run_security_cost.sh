@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# The cost of DDS Security (docs/security.md "Cost"): N robots x RATE Hz of 181-point scans (+ 10 Hz
+# poses) from teamscan_secure_feed into the real teamscan-groundstation (fusion on, its default method),
+# once without and once with DDS Security, one after the other in one run. Each mode runs in its own
+# network namespace (`unshare -n`, root) so that lo carries this run's traffic only. Prints per mode: the
+# feeder's match time, scans written, the station's scan -> fused map p50/p99/max (its events.log, all
+# scans), the station's CPU over the feed (utime+stime from /proc, before its final model write), the
+# feeder's CPU per robot (one process per robot: the DDS publishing cost of one robot), the slowest
+# robot's match time, and the bytes on lo.
+#
+# usage: tests/bench/security/run_security_cost.sh [BUILD_DIR] [N] [RATE_HZ] [SECONDS]   (default build/dev 32 75 10)
+set -u
+here="$(cd "$(dirname "$0")" && pwd)"
+build="$(cd "${1:-$here/../../../build/dev}" && pwd)"
+n="${2:-32}"; rate="${3:-75}"; seconds="${4:-10}"
+teamscan="$build/tools/teamscan/teamscan"
+station="$(find "$build/groundstation" -name teamscan-groundstation -type f | head -1)"
+feed="$build/tests/bench/security/teamscan_secure_feed"
+for b in "$teamscan" "$station" "$feed"; do [ -x "$b" ] || { echo "missing $b (build teamscan, teamscan-groundstation, teamscan_secure_feed)" >&2; exit 2; }; done
+export CYCLONEDDS_URI="file://$here/../../../deploy/cyclonedds-lo.xml"
+work="$(mktemp -d /tmp/teamscan-seccost.XXXXXX)"
+domain=7
+"$teamscan" pki init "$work/site" --robots "$n" --domains "$domain" --days 2 > /dev/null || exit 1
+cat > "$work/station.toml" <<TOML
+[station]
+session_root = "$work/sessions"
+status_interval_s = 1.0
+[dds]
+domain_id = $domain
+[fusion]
+enabled = true
+write_interval_s = 0
+TOML
+echo "# $(date -u +%FT%TZ) $n robots x $rate Hz x $seconds s, 181-point scans, build $build, load $(cut -d' ' -f1-3 /proc/loadavg)"
+printf '%-7s %8s %8s %9s %9s %9s %10s %12s %8s\n' mode match_s scans p50_ms p99_ms max_ms gs_cpu_s feed_cpu/rb_s lo_MB
+for mode in plain secure; do
+  pki_station=(); pki_feed=()
+  if [ "$mode" = secure ]; then pki_station=(--pki-dir "$work/site/station"); pki_feed=(--pki "$work/site"); fi
+  unshare -n bash -c '
+    ip link set lo up
+    "$1" --config "$2" --session-dir "$3/session-$4" '"${pki_station[*]:-}"' > "$3/station-$4.log" 2>&1 &
+    spid=$!
+    sleep 1
+    for ((i = 1; i <= $6; i++)); do
+      "$5" --robots 1 --first $i --rate "$7" --seconds "$8" --domain "$9" '"${pki_feed[*]:-}"' > "$3/feed-$4-$i.log" 2>&1 &
+    done
+    wait $(jobs -p | grep -v "^$spid\$")
+    read -r -a st < /proc/$spid/stat
+    echo "$(( st[13] + st[14] ))" > "$3/station-cpu-$4"
+    kill -TERM $spid; wait $spid
+    awk "/lo:/ { print \$2 }" /proc/net/dev > "$3/lo-$4"
+  ' bash "$station" "$work/station.toml" "$work" "$mode" "$feed" "$n" "$rate" "$seconds" "$domain"
+  lat=$(grep "scan -> fused map latency" "$work/session-$mode/events.log" | tail -1)
+  tck=$(getconf CLK_TCK)
+  printf '%-7s %8s %8s %9s %9s %9s %10.2f %12.3f %8.1f\n' "$mode" \
+    "$(cat "$work"/feed-$mode-*.log | sed -n 's/^matched 1 after \([0-9.]*\) s/\1/p' | sort -g | tail -1)" \
+    "$(echo "$lat" | sed -n 's/.*latency: \([0-9]*\) scans.*/\1/p')" \
+    "$(echo "$lat" | sed -n 's/.*p50 \([0-9.]*\) ms.*/\1/p')" \
+    "$(echo "$lat" | sed -n 's/.*p99 \([0-9.]*\) ms.*/\1/p')" \
+    "$(echo "$lat" | sed -n 's/.*max \([0-9.]*\) ms.*/\1/p')" \
+    "$(awk -v t="$(cat "$work/station-cpu-$mode")" -v h="$tck" 'BEGIN { print t / h }')" \
+    "$(cat "$work"/feed-$mode-*.log | sed -n 's/.*cpu \([0-9.]*\) s.*/\1/p' | awk -v n="$n" '{ t += $1 } END { print t / n }')" \
+    "$(awk '{ print $1 / 1e6 }' "$work/lo-$mode")"
+done
+echo "outputs in $work (feed-MODE-ID.log, station-MODE.log, session-MODE/)"
