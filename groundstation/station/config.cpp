@@ -7,6 +7,8 @@
 
 #include <toml++/toml.h>
 
+#include "groundstation/view/requests.hpp"
+
 namespace teamscan::station {
 namespace {
 
@@ -82,7 +84,7 @@ bool known_keys(const toml::table& root, ConfigError& error) {
       "fusion", "fusion.enabled", "fusion.method", "fusion.resolution_m", "fusion.half_angle_deg",
       "fusion.grid_origin_z_m", "fusion.frequency_k", "fusion.position_sigma_m", "fusion.position_n",
       "fusion.direction_from_flags", "fusion.write_interval_s", "fusion.write_all_points", "fusion.map_interval_s",
-      "fusion.map_resolution_m", "fusion.latency_log"};
+      "fusion.map_resolution_m", "fusion.latency_log", "view", "view.listen", "view.web_root", "view.period_s"};
   std::string bad;
   const std::function<void(const toml::table&, const std::string&)> walk = [&](const toml::table& t, const std::string& prefix) {
     for (const auto& [k, v] : t) {
@@ -177,6 +179,15 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
                    r.number("fusion.map_interval_s", map_s, 0.0, 3600.0, true) &&
                    r.number("fusion.map_resolution_m", f.map_resolution_m, 0.0, 10.0);
   if (!ok3) return false;
+  // [view] listen may be empty (the view off); a present value must be HOST:PORT.
+  if (const auto n = root.at_path("view.listen"); n) {
+    if (!n.is_string()) return r.fail("view.listen", "must be a string (HOST:PORT, or empty: off)");
+    c.view.listen = *n.value<std::string>();
+    view::ListenAddress address;
+    std::string why;
+    if (!c.view.listen.empty() && !view::parse_listen(c.view.listen, address, why)) return r.fail("view.listen", why);
+  }
+  if (!r.string("view.web_root", c.view.web_root) || !r.number("view.period_s", c.view.period_s, 0.0, 60.0)) return false;
   // The paper's methods and issue 7's (groundstation/mapping make_filter; docs/beyond.md).
   static const char* const kMethods[] = {"frequency", "visibility", "position", "direction", "combined",
                                          "freespace", "tracked",    "best"};

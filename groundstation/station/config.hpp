@@ -44,6 +44,13 @@ struct FusionConfig {
   double map_resolution_m = 0.1;
 };
 
+// The browser view (groundstation/view, docs/view.md): HTTP + WebSocket on `listen`; empty: off.
+struct ViewConfig {
+  std::string listen = "127.0.0.1:8080";
+  std::string web_root;                // the built page; empty: found next to the executable
+  double period_s = 0.1;               // team snapshots to the view
+};
+
 enum class TeamSourceKind { kKalman, kLastPose };
 
 struct GroundStationConfig {
@@ -56,6 +63,7 @@ struct GroundStationConfig {
   TeamSourceKind team_source = TeamSourceKind::kKalman;
   KalmanConfig kalman;
   FusionConfig fusion;
+  ViewConfig view;
 };
 
 // True when this build has the Kalman tracker (groundstation/mapping).

@@ -2,6 +2,7 @@
 // session folder, marks robots that stop as lost, and publishes teamscan/team (issue 5). A systemd
 // Type=notify service: READY=1 once subscribed, WATCHDOG=1 from the loop, STOPPING=1 on SIGTERM.
 #include <algorithm>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -15,6 +16,8 @@
 #include "groundstation/station/session_store.hpp"
 #include "groundstation/station/station.hpp"
 #include "groundstation/station/team_source.hpp"
+#include "groundstation/station/view_feeder.hpp"
+#include "groundstation/view/server.hpp"
 #include "onboard/dds/notify.hpp"
 #ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
 #include "groundstation/station/fusion.hpp"
@@ -75,6 +78,7 @@ int main(int argc, char** argv) {
                 "fusion.write_interval_s = %.3f\nfusion.map_interval_s = %.3f\n",
                 cfg.fusion.enabled ? "true" : "false", cfg.fusion.method.c_str(), cfg.fusion.resolution_m,
                 cfg.fusion.half_angle_deg, to_seconds(cfg.fusion.write_interval), to_seconds(cfg.fusion.map_interval));
+    std::printf("view.listen = \"%s\"\n", cfg.view.listen.c_str());
     return 0;
   }
 
@@ -170,6 +174,38 @@ int main(int argc, char** argv) {
 #else
   if (cfg.fusion.enabled) log(kWarning, "fusion: not in this build (no groundstation/mapping)");
 #endif
+  // The browser view (docs/view.md): its own thread serves HTTP/WebSocket; the loop only offers copies
+  // to its bounded feed (ViewFeeder). A view that cannot listen is logged and left off: the station runs on.
+  std::unique_ptr<view::ViewFeed> view_feed;
+  std::unique_ptr<ViewFeeder> view_feeder;
+  std::unique_ptr<view::ViewServer> view_server;
+  if (!cfg.view.listen.empty()) {
+    view::ServerOptions vo;
+    std::string why;
+    (void)view::parse_listen(cfg.view.listen, vo.listen, why);  // validated with the config
+    vo.web_root = cfg.view.web_root.empty() ? default_view_web_root() : cfg.view.web_root;
+    vo.hub.map_resolution_mm = static_cast<std::uint32_t>(std::lround(cfg.fusion.map_resolution_m * 1000.0));
+    view_feed = std::make_unique<view::ViewFeed>();
+    auto server = view::ViewServer::start(vo, *view_feed);
+    if (!server) {
+      log(kErr, std::string(server.error().what) + " " + cfg.view.listen + " (" + std::strerror(server.error().sys_errno) +
+                    "); the view is off");
+      view_feed.reset();
+    } else {
+      view_server = std::move(server.value());
+      view_feeder = std::make_unique<ViewFeeder>(*view_feed, st, *team, from_seconds(cfg.view.period_s), vo.hub.map_resolution_mm);
+      st.add_pose_hook([&](const PoseObservation& p) { view_feeder->on_pose(p); });
+#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+      // After the fusion stage's hook: the growth of its live_removed counter is this scan's ghosts.
+      st.add_scan_hook([&](const StoredScan& s) { view_feeder->on_scan(s, fusion ? fusion->counters().live_removed : 0); });
+#else
+      st.add_scan_hook([&](const StoredScan& s) { view_feeder->on_scan(s, 0); });
+#endif
+      log(kInfo, "view: " + view_server->url() +
+                     (view_server->files() > 0 ? "" : " (no page found: give [view] web_root; API and /ws only)"));
+      store->log_event(now_realtime(), "view: serving " + view_server->url() + " from " + (vo.web_root.empty() ? "-" : vo.web_root));
+    }
+  }
 
   const Duration wd = onboard::watchdog_interval();
   const Duration ping_period = wd.count() > 0 ? wd / 2 : Duration{0};
@@ -196,6 +232,7 @@ int main(int argc, char** argv) {
     now = now_monotonic();
     if (handled > 0) handle_max = std::max(handle_max, now - before_poll);
     st.publish_team_if_due(now);
+    if (view_feeder) view_feeder->tick(now);
     if (ping_period.count() > 0 && now >= next_ping) {
       onboard::notify_watchdog();
       next_ping = now + ping_period;
@@ -224,7 +261,8 @@ int main(int argc, char** argv) {
       // total_voxels == the update's length marks a full map). Was the whole map every time: up to
       // 149 ms per publication in this loop at 32 robots (docs/demo.md "Scale").
       constexpr std::uint64_t kFullMapEvery = 10;
-      if (map_count % kFullMapEvery == 0) {
+      const bool whole = map_count % kFullMapEvery == 0 || (view_feeder && view_feeder->wants_whole_map());
+      if (whole) {
         fusion->map_voxels(map_voxels);
         fusion->clear_map_changes();
       } else {
@@ -234,6 +272,7 @@ int main(int argc, char** argv) {
       if (!map_voxels.empty() && !st.publish_map(map_voxels, fusion->map_resolution_mm(), total).ok()) {
         log(kWarning, "fusion: teamscan/map write failed");
       }
+      if (view_feeder) view_feeder->offer_map(map_voxels, whole, total);
       const Duration took = now_monotonic() - now;
       map_max = std::max(map_max, took);
       map_total += took;
@@ -259,6 +298,10 @@ int main(int argc, char** argv) {
                   to_seconds(handle_max) * 1e3, static_cast<unsigned long long>(map_count), to_seconds(map_max) * 1e3,
                   map_count ? to_seconds(map_total) * 1e3 / static_cast<double>(map_count) : 0.0);
     store->log_event(now_realtime(), line);
+  }
+  if (view_server) {
+    store->log_event(now_realtime(), view_server->counters().line());
+    view_server.reset();  // its thread stops before the station's state goes
   }
   log(kInfo, "stopping: " + st.status_line());
   store->log_event(now_realtime(), "station stopping: " + st.status_line());
