@@ -234,6 +234,7 @@ const view = {
   stateMessages: 0,
   errors: 0,
   fitted: false,
+  webgl: !!renderer,
   get voxels() { return cloud.count; },
   // For the browser test: every robot's marker position as drawn (the three.js object), with its state.
   robots() {
