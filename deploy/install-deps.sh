@@ -1,5 +1,8 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package teamscan needs to build, test, benchmark and run its demo.
+# The browser view (groundstation/view): Boost.Beast (libboost-dev) serves it; node + npm bundle its
+# page at build time (npm ci from the npm registry, package-lock.json); chromium runs its browser test;
+# nlohmann-json3-dev parses its JSON in the unit tests.
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 SUDO=""
@@ -19,4 +22,6 @@ $SUDO apt-get install -y --no-install-recommends \
   libtomlplusplus-dev libcli11-dev libfmt-dev \
   libpng-dev \
   liboctomap-dev \
-  pcl-tools
+  pcl-tools \
+  libboost-dev nlohmann-json3-dev \
+  nodejs npm chromium

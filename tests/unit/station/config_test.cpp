@@ -24,6 +24,24 @@ TEST(GroundStationConfig, DeployExampleParsesAndEqualsTheDefaults) {
   EXPECT_DOUBLE_EQ(c.last_pose.sigma_velocity_mps, d.last_pose.sigma_velocity_mps);
   EXPECT_DOUBLE_EQ(c.kalman.lost_after_s, d.kalman.lost_after_s);
   EXPECT_EQ(c.team_source, kalman_tracker_available() ? TeamSourceKind::kKalman : TeamSourceKind::kLastPose);
+  EXPECT_EQ(c.view.listen, d.view.listen);
+  EXPECT_DOUBLE_EQ(c.view.period_s, d.view.period_s);
+}
+
+TEST(GroundStationConfig, ViewListenIsValidatedAndMayBeOff) {
+  GroundStationConfig c;
+  ConfigError e;
+  EXPECT_EQ(c.view.listen, "127.0.0.1:8080");
+  ASSERT_TRUE(parse_groundstation_config("[view]\nlisten = \"\"\n", "t.toml", c, e)) << e.message;
+  EXPECT_TRUE(c.view.listen.empty());
+  ASSERT_TRUE(parse_groundstation_config("[view]\nlisten = \"127.0.0.1:9000\"\n", "t.toml", c, e)) << e.message;
+  EXPECT_EQ(c.view.listen, "127.0.0.1:9000");
+  for (const char* bad : {"[view]\nlisten = \"8080\"\n", "[view]\nlisten = \"127.0.0.1:70000\"\n",
+                          "[view]\nlisten = \"host.example:80\"\n", "[view]\nlisten = 8080\n",
+                          "[view]\nperiod_s = 0\n", "[view]\nlisen = \"\"\n"}) {
+    EXPECT_FALSE(parse_groundstation_config(bad, "t.toml", c, e)) << bad;
+    EXPECT_EQ(e.message.rfind("view.", 0), 0u) << e.message;
+  }
 }
 
 TEST(GroundStationConfig, TeamSourceChoice) {
