@@ -10,7 +10,10 @@
 # stamped in the run window, the wall time and the 1-minute load average before/after the run (other
 # work on the machine shows there). Per-process detail: outN/summary.json, demoN.log.
 #
-# usage: [MAX_HOLD=S] [FEED_PERIOD=MS] [WRITE_INTERVAL=S] [STATION_METHOD=M] tests/bench/scale/run_scale.sh [BUILD_DIR] [DURATION_S] [N ...]
+# VIEW_CLIENTS=K: the station serves its browser view (demo --view PORT) and K WebSocket clients
+# (tests/bench/view/view_bench_clients) stay connected through the run; the view column then gives the
+# station's peak resident memory (VmHWM, MB) and what the clients received. Without it: no view.
+# usage: [MAX_HOLD=S] [FEED_PERIOD=MS] [WRITE_INTERVAL=S] [STATION_METHOD=M] [VIEW_CLIENTS=K] tests/bench/scale/run_scale.sh [BUILD_DIR] [DURATION_S] [N ...]
 #   default: build/dev, 10 s of robot time, N = 2 8 16 32; MAX_HOLD: onboard [odometry] max_hold_s
 #   (unset: the daemon's default); FEED_PERIOD: the demo's --feed-period (0: a thread per pty)
 set -u
@@ -75,23 +78,50 @@ extra=()
 [ -n "${FEED_PERIOD:-}" ] && extra+=(--feed-period "$FEED_PERIOD")
 [ -n "${WRITE_INTERVAL:-}" ] && extra+=(--write-interval "$WRITE_INTERVAL")
 [ -n "${STATION_METHOD:-}" ] && extra+=(--station-method "$STATION_METHOD")
-echo "# $(date -u +%FT%TZ) build $build, ${duration} s of robot time + 4 s bring-up, max_hold_s ${MAX_HOLD:-default}, feed period ${FEED_PERIOD:-1} ms, station write_interval_s ${WRITE_INTERVAL:-0}, station method ${STATION_METHOD:-the demo default}"
-printf '%4s %7s %7s %7s %7s %5s %7s %7s %8s %8s %8s %8s %8s %6s %s\n' N sent publ stored fused miss gs_cpu obd_cpu feed_cpu st_p50 st_p99 fu_p50 fu_p99 wall load1
+echo "# $(date -u +%FT%TZ) build $build, ${duration} s of robot time + 4 s bring-up, max_hold_s ${MAX_HOLD:-default}, feed period ${FEED_PERIOD:-1} ms, station write_interval_s ${WRITE_INTERVAL:-0}, station method ${STATION_METHOD:-the demo default}, view clients ${VIEW_CLIENTS:-none (view off)}"
+printf '%4s %7s %7s %7s %7s %5s %7s %7s %8s %8s %8s %8s %8s %6s %s %s\n' N sent publ stored fused miss gs_cpu obd_cpu feed_cpu st_p50 st_p99 fu_p50 fu_p99 wall load1 gs_rss_mb
 sum() { grep -o "\"$1\": [0-9.e+-]*" "$2" | awk '{ t += $2 } END { printf "%d", t }'; }
 val() { grep -o "\"$1\": [0-9.e+-]*" "$2" | head -1 | awk '{ print $2 }'; }
 for n in "${counts[@]}"; do
   scenario "$n" > "$work/scale$n.toml"
   out="$work/out$n"
   load_before=$(cut -d' ' -f1 /proc/loadavg)
+  view=()
+  port=""
+  if [ -n "${VIEW_CLIENTS:-}" ]; then
+    port=$(( 20000 + (RANDOM % 20000) ))
+    view=(--view "$port")
+  fi
   "$teamscan" demo --scenario "$work/scale$n.toml" --duration "$duration" --bringup 4 --method direction \
-      --quiet --out "$out" "${extra[@]}" > "$work/demo$n.log" 2>&1
+      --quiet --out "$out" "${extra[@]}" "${view[@]}" > "$work/demo$n.log" 2>&1 &
+  demo_pid=$!
+  clients_pid=""
+  if [ -n "$port" ]; then
+    "$build/tests/bench/view/view_bench_clients" "$port" --clients "$VIEW_CLIENTS" --seconds "$((duration + 60))" \
+        > "$work/clients$n.log" 2>&1 &
+    clients_pid=$!
+  fi
+  # The station's peak resident memory (VmHWM), sampled while it runs (it is the demo's child).
+  rss_kb=0
+  while kill -0 "$demo_pid" 2>/dev/null; do
+    gs=$(ps --ppid "$demo_pid" -o pid=,comm= | awk '$2 ~ /^teamscan-ground/ { print $1; exit }')
+    if [ -n "$gs" ]; then
+      hwm=$(awk '/^VmHWM:/ { print $2 }' "/proc/$gs/status" 2>/dev/null)
+      [ -n "$hwm" ] && [ "$hwm" -gt "$rss_kb" ] && rss_kb=$hwm
+    fi
+    sleep 1
+  done
+  wait "$demo_pid"
+  if [ -n "$clients_pid" ]; then kill "$clients_pid" 2>/dev/null; wait "$clients_pid" 2>/dev/null; fi
   load_after=$(cut -d' ' -f1 /proc/loadavg)
   s="$out/summary.json"
   if [ ! -f "$s" ]; then echo "N=$n: no summary (see $work/demo$n.log)"; continue; fi
-  printf '%4d %7d %7d %7d %7d %5d %7.2f %7.2f %8.2f %8.1f %8.1f %8.1f %8.1f %6.1f %s\n' "$n" \
+  printf '%4d %7d %7d %7d %7d %5d %7.2f %7.2f %8.2f %8.1f %8.1f %8.1f %8.1f %6.1f %s %s\n' "$n" \
     "$(sum lms_sent "$s")" "$(sum last_status_published "$s")" "$(sum stored "$s")" "$(val fused_latency_scans "$s")" \
     "$(sum missing "$s")" "$(val station_run_cpu_s "$s")" "$(val onboard_cpu_s "$s")" "$(val feeder_cpu_s "$s")" \
     "$(val latency_ms_p50 "$s")" "$(val latency_ms_p99 "$s")" "$(val fused_latency_ms_p50 "$s")" "$(val fused_latency_ms_p99 "$s")" \
-    "$(val wall_s "$s")" "$load_before/$load_after"
+    "$(val wall_s "$s")" "$load_before/$load_after" "$((rss_kb / 1024))"
+  grep -h "view:" "$out/session/events.log" 2>/dev/null | sed 's/^[0-9]* [^ ]* /    /' | grep -v serving
+  [ -n "$clients_pid" ] && sed 's/^/    /' "$work/clients$n.log"
 done
 echo "outputs in $work (demoN.log: the demo's output; outN/: its folder)"
