@@ -193,7 +193,9 @@ int main(int argc, char** argv) {
       view_feed.reset();
     } else {
       view_server = std::move(server.value());
-      view_feeder = std::make_unique<ViewFeeder>(*view_feed, st, *team, from_seconds(cfg.view.period_s), vo.hub.map_resolution_mm);
+      view_feeder = std::make_unique<ViewFeeder>(
+          *view_feed, [&](std::uint32_t id) -> const RobotRecord& { return st.robot(id); }, *team,
+          from_seconds(cfg.view.period_s), vo.hub.map_resolution_mm);
       st.add_pose_hook([&](const PoseObservation& p) { view_feeder->on_pose(p); });
 #ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
       // After the fusion stage's hook: the growth of its live_removed counter is this scan's ghosts.

@@ -9,9 +9,9 @@
 
 namespace teamscan::station {
 
-ViewFeeder::ViewFeeder(view::ViewFeed& feed, const Station& station, const TeamSource& team, Duration period,
+ViewFeeder::ViewFeeder(view::ViewFeed& feed, RobotLookup robots, const TeamSource& team, Duration period,
                        std::uint32_t map_resolution_mm)
-    : feed_{feed}, station_{station}, team_{team}, period_{period}, map_resolution_mm_{map_resolution_mm} {}
+    : feed_{feed}, robot_{std::move(robots)}, team_{team}, period_{period}, map_resolution_mm_{map_resolution_mm} {}
 
 void ViewFeeder::on_pose(const PoseObservation& p) {
   if (p.robot_id == 0 || p.robot_id > kMaxRobots) return;
@@ -46,7 +46,7 @@ void ViewFeeder::tick(Time now_monotonic) {
   for (std::size_t i = 0; i < n && i < estimates_.size(); ++i) {
     const TeamMemberEstimate& e = estimates_[i];
     if (e.robot_id == 0 || e.robot_id > kMaxRobots) continue;
-    const RobotRecord& rec = station_.robot(e.robot_id);
+    const RobotRecord& rec = robot_(e.robot_id);
     PerRobot& r = robots_[e.robot_id];
     if (r.latency_n > 0) {
       r.latency_ms = static_cast<double>(r.latency_sum_ns) / r.latency_n * 1e-6;
@@ -86,7 +86,8 @@ std::string default_view_web_root() {
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
   if (ec) return {};
   const fs::path dir = exe.parent_path();
-  for (const fs::path& p : {dir / ".." / "share" / "teamscan" / "view", dir / ".." / ".." / "groundstation" / "view" / "web" / "site"}) {
+  for (const fs::path& p :
+       {dir / ".." / "share" / "teamscan" / "view", dir / ".." / ".." / "groundstation" / "view" / "web" / "site"}) {
     if (fs::exists(p / "index.html", ec)) return fs::weakly_canonical(p, ec).string();
   }
   return {};

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 
@@ -21,9 +22,12 @@ struct teamscan_msg_MapVoxel;
 
 namespace teamscan::station {
 
+// The station's record of a robot (Station::robot), by id 1..32.
+using RobotLookup = std::function<const RobotRecord&(std::uint32_t robot_id)>;
+
 class ViewFeeder {
  public:
-  ViewFeeder(view::ViewFeed& feed, const Station& station, const TeamSource& team, Duration period,
+  ViewFeeder(view::ViewFeed& feed, RobotLookup robots, const TeamSource& team, Duration period,
              std::uint32_t map_resolution_mm);
 
   // Pose hook: the heading of the robot's newest pose.
@@ -47,7 +51,7 @@ class ViewFeeder {
     double latency_ms = 0.0;
   };
   view::ViewFeed& feed_;
-  const Station& station_;
+  RobotLookup robot_;
   const TeamSource& team_;
   Duration period_;
   std::uint32_t map_resolution_mm_;

@@ -62,7 +62,7 @@ class ClientQueue {
   QueueLimits limits_;
   std::deque<SharedMessage> queue_;
   std::size_t bytes_ = 0;
-  bool whole_pending_ = true;   // a new client receives the whole state first
+  bool whole_pending_ = true;  // a new client receives the whole state first
   std::uint64_t skips_ = 0;
 };
 

@@ -5,9 +5,7 @@
 
 namespace teamscan::view {
 
-ViewFeed::ViewFeed(FeedLimits limits) : limits_{limits} {
-  pending_.scans.resize(limits_.max_scans);
-}
+ViewFeed::ViewFeed(FeedLimits limits) : limits_{limits} { pending_.scans.resize(limits_.max_scans); }
 
 void ViewFeed::offer_scan(std::uint32_t robot_id, std::span<const TapPoint> points) {
   std::lock_guard<std::mutex> lock(mutex_);

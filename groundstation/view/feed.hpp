@@ -20,17 +20,17 @@
 namespace teamscan::view {
 
 struct FeedLimits {
-  std::size_t max_scans = 512;          // tap scans held between two drains (≈ 0.2 s of 32 robots at 75 Hz)
-  std::size_t max_voxels = 1u << 20;    // changed voxels held between two drains
+  std::size_t max_scans = 512;        // tap scans held between two drains (≈ 0.2 s of 32 robots at 75 Hz)
+  std::size_t max_voxels = 1u << 20;  // changed voxels held between two drains
 };
 
 struct FeedCounters {
   std::uint64_t scans_offered = 0;
-  std::uint64_t scans_dropped = 0;      // the tap buffer was full: the view did not drain in time
+  std::uint64_t scans_dropped = 0;  // the tap buffer was full: the view did not drain in time
   std::uint64_t voxels_offered = 0;
-  std::uint64_t voxel_overflows = 0;    // pending changes dropped; the whole map was asked for instead
+  std::uint64_t voxel_overflows = 0;  // pending changes dropped; the whole map was asked for instead
   std::uint64_t snapshots_offered = 0;
-  std::uint64_t snapshots_replaced = 0; // a snapshot not drained before the next one (only the latest counts)
+  std::uint64_t snapshots_replaced = 0;  // a snapshot not drained before the next one (only the latest counts)
 };
 
 // A scan's placed points, as the tap keeps them.
@@ -42,10 +42,10 @@ struct TapScan {
 
 // What one drain hands the view: buffers swapped out of the feed, valid until the next drain.
 struct FeedBatch {
-  std::vector<TapScan> scans;           // scans[0..scan_count)
+  std::vector<TapScan> scans;  // scans[0..scan_count)
   std::size_t scan_count = 0;
   std::vector<VoxelUpdate> voxels;
-  bool voxels_are_full_map = false;     // voxels is the whole map (after an overflow)
+  bool voxels_are_full_map = false;  // voxels is the whole map (after an overflow)
   std::optional<TeamSnapshot> snapshot;
 };
 

@@ -20,10 +20,10 @@
 namespace teamscan::view {
 
 struct HubOptions {
-  std::uint32_t map_resolution_mm = 100;   // the station's live map voxel edge ([fusion] map_resolution_m)
-  std::int32_t track_step_mm = 20;         // a track point when the robot moved this far
-  std::size_t track_max_points = 4096;     // per robot; beyond, the track is thinned to every other point
-  std::size_t state_history = 64;          // recent states answered by /api/state?seq=N
+  std::uint32_t map_resolution_mm = 100;  // the station's live map voxel edge ([fusion] map_resolution_m)
+  std::int32_t track_step_mm = 20;        // a track point when the robot moved this far
+  std::size_t track_max_points = 4096;    // per robot; beyond, the track is thinned to every other point
+  std::size_t state_history = 64;         // recent states answered by /api/state?seq=N
   double scan_rate_window_s = 1.0;
 };
 
@@ -31,7 +31,7 @@ struct HubCounters {
   std::uint64_t batches = 0;
   std::uint64_t states = 0;
   std::uint64_t voxels_changed = 0;
-  std::uint64_t whole_maps = 0;            // whole maps taken from the station (after a feed overflow)
+  std::uint64_t whole_maps = 0;  // whole maps taken from the station (after a feed overflow)
   std::uint64_t tap_scans = 0;
 };
 
@@ -56,8 +56,8 @@ class ViewHub {
  private:
   struct Track {
     std::vector<float> xy;
-    std::size_t sent = 0;       // floats already in a state message
-    bool resend = true;         // send the whole track in the next state message
+    std::size_t sent = 0;  // floats already in a state message
+    bool resend = true;    // send the whole track in the next state message
   };
   struct RobotExtra {
     Track track;
@@ -71,9 +71,9 @@ class ViewHub {
   [[nodiscard]] StateHeader header(bool whole) const;
 
   HubOptions options_;
-  std::unordered_map<std::uint64_t, WireVoxel> voxels_;   // hits 0: attributed to a robot, not in the map yet
+  std::unordered_map<std::uint64_t, WireVoxel> voxels_;  // hits 0: attributed to a robot, not in the map yet
   std::size_t in_map_ = 0;
-  std::vector<RobotExtra> extra_;                         // index robot id
+  std::vector<RobotExtra> extra_;  // index robot id
   std::optional<TeamSnapshot> latest_;
   std::uint64_t seq_ = 0;
   std::deque<std::pair<std::uint64_t, std::string>> history_;

@@ -59,7 +59,8 @@ Result<VoxelMessage> decode_voxels(std::string_view bytes) {
   if (get_u16(p + 4) != kProtocolVersion) return Error{"view: voxel message: unknown version"};
   VoxelMessage m;
   const std::uint16_t kind = get_u16(p + 6);
-  if (kind != static_cast<std::uint16_t>(VoxelKind::kWholeMap) && kind != static_cast<std::uint16_t>(VoxelKind::kChanged)) {
+  if (kind != static_cast<std::uint16_t>(VoxelKind::kWholeMap) &&
+      kind != static_cast<std::uint16_t>(VoxelKind::kChanged)) {
     return Error{"view: voxel message: unknown kind"};
   }
   m.kind = static_cast<VoxelKind>(kind);
@@ -89,11 +90,21 @@ std::string json_escape(std::string_view s) {
   o.reserve(s.size());
   for (const char c : s) {
     switch (c) {
-      case '"': o += "\\\""; break;
-      case '\\': o += "\\\\"; break;
-      case '\n': o += "\\n"; break;
-      case '\r': o += "\\r"; break;
-      case '\t': o += "\\t"; break;
+      case '"':
+        o += "\\\"";
+        break;
+      case '\\':
+        o += "\\\\";
+        break;
+      case '\n':
+        o += "\\n";
+        break;
+      case '\r':
+        o += "\\r";
+        break;
+      case '\t':
+        o += "\\t";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20) {
           char b[8];

@@ -32,7 +32,7 @@ struct WireVoxel {
   std::int32_t y_mm = 0;
   std::int32_t z_mm = 0;
   std::uint16_t hits = 0;
-  std::uint8_t flags = 0;   // bit 0: removed
+  std::uint8_t flags = 0;  // bit 0: removed
   std::uint8_t robot = 0;
   friend bool operator==(const WireVoxel&, const WireVoxel&) = default;
 };
@@ -69,7 +69,7 @@ struct RobotView {
 struct StateHeader {
   std::uint64_t seq = 0;
   std::int64_t stamp_ns = 0;
-  bool whole = false;              // a whole state (tracks complete), sent first and after a skip
+  bool whole = false;  // a whole state (tracks complete), sent first and after a skip
   std::uint32_t map_voxels = 0;
   std::uint32_t map_resolution_mm = 0;
 };

@@ -10,8 +10,8 @@ namespace detail {
 bool valid_file_name(std::string_view name) {
   if (name.empty() || name.size() > 128 || name.front() == '.') return false;
   for (const char c : name) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '-' ||
-                    c == '_';
+    const bool ok =
+        (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '-' || c == '_';
     if (!ok) return false;
   }
   return true;
@@ -32,14 +32,24 @@ bool parse_seq_query(std::string_view query, std::optional<std::uint64_t>& seq) 
 
 void ViewCounters::count_error(int status) {
   switch (status) {
-    case 404: ++not_found; break;
-    case 405: ++bad_method; break;
+    case 404:
+      ++not_found;
+      break;
+    case 405:
+      ++bad_method;
+      break;
     case 413:
     case 414:
-    case 431: ++oversized; break;
-    case 503: ++refused; break;
+    case 431:
+      ++oversized;
+      break;
+    case 503:
+      ++refused;
+      break;
     case 400:
-    default: ++malformed; break;
+    default:
+      ++malformed;
+      break;
   }
 }
 
@@ -85,7 +95,9 @@ bool parse_listen(std::string_view text, ListenAddress& out, std::string& error)
   if (host == "localhost") host = "127.0.0.1";
   unsigned parts[4];
   char tail = 0;
-  if (std::sscanf(host.c_str(), "%3u.%3u.%3u.%3u%c", &parts[0], &parts[1], &parts[2], &parts[3], &tail) != 4 ||
+  const bool digits_and_dots = host.find_first_not_of("0123456789.") == std::string::npos;
+  if (!digits_and_dots ||
+      std::sscanf(host.c_str(), "%3u.%3u.%3u.%3u%c", &parts[0], &parts[1], &parts[2], &parts[3], &tail) != 4 ||
       parts[0] > 255 || parts[1] > 255 || parts[2] > 255 || parts[3] > 255) {
     error = "host must be an IPv4 address (e.g. 127.0.0.1) or localhost, got \"" + host + "\"";
     return false;

@@ -14,9 +14,9 @@
 namespace teamscan::view {
 
 struct RequestLimits {
-  std::size_t max_header_bytes = 8192;    // request line + headers; beyond: 431, counted as oversized
-  std::size_t max_body_bytes = 0;         // a read-only view takes no body; beyond: 413, oversized
-  std::size_t max_target_bytes = 1024;    // beyond: 414, oversized
+  std::size_t max_header_bytes = 8192;      // request line + headers; beyond: 431, counted as oversized
+  std::size_t max_body_bytes = 0;           // a read-only view takes no body; beyond: 413, oversized
+  std::size_t max_target_bytes = 1024;      // beyond: 414, oversized
   std::size_t max_ws_message_bytes = 4096;  // a client's WebSocket message beyond: closed (1009), oversized
 };
 
@@ -24,10 +24,10 @@ enum class Route { kFile, kWebSocket, kState, kStats, kError };
 
 struct RouteDecision {
   Route route = Route::kError;
-  int status = 200;                 // HTTP status of the answer
-  std::string file;                 // kFile: the file name in the web root ("index.html" for "/")
-  std::optional<std::uint64_t> seq; // kState: ?seq=N
-  std::string error;                // kError: the reason, sent as the body
+  int status = 200;                  // HTTP status of the answer
+  std::string file;                  // kFile: the file name in the web root ("index.html" for "/")
+  std::optional<std::uint64_t> seq;  // kState: ?seq=N
+  std::string error;                 // kError: the reason, sent as the body
 };
 
 // Decides what to do with a request that parsed. `websocket_upgrade`: the request asks to upgrade.
@@ -39,20 +39,20 @@ RouteDecision route_request(std::string_view method, std::string_view target, bo
 // The view's counters, shared between the server thread and the station's loop (which logs them).
 struct ViewCounters {
   std::atomic<std::uint64_t> requests{0};
-  std::atomic<std::uint64_t> malformed{0};          // unparseable HTTP: 400
-  std::atomic<std::uint64_t> oversized{0};          // headers, target, body or a WebSocket message too big
-  std::atomic<std::uint64_t> not_found{0};          // 404
-  std::atomic<std::uint64_t> bad_method{0};         // not GET/HEAD (read-only): 405
-  std::atomic<std::uint64_t> bad_query{0};          // 400 for a known path with a bad query
-  std::atomic<std::uint64_t> refused{0};            // over max connections: 503
+  std::atomic<std::uint64_t> malformed{0};   // unparseable HTTP: 400
+  std::atomic<std::uint64_t> oversized{0};   // headers, target, body or a WebSocket message too big
+  std::atomic<std::uint64_t> not_found{0};   // 404
+  std::atomic<std::uint64_t> bad_method{0};  // not GET/HEAD (read-only): 405
+  std::atomic<std::uint64_t> bad_query{0};   // 400 for a known path with a bad query
+  std::atomic<std::uint64_t> refused{0};     // over max connections: 503
   std::atomic<std::uint64_t> ws_opened{0};
   std::atomic<std::uint64_t> ws_open{0};
-  std::atomic<std::uint64_t> ws_rejected{0};        // client messages (the view takes no command)
-  std::atomic<std::uint64_t> skips{0};              // slow clients skipped to the whole state
+  std::atomic<std::uint64_t> ws_rejected{0};  // client messages (the view takes no command)
+  std::atomic<std::uint64_t> skips{0};        // slow clients skipped to the whole state
   std::atomic<std::uint64_t> messages_sent{0};
   std::atomic<std::uint64_t> bytes_sent{0};
-  std::atomic<std::uint64_t> hub_bytes{0};          // the hub's memory (map copy, tracks, states)
-  std::atomic<std::uint64_t> queued_bytes{0};       // bytes in every client's queue
+  std::atomic<std::uint64_t> hub_bytes{0};     // the hub's memory (map copy, tracks, states)
+  std::atomic<std::uint64_t> queued_bytes{0};  // bytes in every client's queue
   // Counts the error answer `status` under its counter.
   void count_error(int status);
   [[nodiscard]] std::string json() const;
@@ -60,7 +60,7 @@ struct ViewCounters {
 };
 
 struct ListenAddress {
-  std::string host;     // IPv4 dotted quad
+  std::string host;  // IPv4 dotted quad
   std::uint16_t port = 0;
 };
 // "127.0.0.1:8080" (port 0: any free port). "localhost" means 127.0.0.1. Errors say what is wrong.

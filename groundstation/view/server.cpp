@@ -1,13 +1,6 @@
 // ViewServer: HTTP + WebSocket with Boost.Beast on one Asio thread (server.hpp).
 #include "groundstation/view/server.hpp"
 
-#include <filesystem>
-#include <fstream>
-#include <map>
-#include <sstream>
-#include <thread>
-#include <vector>
-
 #include <boost/asio/bind_executor.hpp>
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/ip/tcp.hpp>
@@ -15,6 +8,12 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <thread>
+#include <vector>
 
 namespace teamscan::view {
 
@@ -97,13 +96,15 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       whole_.clear();
       whole_next_ = 0;
       switch (queue_.next(m)) {
-        case ClientQueue::Next::kNothing: return;
+        case ClientQueue::Next::kNothing:
+          return;
         case ClientQueue::Next::kWholeState:
           srv_.hub.whole(whole_);
           if (whole_.empty()) return;
           m = whole_[whole_next_++];
           break;
-        case ClientQueue::Next::kMessage: break;
+        case ClientQueue::Next::kMessage:
+          break;
       }
     }
     writing_ = true;
@@ -141,7 +142,12 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
 
   void on_read(error_code ec) {
     if (ec) {
-      if (ec == websocket::error::message_too_big) ++srv_.counters.oversized;  // Beast closes with 1009
+      if (ec == websocket::error::message_too_big) {
+        ++srv_.counters.oversized;  // Beast closes with 1009 (message too big)
+      } else if (ec != websocket::error::closed &&
+                 ec.category() == websocket::make_error_code(websocket::error::closed).category()) {
+        ++srv_.counters.malformed;  // a WebSocket protocol violation: Beast closes with 1002
+      }
       finish();
       return;
     }
@@ -242,9 +248,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     http::request<http::string_body>& req = parser_->get();
     const unsigned version = req.version();
     const bool keep_alive = req.keep_alive();
-    const RouteDecision d =
-        route_request(sv(req.method_string()), sv(req.target()), websocket::is_upgrade(req), req.body().size(),
-                      srv_.options.requests, [&](std::string_view name) { return srv_.files.find(name) != srv_.files.end(); });
+    const RouteDecision d = route_request(
+        sv(req.method_string()), sv(req.target()), websocket::is_upgrade(req), req.body().size(), srv_.options.requests,
+        [&](std::string_view name) { return srv_.files.find(name) != srv_.files.end(); });
     switch (d.route) {
       case Route::kError:
         srv_.counters.count_error(d.status);
@@ -283,8 +289,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     respond(static_cast<http::status>(status), "application/json", encode_error(why), version, keep_alive, false);
   }
 
-  void respond(http::status status, std::string_view type, const std::string& body, unsigned version,
-               bool keep_alive, bool head) {
+  void respond(http::status status, std::string_view type, const std::string& body, unsigned version, bool keep_alive,
+               bool head) {
     auto res = std::make_shared<http::response<http::string_body>>(status, version);
     res->set(http::field::server, "teamscan-groundstation view");
     res->set(http::field::content_type, beast::string_view(type.data(), type.size()));
@@ -409,7 +415,9 @@ Result<std::unique_ptr<ViewServer>> ViewServer::start(const ServerOptions& optio
 }
 
 std::uint16_t ViewServer::port() const { return impl_->port; }
-std::string ViewServer::url() const { return "http://" + impl_->options.listen.host + ":" + std::to_string(impl_->port) + "/"; }
+std::string ViewServer::url() const {
+  return "http://" + impl_->options.listen.host + ":" + std::to_string(impl_->port) + "/";
+}
 std::size_t ViewServer::files() const { return impl_->files.size(); }
 const ViewCounters& ViewServer::counters() const { return impl_->counters; }
 

@@ -20,13 +20,13 @@ namespace teamscan::view {
 
 struct ServerOptions {
   ListenAddress listen{"127.0.0.1", 8080};
-  std::string web_root;                 // the built page (index.html, app.js, ...); empty: API and /ws only
+  std::string web_root;  // the built page (index.html, app.js, ...); empty: API and /ws only
   RequestLimits requests;
   QueueLimits queue;
   HubOptions hub;
   Duration tick = std::chrono::milliseconds(100);
   Duration http_timeout = std::chrono::seconds(10);  // a request not complete by then: connection closed
-  std::size_t max_connections = 32;     // beyond: 503, counted as refused
+  std::size_t max_connections = 32;                  // beyond: 503, counted as refused
 };
 
 class ViewServer {

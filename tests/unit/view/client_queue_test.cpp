@@ -1,8 +1,8 @@
 // ClientQueue: a new client gets the whole state first; messages in order within the bounds; a client that
 // falls behind skips to the whole current state (queue dropped, counted) and never holds more than the bounds.
-#include <gtest/gtest.h>
-
 #include "groundstation/view/client_queue.hpp"
+
+#include <gtest/gtest.h>
 
 namespace teamscan::view {
 namespace {
@@ -41,11 +41,11 @@ TEST(ClientQueue, ASlowClientSkipsToTheLatestStateWhenBytesRunOver) {
     EXPECT_LE(q.bytes(), 100u);  // never more than the bound, however far behind
   }
   EXPECT_TRUE(q.whole_pending());
-  EXPECT_EQ(q.skips(), 1u);       // dropped once; later pushes wait for the whole state
+  EXPECT_EQ(q.skips(), 1u);  // dropped once; later pushes wait for the whole state
   EXPECT_EQ(q.size(), 0u);
   EXPECT_EQ(q.next(out), ClientQueue::Next::kWholeState);
   EXPECT_EQ(q.next(out), ClientQueue::Next::kNothing);
-  q.push(msg(30, 'n'));           // after the whole state: changes again
+  q.push(msg(30, 'n'));  // after the whole state: changes again
   ASSERT_EQ(q.next(out), ClientQueue::Next::kMessage);
   EXPECT_EQ(out->bytes[0], 'n');
 }

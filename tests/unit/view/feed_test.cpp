@@ -1,10 +1,10 @@
 // ViewFeed: the station -> view hand-off is bounded: full tap buffer drops scans (counted), too many pending
 // voxel changes ask for the whole map instead, only the newest snapshot is kept; drain swaps everything out.
+#include "groundstation/view/feed.hpp"
+
 #include <gtest/gtest.h>
 
 #include <thread>
-
-#include "groundstation/view/feed.hpp"
 
 namespace teamscan::view {
 namespace {

@@ -1,10 +1,10 @@
 // ViewHub: robots attributed from the scan tap, the whole map for a new client, changes as deltas, tracks,
 // scan rate, and the recent states answered by seq.
+#include "groundstation/view/hub.hpp"
+
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
-
-#include "groundstation/view/hub.hpp"
 
 namespace teamscan::view {
 namespace {

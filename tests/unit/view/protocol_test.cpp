@@ -1,9 +1,9 @@
 // The view's wire protocol: voxel messages byte by byte and round trip, decoder errors, state JSON.
+#include "groundstation/view/protocol.hpp"
+
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
-
-#include "groundstation/view/protocol.hpp"
 
 namespace teamscan::view {
 namespace {
@@ -17,12 +17,14 @@ TEST(ViewProtocol, VoxelMessageBytesAreTheDocumentedLayout) {
   m.voxels.push_back(WireVoxel{-50, 150, 250, 0x1234, 1, 2});
   const std::string b = encode_voxels(m);
   ASSERT_EQ(b.size(), kVoxelHeaderBytes + kVoxelBytes);
+  // clang-format off
   const unsigned char expected[] = {
       'T', 'S', 'V', 'X', 1, 0, 2, 0,          // magic, version 1, kind 2 (changed)
       0x04, 0x03, 0x02, 0x01, 1, 0, 0, 0,      // seq, count 1
       100, 0, 0, 0, 7, 0, 0, 0,                // resolution_mm, total_voxels
       0xCE, 0xFF, 0xFF, 0xFF, 150, 0, 0, 0,    // x_mm -50, y_mm 150
       250, 0, 0, 0, 0x34, 0x12, 1, 2};         // z_mm 250, hits, flags (removed), robot 2
+  // clang-format on
   for (std::size_t i = 0; i < sizeof expected; ++i) {
     EXPECT_EQ(static_cast<unsigned char>(b[i]), expected[i]) << "byte " << i;
   }

@@ -1,10 +1,10 @@
 // Request routing (pure): files, API, /ws, and every error with its status; the listen address; counters.
+#include "groundstation/view/requests.hpp"
+
 #include <gtest/gtest.h>
 
 #include <set>
 #include <string>
-
-#include "groundstation/view/requests.hpp"
 
 namespace teamscan::view {
 namespace {
@@ -36,7 +36,7 @@ TEST(ViewRequests, ErrorsHaveTheirStatus) {
   EXPECT_EQ(route("DELETE", "/ws", true).status, 405);
   EXPECT_EQ(route("GET", "/", false, 1).status, 413);
   EXPECT_EQ(route("GET", "/" + std::string(2000, 'a')).status, 414);
-  EXPECT_EQ(route("GET", "/ws").status, 400);        // not an upgrade
+  EXPECT_EQ(route("GET", "/ws").status, 400);  // not an upgrade
   EXPECT_EQ(route("GET", "/api/state?seq=x").status, 400);
   EXPECT_EQ(route("GET", "/api/state?seq=").status, 400);
   EXPECT_EQ(route("GET", "/api/state?cmd=stop").status, 400);

@@ -2,24 +2,22 @@
 // an error and are counted; a WebSocket client gets the whole map first, then changes; what a client sends
 // is refused (read-only) and counted; a client that does not read skips to the whole state, and what the
 // server queues for it stays within the bound.
-#include <gtest/gtest.h>
+#include "groundstation/view/server.hpp"
 
 #include <arpa/inet.h>
+#include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
-
-#include <chrono>
-#include <filesystem>
-#include <fstream>
-#include <thread>
 
 #include <boost/asio/connect.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/websocket.hpp>
-
-#include "groundstation/view/server.hpp"
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <thread>
 
 namespace teamscan::view {
 namespace {
@@ -121,7 +119,8 @@ TEST_F(ViewServerTest, MalformedOversizedAndUnknownRequestsGetAnErrorAndAreCount
   EXPECT_EQ(c.oversized.load(), 1u);
   EXPECT_EQ(status_of(raw("POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 5\r\n\r\nhello")), 413);
   EXPECT_EQ(c.oversized.load(), 2u);
-  EXPECT_EQ(status_of(raw("GET /" + std::string(2000, 'a') + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")), 414);
+  EXPECT_EQ(status_of(raw("GET /" + std::string(2000, 'a') + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")),
+            414);
   EXPECT_EQ(c.oversized.load(), 3u);
   const std::string nf = raw("GET /secret.txt HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
   EXPECT_EQ(status_of(nf), 404);
