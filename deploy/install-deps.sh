@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package teamscan needs to build, test, benchmark and run its demo.
+# Installs every Debian 12 package teamscan needs to build, test, benchmark, package and run its demo.
+# Packaging (scripts/check-install.sh): help2man (man pages from --help), file and dpkg-dev (cpack's
+# dpkg-shlibdeps), lintian.
 # The browser view (groundstation/view): Boost.Beast (libboost-dev) serves it; node + npm bundle its
 # page at build time (npm ci from the npm registry, package-lock.json); chromium runs its browser test;
 # nlohmann-json3-dev parses its JSON in the unit tests.
@@ -23,5 +25,6 @@ $SUDO apt-get install -y --no-install-recommends \
   libpng-dev \
   liboctomap-dev \
   pcl-tools \
+  help2man file dpkg-dev lintian \
   libboost-dev nlohmann-json3-dev \
   nodejs npm chromium

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "common/clock.hpp"
+#include "common/data_paths.hpp"
 #include "common/scan_points.hpp"
 #include "teamscan.h"
 

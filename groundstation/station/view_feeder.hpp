@@ -64,8 +64,8 @@ class ViewFeeder {
   view::TeamSnapshot snapshot_{};
 };
 
-// The built page next to this executable: <exe>/../share/teamscan/view (installed) or
-// <exe>/../../groundstation/view/web/site (build tree); empty if neither exists.
+// The built page: share/teamscan/view where installed (find_data_file), else the build tree's
+// groundstation/view/web/site beside this executable's folder; empty if neither exists.
 [[nodiscard]] std::string default_view_web_root();
 
 }  // namespace teamscan::station
