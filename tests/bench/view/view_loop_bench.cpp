@@ -11,12 +11,16 @@
 // counters and what the clients got.
 // usage: view_loop_bench [SECONDS_PER_RUN=8] [ROUNDS=2] [SPEED=1] [METHOD=best]
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <sstream>
 #include <map>
 #include <string>
 #include <thread>
@@ -102,6 +106,29 @@ long rss_kb() {
   }
   return 0;
 }
+// CPU seconds of this process's thread named `name` (/proc/self/task/*/comm), 0 if none.
+double named_thread_cpu_s(const std::string& name) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (const fs::directory_entry& t : fs::directory_iterator("/proc/self/task", ec)) {
+    std::ifstream comm(t.path() / "comm");
+    std::string c;
+    std::getline(comm, c);
+    if (c != name) continue;
+    std::ifstream stat(t.path() / "stat");
+    std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+    std::istringstream rest(text.substr(text.rfind(')') + 2));
+    std::string field;
+    unsigned long long utime = 0, stime = 0;
+    for (int i = 3; i <= 15 && rest >> field; ++i) {
+      if (i == 14) utime = std::stoull(field);
+      if (i == 15) stime = std::stoull(field);
+    }
+    return static_cast<double>(utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK));
+  }
+  return 0.0;
+}
+
 double thread_cpu_s() {
   rusage u{};
   getrusage(RUSAGE_THREAD, &u);
@@ -216,7 +243,8 @@ void run(const Feed& f, bool with_view, double speed, const char* method) {
                 static_cast<unsigned long long>(fc.scans_offered), static_cast<unsigned long long>(fc.scans_dropped),
                 static_cast<unsigned long long>(fc.voxels_offered), static_cast<unsigned long long>(fc.voxel_overflows),
                 static_cast<unsigned long long>(fc.snapshots_offered));
-    std::printf("  view: hub %.1f MB, client queues %.2f MB now; %s\n",
+    std::printf("  view: server thread CPU %.1f %% of a core; hub %.1f MB, client queues %.2f MB now; %s\n",
+                100.0 * named_thread_cpu_s("teamscan-view") / run_s,
                 static_cast<double>(server->counters().hub_bytes.load()) * 1e-6,
                 static_cast<double>(server->counters().queued_bytes.load()) * 1e-6, server->counters().line().c_str());
     stop_clients = true;
