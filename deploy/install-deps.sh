@@ -2,6 +2,9 @@
 # Installs every Debian 12 package teamscan needs to build, test, benchmark, package and run its demo.
 # Packaging (scripts/check-install.sh): help2man (man pages from --help), file and dpkg-dev (cpack's
 # dpkg-shlibdeps), lintian.
+# The browser view (groundstation/view): Boost.Beast (libboost-dev) serves it; node + npm bundle its
+# page at build time (npm ci from the npm registry, package-lock.json); chromium runs its browser test;
+# nlohmann-json3-dev parses its JSON in the unit tests.
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 SUDO=""
@@ -22,4 +25,6 @@ $SUDO apt-get install -y --no-install-recommends \
   libpng-dev \
   liboctomap-dev \
   pcl-tools \
-  help2man file dpkg-dev lintian
+  help2man file dpkg-dev lintian \
+  libboost-dev nlohmann-json3-dev \
+  nodejs npm chromium

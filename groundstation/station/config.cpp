@@ -8,6 +8,7 @@
 
 #include "common/toml_reader.hpp"
 #include "common/units.hpp"
+#include "groundstation/view/requests.hpp"
 
 namespace teamscan::station {
 
@@ -45,7 +46,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   double lease_s = to_seconds(c.station.team_liveliness_lease);
   double silence_s = to_seconds(c.station.silence_timeout);
   std::string source = c.team_source == TeamSourceKind::kKalman ? "kalman" : "last_pose";
-  r.top_level({"station", "dds", "team", "fusion", "ros2"});
+  r.top_level({"station", "dds", "team", "fusion", "ros2", "view"});
 
   const toml::table* station = r.section("station", false);
   r.only(station, "station", {"session_root", "sync_interval_s", "status_interval_s"});
@@ -119,6 +120,17 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.number_in(ros2, "ros2", "map_interval_s", cloud_s, 0.0, 3600.0);
   r.number_in(ros2, "ros2", "pose_rate_hz", ros.pose_rate_hz, 0.0, 1000.0);
   r.number_in(ros2, "ros2", "heading_sigma_deg", ros.heading_sigma_deg, 0.0, 180.0, true);
+
+  // The browser view: listen may be empty (off); a present value must be HOST:PORT.
+  const toml::table* view = r.section("view", false);
+  r.only(view, "view", {"listen", "web_root", "period_s"});
+  if (r.string(view, "view", "listen", c.view.listen, false) && !c.view.listen.empty()) {
+    view::ListenAddress address;
+    std::string why;
+    if (!view::parse_listen(c.view.listen, address, why)) r.fail("view.listen", why, r.node(view, "listen"));
+  }
+  r.string(view, "view", "web_root", c.view.web_root, false);
+  r.number_in(view, "view", "period_s", c.view.period_s, 0.0, 60.0);
   if (r.failed()) return false;
   ros.map_interval = from_seconds(cloud_s);
   // The paper's methods and the ones beyond it (groundstation/mapping make_filter; docs/beyond.md).

@@ -57,6 +57,11 @@ struct Ros2Config {
   double pose_rate_hz = 10.0;                        // rt/tf and rt/robotN/odom
   // The tracker estimates no heading: the odometry's yaw variance is this sigma squared.
   double heading_sigma_deg = 3.0;
+// The browser view (groundstation/view, docs/view.md): HTTP + WebSocket on `listen`; empty: off.
+struct ViewConfig {
+  std::string listen = "127.0.0.1:8080";
+  std::string web_root;                // the built page; empty: found next to the executable
+  double period_s = 0.1;               // team snapshots to the view
 };
 
 enum class TeamSourceKind { kKalman, kLastPose };
@@ -72,6 +77,7 @@ struct GroundStationConfig {
   KalmanConfig kalman;
   FusionConfig fusion;
   Ros2Config ros2;
+  ViewConfig view;
 };
 
 struct ConfigError {

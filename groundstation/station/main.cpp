@@ -2,6 +2,7 @@
 // session folder, marks robots that stop as lost, and publishes teamscan/team (issue 5). A systemd
 // Type=notify service: READY=1 once subscribed, WATCHDOG=1 from the loop, STOPPING=1 on SIGTERM.
 #include <algorithm>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -20,11 +21,13 @@
 #include "groundstation/station/ros2_publisher.hpp"
 #include "groundstation/station/session_store.hpp"
 #include "groundstation/station/station.hpp"
-#include "groundstation/station/team_source.hpp"
 #include "dds/notify.hpp"
 #include "groundstation/station/fusion.hpp"
 #include "groundstation/station/kalman_team_source.hpp"
 #include "groundstation/station/model_writer.hpp"
+#include "groundstation/station/team_source.hpp"
+#include "groundstation/station/view_feeder.hpp"
+#include "groundstation/view/server.hpp"
 #include "teamscan.h"
 
 namespace {
@@ -104,6 +107,7 @@ int main(int argc, char** argv) {
     std::printf("ros2.enabled = %s\nros2.map_interval_s = %.3f\nros2.pose_rate_hz = %.3f\nros2.heading_sigma_deg = %.3f\n",
                 cfg.ros2.enabled ? "true" : "false", to_seconds(cfg.ros2.map_interval), cfg.ros2.pose_rate_hz,
                 cfg.ros2.heading_sigma_deg);
+    std::printf("view.listen = \"%s\"\n", cfg.view.listen.c_str());
     return 0;
   }
 
@@ -203,6 +207,36 @@ int main(int argc, char** argv) {
     store->log_event(now_realtime(), line);
     if (const Status l = fusion->write_latency(); !l.ok()) log(kWarning, std::string("fusion: ") + l.error().what);
   };
+  // The browser view (docs/view.md): its own thread serves HTTP/WebSocket; the loop only offers copies
+  // to its bounded feed (ViewFeeder). A view that cannot listen is logged and left off: the station runs on.
+  std::unique_ptr<view::ViewFeed> view_feed;
+  std::unique_ptr<ViewFeeder> view_feeder;
+  std::unique_ptr<view::ViewServer> view_server;
+  if (!cfg.view.listen.empty()) {
+    view::ServerOptions vo;
+    std::string why;
+    (void)view::parse_listen(cfg.view.listen, vo.listen, why);  // validated with the config
+    vo.web_root = cfg.view.web_root.empty() ? default_view_web_root() : cfg.view.web_root;
+    vo.hub.map_resolution_mm = static_cast<std::uint32_t>(std::lround(cfg.fusion.map_resolution_m * 1000.0));
+    view_feed = std::make_unique<view::ViewFeed>();
+    auto server = view::ViewServer::start(vo, *view_feed);
+    if (!server) {
+      log(kErr, std::string(server.error().what) + " " + cfg.view.listen + " (" + std::strerror(server.error().sys_errno) +
+                    "); the view is off");
+      view_feed.reset();
+    } else {
+      view_server = std::move(server.value());
+      view_feeder = std::make_unique<ViewFeeder>(
+          *view_feed, [&](std::uint32_t id) -> const RobotRecord& { return st.robot(id); }, *team,
+          from_seconds(cfg.view.period_s), vo.hub.map_resolution_mm);
+      st.add_pose_hook([&](const PoseObservation& p) { view_feeder->on_pose(p); });
+      // After the fusion stage's hook: the growth of its live_removed counter is this scan's ghosts.
+      st.add_scan_hook([&](const StoredScan& s) { view_feeder->on_scan(s, fusion ? fusion->counters().live_removed : 0); });
+      log(kInfo, "view: " + view_server->url() +
+                     (view_server->files() > 0 ? "" : " (no page found: give [view] web_root; API and /ws only)"));
+      store->log_event(now_realtime(), "view: serving " + view_server->url() + " from " + (vo.web_root.empty() ? "-" : vo.web_root));
+    }
+  }
 
   const Duration wd = dds::watchdog_interval();
   const Duration ping_period = wd.count() > 0 ? wd / 2 : Duration{0};
@@ -230,6 +264,7 @@ int main(int argc, char** argv) {
     if (handled > 0) handle_max = std::max(handle_max, now - before_poll);
     st.publish_team_if_due(now);
     if (ros2) ros2->tick(now, *team);
+    if (view_feeder) view_feeder->tick(now);
     if (ping_period.count() > 0 && now >= next_ping) {
       dds::notify_watchdog();
       next_ping = now + ping_period;
@@ -257,7 +292,8 @@ int main(int argc, char** argv) {
       // total_voxels == the update's length marks a full map). Was the whole map every time: up to
       // 149 ms per publication in this loop at 32 robots (docs/demo.md "Scale").
       constexpr std::uint64_t kFullMapEvery = 10;
-      if (map_count % kFullMapEvery == 0) {
+      const bool whole = map_count % kFullMapEvery == 0 || (view_feeder && view_feeder->wants_whole_map());
+      if (whole) {
         fusion->map_voxels(map_voxels);
         fusion->clear_map_changes();
       } else {
@@ -268,6 +304,7 @@ int main(int argc, char** argv) {
         log(kWarning, "fusion: teamscan/map write failed");
       }
       if (ros2 && !map_voxels.empty()) ros2->offer_map(map_voxels, total);
+      if (view_feeder) view_feeder->offer_map(map_voxels, whole, total);
       const Duration took = now_monotonic() - now;
       map_max = std::max(map_max, took);
       map_total += took;
@@ -306,6 +343,10 @@ int main(int argc, char** argv) {
                   static_cast<unsigned long long>(c.handovers_deferred));
     store->log_event(now_realtime(), line);
     ros2.reset();
+  }
+  if (view_server) {
+    store->log_event(now_realtime(), view_server->counters().line());
+    view_server.reset();  // its thread stops before the station's state goes
   }
   log(kInfo, "stopping: " + st.status_line());
   store->log_event(now_realtime(), "station stopping: " + st.status_line());

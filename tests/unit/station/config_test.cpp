@@ -28,6 +28,8 @@ TEST(GroundStationConfig, DeployExampleParsesAndEqualsTheDefaults) {
   EXPECT_EQ(c.ros2.map_interval, d.ros2.map_interval);
   EXPECT_DOUBLE_EQ(c.ros2.pose_rate_hz, d.ros2.pose_rate_hz);
   EXPECT_DOUBLE_EQ(c.ros2.heading_sigma_deg, d.ros2.heading_sigma_deg);
+  EXPECT_EQ(c.view.listen, d.view.listen);
+  EXPECT_DOUBLE_EQ(c.view.period_s, d.view.period_s);
 }
 
 TEST(GroundStationConfig, Ros2Keys) {
@@ -41,6 +43,22 @@ TEST(GroundStationConfig, Ros2Keys) {
   EXPECT_EQ(c.ros2.map_interval, std::chrono::milliseconds(2500));
   EXPECT_DOUBLE_EQ(c.ros2.pose_rate_hz, 30.0);
   EXPECT_DOUBLE_EQ(c.ros2.heading_sigma_deg, 0.0);
+}
+
+TEST(GroundStationConfig, ViewListenIsValidatedAndMayBeOff) {
+  GroundStationConfig c;
+  ConfigError e;
+  EXPECT_EQ(c.view.listen, "127.0.0.1:8080");
+  ASSERT_TRUE(parse_groundstation_config("[view]\nlisten = \"\"\n", "t.toml", c, e)) << e.message;
+  EXPECT_TRUE(c.view.listen.empty());
+  ASSERT_TRUE(parse_groundstation_config("[view]\nlisten = \"127.0.0.1:9000\"\n", "t.toml", c, e)) << e.message;
+  EXPECT_EQ(c.view.listen, "127.0.0.1:9000");
+  for (const char* bad : {"[view]\nlisten = \"8080\"\n", "[view]\nlisten = \"127.0.0.1:70000\"\n",
+                          "[view]\nlisten = \"host.example:80\"\n", "[view]\nlisten = 8080\n",
+                          "[view]\nperiod_s = 0\n", "[view]\nlisen = \"\"\n"}) {
+    EXPECT_FALSE(parse_groundstation_config(bad, "t.toml", c, e)) << bad;
+    EXPECT_EQ(e.message.rfind("view.", 0), 0u) << e.message;
+  }
 }
 
 TEST(GroundStationConfig, TeamSourceChoice) {

@@ -1,0 +1,97 @@
+// ViewFeeder: team snapshots, scan taps and map changes for the browser view (view_feeder.hpp).
+#include "groundstation/station/view_feeder.hpp"
+
+#include <filesystem>
+
+#include "common/clock.hpp"
+#include "common/data_paths.hpp"
+#include "common/scan_points.hpp"
+#include "teamscan.h"
+
+namespace teamscan::station {
+
+ViewFeeder::ViewFeeder(view::ViewFeed& feed, RobotLookup robots, const TeamSource& team, Duration period,
+                       std::uint32_t map_resolution_mm)
+    : feed_{feed}, robot_{std::move(robots)}, team_{team}, period_{period}, map_resolution_mm_{map_resolution_mm} {}
+
+void ViewFeeder::on_pose(const PoseObservation& p) {
+  if (p.robot_id == 0 || p.robot_id > kMaxRobots) return;
+  robots_[p.robot_id].yaw_rad = p.yaw_rad;
+}
+
+void ViewFeeder::on_scan(const StoredScan& s, std::uint64_t removed_total) {
+  if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
+  PerRobot& r = robots_[s.robot_id];
+  if (removed_total >= removed_seen_) r.ghosts += removed_total - removed_seen_;
+  removed_seen_ = removed_total;
+  r.latency_sum_ns += s.recv_realtime_ns - s.stamp_ns;
+  ++r.latency_n;
+  std::size_t n = 0;
+  for (std::uint32_t i = 0; i < s.count && i < kMaxBeams; ++i) {
+    const StoredPoint& p = s.points[i];
+    if (p.flags & kPointUnplaced) continue;  // not in the map (as the fusion stage)
+    tap_[n++] = view::TapPoint{p.x_mm, p.y_mm, p.z_mm};
+  }
+  feed_.offer_scan(s.robot_id, std::span<const view::TapPoint>(tap_.data(), n));
+}
+
+void ViewFeeder::tick(Time now_monotonic) {
+  if (now_monotonic < next_) return;
+  next_ = now_monotonic + period_;
+  const Time now_rt = now_realtime();
+  const std::size_t n = team_.estimate(now_rt, std::span<TeamMemberEstimate>(estimates_));
+  view::TeamSnapshot& t = snapshot_;
+  t.stamp_ns = now_rt.ns();
+  t.map_resolution_mm = map_resolution_mm_;
+  t.count = 0;
+  for (std::size_t i = 0; i < n && i < estimates_.size(); ++i) {
+    const TeamMemberEstimate& e = estimates_[i];
+    if (e.robot_id == 0 || e.robot_id > kMaxRobots) continue;
+    const RobotRecord& rec = robot_(e.robot_id);
+    PerRobot& r = robots_[e.robot_id];
+    if (r.latency_n > 0) {
+      r.latency_ms = static_cast<double>(r.latency_sum_ns) / r.latency_n * 1e-6;
+      r.latency_sum_ns = 0;
+      r.latency_n = 0;
+    }
+    view::RobotState& s = t.robots[t.count++];
+    s.robot_id = e.robot_id;
+    s.lost = e.lost || rec.lost;
+    s.x_m = e.x_m;
+    s.y_m = e.y_m;
+    s.yaw_rad = r.yaw_rad;
+    s.cov_xx_m2 = e.cov_xx_m2;
+    s.cov_xy_m2 = e.cov_xy_m2;
+    s.cov_yy_m2 = e.cov_yy_m2;
+    s.scans = rec.scans;
+    s.scans_lost = rec.scans_missing;
+    s.ghosts_removed = r.ghosts;
+    s.latency_ms = r.latency_ms;
+  }
+  feed_.offer_snapshot(t);
+}
+
+void ViewFeeder::offer_map(std::span<const teamscan_msg_MapVoxel> voxels, bool whole, std::uint32_t total_voxels) {
+  voxels_.clear();
+  voxels_.reserve(voxels.size());
+  for (const teamscan_msg_MapVoxel& v : voxels) {
+    voxels_.push_back(view::VoxelUpdate{v.x_mm, v.y_mm, v.z_mm, v.hits, static_cast<std::uint8_t>(v.flags & 1u)});
+  }
+  snapshot_.map_voxels = total_voxels;
+  feed_.offer_voxels(voxels_, whole);
+}
+
+std::string default_view_web_root() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) return {};
+  const fs::path dir = exe.parent_path();
+  for (const fs::path& p :
+       {dir / ".." / "share" / "teamscan" / "view", dir / ".." / ".." / "groundstation" / "view" / "web" / "site"}) {
+    if (fs::exists(p / "index.html", ec)) return fs::weakly_canonical(p, ec).string();
+  }
+  return {};
+}
+
+}  // namespace teamscan::station

@@ -1,0 +1,52 @@
+// ViewServer: the browser view's HTTP and WebSocket server (Boost.Beast on one Asio thread of its own).
+// It serves the page's files from the web root, /api/state and /api/stats (JSON), and /ws, where every
+// client gets the whole map and state first, then the changes. Every tick (100 ms) it drains the
+// station's ViewFeed into the ViewHub and queues the resulting messages per client (ClientQueue: a slow
+// client skips to the latest state). The station's loop only ever touches the ViewFeed.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "common/result.hpp"
+#include "common/time.hpp"
+#include "groundstation/view/client_queue.hpp"
+#include "groundstation/view/feed.hpp"
+#include "groundstation/view/hub.hpp"
+#include "groundstation/view/requests.hpp"
+
+namespace teamscan::view {
+
+struct ServerOptions {
+  ListenAddress listen{"127.0.0.1", 8080};
+  std::string web_root;  // the built page (index.html, app.js, ...); empty: API and /ws only
+  RequestLimits requests;
+  QueueLimits queue;
+  HubOptions hub;
+  Duration tick = std::chrono::milliseconds(100);
+  Duration http_timeout = std::chrono::seconds(10);  // a request not complete by then: connection closed
+  std::size_t max_connections = 32;                  // beyond: 503, counted as refused
+};
+
+class ViewServer {
+ public:
+  // Binds, loads the web root's files and starts the server thread. Fails if it cannot listen.
+  [[nodiscard]] static Result<std::unique_ptr<ViewServer>> start(const ServerOptions& options, ViewFeed& feed);
+  ~ViewServer();  // stops the thread, closes every connection
+  ViewServer(const ViewServer&) = delete;
+  ViewServer& operator=(const ViewServer&) = delete;
+
+  [[nodiscard]] std::uint16_t port() const;
+  [[nodiscard]] std::string url() const;  // http://HOST:PORT/
+  [[nodiscard]] std::size_t files() const;
+  [[nodiscard]] const ViewCounters& counters() const;
+
+  struct Impl;
+
+ private:
+  explicit ViewServer(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace teamscan::view

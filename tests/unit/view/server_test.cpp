@@ -1,0 +1,240 @@
+// ViewServer over loopback sockets: files and API answered; malformed, oversized and unknown requests get
+// an error and are counted; a WebSocket client gets the whole map first, then changes; what a client sends
+// is refused (read-only) and counted; a client that does not read skips to the whole state, and what the
+// server queues for it stays within the bound.
+#include "groundstation/view/server.hpp"
+
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <boost/asio/connect.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/websocket.hpp>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+namespace teamscan::view {
+namespace {
+
+namespace fs = std::filesystem;
+namespace beast = boost::beast;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+
+class ViewServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    root_ = fs::temp_directory_path() / ("teamscan-view-test-" + std::to_string(::getpid()));
+    fs::create_directories(root_);
+    std::ofstream(root_ / "index.html") << "<html>teamscan</html>";
+    std::ofstream(root_ / "app.js") << "console.log(1)";
+  }
+  void TearDown() override {
+    server_.reset();
+    fs::remove_all(root_);
+  }
+  void start(ServerOptions o = {}) {
+    o.listen = {"127.0.0.1", 0};
+    o.web_root = root_.string();
+    o.tick = std::chrono::milliseconds(20);
+    auto s = ViewServer::start(o, feed_);
+    ASSERT_TRUE(s.ok()) << s.error().what;
+    server_ = std::move(s.value());
+  }
+  // Sends raw bytes, returns everything the server answers until it closes (or 3 s).
+  std::string raw(const std::string& request) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(server_->port());
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+    timeval tv{3, 0};
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    std::size_t sent = 0;
+    while (sent < request.size()) {
+      const ssize_t n = ::send(fd, request.data() + sent, request.size() - sent, MSG_NOSIGNAL);
+      if (n <= 0) break;
+      sent += static_cast<std::size_t>(n);
+    }
+    std::string out;
+    char buf[4096];
+    for (;;) {
+      const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+      if (n <= 0) break;
+      out.append(buf, static_cast<std::size_t>(n));
+    }
+    ::close(fd);
+    return out;
+  }
+  static int status_of(const std::string& response) {
+    return response.size() > 12 ? std::stoi(response.substr(9, 3)) : 0;
+  }
+  void wait_for(const std::function<bool()>& cond) {
+    for (int i = 0; i < 300 && !cond(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+
+  fs::path root_;
+  ViewFeed feed_;
+  std::unique_ptr<ViewServer> server_;
+};
+
+TEST_F(ViewServerTest, ServesTheFilesAndTheApi) {
+  start();
+  EXPECT_EQ(server_->files(), 2u);
+  const std::string r = raw("GET / HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(status_of(r), 200);
+  EXPECT_NE(r.find("<html>teamscan</html>"), std::string::npos);
+  EXPECT_NE(r.find("text/html"), std::string::npos);
+  EXPECT_EQ(status_of(raw("GET /app.js HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")), 200);
+  EXPECT_EQ(status_of(raw("GET /api/state HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")), 404);  // no state yet
+  TeamSnapshot t;
+  t.count = 1;
+  t.robots[0].robot_id = 4;
+  t.robots[0].x_m = 1.5;
+  feed_.offer_snapshot(t);
+  wait_for([&] { return status_of(raw("GET /api/state HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")) == 200; });
+  const std::string s = raw("GET /api/state?seq=1 HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(status_of(s), 200);
+  EXPECT_NE(s.find("\"x_m\":1.5000"), std::string::npos);
+  EXPECT_EQ(status_of(raw("GET /api/stats HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")), 200);
+  EXPECT_EQ(server_->counters().malformed.load() + server_->counters().oversized.load(), 0u);
+}
+
+TEST_F(ViewServerTest, MalformedOversizedAndUnknownRequestsGetAnErrorAndAreCounted) {
+  start();
+  const ViewCounters& c = server_->counters();
+  EXPECT_EQ(status_of(raw("GARBAGE\r\n\r\n")), 400);
+  EXPECT_EQ(c.malformed.load(), 1u);
+  EXPECT_EQ(status_of(raw("GET / HTTP/1.1\r\nHost: x\r\nBad Header Line\r\n\r\n")), 400);
+  EXPECT_EQ(c.malformed.load(), 2u);
+  EXPECT_EQ(status_of(raw("GET / HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(20000, 'a') + "\r\n\r\n")), 431);
+  EXPECT_EQ(c.oversized.load(), 1u);
+  EXPECT_EQ(status_of(raw("POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 5\r\n\r\nhello")), 413);
+  EXPECT_EQ(c.oversized.load(), 2u);
+  EXPECT_EQ(status_of(raw("GET /" + std::string(2000, 'a') + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")),
+            414);
+  EXPECT_EQ(c.oversized.load(), 3u);
+  const std::string nf = raw("GET /secret.txt HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(status_of(nf), 404);
+  EXPECT_NE(nf.find("\"error\":\"not found\""), std::string::npos);
+  EXPECT_EQ(c.not_found.load(), 1u);
+  EXPECT_EQ(status_of(raw("DELETE /api/state HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")), 405);
+  EXPECT_EQ(c.bad_method.load(), 1u);
+  // The server is still serving.
+  EXPECT_EQ(status_of(raw("GET / HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")), 200);
+}
+
+struct WsClient {
+  net::io_context ioc;
+  websocket::stream<tcp::socket> ws{ioc};
+  beast::flat_buffer buffer;
+  explicit WsClient(std::uint16_t port) {
+    ws.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
+    ws.handshake("127.0.0.1", "/ws");
+  }
+  std::pair<bool, std::string> read() {
+    buffer.clear();
+    ws.read(buffer);
+    return {ws.got_binary(), beast::buffers_to_string(buffer.data())};
+  }
+};
+
+TEST_F(ViewServerTest, WebSocketClientGetsTheWholeMapFirstThenChanges) {
+  start();
+  const VoxelUpdate v1[] = {{50, 50, 50, 1, 0}, {150, 50, 50, 2, 1}};
+  feed_.offer_voxels(v1);
+  TeamSnapshot t;
+  t.count = 1;
+  t.robots[0].robot_id = 1;
+  feed_.offer_snapshot(t);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  WsClient c(server_->port());
+  auto [bin, bytes] = c.read();
+  ASSERT_TRUE(bin);
+  auto whole = decode_voxels(bytes);
+  ASSERT_TRUE(whole.ok());
+  EXPECT_EQ(whole.value().kind, VoxelKind::kWholeMap);
+  EXPECT_EQ(whole.value().voxels.size(), 2u);
+  auto [bin2, state] = c.read();
+  EXPECT_FALSE(bin2);
+  EXPECT_NE(state.find("\"whole\":true"), std::string::npos);
+  const VoxelUpdate v2[] = {{250, 50, 50, 1, 0}};
+  feed_.offer_voxels(v2);
+  for (;;) {
+    auto [b, m] = c.read();
+    if (!b) continue;
+    auto changed = decode_voxels(m);
+    ASSERT_TRUE(changed.ok());
+    EXPECT_EQ(changed.value().kind, VoxelKind::kChanged);
+    ASSERT_EQ(changed.value().voxels.size(), 1u);
+    EXPECT_EQ(changed.value().voxels[0].x_mm, 250);
+    break;
+  }
+  EXPECT_EQ(server_->counters().ws_opened.load(), 1u);
+}
+
+TEST_F(ViewServerTest, TheViewIsReadOnlyAndRefusesOversizedClientMessages) {
+  ServerOptions o;
+  o.requests.max_ws_message_bytes = 1024;
+  start(o);
+  WsClient c(server_->port());
+  c.read();  // the whole map (empty)
+  c.ws.text(true);
+  c.ws.write(net::buffer(std::string("{\"cmd\":\"stop\"}")));
+  auto [bin, reply] = c.read();
+  EXPECT_FALSE(bin);
+  EXPECT_NE(reply.find("\"type\":\"error\""), std::string::npos);
+  EXPECT_EQ(server_->counters().ws_rejected.load(), 1u);
+  c.ws.write(net::buffer(std::string(4096, 'x')));
+  beast::error_code ec;
+  for (int i = 0; i < 10 && !ec; ++i) c.ws.read(c.buffer, ec);  // the server closes the connection (1009)
+  EXPECT_TRUE(ec);
+  wait_for([&] { return server_->counters().oversized.load() == 1; });
+  EXPECT_EQ(server_->counters().oversized.load(), 1u);
+  wait_for([&] { return server_->counters().ws_open.load() == 0; });
+  EXPECT_EQ(server_->counters().ws_open.load(), 0u);
+}
+
+TEST_F(ViewServerTest, AClientThatDoesNotReadSkipsToTheWholeStateWithinTheBound) {
+  ServerOptions o;
+  o.queue = {.max_bytes = 1u << 20, .max_messages = 8};
+  start(o);
+  WsClient c(server_->port());
+  c.read();  // the whole map (empty); then the client stops reading
+  std::vector<VoxelUpdate> batch(20000);
+  std::size_t peak = 0;
+  for (int i = 0; i < 80 && server_->counters().skips.load() == 0; ++i) {
+    for (std::size_t k = 0; k < batch.size(); ++k) {
+      batch[k] = VoxelUpdate{static_cast<std::int32_t>(k) * 100 + 50, i * 100 + 50, 50, 1, 0};
+    }
+    feed_.offer_voxels(batch);
+    std::this_thread::sleep_for(std::chrono::milliseconds(40));
+    peak = std::max<std::size_t>(peak, server_->counters().queued_bytes.load());
+  }
+  EXPECT_GE(server_->counters().skips.load(), 1u);
+  EXPECT_LE(peak, o.queue.max_bytes);
+  // Reading again, the client gets a whole map with everything so far.
+  bool got_whole = false;
+  for (int i = 0; i < 200 && !got_whole; ++i) {
+    auto [bin, bytes] = c.read();
+    if (!bin) continue;
+    auto m = decode_voxels(bytes);
+    ASSERT_TRUE(m.ok());
+    if (m.value().kind == VoxelKind::kWholeMap) {
+      got_whole = true;
+      EXPECT_GE(m.value().voxels.size(), 20000u);
+    }
+  }
+  EXPECT_TRUE(got_whole);
+}
+
+}  // namespace
+}  // namespace teamscan::view
