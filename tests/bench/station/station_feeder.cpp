@@ -453,8 +453,24 @@ int main(int argc, char** argv) {
               max_late_ms, stopped_because.empty() ? "" : "; STOPPED EARLY: ", stopped_because.c_str());
   if (station_pid <= 0) return 0;
 
-  // Let the station take what is in flight, then measure and stop it.
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  // Let the station take its backlog (scans.bin stops growing for 1.5 s; at most 60 s), then measure
+  // and stop it: what it has not stored by then counts as lost.
+  {
+    std::error_code ec;
+    std::uintmax_t last = 0;
+    auto still_since = std::chrono::steady_clock::now();
+    const auto drain_deadline = still_since + std::chrono::seconds(60);
+    while (std::chrono::steady_clock::now() < drain_deadline) {
+      const std::uintmax_t size = std::filesystem::file_size(session + "/scans.bin", ec);
+      if (size != last) {
+        last = size;
+        still_since = std::chrono::steady_clock::now();
+      } else if (std::chrono::steady_clock::now() - still_since > std::chrono::milliseconds(1500)) {
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(250));
+    }
+  }
   const double cpu1 = read_cpu_s(station_pid);
   const double measured_wall_s = to_seconds(now_monotonic() - wall0);
   if (auto kib = read_rss_kib(station_pid)) rss.push_back({robot_s_done, *kib});
