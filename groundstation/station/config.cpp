@@ -82,7 +82,11 @@ bool known_keys(const toml::table& root, ConfigError& error) {
       "fusion", "fusion.enabled", "fusion.method", "fusion.resolution_m", "fusion.half_angle_deg",
       "fusion.grid_origin_z_m", "fusion.frequency_k", "fusion.position_sigma_m", "fusion.position_n",
       "fusion.direction_from_flags", "fusion.write_interval_s", "fusion.write_all_points", "fusion.map_interval_s",
-      "fusion.map_resolution_m", "fusion.latency_log"};
+      "fusion.map_resolution_m", "fusion.latency_log",
+      "validation", "validation.site_min_x_m", "validation.site_max_x_m", "validation.site_min_y_m",
+      "validation.site_max_y_m", "validation.site_min_z_m", "validation.site_max_z_m", "validation.max_stamp_age_s",
+      "validation.max_stamp_ahead_s", "validation.clock_offset_warn_s", "validation.max_speed_mps",
+      "validation.max_yaw_rate_radps", "validation.max_seq_jump", "validation.log_interval_s"};
   std::string bad;
   const std::function<void(const toml::table&, const std::string&)> walk = [&](const toml::table& t, const std::string& prefix) {
     for (const auto& [k, v] : t) {
@@ -186,6 +190,33 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
     return r.fail("fusion.method", "must be frequency, visibility, position, direction, combined, freespace, tracked "
                                    "or best, got \"" + f.method + "\"");
   }
+  // [validation] (sample_validation.hpp, docs/validation.md).
+  ValidationOptions& v = c.station.validation;
+  double age_s = to_seconds(v.max_stamp_age), ahead_s = to_seconds(v.max_stamp_ahead);
+  double warn_s = to_seconds(v.clock_offset_warn), vlog_s = to_seconds(v.log_interval);
+  std::int64_t jump = v.max_seq_jump;
+  const bool ok4 = r.number("validation.site_min_x_m", v.site_min_x_m, -1e7, 1e7, true) &&
+                   r.number("validation.site_max_x_m", v.site_max_x_m, -1e7, 1e7, true) &&
+                   r.number("validation.site_min_y_m", v.site_min_y_m, -1e7, 1e7, true) &&
+                   r.number("validation.site_max_y_m", v.site_max_y_m, -1e7, 1e7, true) &&
+                   r.number("validation.site_min_z_m", v.site_min_z_m, -1e7, 1e7, true) &&
+                   r.number("validation.site_max_z_m", v.site_max_z_m, -1e7, 1e7, true) &&
+                   r.number("validation.max_stamp_age_s", age_s, 0.0, 86400.0) &&
+                   r.number("validation.max_stamp_ahead_s", ahead_s, 0.0, 86400.0, true) &&
+                   r.number("validation.clock_offset_warn_s", warn_s, 0.0, 86400.0) &&
+                   r.number("validation.max_speed_mps", v.max_speed_mps, 0.0, 1000.0) &&
+                   r.number("validation.max_yaw_rate_radps", v.max_yaw_rate_radps, 0.0, 1000.0) &&
+                   r.integer("validation.max_seq_jump", jump, 1, 1'000'000'000) &&
+                   r.number("validation.log_interval_s", vlog_s, 0.0, 86400.0, true);
+  if (!ok4) return false;
+  if (!(v.site_min_x_m < v.site_max_x_m && v.site_min_y_m < v.site_max_y_m && v.site_min_z_m < v.site_max_z_m)) {
+    return r.fail("validation", "each site_min_*_m must be below its site_max_*_m");
+  }
+  v.max_stamp_age = from_seconds(age_s);
+  v.max_stamp_ahead = from_seconds(ahead_s);
+  v.clock_offset_warn = from_seconds(warn_s);
+  v.log_interval = from_seconds(vlog_s);
+  v.max_seq_jump = static_cast<std::uint32_t>(jump);
   f.write_interval = from_seconds(write_s);
   f.map_interval = from_seconds(map_s);
   if (source == "kalman") {

@@ -15,6 +15,7 @@
 #include "common/capacities.hpp"
 #include "common/result.hpp"
 #include "common/time.hpp"
+#include "groundstation/station/sample_validation.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "groundstation/station/session_store.hpp"
 #include "groundstation/station/team_source.hpp"
@@ -34,6 +35,8 @@ struct StationOptions {
   // even if its writers are alive (a hung robot loop). Zero: off.
   Duration silence_timeout = std::chrono::seconds(5);
   std::uint32_t take_batch = 64;               // samples taken per dds_take (preallocated)
+  // Validation at the edge (config [validation], docs/validation.md).
+  ValidationOptions validation;
 };
 
 // Per-robot bookkeeping.
