@@ -18,6 +18,8 @@ constexpr const char* kReasonNames[kRejectReasons] = {
     "velocity",   "clock_unset", "stamp_behind", "stamp_ahead", "seq_jump",
 };
 
+constexpr std::int64_t kOneDayNs = 86'400'000'000'000;
+
 // (−π, π] in µrad as the robots round it (lround(θ·1e6)).
 constexpr std::int64_t kPiUrad = 3'141'593;
 
@@ -60,9 +62,11 @@ void SampleValidator::observe_clock(std::uint32_t id, std::int64_t stamp_ns, Tim
   RobotClock& c = clocks_[id];
   c.any = true;
   c.unset = stamp_ns < options_.clock_set_after_ns;
-  // received − stamp without overflow: INT64_MIN / INT64_MAX stamps saturate.
-  const long double d = static_cast<long double>(received.ns()) - static_cast<long double>(stamp_ns);
-  const std::int64_t offset = d > 9.2e18L ? INT64_MAX : d < -9.2e18L ? INT64_MIN : static_cast<std::int64_t>(d);
+  // A clock that was never set says so; a stamp more than a day from the receive time is no clock
+  // reading at all (INT64_MAX, a corrupt sample): refused, but it does not move the robot's offset.
+  if (c.unset) return;
+  if (stamp_ns > received.ns() + kOneDayNs || stamp_ns < received.ns() - kOneDayNs) return;
+  const std::int64_t offset = received.ns() - stamp_ns;  // within ±1 day here: no overflow
   if (!c.window_any) {
     c.window_any = true;
     c.window_start = received;

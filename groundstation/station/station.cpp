@@ -34,6 +34,25 @@ std::uint16_t to_mm_u16(double m) {
   return static_cast<std::uint16_t>(std::clamp(std::round(m * 1000.0), 0.0, 65535.0));
 }
 
+// The scan as stored (scans.bin), with the validator's verdict. Every point the sample carries is kept:
+// a count above MAX_BEAMS (refused) stores the MAX_BEAMS points of the fixed-size sample.
+const StoredScan& stored_from(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject verdict, StoredScan& out) {
+  out.recv_realtime_ns = at.realtime.ns();
+  out.recv_monotonic_ns = at.monotonic.ns();
+  out.robot_id = s.robot_id;
+  out.seq = s.seq;
+  out.stamp_ns = s.stamp_ns;
+  out.origin_x_mm = s.origin_x_mm;
+  out.origin_y_mm = s.origin_y_mm;
+  out.origin_z_mm = s.origin_z_mm;
+  out.count = std::min<std::uint16_t>(s.count, static_cast<std::uint16_t>(kMaxBeams));
+  out.rejected = static_cast<std::uint16_t>(verdict);
+  for (std::uint16_t b = 0; b < out.count; ++b) {
+    out.points[b] = StoredPoint{s.points[b].x_mm, s.points[b].y_mm, s.points[b].z_mm, s.points[b].beam, s.points[b].flags};
+  }
+  return out;
+}
+
 }  // namespace
 
 // Every DDS entity and preallocated sample of the station (DDS_SYSTEMD.md 1.8: takes into our own
@@ -60,7 +79,7 @@ struct Station::Dds {
 };
 
 Station::Station(const StationOptions& options, SessionStore& store, TeamSource& team)
-    : options_{options}, store_{store}, team_{team}, dds_{std::make_unique<Dds>()} {
+    : options_{options}, store_{store}, team_{team}, dds_{std::make_unique<Dds>()}, validator_{options.validation} {
   for (std::uint32_t i = 0; i <= kMaxRobots; ++i) robots_[i].robot_id = i;
 }
 
@@ -152,15 +171,23 @@ std::size_t Station::poll(Duration max_wait) {
   take_scans();
   handle_liveliness_events();
   check_silence(now_monotonic());
+  validator_.clock_changes([&](std::uint32_t, const std::string& text) { event(text); });
   return static_cast<std::size_t>(counters_.scans + counters_.poses + counters_.statuses - before);
 }
 
+void Station::refused(SampleTopic topic, const Verdict& v, std::uint32_t robot_id, std::uint32_t seq,
+                      std::int64_t stamp_ns, const ReceiveTime& at) {
+  ++counters_.rejected;
+  store_.append_rejected(at, topic_name(topic), robot_id, seq, stamp_ns, reject_name(v.reason), v.value);
+  const std::string line = validator_.log_line(v, topic, robot_id, at.monotonic);
+  if (!line.empty()) event(line);
+}
+
+bool Station::write_validation() const { return store_.write_file_atomically("validation.csv", validator_.csv()); }
+
+// Only samples the validator accepted get here: robot_id is 1..kMaxRobots.
 RobotRecord* Station::heard(std::uint32_t robot_id, int topic, std::uint64_t writer, std::uint64_t instance,
                             Time now_mono) {
-  if (robot_id == 0 || robot_id > kMaxRobots) {
-    ++counters_.bad_samples;
-    return nullptr;
-  }
   RobotRecord& r = robots_[robot_id];
   if (!r.seen) {
     r.seen = true;
@@ -221,9 +248,14 @@ void Station::take_poses() {
         instance_ended(kPose, info.instance_handle, info.instance_state);
         continue;
       }
+      // Validate at the edge: a refused pose is stored raw (marked) and goes nowhere else.
+      const Verdict v = validator_.check_pose(p, at.realtime);
+      store_.append_pose(p, at, static_cast<std::uint16_t>(v.reason));
+      if (!v.ok()) {
+        refused(SampleTopic::kPose, v, p.robot_id, p.seq, p.stamp_ns, at);
+        continue;
+      }
       RobotRecord* r = heard(p.robot_id, kPose, info.publication_handle, info.instance_handle, at.monotonic);
-      if (r == nullptr) continue;
-      store_.append_pose(p, at);
       ++r->poses;
       ++counters_.poses;
       PoseObservation obs;
@@ -265,9 +297,13 @@ void Station::take_statuses() {
         continue;
       }
       const teamscan_msg_RobotStatus& s = d.statuses[k];
+      const Verdict v = validator_.check_status(s, at.realtime);
+      store_.append_status(s, at, static_cast<std::uint16_t>(v.reason));
+      if (!v.ok()) {
+        refused(SampleTopic::kStatus, v, s.robot_id, s.seq, s.stamp_ns, at);
+        continue;
+      }
       RobotRecord* r = heard(s.robot_id, kStatus, d.infos[k].publication_handle, d.infos[k].instance_handle, at.monotonic);
-      if (r == nullptr) continue;
-      store_.append_status(s, at);
       ++r->statuses;
       ++counters_.statuses;
     }
@@ -289,12 +325,15 @@ void Station::take_scans() {
         continue;
       }
       const teamscan_msg_ScanPoints& s = d.scans[k];
-      if (s.count > kMaxBeams) {
-        ++counters_.bad_samples;
+      // Validate at the edge: a refused scan is stored raw (marked, every point the sample carries) and
+      // goes nowhere else: not the robot's bookkeeping, not the hooks (tracker, filters, map, statistics).
+      const Verdict v = validator_.check_scan(s, at.realtime);
+      if (!v.ok()) {
+        store_.append_scan(stored_from(s, at, v.reason, d.stored));
+        refused(SampleTopic::kScan, v, s.robot_id, s.seq, s.stamp_ns, at);
         continue;
       }
       RobotRecord* r = heard(s.robot_id, kScan, d.infos[k].publication_handle, d.infos[k].instance_handle, at.monotonic);
-      if (r == nullptr) continue;
       // Sequence bookkeeping: gaps mean the writer's history overran while we were not reading. A seq
       // far below the last one is a restarted robot; a little below is a transient-local replay.
       if (r->scans > 0) {
@@ -321,20 +360,7 @@ void Station::take_scans() {
       if (r->scans == 0 || s.seq > r->last_scan_seq || r->last_scan_seq - s.seq > options_.scan_history_depth) {
         r->last_scan_seq = s.seq;
       }
-      StoredScan& out = d.stored;
-      out.recv_realtime_ns = at.realtime.ns();
-      out.recv_monotonic_ns = at.monotonic.ns();
-      out.robot_id = s.robot_id;
-      out.seq = s.seq;
-      out.stamp_ns = s.stamp_ns;
-      out.origin_x_mm = s.origin_x_mm;
-      out.origin_y_mm = s.origin_y_mm;
-      out.origin_z_mm = s.origin_z_mm;
-      out.count = s.count;
-      for (std::uint16_t b = 0; b < s.count; ++b) {
-        out.points[b] = StoredPoint{s.points[b].x_mm, s.points[b].y_mm, s.points[b].z_mm, s.points[b].beam,
-                                    s.points[b].flags};
-      }
+      const StoredScan& out = stored_from(s, at, Reject::kNone, d.stored);
       store_.append_scan(out);  // stored before any fusion code runs
       ++r->scans;
       ++counters_.scans;
@@ -459,7 +485,8 @@ std::string Station::status_line() const {
                 static_cast<unsigned long long>(missing), static_cast<unsigned long long>(counters_.poses),
                 static_cast<unsigned long long>(counters_.statuses),
                 static_cast<unsigned long long>(counters_.teams_published));
-  return buf;
+  const std::string validation = validator_.status_text();
+  return validation.empty() ? std::string(buf) : std::string(buf) + "; " + validation;
 }
 
 }  // namespace teamscan::station

@@ -63,7 +63,7 @@ struct StationCounters {
   std::uint64_t poses = 0;
   std::uint64_t statuses = 0;
   std::uint64_t invalid_samples = 0;   // dispose / no-writers notifications
-  std::uint64_t bad_samples = 0;       // robot id or count out of range: counted, not stored
+  std::uint64_t rejected = 0;          // refused at the edge (validator().counters() has the reasons): stored raw, not fused
   std::uint64_t teams_published = 0;
   std::uint64_t team_write_errors = 0;
   std::uint64_t liveliness_events = 0;
@@ -108,6 +108,10 @@ class Station {
   [[nodiscard]] const StationCounters& counters() const { return counters_; }
   // One line for STATUS= and the journal.
   [[nodiscard]] std::string status_line() const;
+  // The edge validation's counters and clock reports (sample_validation.hpp).
+  [[nodiscard]] const SampleValidator& validator() const { return validator_; }
+  // Rewrites validation.csv in the session folder (the validator's counters); false if it failed.
+  bool write_validation() const;
 
   // Called from Cyclone's listener thread on LIVELINESS_CHANGED of any reader (queued, handled in poll).
   void push_liveliness(std::uint64_t writer_handle, int alive_change, int not_alive_change);
@@ -128,12 +132,16 @@ class Station {
   // An invalid sample (dispose / no writers) on `topic`: the robot whose instance it is goes lost.
   void instance_ended(int topic, std::uint64_t instance, std::uint32_t instance_state);
   void set_lost(RobotRecord& r, bool lost, const std::string& why);
+  // A sample the validator refused: counted, its raw header into rejected.csv, logged (rate-limited).
+  void refused(SampleTopic topic, const Verdict& v, std::uint32_t robot_id, std::uint32_t seq, std::int64_t stamp_ns,
+               const ReceiveTime& at);
   void event(const std::string& text);
 
   StationOptions options_;
   SessionStore& store_;
   TeamSource& team_;
   std::unique_ptr<Dds> dds_;
+  SampleValidator validator_;
   std::array<RobotRecord, kMaxRobots + 1> robots_{};
   StationCounters counters_{};
   Time last_team_;
