@@ -37,8 +37,11 @@ TeamCheck check_team(const TeamSnapshot& team, Time now, const TeamCheckLimits& 
         y < -limits.max_abs_position_mm) {
       return {TeamReject::kPosition, i};
     }
-    const std::int64_t vx = m.vx_mmps, vy = m.vy_mmps;
-    if (vx * vx + vy * vy > limits.max_speed_mmps * limits.max_speed_mmps) return {TeamReject::kVelocity, i};
+    // Each component first: the sum of two squared int32 could overflow an int64.
+    const std::int64_t vx = m.vx_mmps, vy = m.vy_mmps, vmax = limits.max_speed_mmps;
+    if (vx > vmax || vx < -vmax || vy > vmax || vy < -vmax || vx * vx + vy * vy > vmax * vmax) {
+      return {TeamReject::kVelocity, i};
+    }
     if (m.length_mm > limits.max_length_mm || m.width_mm > limits.max_length_mm || m.height_mm > limits.max_height_mm) {
       return {TeamReject::kSize, i};
     }
