@@ -304,6 +304,17 @@ void Station::take_statuses() {
         continue;
       }
       RobotRecord* r = heard(s.robot_id, kStatus, d.infos[k].publication_handle, d.infos[k].instance_handle, at.monotonic);
+      // The robot's own reports (docs/validation.md): its clock's NTP state, its refused team states.
+      if (s.clock_sync != r->clock_sync && (s.clock_sync == 2 || r->clock_sync == 2)) {
+        event("robot " + std::to_string(s.robot_id) + " reports its clock " +
+              (s.clock_sync == 2 ? "NOT synchronised" : "synchronised"));
+      }
+      if (s.teams_rejected > r->teams_rejected) {
+        event("robot " + std::to_string(s.robot_id) + " refused " + std::to_string(s.teams_rejected - r->teams_rejected) +
+              " team state(s), last reason code " + std::to_string(s.last_team_reject));
+      }
+      r->clock_sync = s.clock_sync;
+      r->teams_rejected = s.teams_rejected;
       ++r->statuses;
       ++counters_.statuses;
     }
@@ -485,8 +496,14 @@ std::string Station::status_line() const {
                 static_cast<unsigned long long>(missing), static_cast<unsigned long long>(counters_.poses),
                 static_cast<unsigned long long>(counters_.statuses),
                 static_cast<unsigned long long>(counters_.teams_published));
+  std::string out = buf;
+  std::string unsynced;
+  for (std::uint32_t id = 1; id <= kMaxRobots; ++id) {
+    if (robots_[id].seen && robots_[id].clock_sync == 2) unsynced += (unsynced.empty() ? "r" : ", r") + std::to_string(id);
+  }
+  if (!unsynced.empty()) out += "; clock not synchronised (robots say): " + unsynced;
   const std::string validation = validator_.status_text();
-  return validation.empty() ? std::string(buf) : std::string(buf) + "; " + validation;
+  return validation.empty() ? out : out + "; " + validation;
 }
 
 }  // namespace teamscan::station

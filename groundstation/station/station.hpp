@@ -54,6 +54,8 @@ struct RobotRecord {
   Time lost_at;                        // CLOCK_MONOTONIC of the last transition to lost
   Time last_gap_event;                 // CLOCK_MONOTONIC: gap events are rate-limited to 1 per second
   std::uint64_t gaps_unreported = 0;
+  std::uint8_t clock_sync = 0;         // the robot's own report (RobotStatus.clock_sync): 0 unknown, 1 yes, 2 no
+  std::uint32_t teams_rejected = 0;    // the robot's count of refused team states (RobotStatus)
   std::uint64_t writer_handles[3] = {0, 0, 0};    // pose, scan, status publication handles
   std::uint64_t instance_handles[3] = {0, 0, 0};  // this robot's instance on each reader
 };

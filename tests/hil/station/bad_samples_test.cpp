@@ -203,10 +203,24 @@ TEST(StationBadSamples, EveryReasonCountedRawStoredTeamAndStatisticsUntouched) {
     write_scan(good_scan(5, seq), nullptr);
     ++good_scans;
   }
+  // Status: robot 4 says its clock is not synchronised (accepted, reported); robot 3's clock was never set.
+  {
+    teamscan_msg_RobotStatus st{};
+    st.robot_id = 4;
+    st.seq = 1;
+    st.stamp_ns = now_realtime().ns();
+    st.clock_sync = 2;
+    ASSERT_EQ(dds_write(pub.status, &st), 0);
+    st.robot_id = 3;
+    st.stamp_ns = 1'000'000'000;  // 1970-01-01T00:00:01Z
+    ASSERT_EQ(dds_write(pub.status, &st), 0);
+    ++sent["clock_unset"];
+  }
   write_pose(good_pose(5, 0x80000001u), "seq_jump");
   write_scan(good_scan(5, 0x80000001u), "seq_jump");
   ASSERT_EQ(dds_wait_for_acks(pub.scan, DDS_SECS(10)), 0);
   ASSERT_EQ(dds_wait_for_acks(pub.pose, DDS_SECS(10)), 0);
+  ASSERT_EQ(dds_wait_for_acks(pub.status, DDS_SECS(10)), 0);
 
   // The team state the station publishes after all of it: only sane positions (the good ones).
   std::this_thread::sleep_for(600ms);
@@ -258,6 +272,8 @@ TEST(StationBadSamples, EveryReasonCountedRawStoredTeamAndStatisticsUntouched) {
   // Each reason logged (rate-limited: once here).
   const std::string events = slurp(session + "/events.log");
   for (const auto& [r, n] : sent) EXPECT_NE(events.find(": " + r + " (value"), std::string::npos) << r;
+  EXPECT_NE(events.find("robot 4 reports its clock NOT synchronised"), std::string::npos);
+  EXPECT_NE(events.find("robot 3 clock off: clock never set"), std::string::npos);
 
   // Raw storage: every scan sent is in scans.bin, the refused ones marked; the poses alike.
   std::uint64_t stored_good = 0, stored_refused = 0;
@@ -280,6 +296,11 @@ TEST(StationBadSamples, EveryReasonCountedRawStoredTeamAndStatisticsUntouched) {
     if (f[0] != "recv_realtime_ns" && f.size() == 12 && f[11] != "0") ++poses_refused;
   }
   EXPECT_EQ(poses_refused, bad_poses);
+  int statuses_refused = 0;
+  for (const auto& f : csv(session + "/status.csv")) {
+    if (f[0] != "recv_realtime_ns" && f.back() != "0") ++statuses_refused;
+  }
+  EXPECT_EQ(statuses_refused, 1);
 
   // The statistics hold the good scans only: every fused scan is a good one, none 57 years late.
   int fused = 0;
