@@ -18,16 +18,6 @@
 
 namespace teamscan::station {
 
-std::uint16_t dataset_flags_from_wire(std::uint16_t w) {
-  std::uint16_t f = 0;
-  if (w & kPointDirectionFiltered) f |= point_flags::kDirectionFiltered;
-  if (w & (kPointInvalid | kPointNoPose)) f |= point_flags::kInvalid;
-  if (w & kPointDazzled) f |= point_flags::kDazzled;
-  if (w & kPointOutOfRange) f |= point_flags::kOutOfRange;
-  if (w & kPointTeamStale) f |= point_flags::kTeamStale;
-  return f;
-}
-
 FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConfig& k) {
   FusionOptions o;
   o.method = f.method;
@@ -44,13 +34,7 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   m.combined_half_angle_rad = deg_to_rad(f.half_angle_deg);
   m.combined_resolution_m = f.resolution_m;
   m.combined_grid_origin_z_m = f.grid_origin_z_m;
-  o.tracker.accel_noise_mps2 = k.accel_noise_mps2;
-  o.tracker.position_noise_m = k.position_noise_m;
-  o.tracker.velocity_noise_mps = k.velocity_noise_mps;
-  o.tracker.lost_after_s = k.lost_after_s;
-  o.tracker.drift_m_per_m = k.drift_m_per_m;
-  o.tracker.drift_heading_rad_per_m = deg_to_rad(k.drift_deg_per_m);
-  o.tracker.drift_heading_rad_per_rad = k.drift_deg_per_deg;
+  o.tracker = tracker_options(k);
   o.map_resolution_m = f.map_resolution_m;
   if (f.write_all_points) o.all_points_pcd = "fused_all.pcd";
   if (f.latency_log) o.latency_log_csv = "fused_latency.csv";
@@ -86,7 +70,7 @@ FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, 
 
 namespace {
 // Forward speed as KalmanTeamSource feeds the tracker: the map-frame velocity projected on the heading.
-double forward_speed(const PoseObservation& p) { return p.vx_mps * std::cos(p.yaw_rad) + p.vy_mps * std::sin(p.yaw_rad); }
+double forward_speed(const PoseObservation& p) { return forward_speed_mps(p.vx_mps, p.vy_mps, p.yaw_rad); }
 }  // namespace
 
 ReceivedBuilder::ReceivedBuilder(bool keep, std::uint32_t replay_window, std::size_t reserve_points)

@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "common/clock.hpp"
+#include "common/data_paths.hpp"
 #include "common/dataset/dataset.hpp"
 #include "common/dataset/pcd.hpp"
 #include "common/laser_geometry.hpp"
@@ -91,13 +92,7 @@ struct DemoArgs {
   bool no_precast = false;  // cast every scan in real time instead of ahead (sim/live.hpp precast)
 };
 
-std::string exe_dir() {
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string{"."} : exe.parent_path().string();
-}
-
-// A file next to the binary, in the build tree's sibling folders, or in an ancestor's `rel` path.
+// The first of `candidates` that exists.
 std::string find_file(const std::vector<std::string>& candidates) {
   for (const std::string& c : candidates) {
     std::error_code ec;
@@ -106,17 +101,8 @@ std::string find_file(const std::vector<std::string>& candidates) {
   return {};
 }
 
-std::string find_upwards(const std::string& start, const std::string& rel) {
-  for (fs::path p = start; !p.empty(); p = p.parent_path()) {
-    std::error_code ec;
-    if (fs::exists(p / rel, ec)) return (p / rel).lexically_normal().string();
-    if (p == p.parent_path()) break;
-  }
-  return {};
-}
-
 std::string find_binary(const std::string& name, const std::string& sub) {
-  const std::string d = exe_dir();
+  const std::string d = executable_dir();
   std::string f = find_file({d + "/" + name, d + "/../../" + sub + "/" + name, d + "/../bin/" + name});
   if (!f.empty()) return f;
   if (const char* path = std::getenv("PATH")) {
@@ -295,17 +281,6 @@ struct RobotDelivery {
   std::uint64_t truth_ghost_beams = 0;  // beams cast on a teammate within the run window
 };
 
-// The wire's point flags (common/scan_points.hpp) as the data set's (common/dataset/dataset.hpp).
-std::uint16_t dataset_flags(std::uint16_t wire) {
-  std::uint16_t f = 0;
-  if (wire & kPointDirectionFiltered) f |= point_flags::kDirectionFiltered;
-  if (wire & kPointInvalid) f |= point_flags::kInvalid;
-  if (wire & kPointDazzled) f |= point_flags::kDazzled;
-  if (wire & kPointOutOfRange) f |= point_flags::kOutOfRange;
-  if (wire & kPointTeamStale) f |= point_flags::kTeamStale;
-  return f;
-}
-
 // Live session -> labelled data set on the simulator's time base (scenario start + world time).
 struct LiveDataset {
   Dataset ds;
@@ -361,11 +336,8 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
     o.robot = id;
     o.stamp_ns = t;
     o.pose = {std::stod(f[5]) * 1e-3, std::stod(f[6]) * 1e-3, std::stod(f[7]) * 1e-6};
-    // Forward speed: the map-frame velocity (vx, vy) projected on the heading, as the station's tracker
-    // is fed (groundstation/station/kalman_team_source.cpp). Taking vx alone zeroed it for a robot
-    // heading along y, and the tracker's teammate predictions lagged (position DA −17 points on 60 s).
-    const double vx = std::stod(f[8]) * 1e-3, vy = std::stod(f[9]) * 1e-3;
-    o.v_mps = vx * std::cos(o.pose.theta_rad) + vy * std::sin(o.pose.theta_rad);
+    // The tracker is fed the forward speed, as the station's (common/pose.hpp).
+    o.v_mps = forward_speed_mps(std::stod(f[8]) * 1e-3, std::stod(f[9]) * 1e-3, o.pose.theta_rad);
     o.w_radps = std::stod(f[10]) * 1e-3;
     ds.odom.push_back(o);
     const sim::Motion& m = team.motion(team_index(id));
@@ -431,7 +403,7 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
       lp.beam = p.beam;
       lp.label = b.label;
       lp.hit_robot = b.hit_robot;
-      lp.flags = dataset_flags(p.flags);
+      lp.flags = dataset_flags_from_wire(p.flags);
       lp.tx = b.tx;
       lp.ty = b.ty;
       lp.tz = b.tz;
@@ -597,7 +569,7 @@ std::string json_escape(const std::string& s) {
 
 int run_demo(const DemoArgs& a) {
   const auto wall_start = std::chrono::steady_clock::now();
-  const sim::ScenarioLoad load = sim::resolve_scenario(a.scenario, exe_dir());
+  const sim::ScenarioLoad load = sim::resolve_scenario(a.scenario);
   if (!load.scenario) {
     std::fprintf(stderr, "teamscan demo: %s\n", load.error.c_str());
     return 2;
@@ -615,11 +587,14 @@ int run_demo(const DemoArgs& a) {
 
   // Loopback DDS, never the default config (DDS_SYSTEMD.md; the children inherit the environment).
   std::string dds = a.dds_config;
-  if (dds.empty()) dds = find_file({exe_dir() + "/../share/teamscan/cyclonedds-lo.xml"});
-  if (dds.empty()) dds = find_upwards(exe_dir(), "deploy/cyclonedds-lo.xml");
   if (dds.empty()) {
-    std::fprintf(stderr, "teamscan demo: cannot find deploy/cyclonedds-lo.xml (give --dds-config)\n");
-    return 2;
+    const DataFile lo = find_data_file("cyclonedds-lo.xml", "deploy/cyclonedds-lo.xml");
+    if (lo.path.empty()) {
+      std::fprintf(stderr, "teamscan demo: cannot find cyclonedds-lo.xml (looked in %s; give --dds-config)\n",
+                   lo.searched.c_str());
+      return 2;
+    }
+    dds = lo.path;
   }
   ::setenv("CYCLONEDDS_URI", ("file://" + fs::absolute(dds).string()).c_str(), 1);
   const int domain = a.domain.value_or(1 + static_cast<int>(::getpid() % 230));
@@ -1199,7 +1174,8 @@ const SubcommandRegistration kDemo{
        app.add_option("--seed", a->seed, "Override the scenario's seed");
        app.add_option("--bringup", a->bringup_s, "Seconds for device bring-up before the robots drive")->capture_default_str();
        app.add_option("--domain", a->domain, "DDS domain id (default: derived from the pid)");
-       app.add_option("--dds-config", a->dds_config, "Cyclone DDS config (default: deploy/cyclonedds-lo.xml, found)");
+       app.add_option("--dds-config", a->dds_config,
+                      "Cyclone DDS config (default: the installed share/teamscan/cyclonedds-lo.xml; deploy/ in a build tree)");
        app.add_option("--onboard-bin", a->onboard_bin, "teamscan-onboard executable (default: found next to teamscan)");
        app.add_option("--station-bin", a->station_bin, "teamscan-groundstation executable (default: found)");
        app.add_option("--tolerance-da", a->tolerance_da_pct, "Allowed |live DA − offline DA| in points")->capture_default_str();

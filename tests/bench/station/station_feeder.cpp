@@ -40,8 +40,8 @@
 #include "common/clock.hpp"
 #include "common/dataset/dataset.hpp"
 #include "groundstation/station/scan_record.hpp"
-#include "onboard/dds/bridge.hpp"
-#include "onboard/dds/qos.hpp"
+#include "dds/qos.hpp"
+#include "dds/topics.hpp"
 #include "teamscan.h"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 
@@ -157,15 +157,15 @@ struct Publisher {
   bool create(std::uint32_t domain) {
     participant = dds_create_participant(domain, nullptr, nullptr);
     if (participant < 0) return false;
-    const dds_entity_t tp_pose = dds_create_topic(participant, &teamscan_msg_RobotPose_desc, onboard::kTopicPose, nullptr, nullptr);
-    const dds_entity_t tp_scan = dds_create_topic(participant, &teamscan_msg_ScanPoints_desc, onboard::kTopicScan, nullptr, nullptr);
-    const dds_entity_t tp_status = dds_create_topic(participant, &teamscan_msg_RobotStatus_desc, onboard::kTopicStatus, nullptr, nullptr);
-    // The robots' QoS (onboard/dds/qos.hpp): the station sees the feeder as N robots on 3 writers.
-    dds_qos_t* q = onboard::make_state_writer_qos(std::chrono::seconds(2), std::chrono::milliseconds(100));
+    const dds_entity_t tp_pose = dds_create_topic(participant, &teamscan_msg_RobotPose_desc, dds::kTopicPose, nullptr, nullptr);
+    const dds_entity_t tp_scan = dds_create_topic(participant, &teamscan_msg_ScanPoints_desc, dds::kTopicScan, nullptr, nullptr);
+    const dds_entity_t tp_status = dds_create_topic(participant, &teamscan_msg_RobotStatus_desc, dds::kTopicStatus, nullptr, nullptr);
+    // The robots' QoS (dds/qos.hpp): the station sees the feeder as N robots on 3 writers.
+    dds_qos_t* q = dds::make_state_writer_qos(std::chrono::seconds(2), std::chrono::milliseconds(100));
     pose = dds_create_writer(participant, tp_pose, q, nullptr);
     status = dds_create_writer(participant, tp_status, q, nullptr);
     dds_delete_qos(q);
-    q = onboard::make_scan_writer_qos(300, std::chrono::seconds(2), std::chrono::milliseconds(100));
+    q = dds::make_scan_writer_qos(300, std::chrono::seconds(2), std::chrono::milliseconds(100));
     scan = dds_create_writer(participant, tp_scan, q, nullptr);
     dds_delete_qos(q);
     return pose > 0 && scan > 0 && status > 0;

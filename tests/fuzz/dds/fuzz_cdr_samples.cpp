@@ -14,7 +14,7 @@
 #include "groundstation/station/sample_validation.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "onboard/core/team_validation.hpp"
-#include "onboard/dds/bridge.hpp"
+#include "onboard/bridge/bridge.hpp"
 #include "tests/fuzz/dds/cdr_input.hpp"
 
 namespace {

@@ -17,8 +17,9 @@
 
 #include "common/clock.hpp"
 #include "onboard/core/pipeline.hpp"
-#include "onboard/dds/bridge.hpp"
-#include "onboard/dds/qos.hpp"
+#include "onboard/bridge/bridge.hpp"
+#include "dds/qos.hpp"
+#include "dds/topics.hpp"
 #include "teamscan.h"
 #include "tests/support/onboard_config_fixture.hpp"
 
@@ -31,8 +32,8 @@ struct TeamWriter {
   dds_entity_t participant = 0, writer = 0;
   explicit TeamWriter(std::uint32_t domain) {
     participant = dds_create_participant(domain, nullptr, nullptr);
-    const dds_entity_t topic = dds_create_topic(participant, &teamscan_msg_TeamState_desc, kTopicTeam, nullptr, nullptr);
-    dds_qos_t* q = make_team_writer_qos(2s);
+    const dds_entity_t topic = dds_create_topic(participant, &teamscan_msg_TeamState_desc, dds::kTopicTeam, nullptr, nullptr);
+    dds_qos_t* q = dds::make_team_writer_qos(2s);
     writer = dds_create_writer(participant, topic, q, nullptr);
     dds_delete_qos(q);
   }

@@ -22,8 +22,8 @@
 
 #include "common/clock.hpp"
 #include "groundstation/station/scan_record.hpp"
-#include "onboard/dds/bridge.hpp"
-#include "onboard/dds/qos.hpp"
+#include "dds/qos.hpp"
+#include "dds/topics.hpp"
 #include "teamscan.h"
 #include "tests/hil/station/process.hpp"
 #include "tests/support/test_domain.hpp"
@@ -59,20 +59,20 @@ struct BadPublisher {
   dds_entity_t participant = 0, pose = 0, scan = 0, status = 0, team_reader = 0;
   explicit BadPublisher(std::uint32_t domain) {
     participant = dds_create_participant(domain, nullptr, nullptr);
-    const dds_entity_t tp = dds_create_topic(participant, &teamscan_msg_RobotPose_desc, onboard::kTopicPose, nullptr, nullptr);
-    const dds_entity_t ts = dds_create_topic(participant, &teamscan_msg_ScanPoints_desc, onboard::kTopicScan, nullptr, nullptr);
-    const dds_entity_t tst = dds_create_topic(participant, &teamscan_msg_RobotStatus_desc, onboard::kTopicStatus, nullptr, nullptr);
-    const dds_entity_t tt = dds_create_topic(participant, &teamscan_msg_TeamState_desc, onboard::kTopicTeam, nullptr, nullptr);
-    dds_qos_t* q = onboard::make_state_writer_qos(2s, 1s);
+    const dds_entity_t tp = dds_create_topic(participant, &teamscan_msg_RobotPose_desc, dds::kTopicPose, nullptr, nullptr);
+    const dds_entity_t ts = dds_create_topic(participant, &teamscan_msg_ScanPoints_desc, dds::kTopicScan, nullptr, nullptr);
+    const dds_entity_t tst = dds_create_topic(participant, &teamscan_msg_RobotStatus_desc, dds::kTopicStatus, nullptr, nullptr);
+    const dds_entity_t tt = dds_create_topic(participant, &teamscan_msg_TeamState_desc, dds::kTopicTeam, nullptr, nullptr);
+    dds_qos_t* q = dds::make_state_writer_qos(2s, 1s);
     dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
     pose = dds_create_writer(participant, tp, q, nullptr);
     status = dds_create_writer(participant, tst, q, nullptr);
     dds_delete_qos(q);
-    q = onboard::make_scan_writer_qos(300, 2s, 1s);
+    q = dds::make_scan_writer_qos(300, 2s, 1s);
     dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
     scan = dds_create_writer(participant, ts, q, nullptr);
     dds_delete_qos(q);
-    q = onboard::make_team_reader_qos();
+    q = dds::make_team_reader_qos();
     team_reader = dds_create_reader(participant, tt, q, nullptr);
     dds_delete_qos(q);
   }
