@@ -46,7 +46,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   double lease_s = to_seconds(c.station.team_liveliness_lease);
   double silence_s = to_seconds(c.station.silence_timeout);
   std::string source = c.team_source == TeamSourceKind::kKalman ? "kalman" : "last_pose";
-  r.top_level({"station", "dds", "team", "fusion", "ros2", "view"});
+  r.top_level({"station", "dds", "team", "fusion", "ros2", "view", "validation"});
 
   const toml::table* station = r.section("station", false);
   r.only(station, "station", {"session_root", "sync_interval_s", "status_interval_s"});
@@ -133,6 +133,38 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.number_in(view, "view", "period_s", c.view.period_s, 0.0, 60.0);
   if (r.failed()) return false;
   ros.map_interval = from_seconds(cloud_s);
+
+  // [validation] (sample_validation.hpp, docs/validation.md).
+  ValidationOptions& v = c.station.validation;
+  double age_s = to_seconds(v.max_stamp_age), ahead_s = to_seconds(v.max_stamp_ahead);
+  double warn_s = to_seconds(v.clock_offset_warn), vlog_s = to_seconds(v.log_interval);
+  std::int64_t jump = v.max_seq_jump;
+  const toml::table* val = r.section("validation", false);
+  r.only(val, "validation", {"site_min_x_m", "site_max_x_m", "site_min_y_m", "site_max_y_m", "site_min_z_m",
+                             "site_max_z_m", "max_stamp_age_s", "max_stamp_ahead_s", "clock_offset_warn_s",
+                             "max_speed_mps", "max_yaw_rate_radps", "max_seq_jump", "log_interval_s"});
+  r.number_in(val, "validation", "site_min_x_m", v.site_min_x_m, -1e7, 1e7, true);
+  r.number_in(val, "validation", "site_max_x_m", v.site_max_x_m, -1e7, 1e7, true);
+  r.number_in(val, "validation", "site_min_y_m", v.site_min_y_m, -1e7, 1e7, true);
+  r.number_in(val, "validation", "site_max_y_m", v.site_max_y_m, -1e7, 1e7, true);
+  r.number_in(val, "validation", "site_min_z_m", v.site_min_z_m, -1e7, 1e7, true);
+  r.number_in(val, "validation", "site_max_z_m", v.site_max_z_m, -1e7, 1e7, true);
+  r.number_in(val, "validation", "max_stamp_age_s", age_s, 0.0, 86400.0);
+  r.number_in(val, "validation", "max_stamp_ahead_s", ahead_s, 0.0, 86400.0, true);
+  r.number_in(val, "validation", "clock_offset_warn_s", warn_s, 0.0, 86400.0);
+  r.number_in(val, "validation", "max_speed_mps", v.max_speed_mps, 0.0, 1000.0);
+  r.number_in(val, "validation", "max_yaw_rate_radps", v.max_yaw_rate_radps, 0.0, 1000.0);
+  r.integer_in(val, "validation", "max_seq_jump", jump, 1, 1'000'000'000);
+  r.number_in(val, "validation", "log_interval_s", vlog_s, 0.0, 86400.0, true);
+  if (r.failed()) return false;
+  if (!(v.site_min_x_m < v.site_max_x_m && v.site_min_y_m < v.site_max_y_m && v.site_min_z_m < v.site_max_z_m)) {
+    return r.fail("validation", "each site_min_*_m must be below its site_max_*_m", val);
+  }
+  v.max_stamp_age = from_seconds(age_s);
+  v.max_stamp_ahead = from_seconds(ahead_s);
+  v.clock_offset_warn = from_seconds(warn_s);
+  v.log_interval = from_seconds(vlog_s);
+  v.max_seq_jump = static_cast<std::uint32_t>(jump);
   // The paper's methods and the ones beyond it (groundstation/mapping make_filter; docs/beyond.md).
   static const char* const kMethods[] = {"frequency", "visibility", "position", "direction", "combined",
                                          "freespace", "tracked",    "best"};

@@ -252,6 +252,8 @@ int main(int argc, char** argv) {
   Time next_map = now + cfg.fusion.map_interval;
   std::uint64_t scans_at_write = 0;
   std::uint32_t lost_before = 0;
+  std::uint64_t rejected_before = 0;
+  Time next_reject_log = now;
   // Loop-time counters (STYLE.md 8): the longest handling of one poll's samples, and the teamscan/map
   // publications, which run in this loop too and hold the next take back (docs/demo.md "Scale").
   Duration handle_max{0}, map_max{0}, map_total{0};
@@ -319,6 +321,13 @@ int main(int argc, char** argv) {
         log(kWarning, line);
         lost_before = st.robots_lost();
       }
+      // Refused samples and clock reports (docs/validation.md): in the journal at most every 10 s.
+      if (st.counters().rejected != rejected_before && now >= next_reject_log) {
+        log(kWarning, line);
+        rejected_before = st.counters().rejected;
+        next_reject_log = now + std::chrono::seconds(10);
+      }
+      if (!st.write_validation()) log(kWarning, "cannot write validation.csv in the session folder");
       next_status = now + cfg.status_interval;
     }
   }
@@ -349,6 +358,7 @@ int main(int argc, char** argv) {
     view_server.reset();  // its thread stops before the station's state goes
   }
   log(kInfo, "stopping: " + st.status_line());
+  (void)st.write_validation();
   store->log_event(now_realtime(), "station stopping: " + st.status_line());
   station.value().reset();  // leave DDS before closing the files
   store->sync();  // the session is complete on disk before the (longer) final fusion pass

@@ -49,12 +49,14 @@ Status read_prefix(const std::string& path, std::uint64_t limit, F&& f) {
 }
 
 // One poses.csv line (session_store.cpp append_pose) as the station's PoseObservation (station.cpp).
-bool parse_pose(const char* line, PoseObservation& p) {
+// `rejected`: the station refused the pose at receipt (the line's last column; older files have none).
+bool parse_pose(const char* line, PoseObservation& p, unsigned& rejected) {
   long long recv_rt = 0, recv_mono = 0, stamp = 0;
   unsigned robot = 0, seq = 0;
   int x = 0, y = 0, yaw = 0, vx = 0, vy = 0, w = 0;
-  if (std::sscanf(line, "%lld,%lld,%u,%u,%lld,%d,%d,%d,%d,%d,%d", &recv_rt, &recv_mono, &robot, &seq, &stamp, &x, &y,
-                  &yaw, &vx, &vy, &w) != 11) {
+  rejected = 0;
+  if (std::sscanf(line, "%lld,%lld,%u,%u,%lld,%d,%d,%d,%d,%d,%d,%u", &recv_rt, &recv_mono, &robot, &seq, &stamp, &x, &y,
+                  &yaw, &vx, &vy, &w, &rejected) < 11) {
     return false;
   }
   p = PoseObservation{};
@@ -93,11 +95,13 @@ Status read_received(const std::string& dir, const SessionSnapshot& snap, std::u
         if (line.rfind("recv_realtime_ns", 0) == 0) continue;
       }
       PoseObservation p;
-      if (!parse_pose(line.c_str(), p)) {
+      unsigned rejected = 0;
+      if (!parse_pose(line.c_str(), p, rejected)) {
         ++bad;
         continue;
       }
-      if (p.robot_id == 0 || p.robot_id > kMaxRobots) continue;
+      // Refused at the edge (sample_validation.hpp): stored raw, never fused.
+      if (rejected != 0 || p.robot_id == 0 || p.robot_id > kMaxRobots) continue;
       b.add_pose(p);
     }
     return pos;
@@ -130,7 +134,8 @@ Status read_received(const std::string& dir, const SessionSnapshot& snap, std::u
       const long r = decode_scan_record(std::span<const std::uint8_t>(bytes + pos, n - pos), scan, stats);
       if (r > 0) {
         pos += static_cast<std::size_t>(r);
-        if (scan.robot_id == 0 || scan.robot_id > kMaxRobots) continue;
+        // Refused at the edge (sample_validation.hpp): stored raw, never fused.
+        if (scan.rejected != 0 || scan.robot_id == 0 || scan.robot_id > kMaxRobots) continue;
         b.add_scan(scan, rec, points, flags);
       } else if (r == 0) {
         if (at_end) pos = n;  // the torn tail of the snapshot: nothing more to read

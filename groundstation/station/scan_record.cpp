@@ -77,7 +77,7 @@ std::size_t encode_scan_record(const StoredScan& scan, std::span<std::uint8_t> o
   w.i32(scan.origin_y_mm);
   w.i32(scan.origin_z_mm);
   w.u16(count);
-  w.u16(0);
+  w.u16(scan.rejected);
   for (std::uint16_t i = 0; i < count; ++i) {
     w.i32(scan.points[i].x_mm);
     w.i32(scan.points[i].y_mm);
@@ -117,7 +117,7 @@ long decode_scan_record(std::span<const std::uint8_t> bytes, StoredScan& out, Sc
   out.origin_y_mm = r.i32();
   out.origin_z_mm = r.i32();
   out.count = r.u16();
-  (void)r.u16();
+  out.rejected = r.u16();
   if (out.count != (body - 48) / kScanPointBytes) {
     ++stats.bad_length;
     return -1;

@@ -5,7 +5,8 @@
 // Record = u32 magic 0x52534354 ("TCSR") | u32 body_bytes (= 48 + 16*count)
 //          | i64 recv_realtime_ns | i64 recv_monotonic_ns                      (ground station clocks)
 //          | u32 robot_id | u32 seq | i64 stamp_ns | i32 origin_x_mm | i32 origin_y_mm | i32 origin_z_mm
-//          | u16 count | u16 reserved (0)
+//          | u16 count | u16 rejected (0: accepted; else the station refused the scan at receipt, the
+//            Reject code of sample_validation.hpp: stored raw, never fused)
 //          | count x (i32 x_mm | i32 y_mm | i32 z_mm | u16 beam | u16 flags)      (map frame, as received)
 //          | u32 crc32 (IEEE 802.3, over magic .. last point)
 // Each record is written with a single write(2), so a crash of the process (not of the kernel) never
@@ -48,6 +49,7 @@ struct StoredScan {
   std::int32_t origin_y_mm = 0;
   std::int32_t origin_z_mm = 0;
   std::uint16_t count = 0;
+  std::uint16_t rejected = 0;  // Reject code (sample_validation.hpp); 0 = accepted
   StoredPoint points[kMaxBeams];
 };
 

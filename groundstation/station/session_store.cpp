@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cinttypes>
 #include <cstdio>
@@ -65,11 +66,13 @@ Result<SessionStore> SessionStore::open(const std::string& dir) {
   bool created_poses = false;
   bool created_status = false;
   bool created_events = false;
+  bool created_rejected = false;
   s.scans_fd_ = open_append(dir + "/scans.bin", created_scans);
   s.poses_fd_ = open_append(dir + "/poses.csv", created_poses);
   s.status_fd_ = open_append(dir + "/status.csv", created_status);
   s.events_fd_ = open_append(dir + "/events.log", created_events);
-  if (s.scans_fd_ < 0 || s.poses_fd_ < 0 || s.status_fd_ < 0 || s.events_fd_ < 0) {
+  s.rejected_fd_ = open_append(dir + "/rejected.csv", created_rejected);
+  if (s.scans_fd_ < 0 || s.poses_fd_ < 0 || s.status_fd_ < 0 || s.events_fd_ < 0 || s.rejected_fd_ < 0) {
     return Error{"storage: cannot open the session files", errno};
   }
   if (created_scans) {
@@ -80,7 +83,7 @@ Result<SessionStore> SessionStore::open(const std::string& dir) {
   if (created_poses) {
     static constexpr char kHeader[] =
         "recv_realtime_ns,recv_monotonic_ns,robot_id,seq,stamp_ns,x_mm,y_mm,yaw_urad,vx_mmps,vy_mmps,"
-        "yaw_rate_mradps\n";
+        "yaw_rate_mradps,rejected\n";
     s.write_all(s.poses_fd_, kHeader, sizeof kHeader - 1);
   }
   if (created_status) {
@@ -88,8 +91,12 @@ Result<SessionStore> SessionStore::open(const std::string& dir) {
         "recv_realtime_ns,recv_monotonic_ns,robot_id,seq,stamp_ns,arcos_state,lms_state,team_fresh,"
         "sip_rate_mhz,scan_rate_mhz,arcos_bad_packets,lms_bad_telegrams,lms_resyncs,scans_published,"
         "points_direction_filtered,dds_write_errors,uptime_s,arcos_reopens,lms_reopens,points_team_stale,"
-        "points_no_pose,loop_max_us\n";
+        "points_no_pose,loop_max_us,clock_sync,teams_rejected,last_team_reject,rejected\n";
     s.write_all(s.status_fd_, kHeader, sizeof kHeader - 1);
+  }
+  if (created_rejected) {
+    static constexpr char kHeader[] = "recv_realtime_ns,topic,robot_id,seq,stamp_ns,reason,value\n";
+    s.write_all(s.rejected_fd_, kHeader, sizeof kHeader - 1);
   }
   return s;
 }
@@ -100,11 +107,12 @@ SessionStore::SessionStore(SessionStore&& o) noexcept
       poses_fd_{std::exchange(o.poses_fd_, -1)},
       status_fd_{std::exchange(o.status_fd_, -1)},
       events_fd_{std::exchange(o.events_fd_, -1)},
+      rejected_fd_{std::exchange(o.rejected_fd_, -1)},
       counters_{o.counters_} {}
 
 SessionStore::~SessionStore() {
   sync();
-  for (int fd : {scans_fd_, poses_fd_, status_fd_, events_fd_}) {
+  for (int fd : {scans_fd_, poses_fd_, status_fd_, events_fd_, rejected_fd_}) {
     if (fd >= 0) ::close(fd);
   }
 }
@@ -142,31 +150,50 @@ void SessionStore::append_scan(const StoredScan& scan) {
   ++counters_.scans;
 }
 
-void SessionStore::append_pose(const teamscan_msg_RobotPose& p, const ReceiveTime& at) {
+void SessionStore::append_pose(const teamscan_msg_RobotPose& p, const ReceiveTime& at, std::uint16_t rejected) {
   char line[256];
   const int n = std::snprintf(line, sizeof line,
                               "%" PRId64 ",%" PRId64 ",%" PRIu32 ",%" PRIu32 ",%" PRId64 ",%" PRId32 ",%" PRId32
-                              ",%" PRId32 ",%" PRId32 ",%" PRId32 ",%" PRId32 "\n",
+                              ",%" PRId32 ",%" PRId32 ",%" PRId32 ",%" PRId32 ",%u\n",
                               at.realtime.ns(), at.monotonic.ns(), p.robot_id, p.seq, p.stamp_ns, p.x_mm, p.y_mm,
-                              p.yaw_urad, p.vx_mmps, p.vy_mmps, p.yaw_rate_mradps);
+                              p.yaw_urad, p.vx_mmps, p.vy_mmps, p.yaw_rate_mradps, static_cast<unsigned>(rejected));
   write_all(poses_fd_, line, static_cast<std::size_t>(n));
   ++counters_.poses;
 }
 
-void SessionStore::append_status(const teamscan_msg_RobotStatus& s, const ReceiveTime& at) {
+void SessionStore::append_status(const teamscan_msg_RobotStatus& s, const ReceiveTime& at, std::uint16_t rejected) {
   char line[384];
   const int n = std::snprintf(
       line, sizeof line,
       "%" PRId64 ",%" PRId64 ",%" PRIu32 ",%" PRIu32 ",%" PRId64 ",%u,%u,%u,%" PRIu32 ",%" PRIu32 ",%" PRIu32
       ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32
-      ",%" PRIu32 ",%" PRIu32 "\n",
+      ",%" PRIu32 ",%" PRIu32 ",%u,%" PRIu32 ",%" PRIu32 ",%u\n",
       at.realtime.ns(), at.monotonic.ns(), s.robot_id, s.seq, s.stamp_ns, static_cast<unsigned>(s.arcos_state),
       static_cast<unsigned>(s.lms_state), static_cast<unsigned>(s.team_fresh), s.sip_rate_mhz, s.scan_rate_mhz,
       s.arcos_bad_packets, s.lms_bad_telegrams, s.lms_resyncs, s.scans_published, s.points_direction_filtered,
       s.dds_write_errors, s.uptime_s, s.arcos_reopens, s.lms_reopens, s.points_team_stale, s.points_no_pose,
-      s.loop_max_us);
+      s.loop_max_us, static_cast<unsigned>(s.clock_sync), s.teams_rejected, s.last_team_reject,
+      static_cast<unsigned>(rejected));
   write_all(status_fd_, line, static_cast<std::size_t>(n));
   ++counters_.statuses;
+}
+
+void SessionStore::append_rejected(const ReceiveTime& at, const char* topic, std::uint32_t robot_id, std::uint32_t seq,
+                                   std::int64_t stamp_ns, const char* reason, std::int64_t value) {
+  char line[192];
+  const int n = std::snprintf(line, sizeof line, "%" PRId64 ",%s,%" PRIu32 ",%" PRIu32 ",%" PRId64 ",%s,%" PRId64 "\n",
+                              at.realtime.ns(), topic, robot_id, seq, stamp_ns, reason, value);
+  write_all(rejected_fd_, line, static_cast<std::size_t>(std::min<int>(n, static_cast<int>(sizeof line) - 1)));
+}
+
+bool SessionStore::write_file_atomically(const std::string& name, const std::string& text) const {
+  const std::string path = dir_ + "/" + name;
+  const std::string tmp = path + ".tmp";
+  std::FILE* f = std::fopen(tmp.c_str(), "w");
+  if (f == nullptr) return false;
+  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  if (std::fclose(f) != 0 || !ok) return false;
+  return std::rename(tmp.c_str(), path.c_str()) == 0;
 }
 
 void SessionStore::log_event(Time realtime, const std::string& text) {
@@ -176,7 +203,7 @@ void SessionStore::log_event(Time realtime, const std::string& text) {
 }
 
 void SessionStore::sync() {
-  for (int fd : {scans_fd_, poses_fd_, status_fd_, events_fd_}) {
+  for (int fd : {scans_fd_, poses_fd_, status_fd_, events_fd_, rejected_fd_}) {
     if (fd >= 0) (void)::fdatasync(fd);
   }
 }

@@ -4,6 +4,8 @@
 //   session-.../poses.csv                every pose
 //   session-.../status.csv               every status sample
 //   session-.../events.log               robots seen / lost / back, gaps, start and stop
+//   session-.../rejected.csv             every sample refused at the edge: topic, raw header, reason, value
+//                                        (the sample itself is in scans.bin / poses.csv / status.csv, marked)
 // A write(2) hands the bytes to the kernel, so a crash or kill of this process (or of a fusion stage in
 // it) loses nothing already received; sync() (periodically and on stop) makes them durable on disk.
 #pragma once
@@ -48,8 +50,14 @@ class SessionStore {
   ~SessionStore();  // syncs and closes
 
   void append_scan(const StoredScan& scan);
-  void append_pose(const teamscan_msg_RobotPose& pose, const ReceiveTime& at);
-  void append_status(const teamscan_msg_RobotStatus& status, const ReceiveTime& at);
+  // `rejected`: the Reject code of sample_validation.hpp (0 = accepted), the last column of the line.
+  void append_pose(const teamscan_msg_RobotPose& pose, const ReceiveTime& at, std::uint16_t rejected = 0);
+  void append_status(const teamscan_msg_RobotStatus& status, const ReceiveTime& at, std::uint16_t rejected = 0);
+  // One line of rejected.csv: recv_realtime_ns,topic,robot_id,seq,stamp_ns,reason,value.
+  void append_rejected(const ReceiveTime& at, const char* topic, std::uint32_t robot_id, std::uint32_t seq,
+                       std::int64_t stamp_ns, const char* reason, std::int64_t value);
+  // Replaces NAME in the session folder with `text` (NAME.tmp, then rename(2)).
+  [[nodiscard]] bool write_file_atomically(const std::string& name, const std::string& text) const;
   // One line "<recv realtime ns> <UTC time> <text>".
   void log_event(Time realtime, const std::string& text);
   // fdatasync every file.
@@ -71,6 +79,7 @@ class SessionStore {
   int poses_fd_ = -1;
   int status_fd_ = -1;
   int events_fd_ = -1;
+  int rejected_fd_ = -1;
   SessionCounters counters_{};
   std::uint8_t record_[kScanRecordMaxBytes] = {};
 };

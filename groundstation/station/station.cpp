@@ -57,6 +57,25 @@ std::uint16_t to_mm_u16(double m) {
   return static_cast<std::uint16_t>(std::clamp(std::round(m * 1000.0), 0.0, 65535.0));
 }
 
+// The scan as stored (scans.bin), with the validator's verdict. Every point the sample carries is kept:
+// a count above MAX_BEAMS (refused) stores the MAX_BEAMS points of the fixed-size sample.
+const StoredScan& stored_from(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject verdict, StoredScan& out) {
+  out.recv_realtime_ns = at.realtime.ns();
+  out.recv_monotonic_ns = at.monotonic.ns();
+  out.robot_id = s.robot_id;
+  out.seq = s.seq;
+  out.stamp_ns = s.stamp_ns;
+  out.origin_x_mm = s.origin_x_mm;
+  out.origin_y_mm = s.origin_y_mm;
+  out.origin_z_mm = s.origin_z_mm;
+  out.count = std::min<std::uint16_t>(s.count, static_cast<std::uint16_t>(kMaxBeams));
+  out.rejected = static_cast<std::uint16_t>(verdict);
+  for (std::uint16_t b = 0; b < out.count; ++b) {
+    out.points[b] = StoredPoint{s.points[b].x_mm, s.points[b].y_mm, s.points[b].z_mm, s.points[b].beam, s.points[b].flags};
+  }
+  return out;
+}
+
 }  // namespace
 
 // Every DDS entity and preallocated sample of the station (DDS_SYSTEMD.md 1.8: takes into our own
@@ -89,6 +108,7 @@ Station::Station(const StationOptions& options, SessionStore& store, TeamSource&
       store_{store},
       team_{team},
       dds_{std::make_unique<Dds>(options.take_batch)},
+      validator_{options.validation},
       senders_{[this](int topic, std::uint64_t handle) {
         return publication_robot(dds_->readers[topic], static_cast<dds_instance_handle_t>(handle));
       }} {
@@ -188,19 +208,27 @@ std::size_t Station::poll(Duration max_wait) {
   take<teamscan_msg_ScanPoints>(kScan, [this](const auto& s, RobotRecord& r, const ReceiveTime& at) { on_scan(s, r, at); });
   handle_liveliness_events();
   check_silence(now_monotonic());
+  validator_.clock_changes([&](std::uint32_t, const std::string& text) { event(text); });
   return static_cast<std::size_t>(counters_.scans + counters_.poses + counters_.statuses - before);
 }
 
+void Station::refused(SampleTopic topic, const Verdict& v, std::uint32_t robot_id, std::uint32_t seq,
+                      std::int64_t stamp_ns, const ReceiveTime& at) {
+  ++counters_.rejected;
+  store_.append_rejected(at, topic_name(topic), robot_id, seq, stamp_ns, reject_name(v.reason), v.value);
+  const std::string line = validator_.log_line(v, topic, robot_id, at.monotonic);
+  if (!line.empty()) event(line);
+}
+
+bool Station::write_validation() const { return store_.write_file_atomically("validation.csv", validator_.csv()); }
+
+// Only samples the validator accepted get here: robot_id is 1..kMaxRobots.
 RobotRecord* Station::heard(std::uint32_t robot_id, int topic, std::uint64_t writer, std::uint64_t instance,
                             Time now_mono) {
-  if (robot_id == 0 || robot_id > kMaxRobots) {
-    ++counters_.bad_samples;
-    return nullptr;
-  }
   const std::uint32_t sender = senders_.robot_of(topic, writer);
   if (sender != robot_id) {
     // Another participant publishing as this robot (robot 2 may write robot_id 1 in its own partition):
-    // refused and not stored; counted per claimed robot and logged at most once a second per robot.
+    // stored raw and marked (identity), counted per claimed robot and logged at most once a second per robot.
     ++counters_.identity_mismatches;
     RobotRecord& claimed = robots_[robot_id];
     ++claimed.identity_mismatches;
@@ -268,9 +296,59 @@ void Station::take(int topic, OnSample&& on_sample) {
           instance_ended(topic, info.instance_handle, info.instance_state);
           return;
         }
+        // Validate at the edge (sample_validation.hpp), before anything but the raw store sees the sample:
+        // a refused one is stored raw, marked with its reason, and goes nowhere else (not the robot's
+        // bookkeeping, the team source or the hooks: tracker, filters, map, latency statistics).
+        const Verdict v = check_and_store_if_refused(sample, at);
+        if (!v.ok()) return;
         RobotRecord* r = heard(sample.robot_id, topic, info.publication_handle, info.instance_handle, at.monotonic);
-        if (r != nullptr) on_sample(sample, *r, at);
+        if (r == nullptr) {
+          // Another participant publishing as this robot (DDS Security partitions): stored raw, marked.
+          store_refused(sample, at, Reject::kIdentity);
+          return;
+        }
+        on_sample(sample, *r, at);
       });
+}
+
+void Station::store_refused(const teamscan_msg_RobotPose& p, const ReceiveTime& at, Reject reason) {
+  ++counters_.rejected;
+  store_.append_pose(p, at, static_cast<std::uint16_t>(reason));
+}
+void Station::store_refused(const teamscan_msg_RobotStatus& s, const ReceiveTime& at, Reject reason) {
+  ++counters_.rejected;
+  store_.append_status(s, at, static_cast<std::uint16_t>(reason));
+}
+void Station::store_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject reason) {
+  ++counters_.rejected;
+  store_.append_scan(stored_from(s, at, reason, dds_->stored));
+}
+
+Verdict Station::check_and_store_if_refused(const teamscan_msg_RobotPose& p, const ReceiveTime& at) {
+  const Verdict v = validator_.check_pose(p, at.realtime);
+  if (!v.ok()) {
+    store_.append_pose(p, at, static_cast<std::uint16_t>(v.reason));
+    refused(SampleTopic::kPose, v, p.robot_id, p.seq, p.stamp_ns, at);
+  }
+  return v;
+}
+
+Verdict Station::check_and_store_if_refused(const teamscan_msg_RobotStatus& s, const ReceiveTime& at) {
+  const Verdict v = validator_.check_status(s, at.realtime);
+  if (!v.ok()) {
+    store_.append_status(s, at, static_cast<std::uint16_t>(v.reason));
+    refused(SampleTopic::kStatus, v, s.robot_id, s.seq, s.stamp_ns, at);
+  }
+  return v;
+}
+
+Verdict Station::check_and_store_if_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at) {
+  const Verdict v = validator_.check_scan(s, at.realtime);
+  if (!v.ok()) {
+    store_.append_scan(stored_from(s, at, v.reason, dds_->stored));
+    refused(SampleTopic::kScan, v, s.robot_id, s.seq, s.stamp_ns, at);
+  }
+  return v;
 }
 
 void Station::on_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at) {
@@ -301,15 +379,21 @@ void Station::on_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const Rec
 
 void Station::on_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const ReceiveTime& at) {
   store_.append_status(s, at);
+  // The robot's own reports (docs/validation.md): its clock's NTP state, its refused team states.
+  if (s.clock_sync != r.clock_sync && (s.clock_sync == 2 || r.clock_sync == 2)) {
+    event("robot " + std::to_string(s.robot_id) + " reports its clock " + (s.clock_sync == 2 ? "NOT synchronised" : "synchronised"));
+  }
+  if (s.teams_rejected > r.teams_rejected) {
+    event("robot " + std::to_string(s.robot_id) + " refused " + std::to_string(s.teams_rejected - r.teams_rejected) +
+          " team state(s), last reason code " + std::to_string(s.last_team_reject));
+  }
+  r.clock_sync = s.clock_sync;
+  r.teams_rejected = s.teams_rejected;
   ++r.statuses;
   ++counters_.statuses;
 }
 
 void Station::on_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at) {
-  if (s.count > kMaxBeams) {
-    ++counters_.bad_samples;
-    return;
-  }
   // Sequence bookkeeping: gaps mean the writer's history overran while we were not reading. A seq
   // far below the last one is a restarted robot; a little below is a transient-local replay.
   if (r.scans > 0) {
@@ -336,20 +420,7 @@ void Station::on_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const Re
   if (r.scans == 0 || s.seq > r.last_scan_seq || r.last_scan_seq - s.seq > options_.scan_history_depth) {
     r.last_scan_seq = s.seq;
   }
-  StoredScan& out = dds_->stored;
-  out.recv_realtime_ns = at.realtime.ns();
-  out.recv_monotonic_ns = at.monotonic.ns();
-  out.robot_id = s.robot_id;
-  out.seq = s.seq;
-  out.stamp_ns = s.stamp_ns;
-  out.origin_x_mm = s.origin_x_mm;
-  out.origin_y_mm = s.origin_y_mm;
-  out.origin_z_mm = s.origin_z_mm;
-  out.count = s.count;
-  for (std::uint16_t b = 0; b < s.count; ++b) {
-    out.points[b] = StoredPoint{s.points[b].x_mm, s.points[b].y_mm, s.points[b].z_mm, s.points[b].beam,
-                                s.points[b].flags};
-  }
+  const StoredScan& out = stored_from(s, at, Reject::kNone, dds_->stored);
   store_.append_scan(out);  // stored before any fusion code runs
   ++r.scans;
   ++counters_.scans;
@@ -472,7 +543,14 @@ std::string Station::status_line() const {
                 static_cast<unsigned long long>(missing), static_cast<unsigned long long>(counters_.poses),
                 static_cast<unsigned long long>(counters_.statuses),
                 static_cast<unsigned long long>(counters_.teams_published));
-  return buf;
+  std::string out = buf;
+  std::string unsynced;
+  for (std::uint32_t id = 1; id <= kMaxRobots; ++id) {
+    if (robots_[id].seen && robots_[id].clock_sync == 2) unsynced += (unsynced.empty() ? "r" : ", r") + std::to_string(id);
+  }
+  if (!unsynced.empty()) out += "; clock not synchronised (robots say): " + unsynced;
+  const std::string validation = validator_.status_text();
+  return validation.empty() ? out : out + "; " + validation;
 }
 
 }  // namespace teamscan::station

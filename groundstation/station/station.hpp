@@ -15,6 +15,7 @@
 #include "common/capacities.hpp"
 #include "common/result.hpp"
 #include "common/time.hpp"
+#include "groundstation/station/sample_validation.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "groundstation/station/sender_identity.hpp"
 #include "groundstation/station/session_store.hpp"
@@ -41,6 +42,8 @@ struct StationOptions {
   // DDS Security credential bundle of the station (dds/security/credentials.hpp), checked by the caller;
   // empty: an unsecured participant.
   std::string pki_dir;
+  // Validation at the edge (config [validation], docs/validation.md).
+  ValidationOptions validation;
 };
 
 // Per-robot bookkeeping.
@@ -60,6 +63,8 @@ struct RobotRecord {
   std::uint64_t gaps_unreported = 0;
   std::uint64_t identity_mismatches = 0;  // samples claiming this robot's id sent by another participant
   Time last_identity_event;            // CLOCK_MONOTONIC: identity events are rate-limited to 1 per second
+  std::uint8_t clock_sync = 0;         // the robot's own report (RobotStatus.clock_sync): 0 unknown, 1 yes, 2 no
+  std::uint32_t teams_rejected = 0;    // the robot's count of refused team states (RobotStatus)
   std::uint64_t writer_handles[3] = {0, 0, 0};    // pose, scan, status publication handles
   std::uint64_t instance_handles[3] = {0, 0, 0};  // this robot's instance on each reader
 };
@@ -69,7 +74,7 @@ struct StationCounters {
   std::uint64_t poses = 0;
   std::uint64_t statuses = 0;
   std::uint64_t invalid_samples = 0;   // dispose / no-writers notifications
-  std::uint64_t bad_samples = 0;       // robot id or count out of range: counted, not stored
+  std::uint64_t rejected = 0;          // refused at the edge (validator().counters() has the reasons): stored raw, not fused
   std::uint64_t teams_published = 0;
   std::uint64_t team_write_errors = 0;
   std::uint64_t liveliness_events = 0;
@@ -119,6 +124,10 @@ class Station {
   [[nodiscard]] const StationCounters& counters() const { return counters_; }
   // One line for STATUS= and the journal.
   [[nodiscard]] std::string status_line() const;
+  // The edge validation's counters and clock reports (sample_validation.hpp).
+  [[nodiscard]] const SampleValidator& validator() const { return validator_; }
+  // Rewrites validation.csv in the session folder (the validator's counters); false if it failed.
+  bool write_validation() const;
 
   // Called from Cyclone's listener thread on LIVELINESS_CHANGED of any reader (queued, handled in poll).
   void push_liveliness(std::uint64_t writer_handle, int alive_change, int not_alive_change);
@@ -138,6 +147,14 @@ class Station {
   // and hands each valid sample to on_sample(sample, robot, receive_time).
   template <class Sample, class OnSample>
   void take(int topic, OnSample&& on_sample);
+  // The edge validation of one sample; a refused one is stored raw (marked) and reported here.
+  // A sample refused after validation (its sender is not the robot it claims): stored raw, marked.
+  void store_refused(const teamscan_msg_RobotPose& p, const ReceiveTime& at, Reject reason);
+  void store_refused(const teamscan_msg_RobotStatus& s, const ReceiveTime& at, Reject reason);
+  void store_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject reason);
+  Verdict check_and_store_if_refused(const teamscan_msg_RobotPose& p, const ReceiveTime& at);
+  Verdict check_and_store_if_refused(const teamscan_msg_RobotStatus& s, const ReceiveTime& at);
+  Verdict check_and_store_if_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at);
   void on_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at);
   void on_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const ReceiveTime& at);
   void on_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at);
@@ -146,12 +163,16 @@ class Station {
   // An invalid sample (dispose / no writers) on `topic`: the robot whose instance it is goes lost.
   void instance_ended(int topic, std::uint64_t instance, std::uint32_t instance_state);
   void set_lost(RobotRecord& r, bool lost, const std::string& why);
+  // A sample the validator refused: counted, its raw header into rejected.csv, logged (rate-limited).
+  void refused(SampleTopic topic, const Verdict& v, std::uint32_t robot_id, std::uint32_t seq, std::int64_t stamp_ns,
+               const ReceiveTime& at);
   void event(const std::string& text);
 
   StationOptions options_;
   SessionStore& store_;
   TeamSource& team_;
   std::unique_ptr<Dds> dds_;
+  SampleValidator validator_;
   std::array<RobotRecord, kMaxRobots + 1> robots_{};
   StationCounters counters_{};
   Time last_team_;

@@ -64,7 +64,7 @@ void encode_status(const OnboardStatus& in, teamscan_msg_RobotStatus& out) {
   out.arcos_state = in.arcos_state;
   out.lms_state = in.lms_state;
   out.team_fresh = in.team_fresh ? 1 : 0;
-  out.reserved = 0;
+  out.clock_sync = in.clock_sync;
   out.sip_rate_mhz = in.sip_rate_mhz;
   out.scan_rate_mhz = in.scan_rate_mhz;
   out.arcos_bad_packets = in.arcos_bad_packets;
@@ -79,6 +79,8 @@ void encode_status(const OnboardStatus& in, teamscan_msg_RobotStatus& out) {
   out.points_team_stale = in.points_team_stale;
   out.points_no_pose = in.points_no_pose;
   out.loop_max_us = in.loop_max_us;
+  out.teams_rejected = in.teams_rejected;
+  out.last_team_reject = in.last_team_reject;
 }
 
 bool decode_team(const teamscan_msg_TeamState& in, TeamSnapshot& out) {

@@ -57,6 +57,7 @@ struct OnboardStatus {
   std::uint8_t arcos_state = 0;     // 0 = down (no port), see onboard/daemon DeviceState
   std::uint8_t lms_state = 0;
   bool team_fresh = false;          // the last team state is younger than max_team_age
+  std::uint8_t clock_sync = 0;      // ClockSync (onboard/daemon/clock_sync.hpp): 0 unknown, 1 synchronised, 2 not
   std::uint32_t sip_rate_mhz = 0;   // SIPs per 1000 s
   std::uint32_t scan_rate_mhz = 0;  // sweeps per 1000 s
   std::uint32_t arcos_bad_packets = 0;
@@ -72,6 +73,8 @@ struct OnboardStatus {
   std::uint32_t points_team_stale = 0;
   std::uint32_t points_no_pose = 0;
   std::uint32_t loop_max_us = 0;    // longest loop iteration since the last status
+  std::uint32_t teams_rejected = 0;   // team states refused by check_team (team_validation.hpp)
+  std::uint32_t last_team_reject = 0; // TeamReject of the newest refused one
 };
 
 // One teammate as tracked by the ground station (teamscan/team).

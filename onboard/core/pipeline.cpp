@@ -46,13 +46,22 @@ bool OnboardPipeline::on_odometry(Time stamp, const Pose2& odom_from_robot, doub
   return true;
 }
 
-void OnboardPipeline::on_team(const TeamSnapshot& team) {
+TeamCheck OnboardPipeline::on_team(const TeamSnapshot& team, Time now) {
+  const TeamCheck check = check_team(team, now, team_limits_);
+  if (!check.ok()) {
+    ++team_checks_.rejected;
+    ++team_checks_.by_reason[static_cast<std::size_t>(check.reason)];
+    team_checks_.last_reject = check.reason;
+    return check;  // the filter keeps the last good state
+  }
+  ++team_checks_.accepted;
   filter_.set_team(team);
   ++counters_.teams;
   have_team_ = true;
   newest_team_valid_ns_ = 0;
   const std::uint32_t n = std::min<std::uint32_t>(team.count, static_cast<std::uint32_t>(kMaxRobots));
   for (std::uint32_t i = 0; i < n; ++i) newest_team_valid_ns_ = std::max(newest_team_valid_ns_, team.members[i].valid_ns);
+  return check;
 }
 
 bool OnboardPipeline::team_fresh(Time now) const {

@@ -13,6 +13,7 @@
 #include "onboard/core/config.hpp"
 #include "onboard/core/direction_filter.hpp"
 #include "onboard/core/messages.hpp"
+#include "onboard/core/team_validation.hpp"
 
 namespace teamscan::onboard {
 
@@ -39,8 +40,9 @@ class OnboardPipeline {
   bool on_odometry(Time stamp, const Pose2& odom_from_robot, double trans_vel_mm_s, double rot_vel_rad_s,
                    OnboardPose& out);
 
-  // The newest team state (teamscan/team).
-  void on_team(const TeamSnapshot& team);
+  // The newest team state (teamscan/team), received at `now` (CLOCK_REALTIME). Checked first
+  // (team_validation.hpp): a refused state is counted and the filter keeps the last good one.
+  TeamCheck on_team(const TeamSnapshot& team, Time now);
 
   // One scan: points, direction filter, and the teamscan/scan sample (every point with its flags, or
   // only kept points, per config). The returned reference stays valid until the next call.
@@ -49,6 +51,7 @@ class OnboardPipeline {
   [[nodiscard]] const ScanPoints& last_points() const { return points_; }
   [[nodiscard]] const DirectionFilterStats& last_filter_stats() const { return filter_stats_; }
   [[nodiscard]] const PipelineCounters& counters() const { return counters_; }
+  [[nodiscard]] const TeamCheckCounters& team_checks() const { return team_checks_; }
   [[nodiscard]] const OdometryHistory<>& odometry() const { return odometry_; }
   [[nodiscard]] bool team_fresh(Time now) const;
 
@@ -68,6 +71,8 @@ class OnboardPipeline {
   std::uint32_t pose_seq_ = 0;
   std::int64_t newest_team_valid_ns_ = 0;
   bool have_team_ = false;
+  TeamCheckLimits team_limits_;
+  TeamCheckCounters team_checks_;
   PipelineCounters counters_;
 };
 

@@ -266,6 +266,14 @@ void OnboardDaemon::publish_status(Time now) {
   s.arcos_state = state_byte(arcos_dev_.open, static_cast<std::uint8_t>(arcos_.state()));
   s.lms_state = state_byte(lms_dev_.open, static_cast<std::uint8_t>(lms_.state()));
   s.team_fresh = pipeline_.team_fresh(to_realtime(now));
+  const ClockSync sync = read_clock_sync();
+  if (sync != clock_sync_) {
+    log_message(sync == ClockSync::kNotSynchronised ? LogLevel::warning : LogLevel::info, "clock: %s", to_string(sync));
+    clock_sync_ = sync;
+  }
+  s.clock_sync = static_cast<std::uint8_t>(sync);
+  s.teams_rejected = clamp_u32(pipeline_.team_checks().rejected);
+  s.last_team_reject = static_cast<std::uint32_t>(pipeline_.team_checks().last_reject);
   s.sip_rate_mhz = rate_mhz(sips_in_period_, period);
   s.scan_rate_mhz = rate_mhz(scans_in_period_, period);
   s.arcos_bad_packets = clamp_u32(as.parser.bad_checksum + as.parser.bad_length + as.bad_sips);
@@ -282,18 +290,30 @@ void OnboardDaemon::publish_status(Time now) {
   s.loop_max_us = loop_max_us_;
   if (!publisher_.publish_status(s).ok()) ++publish_errors_;
 
-  char text[384];
+  char text[512];
   std::snprintf(text, sizeof text,
                 "arcos %s %.1f Hz (opens %u, bad %u); lms %s %.1f Hz (opens %u, bad %u, dropped %u, forced %u); scans %u, "
-                "filtered %u, stale %u, no pose %u; team %s; loop max %u us; publish errors %u",
+                "filtered %u, stale %u, no pose %u; team %s (refused %u, last %s); clock %s; loop max %u us; publish errors %u",
                 arcos_dev_.open ? arcos::to_string(arcos_.state()) : "closed", s.sip_rate_mhz / 1000.0, s.arcos_reopens,
                 s.arcos_bad_packets, lms_dev_.open ? lms200::to_string(lms_.state()) : "closed", s.scan_rate_mhz / 1000.0,
                 s.lms_reopens, s.lms_bad_telegrams, scans_dropped_, scans_forced_, s.scans_published, s.points_direction_filtered,
-                s.points_team_stale, s.points_no_pose, s.team_fresh ? "fresh" : "stale", s.loop_max_us, publish_errors_);
+                s.points_team_stale, s.points_no_pose, s.team_fresh ? "fresh" : "stale", s.teams_rejected,
+                team_reject_name(pipeline_.team_checks().last_reject), to_string(sync), s.loop_max_us, publish_errors_);
   dds::notify_status(text);
   sips_in_period_ = scans_in_period_ = 0;
   loop_max_us_ = 0;
   period_start_ = now;
+}
+
+void OnboardDaemon::on_team(Time now) {
+  const TeamCheck check = pipeline_.on_team(team_msg_, to_realtime(now));
+  if (check.ok()) return;
+  const std::uint64_t rejected = pipeline_.team_checks().rejected;
+  if (now >= next_team_reject_log_) {
+    log_message(LogLevel::warning, "team state refused: %s (member %u); %llu refused so far, the filter keeps the last good one",
+                team_reject_name(check.reason), check.member, static_cast<unsigned long long>(rejected));
+    next_team_reject_log_ = now + std::chrono::seconds(10);
+  }
 }
 
 void OnboardDaemon::log_state_changes() {
@@ -358,7 +378,7 @@ void OnboardDaemon::tick(Time now) {
   take_scans(now);
   if (now >= next_team_poll_) {
     // take_team gives the newest state since the last call: one call per poll is enough.
-    if (publisher_.take_team(team_msg_)) pipeline_.on_team(team_msg_);
+    if (publisher_.take_team(team_msg_)) on_team(now);
     next_team_poll_ = now + options_.team_poll_period;
   }
   log_state_changes();

@@ -17,6 +17,7 @@
 #include "drivers/serial/serial_port.hpp"
 #include "onboard/core/config.hpp"
 #include "onboard/core/pipeline.hpp"
+#include "onboard/daemon/clock_sync.hpp"
 #include "onboard/daemon/publisher.hpp"
 
 namespace teamscan::onboard {
@@ -71,6 +72,9 @@ class OnboardDaemon {
   // unless `force`, or the queue is full, or it has waited odometry.max_hold_s (config.hpp).
   void drain_scans(Time now, bool force);
   void publish_status(Time now);
+  // Hands the team state just taken to the pipeline (checked there); a refusal is logged at most once
+  // per 10 s with the count since the last line.
+  void on_team(Time now);
   void log_state_changes();
   [[nodiscard]] Time next_wakeup(Time now) const;
   [[nodiscard]] Time to_realtime(Time monotonic) const { return monotonic + realtime_offset_; }
@@ -124,6 +128,8 @@ class OnboardDaemon {
   std::array<PendingScan, kPendingScans> pending_{};
   std::size_t pending_head_ = 0, pending_size_ = 0;
   std::uint32_t scans_forced_ = 0;  // projected before a covering SIP arrived
+  Time next_team_reject_log_{};      // monotonic
+  ClockSync clock_sync_ = ClockSync::kUnknown;
   std::array<std::uint8_t, kMaxBeams> beam_flags_{};
   std::array<std::uint8_t, kSerialRxChunk> rx_buf_{};
   std::array<std::uint8_t, 2 * kMaxLmsTelegram> tx_buf_{};

@@ -377,6 +377,7 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
     // A restarted ground station gets the robots' history again (DDS transient-local, depth 300): a scan
     // already stored is stored twice; the data set keeps the first.
     if (!seen[id].insert(s.seq).second) return;
+    if (s.rejected != 0) return;  // refused at the edge (docs/validation.md): stored, never fused
     const std::int64_t t = to_sim_ns(s.stamp_ns);
     if (t < scenario.start_time_ns || t > end_ns) return;  // bring-up (robots standing) or after the end
     // Latency in the run window only: bring-up (the station matching the robots' writers gets their

@@ -66,7 +66,7 @@ void BM_ScanPipeline(benchmark::State& state) {
     if (k % 4 == 0) (void)pipeline->on_odometry(stamp, {0.0004 * static_cast<double>(k), 0.0, 0.0}, 100, 0.0, pose);
     if (k % 10 == 0) {
       for (std::uint32_t m = 0; m < 8; ++m) team.members[m].valid_ns = stamp.ns();
-      pipeline->on_team(team);
+      pipeline->on_team(team, stamp);
     }
     ++k;
     const auto a = std::chrono::steady_clock::now();

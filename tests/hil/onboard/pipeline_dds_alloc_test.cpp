@@ -75,7 +75,7 @@ TEST(PipelineDdsAllocations, DecodeFilterPublishTenThousandScans) {
     if (k % 4 == 0) (void)pipeline->on_odometry(stamp, {0.0004 * k, 0.0, 0.0}, 100, 0.0, pose);
     if (k % 10 == 0) {
       for (std::uint32_t m = 0; m < 8; ++m) team.members[m].valid_ns = stamp.ns();
-      pipeline->on_team(team);
+      pipeline->on_team(team, stamp);
     }
     ASSERT_TRUE(lms200::decode_scan(std::span<const std::uint8_t>(telegram.data(), len),
                                     lms200::MeasuringMode::m8_fields_dazzle, decoded).ok());

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <string>
 
 #include "onboard/core/pipeline.hpp"
@@ -102,6 +103,13 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
     team.members[m].height_mm = 500;
   }
 
+  // Malformed team states (issue 15: a publisher at 50 Hz) go through the check between the good ones:
+  // refusing them allocates nothing either.
+  TeamSnapshot malformed = team;
+  malformed.members[3].cov_xx = std::numeric_limits<float>::quiet_NaN();
+  TeamSnapshot too_many = team;
+  too_many.count = 200;
+
   const Time t0 = Time::from_ns(1'700'000'000'000'000'000);
   OnboardPose pose;
   std::uint64_t filtered = 0, published = 0;
@@ -113,7 +121,11 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
       if (k % 4 == 0) (void)pipeline->on_odometry(stamp, {0.001 * k, 0.0, 0.0001 * k}, 100, 0.01, pose);
       if (k % 10 == 0) {
         for (std::uint32_t m = 0; m < 8; ++m) team.members[m].valid_ns = stamp.ns();
-        pipeline->on_team(team);
+        pipeline->on_team(team, stamp);
+      }
+      if (k % 4 == 1) {
+        for (std::uint32_t m = 0; m < 8; ++m) malformed.members[m].valid_ns = stamp.ns();
+        (void)pipeline->on_team(k % 8 == 1 ? malformed : too_many, stamp);
       }
       ScanBeams beams{stamp, variant, std::span<const std::uint32_t>(ranges.data(), 361),
                       std::span<const std::uint8_t>(flags.data(), 361)};
@@ -130,6 +142,8 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
   EXPECT_EQ(pipeline->counters().scans, 10'000u);
   EXPECT_EQ(published, 10'000u * 361u);
   EXPECT_GT(filtered, 0u);  // the filter really ran against the 8 teammates
+  EXPECT_EQ(pipeline->team_checks().rejected, 2'500u);  // every malformed team state refused
+  EXPECT_EQ(pipeline->team_checks().accepted, 1'000u);
   EXPECT_EQ(allocations, 0);
 }
 

@@ -79,7 +79,7 @@ TEST(OnboardPipeline, ScanFilteredAgainstTheTeamAndPublishedWithFlags) {
   team.members[0].x_mm = 1000;
   team.members[0].y_mm = 3000;  // 3 m straight ahead
   team.members[0].valid_ns = (kT0 + 50ms).ns();
-  p->on_team(team);
+  p->on_team(team, kT0 + 50ms);
   Beams b;
   b.range.fill(3000);
   b.flags[0] = kBeamInvalid;
@@ -117,7 +117,7 @@ TEST(OnboardPipeline, KeptModePublishesOnlyValidUnfilteredPoints) {
   team.members[0].x_mm = 1000;
   team.members[0].y_mm = 3000;
   team.members[0].valid_ns = (kT0 + 50ms).ns();
-  p->on_team(team);
+  p->on_team(team, kT0 + 50ms);
   Beams b;
   b.range.fill(3000);
   b.flags[0] = kBeamInvalid;

@@ -30,6 +30,15 @@ TEST(GroundStationConfig, DeployExampleParsesAndEqualsTheDefaults) {
   EXPECT_DOUBLE_EQ(c.ros2.heading_sigma_deg, d.ros2.heading_sigma_deg);
   EXPECT_EQ(c.view.listen, d.view.listen);
   EXPECT_DOUBLE_EQ(c.view.period_s, d.view.period_s);
+  const ValidationOptions& v = c.station.validation;
+  const ValidationOptions& dv = d.station.validation;
+  EXPECT_DOUBLE_EQ(v.site_min_x_m, dv.site_min_x_m);
+  EXPECT_DOUBLE_EQ(v.site_max_z_m, dv.site_max_z_m);
+  EXPECT_EQ(v.max_stamp_age, dv.max_stamp_age);
+  EXPECT_EQ(v.max_stamp_ahead, dv.max_stamp_ahead);
+  EXPECT_EQ(v.clock_offset_warn, dv.clock_offset_warn);
+  EXPECT_EQ(v.max_seq_jump, dv.max_seq_jump);
+  EXPECT_EQ(v.log_interval, dv.log_interval);
 }
 
 TEST(GroundStationConfig, Ros2Keys) {
@@ -59,6 +68,24 @@ TEST(GroundStationConfig, ViewListenIsValidatedAndMayBeOff) {
     EXPECT_FALSE(parse_groundstation_config(bad, "t.toml", c, e)) << bad;
     EXPECT_EQ(e.message.rfind("view.", 0), 0u) << e.message;
   }
+}
+
+TEST(GroundStationConfig, ValidationKeys) {
+  GroundStationConfig c;
+  ConfigError e;
+  ASSERT_TRUE(parse_groundstation_config("[validation]\nsite_min_x_m = -50\nsite_max_x_m = 60\nmax_stamp_age_s = 5\n"
+                                         "max_seq_jump = 100\n", "t.toml", c, e)) << e.message;
+  EXPECT_DOUBLE_EQ(c.station.validation.site_min_x_m, -50.0);
+  EXPECT_DOUBLE_EQ(c.station.validation.site_max_x_m, 60.0);
+  EXPECT_EQ(c.station.validation.max_stamp_age, std::chrono::seconds(5));
+  EXPECT_EQ(c.station.validation.max_seq_jump, 100u);
+  GroundStationConfig bad;
+  EXPECT_FALSE(parse_groundstation_config("[validation]\nsite_min_y_m = 10\nsite_max_y_m = 5\n", "t.toml", bad, e));
+  EXPECT_NE(e.message.find("validation"), std::string::npos);
+  EXPECT_FALSE(parse_groundstation_config("[validation]\nmax_stamp_age_s = -1\n", "t.toml", bad, e));
+  EXPECT_NE(e.message.find("validation.max_stamp_age_s"), std::string::npos);
+  EXPECT_FALSE(parse_groundstation_config("[validation]\nsite_bounds = 1\n", "t.toml", bad, e));
+  EXPECT_NE(e.message.find("validation.site_bounds"), std::string::npos);
 }
 
 TEST(GroundStationConfig, TeamSourceChoice) {

@@ -46,7 +46,7 @@ TEST(ScanRecord, ExactBytesOfAOnePointRecord) {
       3, 0, 0, 0,  0x44, 0x33, 0x22, 0x11,                        // robot, seq
       1, 0, 0, 0, 0, 0, 0, 0,                                      // stamp
       0xFF, 0xFF, 0xFF, 0xFF,  0, 1, 0, 0,  0, 0, 0, 0,            // origin -1, 256, 0
-      1, 0,  0, 0,                                                 // count, reserved
+      1, 0,  0, 0,                                                 // count, rejected (0: accepted)
       0x18, 0xFC, 0xFF, 0xFF,  0xE8, 0x03, 0, 0,  7, 0, 0, 0,      // -1000, 1000, 7
       0x90, 0x01,  5, 0};                                          // beam 400, flags 5
   ASSERT_EQ(std::memcmp(buf, expected, 72), 0);
@@ -89,6 +89,27 @@ TEST(ScanRecord, RoundTripOfZeroOneAndFullScans) {
   EXPECT_EQ(got[1], std::make_pair(2u, std::uint16_t{1}));
   EXPECT_EQ(got[2], std::make_pair(3u, static_cast<std::uint16_t>(kMaxBeams)));
   EXPECT_EQ(last_z, 800);
+}
+
+// A scan the station refused at receipt is stored raw with its reason (sample_validation.hpp), and a
+// count above the record's capacity keeps every point the sample could carry.
+TEST(ScanRecord, RefusedScanKeepsItsReasonAndItsPoints) {
+  static StoredScan s, back;
+  s.robot_id = 999999;
+  s.seq = 5;
+  s.count = 65535;
+  s.rejected = 2;
+  for (std::uint16_t i = 0; i < kMaxBeams; ++i) s.points[i] = StoredPoint{i, 0, 0, i, 0};
+  std::uint8_t buf[kScanRecordMaxBytes];
+  const std::size_t n = encode_scan_record(s, buf);
+  ASSERT_EQ(n, kScanRecordMaxBytes);
+  EXPECT_EQ(buf[8 + 46], 2);  // the rejected field after count
+  ScanDecodeStats st;
+  ASSERT_EQ(decode_scan_record(std::span<const std::uint8_t>(buf, n), back, st), static_cast<long>(n));
+  EXPECT_EQ(back.robot_id, 999999u);
+  EXPECT_EQ(back.rejected, 2);
+  EXPECT_EQ(back.count, kMaxBeams);
+  EXPECT_EQ(back.points[400].x_mm, 400);
 }
 
 TEST(ScanRecord, CorruptRecordIsSkippedAndTheNextOneFound) {

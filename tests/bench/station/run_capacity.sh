@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Station capacity (issue 11 "Capacity"): station_feeder publishes N robots x 75 Hz scans + 10 Hz poses
+# over loopback DDS to a real teamscan-groundstation pinned to one CPU (the feeder on the other), for each
+# N; prints one line per N and the largest N with scan -> fused-map p99 <= 50 ms and nothing lost.
+# Figures, not a test. Then, unless SKIP_COLOCATED=1, the co-located figure: tests/bench/scale/run_scale.sh
+# with 32 robots (32 daemons + emulators + the station on the same cores) and the machine's CPU share.
+#
+# usage: [METHOD=best] [STATION_CPU=1] [FEEDER_CPU=0] [DDS_CONFIG=file] tests/bench/station/run_capacity.sh \
+#          [BUILD_DIR] [DURATION_S] [N ...]        default: build/dev, 20 s of robot time, N = 8 16 24 32
+set -u
+here="$(cd "$(dirname "$0")" && pwd)"
+root="$(cd "$here/../../.." && pwd)"
+build="${1:-$root/build/dev}"
+duration="${2:-20}"
+shift 2 2>/dev/null || shift $#
+counts=("$@")
+[ ${#counts[@]} -eq 0 ] && counts=(8 16 24 32)
+feeder="$build/tests/bench/station/station_feeder"
+station="$build/groundstation/station/teamscan-groundstation"
+[ -x "$feeder" ] && [ -x "$station" ] || { echo "build the station_feeder and teamscan-groundstation targets first" >&2; exit 2; }
+dds="${DDS_CONFIG:-$root/deploy/cyclonedds-lo.xml}"
+method="${METHOD:-best}"
+scpu="${STATION_CPU:-1}"
+fcpu="${FEEDER_CPU:-0}"
+echo "# $(date -u +%FT%TZ) station capacity: ${duration} s robot time per N, method $method, station on CPU $scpu, feeder on CPU $fcpu, $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
+printf '%4s %8s %8s %6s %8s %8s %8s %7s %8s\n' N published stored lost p50_ms p99_ms max_ms cpu_% rss_MiB
+best=0
+for n in "${counts[@]}"; do
+  out="$(taskset -c "$fcpu" "$feeder" -n "$n" --duration "$duration" --dds-config "$dds" --station "$station" \
+         --station-cpu "$scpu" --method "$method" 2>&1)"
+  fed=$(echo "$out" | sed -n 's/^fed: \([0-9]*\) scans.*/\1/p')
+  line=$(echo "$out" | grep '^station: stored')
+  stored=$(echo "$line" | sed -n 's/^station: stored \([0-9]*\).*/\1/p')
+  lost=$(echo "$line" | sed -n 's/.*, lost \([0-9]*\);.*/\1/p')
+  p50=$(echo "$line" | sed -n 's/.*p50 \([0-9.]*\) ms.*/\1/p')
+  p99=$(echo "$line" | sed -n 's/.*p99 \([0-9.]*\) ms.*/\1/p')
+  max=$(echo "$line" | sed -n 's/.*max \([0-9.]*\) ms.*/\1/p')
+  cpu=$(echo "$line" | sed -n 's/.* = \([0-9]*\) % of one core.*/\1/p')
+  rss=$(echo "$out" | sed -n 's/.*end [0-9.]* s: \([0-9.]*\).*/\1/p')
+  if [ -z "$line" ]; then echo "N=$n: no result:"; echo "$out" | tail -5; continue; fi
+  printf '%4d %8s %8s %6s %8s %8s %8s %7s %8s\n' "$n" "$fed" "$stored" "$lost" "$p50" "$p99" "$max" "$cpu" "$rss"
+  if [ "$lost" = "0" ] && awk -v p="$p99" 'BEGIN { exit !(p <= 50.0) }'; then best=$n; fi
+done
+echo "largest N with p99 <= 50 ms and nothing lost: $best (goal 32 on one core; load after: $(cut -d' ' -f1-3 /proc/loadavg))"
+if [ "${SKIP_COLOCATED:-0}" != 1 ]; then
+  echo "# co-located: tests/bench/scale/run_scale.sh $build 10 32 (32 daemons + emulators + station on all CPUs)"
+  cpu0=$(awk '/^cpu / { print $2+$3+$4+$5+$6+$7+$8, $5+$6 }' /proc/stat)
+  STATION_METHOD="$method" "$root/tests/bench/scale/run_scale.sh" "$build" 10 32
+  cpu1=$(awk '/^cpu / { print $2+$3+$4+$5+$6+$7+$8, $5+$6 }' /proc/stat)
+  echo "$cpu0 $cpu1" | awk '{ busy = ($3 - $4) - ($1 - $2); total = $3 - $1; printf "machine CPU share during the co-located run: %.0f %% of %d CPUs busy\n", 100 * busy / total, '"$(nproc)"' }'
+fi

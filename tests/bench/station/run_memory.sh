@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Station memory over a long mission (issue 11 "Memory"): eight robots for one hour of robot time, as fast
+# as the machine allows (WARP robot seconds per wall second; stamps stay the feeder's real clock, so the
+# station's stamp validation needs no bench mode), with a fused-model write every 60 s of robot time.
+# Prints the station's RSS curve (start, each quarter, end), the write times and durations, and the
+# scan -> fused-map p99 of the scans fused during a write and outside; then the same feed without writes
+# (unless SKIP_NO_WRITES=1). A guard stops the feed if the station's RSS passes RSS_GUARD_MIB (a shared
+# host must not run out of memory), MAX_WALL_S bounds each run. Figures, not a test.
+#
+# usage: [WARP=3] [ROBOTS=8] [METHOD=best] [RSS_GUARD_MIB=4096] [MAX_WALL_S=1500] [STATION_CPU=1] [FEEDER_CPU=0]
+#        [DDS_CONFIG=file] tests/bench/station/run_memory.sh [BUILD_DIR] [ROBOT_SECONDS]     default 3600
+set -u
+here="$(cd "$(dirname "$0")" && pwd)"
+root="$(cd "$here/../../.." && pwd)"
+build="${1:-$root/build/dev}"
+seconds="${2:-3600}"
+feeder="$build/tests/bench/station/station_feeder"
+station="$build/groundstation/station/teamscan-groundstation"
+[ -x "$feeder" ] && [ -x "$station" ] || { echo "build the station_feeder and teamscan-groundstation targets first" >&2; exit 2; }
+warp="${WARP:-3}"
+robots="${ROBOTS:-8}"
+write_s=$(awk -v w="$warp" 'BEGIN { printf "%.3f", 60.0 / w }')  # one write per 60 s of robot time
+common=(-n "$robots" --duration "$seconds" --warp "$warp" --dds-config "${DDS_CONFIG:-$root/deploy/cyclonedds-lo.xml}"
+        --station "$station" --station-cpu "${STATION_CPU:-1}" --method "${METHOD:-best}"
+        --rss-guard-mib "${RSS_GUARD_MIB:-4096}" --max-wall "${MAX_WALL_S:-1500}" --stop-timeout 30)
+echo "# $(date -u +%FT%TZ) station memory: $robots robots, $seconds s robot time at ${warp}x, a model write every 60 s of robot time ($write_s s wall), $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "## with model writes"
+taskset -c "${FEEDER_CPU:-0}" "$feeder" "${common[@]}" --write-interval "$write_s"
+if [ "${SKIP_NO_WRITES:-0}" != 1 ]; then
+  echo "## without model writes"
+  taskset -c "${FEEDER_CPU:-0}" "$feeder" "${common[@]}" --write-interval 0
+fi
+echo "# load after: $(cut -d' ' -f1-3 /proc/loadavg)"
