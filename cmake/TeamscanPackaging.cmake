@@ -29,33 +29,39 @@ set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "multi-robot laser fusion with ghost-point removal")
 set(deb_version "${PROJECT_VERSION}-${CPACK_DEBIAN_PACKAGE_RELEASE}")
 
+# Descriptions: the first line is the synopsis; Debian wants the others under 80 columns.
 set(CPACK_COMPONENT_COMMON_DESCRIPTION "teamscan robot-team 3-D mapping: shared files
-A team of Pioneer 3-AT robots with tilted SICK LMS-200 lasers surveys a confined area; a ground station
-fuses their scans into one 3-D model and removes the ghost points where one robot's laser hit a teammate.
-This package holds what the others share: the Cyclone DDS configs (loopback and site template), the
-teamscan system user and the documentation.")
+A team of Pioneer 3-AT robots with tilted SICK LMS-200 lasers surveys a
+confined area; a ground station fuses their scans into one 3-D model and
+removes the ghost points where one robot's laser hit a teammate. This
+package holds what the others share: the Cyclone DDS configs (loopback
+and site template), the teamscan system user and the documentation.")
 set(CPACK_DEBIAN_COMMON_PACKAGE_ARCHITECTURE all)
 set(CPACK_DEBIAN_COMMON_PACKAGE_DEPENDS "systemd | systemd-standalone-sysusers")
 
 set(CPACK_COMPONENT_ONBOARD_DESCRIPTION "teamscan robot daemon (Pioneer 3-AT + SICK LMS-200)
-teamscan-onboard runs on every robot: it drives the Pioneer 3-AT (ARCOS) and the SICK LMS-200 over
-serial, turns every scan into 3-D points in the map frame, flags teammates with the direction filter
-and publishes pose, scans and status over Cyclone DDS. The systemd unit teamscan-onboard@.service
-(Type=notify, watchdog, hardened) is installed but not enabled; example configs are in
-/usr/share/teamscan/examples.")
+teamscan-onboard runs on every robot: it drives the Pioneer 3-AT (ARCOS)
+and the SICK LMS-200 over serial, turns every scan into 3-D points in the
+map frame, flags teammates with the direction filter and publishes pose,
+scans and status over Cyclone DDS. The systemd unit
+teamscan-onboard@.service (Type=notify, watchdog, hardened) is installed
+but not enabled; example configs are in /usr/share/teamscan/examples.")
 set(CPACK_COMPONENT_ONBOARD_DEPENDS common)
 
 set(CPACK_COMPONENT_GROUNDSTATION_DESCRIPTION "teamscan ground station (DDS receiver, tracker, fusion)
-teamscan-groundstation receives every robot's poses and scans over Cyclone DDS, stores them in a
-session folder, tracks the robots with a Kalman filter, publishes the team's state back and fuses the
-live 3-D model. The systemd unit teamscan-groundstation.service is installed but not enabled; an
-example config is in /usr/share/teamscan/examples.")
+teamscan-groundstation receives every robot's poses and scans over
+Cyclone DDS, stores them in a session folder, tracks the robots with a
+Kalman filter, publishes the team's state back and fuses the live 3-D
+model. The systemd unit teamscan-groundstation.service is installed but
+not enabled; an example config is in /usr/share/teamscan/examples.")
 set(CPACK_COMPONENT_GROUNDSTATION_DEPENDS common)
 
 set(CPACK_COMPONENT_TOOLS_DESCRIPTION "teamscan tool (simulate, emulate, evaluate, render, demo)
-The teamscan command: simulates team surveys from the shipped scenarios, emulates the robots' devices
-on pseudo-terminals, records and replays serial captures, decodes the protocols, evaluates the
-ghost-point filters, renders data sets and runs the whole system end to end (teamscan demo).")
+The teamscan command: simulates team surveys from the shipped scenarios,
+emulates the robots' devices on pseudo-terminals, records and replays
+serial captures, decodes the protocols, evaluates the ghost-point
+filters, renders data sets and runs the whole system end to end
+(teamscan demo).")
 set(CPACK_COMPONENT_TOOLS_DEPENDS common)
 set(CPACK_DEBIAN_TOOLS_PACKAGE_RECOMMENDS "teamscan-onboard (= ${deb_version}), teamscan-groundstation (= ${deb_version})")
 

@@ -44,7 +44,7 @@ for f in "${files[@]}"; do
 done
 
 phase "lintian"
-# Errors fail the check; warnings are printed (the accepted ones are listed in deploy/debian/README.md).
+# Errors fail the check; warnings and notes are printed (the accepted ones: deploy/debian/README.md).
 lintian --fail-on error --display-info "${files[@]}" || fail "lintian reports errors"
 
 phase "install"
