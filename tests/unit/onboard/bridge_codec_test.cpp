@@ -120,8 +120,14 @@ TEST(DdsCodec, PoseAndStatusFieldsCopied) {
   s.uptime_s = 3600;
   s.lms_reopens = 2;
   s.loop_max_us = 1234;
+  s.clock_sync = 2;
+  s.teams_rejected = 17;
+  s.last_team_reject = 4;
   teamscan_msg_RobotStatus t{};
   encode_status(s, t);
+  EXPECT_EQ(t.clock_sync, 2);
+  EXPECT_EQ(t.teams_rejected, 17u);
+  EXPECT_EQ(t.last_team_reject, 4u);
   EXPECT_EQ(t.arcos_state, 3);
   EXPECT_EQ(t.lms_state, 5);
   EXPECT_EQ(t.team_fresh, 1);
