@@ -57,6 +57,8 @@ struct Ros2Config {
   double pose_rate_hz = 10.0;                        // rt/tf and rt/robotN/odom
   // The tracker estimates no heading: the odometry's yaw variance is this sigma squared.
   double heading_sigma_deg = 3.0;
+};
+
 // The browser view (groundstation/view, docs/view.md): HTTP + WebSocket on `listen`; empty: off.
 struct ViewConfig {
   std::string listen = "127.0.0.1:8080";
