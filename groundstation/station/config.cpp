@@ -82,7 +82,8 @@ bool known_keys(const toml::table& root, ConfigError& error) {
       "fusion", "fusion.enabled", "fusion.method", "fusion.resolution_m", "fusion.half_angle_deg",
       "fusion.grid_origin_z_m", "fusion.frequency_k", "fusion.position_sigma_m", "fusion.position_n",
       "fusion.direction_from_flags", "fusion.write_interval_s", "fusion.write_all_points", "fusion.map_interval_s",
-      "fusion.map_resolution_m", "fusion.latency_log"};
+      "fusion.map_resolution_m", "fusion.latency_log", "fusion.hold_s", "fusion.model_resolution_m",
+      "fusion.max_points_per_voxel"};
   std::string bad;
   const std::function<void(const toml::table&, const std::string&)> walk = [&](const toml::table& t, const std::string& prefix) {
     for (const auto& [k, v] : t) {
@@ -163,6 +164,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   FusionConfig& f = c.fusion;
   double write_s = to_seconds(f.write_interval);
   double map_s = to_seconds(f.map_interval);
+  std::int64_t max_per_voxel = f.max_points_per_voxel;
   const bool ok3 = r.boolean("fusion.enabled", f.enabled) && r.string("fusion.method", f.method) &&
                    r.number("fusion.resolution_m", f.resolution_m, 0.0, 10.0) &&
                    r.number("fusion.half_angle_deg", f.half_angle_deg, 0.0, 60.0) &&
@@ -175,8 +177,12 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
                    r.boolean("fusion.write_all_points", f.write_all_points) &&
                    r.boolean("fusion.latency_log", f.latency_log) &&
                    r.number("fusion.map_interval_s", map_s, 0.0, 3600.0, true) &&
-                   r.number("fusion.map_resolution_m", f.map_resolution_m, 0.0, 10.0);
+                   r.number("fusion.map_resolution_m", f.map_resolution_m, 0.0, 10.0) &&
+                   r.number("fusion.hold_s", f.hold_s, 0.0, 60.0, true) &&
+                   r.number("fusion.model_resolution_m", f.model_resolution_m, 0.0, 10.0) &&
+                   r.integer("fusion.max_points_per_voxel", max_per_voxel, 0, 1'000'000);
   if (!ok3) return false;
+  f.max_points_per_voxel = static_cast<std::uint32_t>(max_per_voxel);
   // The paper's methods and issue 7's (groundstation/mapping make_filter; docs/beyond.md).
   static const char* const kMethods[] = {"frequency", "visibility", "position", "direction", "combined",
                                          "freespace", "tracked",    "best"};

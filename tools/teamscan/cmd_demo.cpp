@@ -36,7 +36,7 @@
 #include "common/dataset/pcd.hpp"
 #include "common/laser_geometry.hpp"
 #include "common/scan_points.hpp"
-#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "sim/live.hpp"
 #include "sim/scenario.hpp"
