@@ -139,8 +139,10 @@ Result<DdsBridge> DdsBridge::create(const DdsBridgeOptions& options) {
   if (scan_topic < 0) return dds_error("dds: cannot create topic teamscan/scan", scan_topic);
   if (status_topic < 0) return dds_error("dds: cannot create topic teamscan/status", status_topic);
 
-  dds_qos_t* q = make_state_writer_qos(options.liveliness_lease, options.max_blocking);
+  dds_qos_t* q = make_scan_writer_qos(options.pose_history_depth, options.liveliness_lease, options.max_blocking);
   b.pose_writer_ = dds_create_writer(b.participant_, pose_topic, q, nullptr);
+  dds_delete_qos(q);
+  q = make_state_writer_qos(options.liveliness_lease, options.max_blocking);
   b.status_writer_ = dds_create_writer(b.participant_, status_topic, q, nullptr);
   dds_delete_qos(q);
   q = make_scan_writer_qos(options.scan_history_depth, options.liveliness_lease, options.max_blocking);
