@@ -37,12 +37,14 @@ function(teamscan_library name)
 endfunction()
 
 # add_unit_test(NAME SOURCES a.cpp b.cpp DEPS lib1 lib2 [LABELS unit|hil|e2e] [TIMEOUT s])
-# Every test gets the loopback DDS config and the path of shared/ in its environment.
+# Every test gets the loopback DDS config in its environment and the repository's test data folder
+# compiled in (tests/support/real_data.hpp).
 function(add_unit_test name)
   cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gmock GTest::gtest_main)
   target_include_directories(${name} PRIVATE ${TEAMSCAN_SOURCE_DIR})
+  target_compile_definitions(${name} PRIVATE TEAMSCAN_TEST_DATA_DIR="${TEAMSCAN_SOURCE_DIR}/tests/data")
   teamscan_warnings(${name})
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
@@ -54,7 +56,7 @@ function(add_unit_test name)
   set_tests_properties(${name} PROPERTIES
     LABELS "${ARG_LABELS}"
     TIMEOUT ${ARG_TIMEOUT}
-    ENVIRONMENT "CYCLONEDDS_URI=${TEAMSCAN_DDS_LOOPBACK_URI};TEAMSCAN_SHARED_DIR=${TEAMSCAN_SHARED_DIR};TEAMSCAN_SOURCE_DIR=${TEAMSCAN_SOURCE_DIR};TEAMSCAN_BINARY_DIR=${CMAKE_BINARY_DIR}")
+    ENVIRONMENT "CYCLONEDDS_URI=${TEAMSCAN_DDS_LOOPBACK_URI};TEAMSCAN_SOURCE_DIR=${TEAMSCAN_SOURCE_DIR};TEAMSCAN_BINARY_DIR=${CMAKE_BINARY_DIR}")
 endfunction()
 
 # add_fuzz_target(NAME SOURCE fuzz_x.cpp DEPS libs CORPUS dir)
@@ -86,5 +88,6 @@ function(add_teamscan_benchmark name)
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} benchmark::benchmark benchmark::benchmark_main)
   target_include_directories(${name} PRIVATE ${TEAMSCAN_SOURCE_DIR})
+  target_compile_definitions(${name} PRIVATE TEAMSCAN_TEST_DATA_DIR="${TEAMSCAN_SOURCE_DIR}/tests/data")
   teamscan_warnings(${name})
 endfunction()

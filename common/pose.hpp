@@ -47,6 +47,13 @@ struct Pose2 {
   }
 };
 
+// Forward speed of a robot heading `yaw_rad` that moves with the map-frame velocity (vx, vy): the
+// velocity projected on the heading. The tracker takes this speed and uses (v cos yaw, v sin yaw) as
+// its velocity measurement; taking vx alone zeroes it for a robot heading along y.
+[[nodiscard]] inline double forward_speed_mps(double vx_mps, double vy_mps, double yaw_rad) {
+  return vx_mps * std::cos(yaw_rad) + vy_mps * std::sin(yaw_rad);
+}
+
 // Row-major 3x3 rotation.
 struct Rot3 {
   double m[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};

@@ -11,28 +11,11 @@
 #include "common/capacities.hpp"
 #include "common/laser_geometry.hpp"
 #include "common/odometry_history.hpp"
+#include "common/point_flags.hpp"
 #include "common/pose.hpp"
 #include "common/time.hpp"
 
 namespace teamscan {
-
-// Per-beam status from the scan decoder (input). The LMS reserved distance codes (PROTOCOLS.md 2.7:
-// 0x1FFF not valid, 0x1FFD overflow, 0x1FFB S/N too small, ...) map to kBeamInvalid; 0x1FFE and the
-// dazzle bit 15 (measuring mode 0x00) map to kBeamDazzled.
-inline constexpr std::uint8_t kBeamInvalid = 1u << 0;
-inline constexpr std::uint8_t kBeamDazzled = 1u << 1;
-
-// Per-point flags (output), the same bits on the wire (idl/teamscan.idl POINT_*, teamscan/scan), in the
-// data set's PCD and in the evaluation. kPointInvalid, kPointDazzled and kPointNoPose mean the point
-// has no trustworthy position.
-inline constexpr std::uint16_t kPointDirectionFiltered = 1u << 0;  // direction filter (paper eq. 7): a teammate
-inline constexpr std::uint16_t kPointInvalid = 1u << 1;      // no echo / reserved distance code / range 0
-inline constexpr std::uint16_t kPointDazzled = 1u << 2;      // the scanner reported dazzling
-inline constexpr std::uint16_t kPointPositionFiltered = 1u << 3;  // position filter (paper eq. 6), ground station
-inline constexpr std::uint16_t kPointOutOfRange = 1u << 4;   // range > max_range_mm (position still computed)
-inline constexpr std::uint16_t kPointNoPose = 1u << 5;       // odometry could not place the beam's time
-inline constexpr std::uint16_t kPointTeamStale = 1u << 6;    // direction filter ran widened on, or skipped for, a stale team state
-inline constexpr std::uint16_t kPointUnplaced = kPointInvalid | kPointDazzled | kPointNoPose;
 
 // A decoded scan, as the daemon gets it from the LMS client and the simulator from its ray caster.
 struct ScanBeams {

@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package teamscan needs to build, test, benchmark and run its demo.
+# Installs every Debian 12 package teamscan needs to build, test, benchmark, package and run its demo.
+# Packaging (scripts/check-install.sh): help2man (man pages from --help), file and dpkg-dev (cpack's
+# dpkg-shlibdeps), lintian.
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 SUDO=""
@@ -19,4 +21,5 @@ $SUDO apt-get install -y --no-install-recommends \
   libtomlplusplus-dev libcli11-dev libfmt-dev \
   libpng-dev \
   liboctomap-dev \
-  pcl-tools
+  pcl-tools \
+  help2man file dpkg-dev lintian

@@ -54,11 +54,7 @@ void RobotReceiver::flush() { drain(true); }
 
 void RobotReceiver::project(const lms200::ScanTelegram& scan, Time stamp) {
   std::array<std::uint8_t, kMaxBeams> beam_flags{};
-  for (std::size_t i = 0; i < scan.count; ++i) {
-    const lms200::BeamInvalid why = scan.invalid[i];
-    if (why == lms200::BeamInvalid::dazzled || lms200::dazzle(scan.mode, scan.flags[i])) beam_flags[i] |= kBeamDazzled;
-    if (why != lms200::BeamInvalid::none) beam_flags[i] |= kBeamInvalid;
-  }
+  for (std::size_t i = 0; i < scan.count; ++i) beam_flags[i] = lms200::beam_flags(scan, i);
   // The variant follows from the count (the telegram does not carry the resolution).
   LaserVariant variant{180, 100};
   switch (scan.count) {

@@ -10,9 +10,7 @@
 
 #include <toml++/toml.h>
 
-#ifndef TEAMSCAN_SIM_SCENARIO_DIR
-#define TEAMSCAN_SIM_SCENARIO_DIR ""
-#endif
+#include "common/data_paths.hpp"
 
 namespace teamscan::sim {
 namespace {
@@ -363,21 +361,19 @@ ScenarioLoad load_scenario_file(const std::string& path) {
 
 std::vector<std::string> builtin_scenario_names() { return {"lap2", "fig8", "team3"}; }
 
-ScenarioLoad resolve_scenario(const std::string& name_or_path, const std::string& executable_dir) {
+ScenarioLoad resolve_scenario(const std::string& name_or_path) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (name_or_path.find('/') != std::string::npos || name_or_path.ends_with(".toml") || fs::exists(name_or_path, ec))
     return load_scenario_file(name_or_path);
   const std::string file = name_or_path + ".toml";
-  for (const fs::path& dir : {fs::path(executable_dir) / "scenarios", fs::path(executable_dir) / ".." / "share" / "teamscan" / "scenarios",
-                              fs::path(TEAMSCAN_SIM_SCENARIO_DIR)}) {
-    if (dir.empty()) continue;
-    if (fs::exists(dir / file, ec)) return load_scenario_file((dir / file).string());
-  }
+  const DataFile found = find_data_file("scenarios/" + file, "sim/scenarios/" + file);
+  if (!found.path.empty()) return load_scenario_file(found.path);
   ScenarioLoad out;
   std::string names;
   for (const auto& n : builtin_scenario_names()) names += (names.empty() ? "" : ", ") + n;
-  out.error = name_or_path + ": no such scenario file or built-in scenario (built-in: " + names + ")";
+  out.error = name_or_path + ": no such scenario file or built-in scenario (built-in: " + names + "; looked in " +
+              found.searched + ")";
   return out;
 }
 

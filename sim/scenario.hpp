@@ -79,10 +79,9 @@ struct ScenarioLoad {
 [[nodiscard]] ScenarioLoad parse_scenario(const std::string& toml_text, const std::string& source_name);
 [[nodiscard]] ScenarioLoad load_scenario_file(const std::string& path);
 
-// A built-in name ("lap2", "fig8", …) or a path. Built-in names are looked up in, in order: the
-// folder `scenarios/` next to the executable, `../share/teamscan/scenarios/` relative to it, and
-// the source tree's sim/scenarios/ (compiled in).
-[[nodiscard]] ScenarioLoad resolve_scenario(const std::string& name_or_path, const std::string& executable_dir);
+// A built-in name ("lap2", "fig8", …) or a path. Built-in names are the installed
+// share/teamscan/scenarios/NAME.toml, or sim/scenarios/NAME.toml in a build tree (find_data_file).
+[[nodiscard]] ScenarioLoad resolve_scenario(const std::string& name_or_path);
 [[nodiscard]] std::vector<std::string> builtin_scenario_names();
 
 }  // namespace teamscan::sim

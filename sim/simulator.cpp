@@ -331,14 +331,6 @@ class LaserModel final : public lms200::RangeSource {
   std::deque<ScanTruth> queue_;
 };
 
-std::uint16_t dataset_flags(std::uint16_t scan_point_flags) {
-  std::uint16_t f = 0;
-  if (scan_point_flags & kPointInvalid) f |= point_flags::kInvalid;
-  if (scan_point_flags & kPointDazzled) f |= point_flags::kDazzled;
-  if (scan_point_flags & kPointOutOfRange) f |= point_flags::kOutOfRange;
-  return f;
-}
-
 RobotStats run_devices(Run& run, std::size_t ri, RobotCaptures& captures) {
   const RobotSpec& spec = run.team.spec(ri);
   const Motion& motion = run.team.motion(ri);
@@ -392,7 +384,7 @@ RobotStats run_devices(Run& run, std::size_t ri, RobotCaptures& captures) {
           }
           const Hit hit = truth && i < truth->hits.size() ? truth->hits[i] : Hit{};
           const Vec3 p{sp.x_mm * 1e-3, sp.y_mm * 1e-3, sp.z_mm * 1e-3};
-          ds.points.push_back(labelled(spec, rec.scan, sp.beam, p, hit, dataset_flags(sp.flags)));
+          ds.points.push_back(labelled(spec, rec.scan, sp.beam, p, hit, dataset_flags_from_wire(sp.flags)));
           ++rec.points;
           count_point(stats, ds.points.back());
         }

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "common/point_flags.hpp"
 #include "common/pose.hpp"
 #include "common/result.hpp"
 
@@ -16,17 +17,6 @@ namespace teamscan {
 enum class PointClass : std::uint8_t { none = 0, floor = 1, wall = 2, ceiling = 3, furniture = 4, robot = 5 };
 [[nodiscard]] const char* to_string(PointClass c);
 
-// Per-point flags (PCD field `flags`), shared with the onboard daemon and the DDS scan message.
-namespace point_flags {
-inline constexpr std::uint16_t kInvalid = 1u << 0;             // reserved/no-return code, no 3-D point
-inline constexpr std::uint16_t kDazzled = 1u << 1;             // LMS dazzle code or dazzle bit
-inline constexpr std::uint16_t kOutOfRange = 1u << 2;          // beyond the configured or sensor max range
-inline constexpr std::uint16_t kDirectionFiltered = 1u << 3;   // removed by the onboard direction filter
-inline constexpr std::uint16_t kFieldA = 1u << 4;              // LMS field A bit (informational)
-inline constexpr std::uint16_t kFieldB = 1u << 5;              // LMS field B bit (informational)
-inline constexpr std::uint16_t kTeamStale = 1u << 6;           // the direction filter ran on a stale team state
-}  // namespace point_flags
-
 // One beam that produced a 3-D point. Map frame, metres.
 struct LabelledPoint {
   float x = 0, y = 0, z = 0;         // measured point (geometry from the captured bytes + odometry pose)
@@ -35,7 +25,7 @@ struct LabelledPoint {
   std::uint16_t beam = 0;            // beam index within the scan
   PointClass label = PointClass::none;
   std::uint8_t hit_robot = 0;        // id of the robot that was hit when label == robot (a ghost), else 0
-  std::uint16_t flags = 0;           // point_flags
+  std::uint16_t flags = 0;           // point_flags (common/point_flags.hpp)
   float tx = 0, ty = 0, tz = 0;      // true hit point (simulator truth)
   [[nodiscard]] bool is_ghost() const { return label == PointClass::robot; }
 };

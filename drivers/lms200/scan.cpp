@@ -123,6 +123,14 @@ bool field_c(MeasuringMode mode, std::uint8_t flags) {
 bool dazzle(MeasuringMode mode, std::uint8_t flags) {
   return mode == MeasuringMode::m8_fields_dazzle && (flags & 4u) != 0;
 }
+std::uint8_t beam_flags(const ScanTelegram& t, std::size_t i) {
+  const BeamInvalid why = t.invalid[i];
+  std::uint8_t f = 0;
+  if (why == BeamInvalid::dazzled || dazzle(t.mode, t.flags[i])) f |= kBeamDazzled;
+  if (why != BeamInvalid::none) f |= kBeamInvalid;
+  return f;
+}
+
 std::uint8_t reflectivity(MeasuringMode mode, std::uint8_t flags) {
   switch (mode) {
     case MeasuringMode::m8_reflectivity:

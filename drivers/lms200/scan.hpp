@@ -9,6 +9,7 @@
 #include <span>
 
 #include "common/capacities.hpp"
+#include "common/point_flags.hpp"
 #include "common/result.hpp"
 
 namespace teamscan::lms200 {
@@ -97,6 +98,11 @@ struct ScanTelegram {
 [[nodiscard]] bool field_c(MeasuringMode mode, std::uint8_t flags);
 [[nodiscard]] bool dazzle(MeasuringMode mode, std::uint8_t flags);
 [[nodiscard]] std::uint8_t reflectivity(MeasuringMode mode, std::uint8_t flags);
+
+// The geometry's flags (common/point_flags.hpp kBeam*) of beam `i` of `t`, for the robot daemon and
+// the simulator's receiver alike: a reserved distance code is invalid (the dazzle code 0x1FFE also
+// dazzled); the dazzle bit on a distance is dazzled.
+[[nodiscard]] std::uint8_t beam_flags(const ScanTelegram& t, std::size_t i);
 
 // Decodes a verified 0xB0 telegram (whole telegram, STX..CRC, as the parser yields it). The measuring
 // mode comes from the configuration the client set (the telegram does not carry it). The real-time

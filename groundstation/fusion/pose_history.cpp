@@ -7,10 +7,6 @@
 
 namespace teamscan::fusion {
 
-double forward_speed(double vx_mps, double vy_mps, double yaw_rad) {
-  return vx_mps * std::cos(yaw_rad) + vy_mps * std::sin(yaw_rad);
-}
-
 PoseHistory::PoseHistory(PoseHistoryOptions options) : options_{options} {}
 
 void PoseHistory::clear() {

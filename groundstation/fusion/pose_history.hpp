@@ -25,13 +25,9 @@ struct PoseInput {
   std::int64_t stamp_ns = 0;    // the robot's clock at the odometry reading
   std::int64_t arrival_ns = 0;  // when the station received it (offline: the stamp)
   Pose2 odom;
-  double v_mps = 0.0;           // forward speed (forward_speed())
+  double v_mps = 0.0;           // forward speed (common/pose.hpp forward_speed_mps)
   double w_radps = 0.0;         // yaw rate
 };
-
-// The forward speed of a map-frame velocity (vx, vy) for a robot heading `yaw_rad`: what the tracker
-// takes as its velocity measurement (v cos θ, v sin θ). The wire carries (vx, vy); data sets carry v.
-[[nodiscard]] double forward_speed(double vx_mps, double vy_mps, double yaw_rad);
 
 struct PoseHistoryOptions {
   mapping::TrackerOptions tracker;

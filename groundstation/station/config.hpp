@@ -5,24 +5,28 @@
 #include <string>
 
 #include "common/result.hpp"
+#include "groundstation/mapping/tracker.hpp"
 #include "groundstation/station/station.hpp"
 #include "groundstation/station/team_source.hpp"
 
 namespace teamscan::station {
 
-// Parameters of the Kalman team source (groundstation/mapping/tracker.hpp TrackerOptions), kept here as
-// plain values so the config parses without the mapping library.
+// Parameters of the Kalman tracker ([team.kalman]) in the config's units; tracker_options() turns
+// them into groundstation/mapping's TrackerOptions for the team source and the fusion stage alike.
 struct KalmanConfig {
   double accel_noise_mps2 = 0.5;
   double position_noise_m = 0.02;
   double velocity_noise_mps = 0.05;
   double lost_after_s = 1.0;
-  // Odometry drift model (TrackerOptions::drift_*, docs/beyond.md "Drift"), used by the fusion stage's
-  // filters; the team state published to the robots does not carry it.
+  // Odometry drift model (TrackerOptions::drift_*, docs/beyond.md "Drift"): grows the position
+  // covariance the fusion stage's filters and the published team state see.
   double drift_m_per_m = 0.005;
   double drift_deg_per_m = 0.0;
   double drift_deg_per_deg = 0.0;
 };
+
+// The one conversion of [team.kalman] into the tracker's options (degrees -> radians).
+[[nodiscard]] mapping::TrackerOptions tracker_options(const KalmanConfig& kalman);
 
 // The live fusion stage (groundstation/station/fusion.hpp), plain values so the config parses without
 // the mapping library. Default method: `best` (issue 7: chosen by the numbers, docs/beyond.md); the
@@ -57,14 +61,11 @@ struct GroundStationConfig {
   Duration status_interval = std::chrono::seconds(1);   // STATUS= line and journal status
   StationOptions station;
   LastPoseOptions last_pose;
-  // "kalman" (default; needs groundstation/mapping in the build) or "last_pose".
+  // "kalman" (default) or "last_pose".
   TeamSourceKind team_source = TeamSourceKind::kKalman;
   KalmanConfig kalman;
   FusionConfig fusion;
 };
-
-// True when this build has the Kalman tracker (groundstation/mapping).
-[[nodiscard]] bool kalman_tracker_available();
 
 struct ConfigError {
   std::string message;  // names the key, e.g. "team.publish_rate_hz: must be in (0, 1000]"

@@ -9,6 +9,8 @@
 
 #include "common/clock.hpp"
 #include "common/dataset/dataset.hpp"
+#include "common/point_flags.hpp"
+#include "common/pose.hpp"
 #include "common/scan_points.hpp"
 #include "common/units.hpp"
 #include "groundstation/station/config.hpp"
@@ -16,16 +18,6 @@
 #include "teamscan.h"
 
 namespace teamscan::station {
-
-std::uint16_t dataset_flags_from_wire(std::uint16_t w) {
-  std::uint16_t f = 0;
-  if (w & kPointDirectionFiltered) f |= point_flags::kDirectionFiltered;
-  if (w & (kPointInvalid | kPointNoPose)) f |= point_flags::kInvalid;
-  if (w & kPointDazzled) f |= point_flags::kDazzled;
-  if (w & kPointOutOfRange) f |= point_flags::kOutOfRange;
-  if (w & kPointTeamStale) f |= point_flags::kTeamStale;
-  return f;
-}
 
 FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConfig& k) {
   FusionOptions o;
@@ -43,13 +35,7 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   m.combined_half_angle_rad = deg_to_rad(f.half_angle_deg);
   m.combined_resolution_m = f.resolution_m;
   m.combined_grid_origin_z_m = f.grid_origin_z_m;
-  o.core.tracker.accel_noise_mps2 = k.accel_noise_mps2;
-  o.core.tracker.position_noise_m = k.position_noise_m;
-  o.core.tracker.velocity_noise_mps = k.velocity_noise_mps;
-  o.core.tracker.lost_after_s = k.lost_after_s;
-  o.core.tracker.drift_m_per_m = k.drift_m_per_m;
-  o.core.tracker.drift_heading_rad_per_m = deg_to_rad(k.drift_deg_per_m);
-  o.core.tracker.drift_heading_rad_per_rad = k.drift_deg_per_deg;
+  o.core.tracker = tracker_options(k);
   o.core.hold_s = f.hold_s;
   o.core.model_resolution_m = f.model_resolution_m;
   o.core.max_points_per_voxel = f.max_points_per_voxel;
@@ -65,7 +51,7 @@ fusion::PoseInput pose_input(const PoseObservation& p) {
   in.stamp_ns = p.stamp.ns();
   in.arrival_ns = p.received.ns();
   in.odom = Pose2{p.x_m, p.y_m, p.yaw_rad};
-  in.v_mps = fusion::forward_speed(p.vx_mps, p.vy_mps, p.yaw_rad);
+  in.v_mps = forward_speed_mps(p.vx_mps, p.vy_mps, p.yaw_rad);
   in.w_radps = p.yaw_rate_radps;
   return in;
 }

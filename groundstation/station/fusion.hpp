@@ -68,10 +68,6 @@ struct KalmanConfig;
 // The daemon's [fusion] and [team.kalman] config as FusionOptions (the tracker is the team source's).
 [[nodiscard]] FusionOptions fusion_options_from_config(const FusionConfig& fusion, const KalmanConfig& kalman);
 
-// Point flags on the wire (teamscan.idl POINT_*, common/scan_points.hpp kPoint*) → the data set's
-// point_flags (common/dataset/dataset.hpp), so the offline code sees the onboard decisions as eval does.
-[[nodiscard]] std::uint16_t dataset_flags_from_wire(std::uint16_t wire_flags);
-
 class FusionStage {
  public:
   // Fails if the core's options are bad (unknown method, ...).

@@ -13,9 +13,8 @@ KalmanTeamSource::KalmanTeamSource(const mapping::TrackerOptions& options, const
 
 void KalmanTeamSource::add_pose(const PoseObservation& p) {
   if (p.robot_id == 0 || p.robot_id > kMaxRobots) return;
-  // The tracker takes the forward speed and uses (v cos theta, v sin theta) as its velocity measurement;
-  // the wire carries the map-frame velocity, whose projection on the heading is that speed.
-  const double v_mps = p.vx_mps * std::cos(p.yaw_rad) + p.vy_mps * std::sin(p.yaw_rad);
+  // The wire carries the map-frame velocity; the tracker takes the forward speed.
+  const double v_mps = forward_speed_mps(p.vx_mps, p.vy_mps, p.yaw_rad);
   tracker_.add_pose(static_cast<std::uint8_t>(p.robot_id), p.stamp.ns(), Pose2{p.x_m, p.y_m, p.yaw_rad}, v_mps);
 }
 

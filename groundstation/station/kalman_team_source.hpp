@@ -1,6 +1,5 @@
 // TeamSource over the mapping engineer's Kalman tracker (groundstation/mapping/tracker.hpp): the
 // constant-velocity filter per robot, fed with every received pose, predicted to the publication time.
-// Built only when groundstation/mapping is in the tree (TEAMSCAN_HAVE_KALMAN_TRACKER).
 #pragma once
 
 #include <array>

@@ -11,16 +11,15 @@
 #include <CLI/CLI.hpp>
 
 #include "common/clock.hpp"
+#include "common/version.hpp"
 #include "groundstation/station/config.hpp"
 #include "groundstation/station/session_store.hpp"
 #include "groundstation/station/station.hpp"
 #include "groundstation/station/team_source.hpp"
-#include "onboard/dds/notify.hpp"
-#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
+#include "dds/notify.hpp"
 #include "groundstation/station/fusion.hpp"
 #include "groundstation/station/kalman_team_source.hpp"
 #include "teamscan.h"
-#endif
 
 namespace {
 
@@ -55,6 +54,13 @@ int main(int argc, char** argv) {
   app.add_option("--session-dir", session_dir, "store into exactly this folder instead of a new session-<time>");
   app.add_option("--domain", domain, "DDS domain id (overrides dds.domain_id)")->check(CLI::Range(-1, 232));
   app.add_flag("--check-config", check_only, "parse the config, print the effective values and exit");
+  app.add_flag_callback(
+      "--version",
+      [] {
+        print_version("teamscan-groundstation");
+        throw CLI::Success();
+      },
+      "print the version and the git commit, and exit");
   CLI11_PARSE(app, argc, argv);
 
   GroundStationConfig cfg;
@@ -91,15 +97,8 @@ int main(int argc, char** argv) {
   log(kInfo, "session folder " + store->dir());
   LastPoseTeamSource last_pose(cfg.last_pose);
   TeamSource* team = &last_pose;
-#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
-  mapping::TrackerOptions tracker_options;
-  tracker_options.accel_noise_mps2 = cfg.kalman.accel_noise_mps2;
-  tracker_options.position_noise_m = cfg.kalman.position_noise_m;
-  tracker_options.velocity_noise_mps = cfg.kalman.velocity_noise_mps;
-  tracker_options.lost_after_s = cfg.kalman.lost_after_s;
-  KalmanTeamSource kalman(tracker_options, cfg.last_pose.default_body);
+  KalmanTeamSource kalman(tracker_options(cfg.kalman), cfg.last_pose.default_body);
   if (cfg.team_source == TeamSourceKind::kKalman) team = &kalman;
-#endif
   log(kInfo, std::string("team source: ") + (team == &last_pose ? "last pose" : "Kalman tracker"));
   auto station = Station::create(cfg.station, *store, *team);
   if (!station) {
@@ -109,7 +108,6 @@ int main(int argc, char** argv) {
   Station& st = **station;
   // The live fusion stage runs from the hooks, after each sample is stored (storage first: a failing
   // fusion stage never costs a received sample; the station counts the failure and goes on).
-#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
   std::unique_ptr<FusionStage> fusion;
   std::vector<teamscan_msg_MapVoxel> map_voxels;
   if (cfg.fusion.enabled) {
@@ -169,14 +167,11 @@ int main(int argc, char** argv) {
     store->log_event(now_realtime(), line);
     if (const Status l = fusion->write_latency(); !l.ok()) log(kWarning, std::string("fusion: ") + l.error().what);
   };
-#else
-  if (cfg.fusion.enabled) log(kWarning, "fusion: not in this build (no groundstation/mapping)");
-#endif
 
-  const Duration wd = onboard::watchdog_interval();
+  const Duration wd = dds::watchdog_interval();
   const Duration ping_period = wd.count() > 0 ? wd / 2 : Duration{0};
-  onboard::notify_ready();
-  onboard::notify_status(("receiving; session " + store->dir()).c_str());
+  dds::notify_ready();
+  dds::notify_status(("receiving; session " + store->dir()).c_str());
   log(kInfo, "ready" + std::string(wd.count() > 0 ? ", watchdog on" : ""));
 
   Time now = now_monotonic();
@@ -199,14 +194,13 @@ int main(int argc, char** argv) {
     if (handled > 0) handle_max = std::max(handle_max, now - before_poll);
     st.publish_team_if_due(now);
     if (ping_period.count() > 0 && now >= next_ping) {
-      onboard::notify_watchdog();
+      dds::notify_watchdog();
       next_ping = now + ping_period;
     }
     if (now >= next_sync) {
       store->sync();
       next_sync = now + cfg.sync_interval;
     }
-#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
     if (fusion) fusion->tick(now_realtime().ns());
     // The periodic model write, from the core's memory, in this loop (its time: events.log).
     if (fusion && cfg.fusion.write_interval.count() > 0 && now >= next_write) {
@@ -240,10 +234,9 @@ int main(int argc, char** argv) {
       now = now_monotonic();
       next_map = now + cfg.fusion.map_interval;
     }
-#endif
     if (now >= next_status) {
       const std::string line = st.status_line();
-      onboard::notify_status(line.c_str());
+      dds::notify_status(line.c_str());
       if (st.robots_lost() != lost_before) {
         log(kWarning, line);
         lost_before = st.robots_lost();
@@ -251,7 +244,7 @@ int main(int argc, char** argv) {
       next_status = now + cfg.status_interval;
     }
   }
-  onboard::notify_stopping();
+  dds::notify_stopping();
   {
     char line[200];
     std::snprintf(line, sizeof line, "loop: longest poll (wait + handling) that took samples %.1f ms; teamscan/map %llu publications, longest %.1f ms, mean %.1f ms",
@@ -263,11 +256,9 @@ int main(int argc, char** argv) {
   store->log_event(now_realtime(), "station stopping: " + st.status_line());
   station.value().reset();  // leave DDS before closing the files
   store->sync();  // the session is complete on disk before the final model write
-#ifdef TEAMSCAN_HAVE_KALMAN_TRACKER
   if (fusion) {
     fusion->flush();  // every held scan decided with what arrived
     write_model("shutdown");
   }
-#endif
   return 0;
 }

@@ -5,12 +5,14 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <type_traits>
 
 #include <dds/dds.h>
 
 #include "common/clock.hpp"
-#include "onboard/dds/bridge.hpp"
-#include "onboard/dds/qos.hpp"
+#include "dds/participant.hpp"
+#include "dds/qos.hpp"
+#include "dds/take.hpp"
 #include "teamscan.h"
 
 namespace teamscan::station {
@@ -39,28 +41,30 @@ std::uint16_t to_mm_u16(double m) {
 // Every DDS entity and preallocated sample of the station (DDS_SYSTEMD.md 1.8: takes into our own
 // fixed-size samples allocate nothing).
 struct Station::Dds {
-  dds_entity_t participant = 0;
+  explicit Dds(std::size_t batch) : poses{batch}, scans{batch}, statuses{batch} {}
+  dds::Participant participant;  // deleting it deletes every entity below
   dds_entity_t readers[3] = {0, 0, 0};
   dds_entity_t team_writer = 0;
   dds_entity_t map_writer = 0;
   dds_entity_t waitset = 0;
   dds_entity_t guard = 0;
-  std::vector<teamscan_msg_ScanPoints> scans;
-  std::vector<teamscan_msg_RobotPose> poses;
-  std::vector<teamscan_msg_RobotStatus> statuses;
-  std::vector<void*> ptrs;
-  std::vector<dds_sample_info_t> infos;
+  dds::TakeBuffer<teamscan_msg_RobotPose> poses;
+  dds::TakeBuffer<teamscan_msg_ScanPoints> scans;
+  dds::TakeBuffer<teamscan_msg_RobotStatus> statuses;
   teamscan_msg_TeamState team{};
   std::array<TeamMemberEstimate, kMaxRobots> estimates{};
   StoredScan stored{};
 
-  ~Dds() {
-    if (participant > 0) (void)dds_delete(participant);
+  template <class Sample>
+  dds::TakeBuffer<Sample>& buffer() {
+    if constexpr (std::is_same_v<Sample, teamscan_msg_RobotPose>) return poses;
+    else if constexpr (std::is_same_v<Sample, teamscan_msg_ScanPoints>) return scans;
+    else return statuses;
   }
 };
 
 Station::Station(const StationOptions& options, SessionStore& store, TeamSource& team)
-    : options_{options}, store_{store}, team_{team}, dds_{std::make_unique<Dds>()} {
+    : options_{options}, store_{store}, team_{team}, dds_{std::make_unique<Dds>(options.take_batch)} {
   for (std::uint32_t i = 0; i <= kMaxRobots; ++i) robots_[i].robot_id = i;
 }
 
@@ -76,51 +80,38 @@ Result<std::unique_ptr<Station>> Station::create(const StationOptions& options, 
   }
   std::unique_ptr<Station> st(new Station(options, store, team));
   Dds& d = *st->dds_;
-  const std::size_t batch = options.take_batch;
-  d.scans.resize(batch);
-  d.poses.resize(batch);
-  d.statuses.resize(batch);
-  d.ptrs.resize(batch);
-  d.infos.resize(batch);
 
-  d.participant = dds_create_participant(options.domain_id, nullptr, nullptr);
-  if (d.participant < 0) return Error{"station: cannot create DDS participant (check CYCLONEDDS_URI)", 0, d.participant};
-  const dds_entity_t tp_pose =
-      dds_create_topic(d.participant, &teamscan_msg_RobotPose_desc, onboard::kTopicPose, nullptr, nullptr);
-  const dds_entity_t tp_scan =
-      dds_create_topic(d.participant, &teamscan_msg_ScanPoints_desc, onboard::kTopicScan, nullptr, nullptr);
-  const dds_entity_t tp_status =
-      dds_create_topic(d.participant, &teamscan_msg_RobotStatus_desc, onboard::kTopicStatus, nullptr, nullptr);
-  const dds_entity_t tp_team =
-      dds_create_topic(d.participant, &teamscan_msg_TeamState_desc, onboard::kTopicTeam, nullptr, nullptr);
-  const dds_entity_t tp_map =
-      dds_create_topic(d.participant, &teamscan_msg_MapUpdate_desc, onboard::kTopicMap, nullptr, nullptr);
-  if (tp_pose < 0 || tp_scan < 0 || tp_status < 0 || tp_team < 0 || tp_map < 0) {
-    return Error{"station: cannot create the teamscan topics"};
-  }
+  Result<dds::Participant> participant = dds::Participant::create(options.domain_id);
+  if (!participant.ok()) return Error{"station: cannot create DDS participant (check CYCLONEDDS_URI)", 0, participant.error().detail};
+  d.participant = std::move(participant.value());
 
   dds_listener_t* listener = dds_create_listener(st.get());
   dds_lset_liveliness_changed(listener, liveliness_listener);
-  dds_qos_t* q = onboard::make_state_reader_qos();
-  d.readers[kPose] = dds_create_reader(d.participant, tp_pose, q, listener);
-  d.readers[kStatus] = dds_create_reader(d.participant, tp_status, q, listener);
+  dds_qos_t* q = dds::make_state_reader_qos();
+  Result<dds_entity_t> pose_reader = dds::create_reader<teamscan_msg_RobotPose>(d.participant, q, listener);
+  Result<dds_entity_t> status_reader = dds::create_reader<teamscan_msg_RobotStatus>(d.participant, q, listener);
   dds_delete_qos(q);
-  q = onboard::make_scan_reader_qos();
-  d.readers[kScan] = dds_create_reader(d.participant, tp_scan, q, listener);
+  q = dds::make_scan_reader_qos();
+  Result<dds_entity_t> scan_reader = dds::create_reader<teamscan_msg_ScanPoints>(d.participant, q, listener);
   dds_delete_qos(q);
   dds_delete_listener(listener);
-  q = onboard::make_team_writer_qos(options.team_liveliness_lease);
-  d.team_writer = dds_create_writer(d.participant, tp_team, q, nullptr);
+  q = dds::make_team_writer_qos(options.team_liveliness_lease);
+  Result<dds_entity_t> team_writer = dds::create_writer<teamscan_msg_TeamState>(d.participant, q);
   dds_delete_qos(q);
-  q = onboard::make_map_qos();
-  d.map_writer = dds_create_writer(d.participant, tp_map, q, nullptr);
+  q = dds::make_map_qos();
+  Result<dds_entity_t> map_writer = dds::create_writer<teamscan_msg_MapUpdate>(d.participant, q);
   dds_delete_qos(q);
-  for (dds_entity_t e : {d.readers[0], d.readers[1], d.readers[2], d.team_writer, d.map_writer}) {
-    if (e < 0) return Error{"station: cannot create a DDS reader or writer", 0, e};
+  for (const Result<dds_entity_t>* e : {&pose_reader, &status_reader, &scan_reader, &team_writer, &map_writer}) {
+    if (!e->ok()) return Error{"station: cannot create a DDS topic, reader or writer", 0, e->error().detail};
   }
+  d.readers[kPose] = pose_reader.value();
+  d.readers[kStatus] = status_reader.value();
+  d.readers[kScan] = scan_reader.value();
+  d.team_writer = team_writer.value();
+  d.map_writer = map_writer.value();
 
-  d.waitset = dds_create_waitset(d.participant);
-  d.guard = dds_create_guardcondition(d.participant);
+  d.waitset = dds_create_waitset(d.participant.handle());
+  d.guard = dds_create_guardcondition(d.participant.handle());
   if (d.waitset < 0 || d.guard < 0) return Error{"station: cannot create the waitset"};
   (void)dds_waitset_attach(d.waitset, d.guard, 0);
   for (int t = 0; t < 3; ++t) {
@@ -147,9 +138,9 @@ std::size_t Station::poll(Duration max_wait) {
   (void)dds_set_guardcondition(dds_->guard, false);
   const std::uint64_t before = counters_.scans + counters_.poses + counters_.statuses;
   // Store first, then run the hooks. The receive time of a sample is when its dds_take returned.
-  take_poses();
-  take_statuses();
-  take_scans();
+  take<teamscan_msg_RobotPose>(kPose, [this](const auto& p, RobotRecord& r, const ReceiveTime& at) { on_pose(p, r, at); });
+  take<teamscan_msg_RobotStatus>(kStatus, [this](const auto& s, RobotRecord& r, const ReceiveTime& at) { on_status(s, r, at); });
+  take<teamscan_msg_ScanPoints>(kScan, [this](const auto& s, RobotRecord& r, const ReceiveTime& at) { on_scan(s, r, at); });
   handle_liveliness_events();
   check_silence(now_monotonic());
   return static_cast<std::size_t>(counters_.scans + counters_.poses + counters_.statuses - before);
@@ -204,148 +195,110 @@ void Station::set_lost(RobotRecord& r, bool lost, const std::string& why) {
   }
 }
 
-void Station::take_poses() {
-  Dds& d = *dds_;
-  for (std::size_t i = 0; i < d.poses.size(); ++i) d.ptrs[i] = &d.poses[i];
-  for (;;) {
-    const int n = dds_take(d.readers[kPose], d.ptrs.data(), d.infos.data(), d.poses.size(),
-                           static_cast<std::uint32_t>(d.poses.size()));
-    if (n <= 0) break;
-    const ReceiveTime at{now_realtime(), now_monotonic()};
-    for (int i = 0; i < n; ++i) {
-      const auto k = static_cast<std::size_t>(i);
-      const dds_sample_info_t& info = d.infos[k];
-      const teamscan_msg_RobotPose& p = d.poses[k];
-      if (!info.valid_data) {
-        ++counters_.invalid_samples;
-        instance_ended(kPose, info.instance_handle, info.instance_state);
-        continue;
-      }
-      RobotRecord* r = heard(p.robot_id, kPose, info.publication_handle, info.instance_handle, at.monotonic);
-      if (r == nullptr) continue;
-      store_.append_pose(p, at);
-      ++r->poses;
-      ++counters_.poses;
-      PoseObservation obs;
-      obs.robot_id = p.robot_id;
-      obs.seq = p.seq;
-      obs.stamp = Time::from_ns(p.stamp_ns);
-      obs.received = at.realtime;
-      obs.x_m = p.x_mm * 1e-3;
-      obs.y_m = p.y_mm * 1e-3;
-      obs.yaw_rad = p.yaw_urad * 1e-6;
-      obs.vx_mps = p.vx_mmps * 1e-3;
-      obs.vy_mps = p.vy_mmps * 1e-3;
-      obs.yaw_rate_radps = p.yaw_rate_mradps * 1e-3;
-      team_.add_pose(obs);
-      for (const PoseHook& h : pose_hooks_) {
-        try {
-          h(obs);
-        } catch (const std::exception& e) {
-          ++counters_.hook_failures;
-          event(std::string("pose hook failed: ") + e.what());
+template <class Sample, class OnSample>
+void Station::take(int topic, OnSample&& on_sample) {
+  ReceiveTime at{};
+  (void)dds::take_all(
+      dds_->readers[topic], dds_->buffer<Sample>(),
+      // The receive time of a sample is when its dds_take returned.
+      [&] { at = ReceiveTime{now_realtime(), now_monotonic()}; },
+      [&](const Sample& sample, const dds_sample_info_t& info) {
+        if (!info.valid_data) {
+          ++counters_.invalid_samples;
+          instance_ended(topic, info.instance_handle, info.instance_state);
+          return;
         }
-      }
+        RobotRecord* r = heard(sample.robot_id, topic, info.publication_handle, info.instance_handle, at.monotonic);
+        if (r != nullptr) on_sample(sample, *r, at);
+      });
+}
+
+void Station::on_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at) {
+  store_.append_pose(p, at);
+  ++r.poses;
+  ++counters_.poses;
+  PoseObservation obs;
+  obs.robot_id = p.robot_id;
+  obs.seq = p.seq;
+  obs.stamp = Time::from_ns(p.stamp_ns);
+  obs.received = at.realtime;
+  obs.x_m = p.x_mm * 1e-3;
+  obs.y_m = p.y_mm * 1e-3;
+  obs.yaw_rad = p.yaw_urad * 1e-6;
+  obs.vx_mps = p.vx_mmps * 1e-3;
+  obs.vy_mps = p.vy_mmps * 1e-3;
+  obs.yaw_rate_radps = p.yaw_rate_mradps * 1e-3;
+  team_.add_pose(obs);
+  for (const PoseHook& h : pose_hooks_) {
+    try {
+      h(obs);
+    } catch (const std::exception& e) {
+      ++counters_.hook_failures;
+      event(std::string("pose hook failed: ") + e.what());
     }
   }
 }
 
-void Station::take_statuses() {
-  Dds& d = *dds_;
-  for (std::size_t i = 0; i < d.statuses.size(); ++i) d.ptrs[i] = &d.statuses[i];
-  for (;;) {
-    const int n = dds_take(d.readers[kStatus], d.ptrs.data(), d.infos.data(), d.statuses.size(),
-                           static_cast<std::uint32_t>(d.statuses.size()));
-    if (n <= 0) break;
-    const ReceiveTime at{now_realtime(), now_monotonic()};
-    for (int i = 0; i < n; ++i) {
-      const auto k = static_cast<std::size_t>(i);
-      if (!d.infos[k].valid_data) {
-        ++counters_.invalid_samples;
-        continue;
-      }
-      const teamscan_msg_RobotStatus& s = d.statuses[k];
-      RobotRecord* r = heard(s.robot_id, kStatus, d.infos[k].publication_handle, d.infos[k].instance_handle, at.monotonic);
-      if (r == nullptr) continue;
-      store_.append_status(s, at);
-      ++r->statuses;
-      ++counters_.statuses;
-    }
-  }
+void Station::on_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const ReceiveTime& at) {
+  store_.append_status(s, at);
+  ++r.statuses;
+  ++counters_.statuses;
 }
 
-void Station::take_scans() {
-  Dds& d = *dds_;
-  for (std::size_t i = 0; i < d.scans.size(); ++i) d.ptrs[i] = &d.scans[i];
-  for (;;) {
-    const int n = dds_take(d.readers[kScan], d.ptrs.data(), d.infos.data(), d.scans.size(),
-                           static_cast<std::uint32_t>(d.scans.size()));
-    if (n <= 0) break;
-    const ReceiveTime at{now_realtime(), now_monotonic()};
-    for (int i = 0; i < n; ++i) {
-      const auto k = static_cast<std::size_t>(i);
-      if (!d.infos[k].valid_data) {
-        ++counters_.invalid_samples;
-        continue;
+void Station::on_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at) {
+  if (s.count > kMaxBeams) {
+    ++counters_.bad_samples;
+    return;
+  }
+  // Sequence bookkeeping: gaps mean the writer's history overran while we were not reading. A seq
+  // far below the last one is a restarted robot; a little below is a transient-local replay.
+  if (r.scans > 0) {
+    if (s.seq > r.last_scan_seq + 1) {
+      const std::uint32_t missing = s.seq - r.last_scan_seq - 1;
+      r.scans_missing += missing;
+      r.gaps_unreported += missing;
+      if (at.monotonic - r.last_gap_event >= std::chrono::seconds(1)) {
+        event("robot " + std::to_string(s.robot_id) + " scans " + std::to_string(r.last_scan_seq + 1) + ".." +
+              std::to_string(s.seq - 1) + " missing (" + std::to_string(r.gaps_unreported) +
+              " missing since the last report)");
+        r.last_gap_event = at.monotonic;
+        r.gaps_unreported = 0;
       }
-      const teamscan_msg_ScanPoints& s = d.scans[k];
-      if (s.count > kMaxBeams) {
-        ++counters_.bad_samples;
-        continue;
+    } else if (s.seq <= r.last_scan_seq) {
+      ++r.scans_repeated;
+      if (r.last_scan_seq - s.seq > options_.scan_history_depth) {
+        event("robot " + std::to_string(s.robot_id) + " scan seq restarted at " + std::to_string(s.seq) +
+              " after " + std::to_string(r.last_scan_seq));
       }
-      RobotRecord* r = heard(s.robot_id, kScan, d.infos[k].publication_handle, d.infos[k].instance_handle, at.monotonic);
-      if (r == nullptr) continue;
-      // Sequence bookkeeping: gaps mean the writer's history overran while we were not reading. A seq
-      // far below the last one is a restarted robot; a little below is a transient-local replay.
-      if (r->scans > 0) {
-        if (s.seq > r->last_scan_seq + 1) {
-          const std::uint32_t missing = s.seq - r->last_scan_seq - 1;
-          r->scans_missing += missing;
-          r->gaps_unreported += missing;
-          if (at.monotonic - r->last_gap_event >= std::chrono::seconds(1)) {
-            event("robot " + std::to_string(s.robot_id) + " scans " + std::to_string(r->last_scan_seq + 1) + ".." +
-                  std::to_string(s.seq - 1) + " missing (" + std::to_string(r->gaps_unreported) +
-                  " missing since the last report)");
-            r->last_gap_event = at.monotonic;
-            r->gaps_unreported = 0;
-          }
-        } else if (s.seq <= r->last_scan_seq) {
-          ++r->scans_repeated;
-          if (r->last_scan_seq - s.seq > options_.scan_history_depth) {
-            event("robot " + std::to_string(s.robot_id) + " scan seq restarted at " + std::to_string(s.seq) +
-                  " after " + std::to_string(r->last_scan_seq));
-          }
-          // Otherwise a replayed sweep: stored again (receive time differs), seq bookkeeping unchanged.
-        }
-      }
-      if (r->scans == 0 || s.seq > r->last_scan_seq || r->last_scan_seq - s.seq > options_.scan_history_depth) {
-        r->last_scan_seq = s.seq;
-      }
-      StoredScan& out = d.stored;
-      out.recv_realtime_ns = at.realtime.ns();
-      out.recv_monotonic_ns = at.monotonic.ns();
-      out.robot_id = s.robot_id;
-      out.seq = s.seq;
-      out.stamp_ns = s.stamp_ns;
-      out.origin_x_mm = s.origin_x_mm;
-      out.origin_y_mm = s.origin_y_mm;
-      out.origin_z_mm = s.origin_z_mm;
-      out.count = s.count;
-      for (std::uint16_t b = 0; b < s.count; ++b) {
-        out.points[b] = StoredPoint{s.points[b].x_mm, s.points[b].y_mm, s.points[b].z_mm, s.points[b].beam,
-                                    s.points[b].flags};
-      }
-      store_.append_scan(out);  // stored before any fusion code runs
-      ++r->scans;
-      ++counters_.scans;
-      for (const ScanHook& h : scan_hooks_) {
-        try {
-          h(out);
-        } catch (const std::exception& e) {
-          ++counters_.hook_failures;
-          event(std::string("scan hook failed: ") + e.what());
-        }
-      }
+      // Otherwise a replayed sweep: stored again (receive time differs), seq bookkeeping unchanged.
+    }
+  }
+  if (r.scans == 0 || s.seq > r.last_scan_seq || r.last_scan_seq - s.seq > options_.scan_history_depth) {
+    r.last_scan_seq = s.seq;
+  }
+  StoredScan& out = dds_->stored;
+  out.recv_realtime_ns = at.realtime.ns();
+  out.recv_monotonic_ns = at.monotonic.ns();
+  out.robot_id = s.robot_id;
+  out.seq = s.seq;
+  out.stamp_ns = s.stamp_ns;
+  out.origin_x_mm = s.origin_x_mm;
+  out.origin_y_mm = s.origin_y_mm;
+  out.origin_z_mm = s.origin_z_mm;
+  out.count = s.count;
+  for (std::uint16_t b = 0; b < s.count; ++b) {
+    out.points[b] = StoredPoint{s.points[b].x_mm, s.points[b].y_mm, s.points[b].z_mm, s.points[b].beam,
+                                s.points[b].flags};
+  }
+  store_.append_scan(out);  // stored before any fusion code runs
+  ++r.scans;
+  ++counters_.scans;
+  for (const ScanHook& h : scan_hooks_) {
+    try {
+      h(out);
+    } catch (const std::exception& e) {
+      ++counters_.hook_failures;
+      event(std::string("scan hook failed: ") + e.what());
     }
   }
 }

@@ -20,6 +20,9 @@
 #include "groundstation/station/team_source.hpp"
 
 struct teamscan_msg_MapVoxel;
+struct teamscan_msg_RobotPose;
+struct teamscan_msg_RobotStatus;
+struct teamscan_msg_ScanPoints;
 
 namespace teamscan::station {
 
@@ -117,9 +120,14 @@ class Station {
     int not_alive_change;
   };
   Station(const StationOptions& options, SessionStore& store, TeamSource& team);
-  void take_scans();
-  void take_poses();
-  void take_statuses();
+  // The one receive loop of the three topics (defined in station.cpp): takes `topic`'s reader empty,
+  // counts invalid samples (a dispose or no-writers notice ends the robot's instance), finds the robot
+  // and hands each valid sample to on_sample(sample, robot, receive_time).
+  template <class Sample, class OnSample>
+  void take(int topic, OnSample&& on_sample);
+  void on_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at);
+  void on_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const ReceiveTime& at);
+  void on_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at);
   void handle_liveliness_events();
   RobotRecord* heard(std::uint32_t robot_id, int topic, std::uint64_t writer, std::uint64_t instance, Time now_mono);
   // An invalid sample (dispose / no writers) on `topic`: the robot whose instance it is goes lost.

@@ -13,6 +13,7 @@
 #include <initializer_list>
 #include <sstream>
 
+#include "common/toml_reader.hpp"
 #include "common/units.hpp"
 
 namespace teamscan::onboard {
@@ -30,111 +31,6 @@ std::uint32_t OnboardConfig::max_range_mm() const {
 }
 
 namespace {
-
-// Reads typed values from the TOML tree and records the first error with its key and line.
-class Reader {
- public:
-  Reader(const toml::table& root, std::string& message) : root_{root}, message_{message} {}
-
-  [[nodiscard]] bool failed() const { return failed_; }
-  [[nodiscard]] long line() const { return line_; }
-
-  bool fail(const std::string& key, const std::string& why, const toml::node* at = nullptr) {
-    if (failed_) return false;
-    failed_ = true;
-    message_ = key + ": " + why;
-    if (at != nullptr) {
-      line_ = static_cast<long>(at->source().begin.line);
-      message_ += " (line " + std::to_string(line_) + ")";
-    }
-    return false;
-  }
-
-  // The section table, or nullptr if absent (a required section that is absent is an error).
-  const toml::table* section(const char* name, bool required) {
-    const toml::node* n = root_.get(name);
-    if (n == nullptr) {
-      if (required) fail(name, "missing section [" + std::string(name) + "]");
-      return nullptr;
-    }
-    if (!n->is_table()) {
-      fail(name, "must be a table [" + std::string(name) + "]", n);
-      return nullptr;
-    }
-    return n->as_table();
-  }
-
-  // Refuses keys that are not in `allowed` (a typo would otherwise silently keep a default).
-  void only(const toml::table* t, const char* sect, std::initializer_list<const char*> allowed) {
-    if (t == nullptr) return;
-    for (auto&& [k, v] : *t)
-      if (!listed(k.str(), allowed)) fail(std::string(sect) + "." + std::string(k.str()), "unknown key", &v);
-  }
-
-  void top_level(std::initializer_list<const char*> allowed) {
-    for (auto&& [k, v] : root_)
-      if (!listed(k.str(), allowed)) fail(std::string(k.str()), "unknown section or key", &v);
-  }
-
-  bool number(const toml::table* t, const char* sect, const char* key, double& out, bool required) {
-    const toml::node* n = find(t, sect, key, required);
-    if (n == nullptr) return false;
-    if (const auto* f = n->as_floating_point()) out = f->get();
-    else if (const auto* i = n->as_integer()) out = static_cast<double>(i->get());
-    else return fail(name(sect, key), "must be a number", n);
-    if (!std::isfinite(out)) return fail(name(sect, key), "must be finite", n);
-    return true;
-  }
-
-  bool integer(const toml::table* t, const char* sect, const char* key, std::int64_t& out, bool required) {
-    const toml::node* n = find(t, sect, key, required);
-    if (n == nullptr) return false;
-    const auto* i = n->as_integer();
-    if (i == nullptr) return fail(name(sect, key), "must be an integer", n);
-    out = i->get();
-    return true;
-  }
-
-  bool boolean(const toml::table* t, const char* sect, const char* key, bool& out) {
-    const toml::node* n = find(t, sect, key, false);
-    if (n == nullptr) return false;
-    const auto* b = n->as_boolean();
-    if (b == nullptr) return fail(name(sect, key), "must be true or false", n);
-    out = b->get();
-    return true;
-  }
-
-  bool string(const toml::table* t, const char* sect, const char* key, std::string& out, bool required) {
-    const toml::node* n = find(t, sect, key, required);
-    if (n == nullptr) return false;
-    const auto* s = n->as_string();
-    if (s == nullptr) return fail(name(sect, key), "must be a string", n);
-    out = s->get();
-    return true;
-  }
-
-  // The node of a key (for range errors that point at the line).
-  const toml::node* node(const toml::table* t, const char* key) const { return t == nullptr ? nullptr : t->get(key); }
-
- private:
-  // (Not a lambda over the structured binding: clang 14, used by the fuzz preset, cannot capture one.)
-  static bool listed(std::string_view key, std::initializer_list<const char*> allowed) {
-    for (const char* a : allowed)
-      if (key == a) return true;
-    return false;
-  }
-  static std::string name(const char* sect, const char* key) { return std::string(sect) + "." + key; }
-  const toml::node* find(const toml::table* t, const char* sect, const char* key, bool required) {
-    const toml::node* n = t == nullptr ? nullptr : t->get(key);
-    if (n == nullptr && required) fail(name(sect, key), "missing");
-    return n;
-  }
-
-  const toml::table& root_;
-  std::string& message_;
-  bool failed_ = false;
-  long line_ = 0;
-};
 
 bool one_of(std::int64_t v, std::initializer_list<std::int64_t> set) {
   return std::find(set.begin(), set.end(), v) != set.end();
@@ -227,7 +123,7 @@ Result<OnboardConfig> parse_onboard_config(std::string_view toml_text, std::stri
     return Error{"config: TOML syntax error", 0, error_line};
   }
   const toml::table& root = parsed.table();
-  Reader r{root, message};
+  TomlReader r{root, message};
   OnboardConfig c;
 
   r.top_level({"robot", "arcos", "lms", "mount", "registration", "filter", "dds", "status", "odometry"});

@@ -1,4 +1,4 @@
-// Plain fixed-size message structs the onboard pipeline hands to the DDS bridge (onboard/dds) and gets
+// Plain fixed-size message structs the onboard pipeline hands to the DDS bridge (onboard/bridge) and gets
 // back from it: the robot-side mirror of idl/teamscan.idl, free of DDS so the core stays testable.
 // Fixed capacities only (common/capacities.hpp); field layout agreed with the dds branch.
 #pragma once

@@ -18,7 +18,7 @@
 #include "drivers/serial/posix_call.hpp"
 #include "onboard/daemon/lms_scan.hpp"
 #include "onboard/daemon/log.hpp"
-#include "onboard/daemon/notify.hpp"
+#include "dds/notify.hpp"
 
 namespace teamscan::onboard {
 
@@ -290,7 +290,7 @@ void OnboardDaemon::publish_status(Time now) {
                 s.arcos_bad_packets, lms_dev_.open ? lms200::to_string(lms_.state()) : "closed", s.scan_rate_mhz / 1000.0,
                 s.lms_reopens, s.lms_bad_telegrams, scans_dropped_, scans_forced_, s.scans_published, s.points_direction_filtered,
                 s.points_team_stale, s.points_no_pose, s.team_fresh ? "fresh" : "stale", s.loop_max_us, publish_errors_);
-  notify_status(text);
+  dds::notify_status(text);
   sips_in_period_ = scans_in_period_ = 0;
   loop_max_us_ = 0;
   period_start_ = now;
@@ -364,7 +364,7 @@ void OnboardDaemon::tick(Time now) {
   log_state_changes();
   if (!ready_sent_ && arcos_.connected() && lms_.streaming()) {
     // READY=1 only once both devices stream (DDS_SYSTEMD.md 5).
-    notify_ready();
+    dds::notify_ready();
     ready_sent_ = true;
     log_message(LogLevel::notice, "ready: Pioneer connected and LMS streaming");
   }
@@ -373,7 +373,7 @@ void OnboardDaemon::tick(Time now) {
     next_status_ = now + config_.status_period;
   }
   if (watchdog_period_ > Duration::zero() && now >= next_watchdog_) {
-    notify_watchdog();  // from the loop itself, so a hung loop starves systemd's watchdog
+    dds::notify_watchdog();  // from the loop itself, so a hung loop starves systemd's watchdog
     next_watchdog_ = now + watchdog_period_;
   }
 }
@@ -383,7 +383,7 @@ int OnboardDaemon::run() {
   period_start_ = started_;
   next_status_ = started_ + config_.status_period;
   next_team_poll_ = started_;
-  const Duration wd = watchdog_interval();
+  const Duration wd = dds::watchdog_interval();
   watchdog_period_ = wd / 2;
   next_watchdog_ = started_;
   log_message(LogLevel::notice, "robot %u starting; publisher: %s; watchdog %lld ms", config_.robot_id, publisher_.name(),
@@ -418,7 +418,8 @@ int OnboardDaemon::run() {
       switch (events[static_cast<std::size_t>(i)].data.u32) {
         case kTagTimer: {
           std::uint64_t expirations = 0;
-          (void)::read(timer_fd_, &expirations, sizeof expirations);
+          // Drains the timerfd; the expiration count is not needed (the loop polls every source each tick).
+          [[maybe_unused]] const ssize_t drained = ::read(timer_fd_, &expirations, sizeof expirations);
           break;
         }
         case kTagSignal: {
@@ -429,7 +430,7 @@ int OnboardDaemon::run() {
               log_message(LogLevel::info, "status dump requested");
             } else if (!stopping_) {
               log_message(LogLevel::notice, "signal %u: stopping the laser stream and closing the Pioneer", si.ssi_signo);
-              notify_stopping();
+              dds::notify_stopping();
               stopping_ = true;
               stop_deadline_ = woke + options_.shutdown_timeout;
               if (lms_dev_.open) lms_.shutdown(woke);

@@ -19,16 +19,8 @@ namespace teamscan::onboard {
 [[nodiscard]] inline bool to_scan_beams(const lms200::ScanTelegram& t, Time stamp, LaserVariant variant,
                                         std::array<std::uint8_t, kMaxBeams>& beam_flags, ScanBeams& out) {
   if (t.partial || t.count != variant.beams() || t.count > kMaxBeams) return false;
-  for (std::uint16_t i = 0; i < t.count; ++i) {
-    // The same mapping as the simulator's receiver (sim/receiver.cpp), so that the daemon's flags equal
-    // the data set's: a reserved code is invalid (the dazzle code also dazzled); the dazzle bit on a
-    // distance is dazzled.
-    const lms200::BeamInvalid why = t.invalid[i];
-    std::uint8_t f = 0;
-    if (why == lms200::BeamInvalid::dazzled || lms200::dazzle(t.mode, t.flags[i])) f |= kBeamDazzled;
-    if (why != lms200::BeamInvalid::none) f |= kBeamInvalid;
-    beam_flags[i] = f;
-  }
+  // The simulator's receiver uses the same lms200::beam_flags, so the daemon's flags equal the data set's.
+  for (std::uint16_t i = 0; i < t.count; ++i) beam_flags[i] = lms200::beam_flags(t, i);
   out = ScanBeams{stamp, variant, std::span<const std::uint32_t>(t.ranges_mm.data(), t.count),
                   std::span<const std::uint8_t>(beam_flags.data(), t.count)};
   return true;

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <string>
 
+#include "common/version.hpp"
 #include "onboard/core/config.hpp"
 #include "onboard/daemon/daemon.hpp"
 #include "onboard/daemon/log.hpp"
@@ -13,17 +14,18 @@
 namespace {
 
 constexpr const char* kUsage =
-    "usage: teamscan-onboard --config FILE.toml [--check-config] [--help]\n"
+    "usage: teamscan-onboard --config FILE.toml [--check-config] [--help] [--version]\n"
     "\n"
     "The teamscan robot daemon: runs the Pioneer 3-AT (ARCOS) and the SICK LMS-200 on their serial\n"
     "ports, turns every scan into 3-D points in the map frame, flags teammates with the direction\n"
     "filter (paper eq. 7) and publishes pose, scans and status over DDS (teamscan/pose, /scan,\n"
     "/status; subscribes to teamscan/team). Runs under systemd (Type=notify, WatchdogSec) or alone.\n"
     "\n"
-    "  --config FILE    the robot's TOML config (examples: deploy/onboard-down-laser.toml,\n"
-    "                   deploy/onboard-up-laser.toml)\n"
+    "  --config FILE    the robot's TOML config (examples: onboard-down-laser.toml and\n"
+    "                   onboard-up-laser.toml in /usr/share/teamscan/examples or deploy/)\n"
     "  --check-config   parse and check FILE, print the settings, exit 0 if valid and 2 if not\n"
     "  --help           this text\n"
+    "  --version        the version and the git commit\n"
     "\n"
     "Signals: SIGTERM/SIGINT stop the laser stream, close the Pioneer and exit 0; SIGUSR1 logs and\n"
     "publishes a status at once. DDS uses CYCLONEDDS_URI (tests and development: the loopback config\n"
@@ -39,6 +41,10 @@ int main(int argc, char** argv) {
     const char* a = argv[i];
     if (std::strcmp(a, "--help") == 0 || std::strcmp(a, "-h") == 0) {
       std::fputs(kUsage, stdout);
+      return 0;
+    }
+    if (std::strcmp(a, "--version") == 0) {
+      teamscan::print_version("teamscan-onboard");
       return 0;
     }
     if (std::strcmp(a, "--check-config") == 0) {

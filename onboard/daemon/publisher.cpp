@@ -1,13 +1,10 @@
-// make_publisher: the DDS bridge (onboard/dds/bridge.hpp) behind the daemon's Publisher interface.
+// make_publisher: the DDS bridge (onboard/bridge/bridge.hpp) behind the daemon's Publisher interface.
 #include "onboard/daemon/publisher.hpp"
 
-#if TEAMSCAN_HAVE_DDS
-#include "onboard/dds/bridge.hpp"
-#endif
+#include "onboard/bridge/bridge.hpp"
 
 namespace teamscan::onboard {
 
-#if TEAMSCAN_HAVE_DDS
 namespace {
 
 class DdsPublisher final : public Publisher {
@@ -34,10 +31,5 @@ Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig& config) {
   if (!bridge.ok()) return bridge.error();
   return std::unique_ptr<Publisher>(new DdsPublisher(std::move(bridge.value())));
 }
-#else
-Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig&) {
-  return std::unique_ptr<Publisher>(new NullPublisher());
-}
-#endif
 
 }  // namespace teamscan::onboard

@@ -1,5 +1,5 @@
-// Where the daemon's messages go: the DDS bridge (onboard/dds) on the robot, a stub in tests or when
-// the bridge is not built. The daemon's loop only sees this interface.
+// Where the daemon's messages go: the DDS bridge (onboard/bridge) on the robot, a stub in tests.
+// The daemon's loop only sees this interface.
 #pragma once
 
 #include <memory>
@@ -28,11 +28,11 @@ class NullPublisher final : public Publisher {
   Status publish_scan(const OnboardScan&) override { ++scans; return ok_status(); }
   Status publish_status(const OnboardStatus&) override { ++statuses; return ok_status(); }
   bool take_team(TeamSnapshot&) override { return false; }
-  const char* name() const override { return "none (DDS bridge not built)"; }
+  const char* name() const override { return "none (test stub)"; }
   unsigned long poses = 0, scans = 0, statuses = 0;
 };
 
-// The DDS bridge publisher when onboard/dds is built (TEAMSCAN_HAVE_DDS), else a NullPublisher.
+// The DDS bridge publisher (onboard/bridge).
 [[nodiscard]] Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig& config);
 
 }  // namespace teamscan::onboard

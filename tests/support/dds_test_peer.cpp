@@ -20,8 +20,8 @@
 #include <string>
 #include <vector>
 
-#include "onboard/dds/bridge.hpp"
-#include "onboard/dds/qos.hpp"
+#include "onboard/bridge/bridge.hpp"
+#include "dds/qos.hpp"
 #include "teamscan.h"
 #include "tests/support/dds_test_subscriber.hpp"
 
@@ -105,9 +105,9 @@ int run_robot(int argc, char** argv) {
 int run_sink(int argc, char** argv) {
   const long count = arg_long(argc, argv, "--count", 1);
   const long timeout_s = arg_long(argc, argv, "--timeout", 10);
-  dds_qos_t* q = teamscan::onboard::make_scan_reader_qos();
+  dds_qos_t* q = teamscan::dds::make_scan_reader_qos();
   teamscan::test::DdsTestSubscriber<teamscan_msg_ScanPoints> sub(&teamscan_msg_ScanPoints_desc,
-                                                                 teamscan::onboard::kTopicScan, q, 256,
+                                                                 teamscan::dds::kTopicScan, q, 256,
       static_cast<dds_domainid_t>(arg_long(argc, argv, "--domain", DDS_DOMAIN_DEFAULT)));
   dds_delete_qos(q);
   if (!sub.ok()) {
@@ -134,9 +134,9 @@ int run_sink(int argc, char** argv) {
 int run_drain(int argc, char** argv) {
   const long timeout_s = arg_long(argc, argv, "--timeout", 0);
   const long report_s = arg_long(argc, argv, "--report", 60);
-  dds_qos_t* q = teamscan::onboard::make_scan_reader_qos();
+  dds_qos_t* q = teamscan::dds::make_scan_reader_qos();
   teamscan::test::DdsTestSubscriber<teamscan_msg_ScanPoints> sub(&teamscan_msg_ScanPoints_desc,
-                                                                 teamscan::onboard::kTopicScan, q, 64,
+                                                                 teamscan::dds::kTopicScan, q, 64,
       static_cast<dds_domainid_t>(arg_long(argc, argv, "--domain", DDS_DOMAIN_DEFAULT)));
   dds_delete_qos(q);
   if (!sub.ok()) {

@@ -32,11 +32,14 @@
 #include <vector>
 
 #include "common/clock.hpp"
+#include "common/data_paths.hpp"
 #include "common/dataset/dataset.hpp"
 #include "common/dataset/pcd.hpp"
 #include "common/laser_geometry.hpp"
 #include "common/scan_points.hpp"
 #include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/station/config.hpp"
+#include "groundstation/station/model_check.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "sim/live.hpp"
 #include "sim/scenario.hpp"
@@ -91,13 +94,7 @@ struct DemoArgs {
   bool no_precast = false;  // cast every scan in real time instead of ahead (sim/live.hpp precast)
 };
 
-std::string exe_dir() {
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string{"."} : exe.parent_path().string();
-}
-
-// A file next to the binary, in the build tree's sibling folders, or in an ancestor's `rel` path.
+// The first of `candidates` that exists.
 std::string find_file(const std::vector<std::string>& candidates) {
   for (const std::string& c : candidates) {
     std::error_code ec;
@@ -106,17 +103,8 @@ std::string find_file(const std::vector<std::string>& candidates) {
   return {};
 }
 
-std::string find_upwards(const std::string& start, const std::string& rel) {
-  for (fs::path p = start; !p.empty(); p = p.parent_path()) {
-    std::error_code ec;
-    if (fs::exists(p / rel, ec)) return (p / rel).lexically_normal().string();
-    if (p == p.parent_path()) break;
-  }
-  return {};
-}
-
 std::string find_binary(const std::string& name, const std::string& sub) {
-  const std::string d = exe_dir();
+  const std::string d = executable_dir();
   std::string f = find_file({d + "/" + name, d + "/../../" + sub + "/" + name, d + "/../bin/" + name});
   if (!f.empty()) return f;
   if (const char* path = std::getenv("PATH")) {
@@ -295,17 +283,6 @@ struct RobotDelivery {
   std::uint64_t truth_ghost_beams = 0;  // beams cast on a teammate within the run window
 };
 
-// The wire's point flags (common/scan_points.hpp) as the data set's (common/dataset/dataset.hpp).
-std::uint16_t dataset_flags(std::uint16_t wire) {
-  std::uint16_t f = 0;
-  if (wire & kPointDirectionFiltered) f |= point_flags::kDirectionFiltered;
-  if (wire & kPointInvalid) f |= point_flags::kInvalid;
-  if (wire & kPointDazzled) f |= point_flags::kDazzled;
-  if (wire & kPointOutOfRange) f |= point_flags::kOutOfRange;
-  if (wire & kPointTeamStale) f |= point_flags::kTeamStale;
-  return f;
-}
-
 // Live session -> labelled data set on the simulator's time base (scenario start + world time).
 struct LiveDataset {
   Dataset ds;
@@ -361,11 +338,8 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
     o.robot = id;
     o.stamp_ns = t;
     o.pose = {std::stod(f[5]) * 1e-3, std::stod(f[6]) * 1e-3, std::stod(f[7]) * 1e-6};
-    // Forward speed: the map-frame velocity (vx, vy) projected on the heading, as the station's tracker
-    // is fed (groundstation/station/kalman_team_source.cpp). Taking vx alone zeroed it for a robot
-    // heading along y, and the tracker's teammate predictions lagged (position DA −17 points on 60 s).
-    const double vx = std::stod(f[8]) * 1e-3, vy = std::stod(f[9]) * 1e-3;
-    o.v_mps = vx * std::cos(o.pose.theta_rad) + vy * std::sin(o.pose.theta_rad);
+    // The tracker is fed the forward speed, as the station's (common/pose.hpp).
+    o.v_mps = forward_speed_mps(std::stod(f[8]) * 1e-3, std::stod(f[9]) * 1e-3, o.pose.theta_rad);
     o.w_radps = std::stod(f[10]) * 1e-3;
     ds.odom.push_back(o);
     const sim::Motion& m = team.motion(team_index(id));
@@ -430,7 +404,7 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live, 
       lp.beam = p.beam;
       lp.label = b.label;
       lp.hit_robot = b.hit_robot;
-      lp.flags = dataset_flags(p.flags);
+      lp.flags = dataset_flags_from_wire(p.flags);
       lp.tx = b.tx;
       lp.ty = b.ty;
       lp.tz = b.tz;
@@ -596,7 +570,7 @@ std::string json_escape(const std::string& s) {
 
 int run_demo(const DemoArgs& a) {
   const auto wall_start = std::chrono::steady_clock::now();
-  const sim::ScenarioLoad load = sim::resolve_scenario(a.scenario, exe_dir());
+  const sim::ScenarioLoad load = sim::resolve_scenario(a.scenario);
   if (!load.scenario) {
     std::fprintf(stderr, "teamscan demo: %s\n", load.error.c_str());
     return 2;
@@ -614,11 +588,14 @@ int run_demo(const DemoArgs& a) {
 
   // Loopback DDS, never the default config (DDS_SYSTEMD.md; the children inherit the environment).
   std::string dds = a.dds_config;
-  if (dds.empty()) dds = find_file({exe_dir() + "/../share/teamscan/cyclonedds-lo.xml"});
-  if (dds.empty()) dds = find_upwards(exe_dir(), "deploy/cyclonedds-lo.xml");
   if (dds.empty()) {
-    std::fprintf(stderr, "teamscan demo: cannot find deploy/cyclonedds-lo.xml (give --dds-config)\n");
-    return 2;
+    const DataFile lo = find_data_file("cyclonedds-lo.xml", "deploy/cyclonedds-lo.xml");
+    if (lo.path.empty()) {
+      std::fprintf(stderr, "teamscan demo: cannot find cyclonedds-lo.xml (looked in %s; give --dds-config)\n",
+                   lo.searched.c_str());
+      return 2;
+    }
+    dds = lo.path;
   }
   ::setenv("CYCLONEDDS_URI", ("file://" + fs::absolute(dds).string()).c_str(), 1);
   const int domain = a.domain.value_or(1 + static_cast<int>(::getpid() % 230));
@@ -956,7 +933,56 @@ int run_demo(const DemoArgs& a) {
         << ", \"matched\": " << station.matched << ", \"unmatched\": " << station.unmatched
         << ", \"model_points\": " << station.model_points << "},\n";
   }
-  agree = agree && station_agree;
+  // The station's model against `teamscan eval` of its own session (the fusion core fed the session
+  // read back, in time order): the same decision for every point (docs/groundstation.md "The fusion core").
+  bool session_agree = false;
+  {
+    station::GroundStationConfig gcfg;
+    station::ConfigError gerr;
+    char line[700];
+    if (!station::load_groundstation_config(out + "/config/groundstation.toml", gcfg, gerr)) {
+      std::snprintf(line, sizeof line, "  station model vs `teamscan eval SESSION`: cannot read the station config (%s)\n", gerr.message.c_str());
+      stxt << line;
+    } else if (auto check = station::check_model_against_eval(session, station::fusion_options_from_config(gcfg.fusion, gcfg.kalman)); !check) {
+      std::snprintf(line, sizeof line, "  station model vs `teamscan eval SESSION`: %s\n", check.error().what);
+      stxt << line;
+    } else {
+      const station::ModelCheck& mc = check.value();
+      std::unordered_map<std::uint64_t, std::size_t> labelled;  // identity -> L.ds index
+      labelled.reserve(L.ds.points.size());
+      for (std::size_t i = 0; i < L.ds.points.size(); ++i)
+        labelled[station::point_key(L.ds.points[i].robot, L.point_seq[i], L.ds.points[i].beam)] = i;
+      std::vector<LabelledPoint> pts;
+      std::vector<std::uint8_t> rm_model, rm_eval, rm_live;
+      for (const station::PointDecision& d : mc.points) {
+        if (!d.in_model) continue;
+        auto it = labelled.find(station::point_key(d.robot, d.seq, d.beam));
+        if (it == labelled.end()) continue;  // bring-up or after the run window: no label
+        pts.push_back(L.ds.points[it->second]);
+        rm_model.push_back(d.model_removed ? 1 : 0);
+        rm_eval.push_back(d.eval_removed ? 1 : 0);
+        rm_live.push_back(d.live_removed ? 1 : 0);
+      }
+      const mapping::RemovalMetrics mm = mapping::removal_metrics(pts, rm_model), me = mapping::removal_metrics(pts, rm_eval),
+                                    ml = mapping::removal_metrics(pts, rm_live);
+      session_agree = mc.mismatches == 0 && mc.compared > 0;
+      std::snprintf(line, sizeof line,
+                    "  station model vs `teamscan eval SESSION` (%s, the same core on the session read back): %llu of %llu session points in "
+                    "the model (%llu beyond the per-voxel cap), %llu decisions differ: %s\n"
+                    "    labelled (%zu points): station DA %.2f %%, SA %.3f %% | eval DA %.2f %%, SA %.3f %% | ΔDA %+.2f, ΔSA %+.3f; "
+                    "decisions at release (`live_keep`): DA %.2f %%, SA %.3f %%\n",
+                    gcfg.fusion.method.c_str(), static_cast<unsigned long long>(mc.compared),
+                    static_cast<unsigned long long>(mc.compared + mc.not_in_model), static_cast<unsigned long long>(mc.not_in_model),
+                    static_cast<unsigned long long>(mc.mismatches), session_agree ? "identical" : "DIFFERENT", pts.size(), mm.da, mm.sa,
+                    me.da, me.sa, mm.da - me.da, mm.sa - me.sa, ml.da, ml.sa);
+      stxt << line;
+      stj << "  \"station_vs_session_eval\": {\"method\": \"" << json_escape(gcfg.fusion.method) << "\", \"compared\": " << mc.compared
+          << ", \"not_in_model\": " << mc.not_in_model << ", \"mismatches\": " << mc.mismatches << ", \"labelled\": " << pts.size()
+          << ", \"station_da\": " << mm.da << ", \"station_sa\": " << mm.sa << ", \"eval_da\": " << me.da << ", \"eval_sa\": " << me.sa
+          << ", \"live_da\": " << ml.da << ", \"live_sa\": " << ml.sa << ", \"identical\": " << (session_agree ? "true" : "false") << "},\n";
+    }
+  }
+  agree = agree && station_agree && session_agree;
 
   // Delivery: every scan a robot published reached the session.
   bool none_lost = true;
@@ -1043,7 +1069,8 @@ int run_demo(const DemoArgs& a) {
       if (f.size() < 20 || std::stoi(f[2]) != *a.unplug_robot) continue;
       const unsigned st = static_cast<unsigned>(std::stoul(f[6]));
       if (states.empty() || states.back() != st) states.push_back(st);
-      reopens = std::max(reopens, static_cast<std::uint32_t>(std::stoul(f[19])));
+      // status.csv (session_store.cpp append_status): column 18 is lms_reopens (19 is points_team_stale).
+      reopens = std::max(reopens, static_cast<std::uint32_t>(std::stoul(f[18])));
     }
     fj << "  \"unplug\": {\"robot\": " << *a.unplug_robot << ", \"lms_states\": [";
     for (std::size_t k = 0; k < states.size(); ++k) fj << (k ? ", " : "") << states[k];
@@ -1198,7 +1225,8 @@ const SubcommandRegistration kDemo{
        app.add_option("--seed", a->seed, "Override the scenario's seed");
        app.add_option("--bringup", a->bringup_s, "Seconds for device bring-up before the robots drive")->capture_default_str();
        app.add_option("--domain", a->domain, "DDS domain id (default: derived from the pid)");
-       app.add_option("--dds-config", a->dds_config, "Cyclone DDS config (default: deploy/cyclonedds-lo.xml, found)");
+       app.add_option("--dds-config", a->dds_config,
+                      "Cyclone DDS config (default: the installed share/teamscan/cyclonedds-lo.xml; deploy/ in a build tree)");
        app.add_option("--onboard-bin", a->onboard_bin, "teamscan-onboard executable (default: found next to teamscan)");
        app.add_option("--station-bin", a->station_bin, "teamscan-groundstation executable (default: found)");
        app.add_option("--tolerance-da", a->tolerance_da_pct, "Allowed |live DA − offline DA| in points")->capture_default_str();

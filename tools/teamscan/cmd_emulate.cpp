@@ -31,14 +31,8 @@ struct EmulateArgs {
   bool loop = false;
 };
 
-std::string exe_dir() {
-  std::error_code ec;
-  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string{"."} : exe.parent_path().string();
-}
-
 int run_emulate(const EmulateArgs& a) {
-  const sim::ScenarioLoad load = sim::resolve_scenario(a.scenario, exe_dir());
+  const sim::ScenarioLoad load = sim::resolve_scenario(a.scenario);
   if (!load.scenario) {
     std::fprintf(stderr, "teamscan emulate: %s\n", load.error.c_str());
     return 2;

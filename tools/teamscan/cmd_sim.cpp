@@ -18,12 +18,6 @@
 namespace teamscan::tool {
 namespace {
 
-std::string executable_dir() {
-  std::error_code ec;
-  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string{"."} : exe.parent_path().string();
-}
-
 struct SimArgs {
   std::string scenario;
   std::string out;
@@ -61,7 +55,7 @@ bool write_captures(const std::string& out_dir, const std::vector<sim::RobotCapt
 }
 
 int run_sim(const SimArgs& args) {
-  const sim::ScenarioLoad load = sim::resolve_scenario(args.scenario, executable_dir());
+  const sim::ScenarioLoad load = sim::resolve_scenario(args.scenario);
   if (!load.scenario) {
     std::fprintf(stderr, "teamscan sim: %s\n", load.error.c_str());
     return 2;
@@ -98,17 +92,12 @@ int run_sim(const SimArgs& args) {
   const double sim_cpu_s = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
 
   if (!args.out.empty()) {
-#ifdef TEAMSCAN_HAVE_DATASET_WRITER
     const Status written = write_dataset(args.out, out.dataset);
     if (!written) {
       std::fprintf(stderr, "teamscan sim: cannot write the data set to %s: %s (%ld)\n", args.out.c_str(),
                    written.error().what, written.error().detail);
       return 1;
     }
-#else
-    std::fprintf(stderr, "teamscan sim: this build has no data set writer (common/dataset); nothing written\n");
-    return 1;
-#endif
     if (!write_captures(args.out, out.captures)) return 1;
   }
   const double total_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -1,13 +1,12 @@
-// `teamscan version`: prints the tool's version.
-#include <cstdio>
-
+// `teamscan version`: prints the tool's version and git commit (the same line as `teamscan --version`).
+#include "common/version.hpp"
 #include "tools/teamscan/subcommand.hpp"
 
 namespace teamscan::tool {
 namespace {
-const SubcommandRegistration kVersion{{"version", "Print the teamscan version", [](CLI::App&) {
+const SubcommandRegistration kVersion{{"version", "Print the teamscan version and git commit", [](CLI::App&) {
                                          return [] {
-                                           std::printf("teamscan 0.1.0\n");
+                                           print_version("teamscan");
                                            return 0;
                                          };
                                        }}};

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <map>
 
+#include "common/version.hpp"
 #include "tools/teamscan/subcommand.hpp"
 
 namespace teamscan::tool {
@@ -16,6 +17,13 @@ int main(int argc, char** argv) {
   using teamscan::tool::subcommand_registry;
   CLI::App app{"teamscan: simulate, emulate, record, replay, decode, evaluate and render multi-robot laser surveys"};
   app.require_subcommand(1);
+  app.add_flag_callback(
+      "--version",
+      [] {
+        teamscan::print_version("teamscan");
+        throw CLI::Success();
+      },
+      "Print the version and the git commit, and exit");
   auto& registry = subcommand_registry();
   std::sort(registry.begin(), registry.end(), [](const auto& a, const auto& b) { return a.name < b.name; });
   std::map<CLI::App*, std::function<int()>> runners;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "common/dataset/pcd.hpp"
+#include "tests/support/real_data.hpp"
 
 namespace teamscan {
 namespace {
@@ -63,11 +64,10 @@ void BM_ParseAscii(benchmark::State& state) {
 BENCHMARK(BM_ParseAscii)->Arg(100000)->Unit(benchmark::kMillisecond);
 
 void BM_ReadRoomScan1BinaryCompressed(benchmark::State& state) {
-  const char* env = std::getenv("TEAMSCAN_SHARED_DIR");
-  const std::string path = std::string(env != nullptr ? env : "/work/shared") + "/data/real/room_scan1.pcd";
+  const std::string path = teamscan::test::real_data_path("room_scan1.pcd");
   const auto bytes = read_file_bytes(path);
   if (!bytes) {
-    state.SkipWithError("room_scan1.pcd not found (set TEAMSCAN_SHARED_DIR)");
+    state.SkipWithError(("cannot read " + path).c_str());
     return;
   }
   std::size_t n = 0;

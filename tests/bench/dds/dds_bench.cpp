@@ -19,8 +19,8 @@
 #include <dds/dds.h>
 
 #include "common/clock.hpp"
-#include "onboard/dds/bridge.hpp"
-#include "onboard/dds/qos.hpp"
+#include "onboard/bridge/bridge.hpp"
+#include "dds/qos.hpp"
 #include "teamscan.h"
 #include "tests/support/alloc_counter.hpp"
 #include "tests/support/test_domain.hpp"
@@ -29,6 +29,7 @@ namespace {
 
 using namespace teamscan;
 using namespace teamscan::onboard;
+using namespace teamscan::dds;
 constexpr const char* kPongTopic = "teamscan/bench_pong";
 
 OnboardScan& full_scan(std::uint32_t robot) {

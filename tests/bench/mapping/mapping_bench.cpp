@@ -15,9 +15,7 @@
 #include "groundstation/mapping/ransac.hpp"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 
-#ifdef TEAMSCAN_HAVE_OCTOMAP
 #include <octomap/octomap.h>
-#endif
 
 namespace teamscan::mapping {
 namespace {
@@ -148,7 +146,6 @@ void BM_Ransac1M(benchmark::State& state) {
 }
 BENCHMARK(BM_Ransac1M)->ArgsProduct({{100, 500}, {0, 1}})->ArgNames({"iterations", "floor_constrained"})->Unit(benchmark::kMillisecond)->Iterations(2);
 
-#ifdef TEAMSCAN_HAVE_OCTOMAP
 // The same scans into OctoMap (ray-cast insertion, the DynamicMap benchmark's baseline) and into our
 // sparse map + visibility filter, side by side: the ratio is ours / OctoMap in points per second.
 void BM_OctomapVsVoxelMap(benchmark::State& state) {
@@ -186,7 +183,6 @@ void BM_OctomapVsVoxelMap(benchmark::State& state) {
   state.counters["ratio_ours_over_octomap"] = octomap_s / ours_s;
 }
 BENCHMARK(BM_OctomapVsVoxelMap)->Arg(5)->Arg(10)->Unit(benchmark::kMillisecond)->Iterations(1);
-#endif
 
 }  // namespace
 }  // namespace teamscan::mapping

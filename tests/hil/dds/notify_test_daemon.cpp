@@ -1,12 +1,12 @@
 // A tiny daemon for the sd_notify harness test: the loop shape of the real daemons (READY once up,
 // WATCHDOG=1 from the loop at half the watchdog interval, STOPPING=1 on SIGTERM), through
-// onboard/dds/notify.hpp. --hang-after-ms N stops the loop from pinging after N ms (a hung loop).
+// dds/notify.hpp. --hang-after-ms N stops the loop from pinging after N ms (a hung loop).
 #include <csignal>
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
 
-#include "onboard/dds/notify.hpp"
+#include "dds/notify.hpp"
 
 namespace {
 volatile std::sig_atomic_t g_stop = 0;
@@ -30,8 +30,8 @@ int main(int argc, char** argv) {
   const teamscan::Duration wd = teamscan::onboard::watchdog_interval();
   const std::int64_t ping_ms = wd.count() > 0 ? wd.count() / 2'000'000 : 100;
   const std::int64_t start = mono_ms();
-  teamscan::onboard::notify_status("starting");
-  teamscan::onboard::notify_ready();
+  teamscan::dds::notify_status("starting");
+  teamscan::dds::notify_ready();
   std::int64_t next_ping = start;
   while (g_stop == 0) {
     const std::int64_t now = mono_ms();
@@ -39,12 +39,12 @@ int main(int argc, char** argv) {
       for (;;) pause();  // stuck: no more pings; only a signal ends it
     }
     if (wd.count() > 0 && now >= next_ping) {
-      teamscan::onboard::notify_watchdog();
+      teamscan::dds::notify_watchdog();
       next_ping = now + ping_ms;
     }
     timespec tick{0, 10'000'000};
     nanosleep(&tick, nullptr);
   }
-  teamscan::onboard::notify_stopping();
+  teamscan::dds::notify_stopping();
   return 0;
 }

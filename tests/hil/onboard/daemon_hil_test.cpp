@@ -33,8 +33,8 @@
 #include "drivers/lms200/client.hpp"
 #include "drivers/lms200/emulator.hpp"
 #include "drivers/serial/pty_runner.hpp"
-#include "onboard/dds/bridge.hpp"
-#include "onboard/dds/qos.hpp"
+#include "onboard/bridge/bridge.hpp"
+#include "dds/qos.hpp"
 #include "teamscan.h"
 #include "tests/support/dds_test_subscriber.hpp"
 
@@ -160,7 +160,7 @@ class StatusWatch {
     teamscan_msg_RobotStatus status;
     Clock::time_point arrival;
   };
-  explicit StatusWatch(dds_domainid_t domain) : sub_{&teamscan_msg_RobotStatus_desc, onboard::kTopicStatus, qos(), 16, domain} {}
+  explicit StatusWatch(dds_domainid_t domain) : sub_{&teamscan_msg_RobotStatus_desc, dds::kTopicStatus, qos(), 16, domain} {}
   bool ok() const { return sub_.ok(); }
   // Called on every poll (the test drains the notify socket there).
   std::function<void()> on_poll;
@@ -183,7 +183,7 @@ class StatusWatch {
 
  private:
   static const dds_qos_t* qos() {
-    static dds_qos_t* q = onboard::make_state_reader_qos();
+    static dds_qos_t* q = dds::make_state_reader_qos();
     return q;
   }
   void poll(std::chrono::milliseconds wait) {
@@ -311,8 +311,8 @@ TEST(OnboardDaemonHil, StreamsSurvivesUnplugOfEachDeviceAndStopsCleanly) {
                                            << "[status]\nperiod_s = 0.2\n"
                                            << "[dds]\ndomain = " << domain << "\n";
   // A ground station's scan reader on the daemon's domain (loopback config from ctest).
-  dds_qos_t* scan_qos = onboard::make_scan_reader_qos();
-  test::DdsTestSubscriber<teamscan_msg_ScanPoints> scans_sub{&teamscan_msg_ScanPoints_desc, onboard::kTopicScan, scan_qos,
+  dds_qos_t* scan_qos = dds::make_scan_reader_qos();
+  test::DdsTestSubscriber<teamscan_msg_ScanPoints> scans_sub{&teamscan_msg_ScanPoints_desc, dds::kTopicScan, scan_qos,
                                                              64, domain};
   dds_delete_qos(scan_qos);
   ASSERT_TRUE(scans_sub.ok());

@@ -17,11 +17,13 @@
 #include "onboard/core/pipeline.hpp"
 #include "tests/support/onboard_config_fixture.hpp"
 #include "onboard/daemon/lms_scan.hpp"
-#include "onboard/dds/bridge.hpp"
+#include "onboard/bridge/bridge.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace teamscan::onboard {
 namespace {
+
+using namespace teamscan::dds;
 
 constexpr int kScans = 10'000;
 

@@ -42,8 +42,8 @@
 #include "drivers/serial/pty_runner.hpp"
 #include "onboard/core/config.hpp"
 #include "onboard/core/direction_filter.hpp"
-#include "onboard/dds/bridge.hpp"
-#include "onboard/dds/qos.hpp"
+#include "onboard/bridge/bridge.hpp"
+#include "dds/qos.hpp"
 #include "sim/devices.hpp"
 #include "sim/rng.hpp"
 #include "sim/scenario.hpp"
@@ -177,14 +177,14 @@ T pct(const std::vector<T>& sorted, double p) {
   return sorted[i];
 }
 
-// One team state as published, and as the daemon's bridge decodes it (onboard/dds/bridge.cpp).
+// One team state as published, and as the daemon's bridge decodes it (onboard/bridge/bridge.cpp).
 struct PublishedTeam {
   std::int64_t published_rt_ns = 0;
   onboard::TeamSnapshot snapshot;
 };
 
 TEST(OnboardSimCompareHil, DaemonPointsEqualTheSimulatorsAndFlagsTheOfflineFilters) {
-  const sim::ScenarioLoad load = sim::resolve_scenario("lap2", ".");
+  const sim::ScenarioLoad load = sim::resolve_scenario("lap2");
   ASSERT_TRUE(load.scenario.has_value()) << load.error;
   const sim::Scenario& scenario = *load.scenario;
   const sim::TeamWorld team{scenario};
@@ -248,19 +248,19 @@ TEST(OnboardSimCompareHil, DaemonPointsEqualTheSimulatorsAndFlagsTheOfflineFilte
 
   // This test's DDS side: a scan reader and the team writer (ground station's QoS).
   const auto dom = static_cast<dds_domainid_t>(std::stoi(domain));
-  dds_qos_t* rq = onboard::make_scan_reader_qos();
-  test::DdsTestSubscriber<teamscan_msg_ScanPoints> scans_sub{&teamscan_msg_ScanPoints_desc, onboard::kTopicScan, rq, 64, dom};
+  dds_qos_t* rq = dds::make_scan_reader_qos();
+  test::DdsTestSubscriber<teamscan_msg_ScanPoints> scans_sub{&teamscan_msg_ScanPoints_desc, dds::kTopicScan, rq, 64, dom};
   dds_delete_qos(rq);
   ASSERT_TRUE(scans_sub.ok());
-  dds_qos_t* pq = onboard::make_state_reader_qos();
-  test::DdsTestSubscriber<teamscan_msg_RobotPose> poses_sub{&teamscan_msg_RobotPose_desc, onboard::kTopicPose, pq, 16, dom};
+  dds_qos_t* pq = dds::make_state_reader_qos();
+  test::DdsTestSubscriber<teamscan_msg_RobotPose> poses_sub{&teamscan_msg_RobotPose_desc, dds::kTopicPose, pq, 16, dom};
   dds_delete_qos(pq);
   ASSERT_TRUE(poses_sub.ok());
   std::vector<teamscan_msg_RobotPose> poses;
   const dds_entity_t team_topic =
-      dds_create_topic(scans_sub.participant(), &teamscan_msg_TeamState_desc, onboard::kTopicTeam, nullptr, nullptr);
+      dds_create_topic(scans_sub.participant(), &teamscan_msg_TeamState_desc, dds::kTopicTeam, nullptr, nullptr);
   ASSERT_GT(team_topic, 0);
-  dds_qos_t* tq = onboard::make_team_writer_qos(2s);
+  dds_qos_t* tq = dds::make_team_writer_qos(2s);
   const dds_entity_t team_writer = dds_create_writer(scans_sub.participant(), team_topic, tq, nullptr);
   dds_delete_qos(tq);
   ASSERT_GT(team_writer, 0);

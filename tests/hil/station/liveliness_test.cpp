@@ -14,8 +14,8 @@
 #include "common/clock.hpp"
 #include "groundstation/station/session_store.hpp"
 #include "groundstation/station/station.hpp"
-#include "onboard/dds/bridge.hpp"
-#include "onboard/dds/qos.hpp"
+#include "onboard/bridge/bridge.hpp"
+#include "dds/qos.hpp"
 #include "teamscan.h"
 #include "tests/hil/station/process.hpp"
 #include "tests/support/dds_test_subscriber.hpp"
@@ -69,8 +69,8 @@ std::string slurp(const std::string& p) {
 
 TEST(StationLiveliness, KilledRobotIsLostWithinThreeSecondsAndFlaggedOnTeam) {
   Fixture f;
-  dds_qos_t* q = onboard::make_team_reader_qos();
-  test::DdsTestSubscriber<teamscan_msg_TeamState> team_sub(&teamscan_msg_TeamState_desc, onboard::kTopicTeam, q, 32,
+  dds_qos_t* q = dds::make_team_reader_qos();
+  test::DdsTestSubscriber<teamscan_msg_TeamState> team_sub(&teamscan_msg_TeamState_desc, dds::kTopicTeam, q, 32,
                                                              test::test_domain_id());
   dds_delete_qos(q);
   test::ChildProcess robot({TEAMSCAN_TEST_PEER, "robot", "--robot", "12", "--rate", "50", "--scans", "0", "--domain", test::test_domain_arg()});

@@ -12,7 +12,7 @@
 #include <thread>
 
 #include "groundstation/station/scan_record.hpp"
-#include "onboard/dds/bridge.hpp"
+#include "onboard/bridge/bridge.hpp"
 #include "tests/hil/station/process.hpp"
 #include "tests/support/test_domain.hpp"
 

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "common/dataset/pcd.hpp"
+#include "tests/support/real_data.hpp"
 #include "tests/unit/dataset/test_util.hpp"
 
 namespace teamscan {
@@ -119,7 +120,7 @@ TEST(PcdPcl, WeReadPclBinaryAndBinaryCompressedExactly) {
 TEST(PcdPcl, RealFileThroughPclAsciiMatchesOurBinaryCompressedRead) {
   if (!have_pcl_tools()) GTEST_SKIP() << "pcl_convert_pcd_ascii_binary not installed (apt-get install pcl-tools)";
   const auto dir = test::temp_dir();
-  const auto src = (test::shared_dir() / "data" / "real" / "room_scan1.pcd").string();
+  const auto src = teamscan::test::real_data_path("room_scan1.pcd");
   const auto ascii = (dir / "room_ascii.pcd").string();
   ASSERT_EQ(pcl_convert(src, ascii, 0), 0);
   const auto compressed = read_pcd(src);

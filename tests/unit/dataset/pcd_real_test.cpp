@@ -1,4 +1,4 @@
-// The PCD reader on real files recorded by others (shared/data/real, SOURCES.md): binary_compressed
+// The PCD reader on real files recorded by others (tests/data/real, SOURCES.md): binary_compressed
 // (room_scan1, office1, organised with NaN) and ascii (sac_plane_test). Counts and bounds come from
 // SOURCES.md and from PCL's own ascii conversion of the same files.
 #include <algorithm>
@@ -8,12 +8,13 @@
 #include <gtest/gtest.h>
 
 #include "common/dataset/pcd.hpp"
+#include "tests/support/real_data.hpp"
 #include "tests/unit/dataset/test_util.hpp"
 
 namespace teamscan {
 namespace {
 
-std::string real(const char* name) { return (test::shared_dir() / "data" / "real" / name).string(); }
+std::string real(const char* name) { return teamscan::test::real_data_path(name); }
 
 struct Bounds {
   float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};

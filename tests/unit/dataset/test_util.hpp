@@ -1,4 +1,4 @@
-// Helpers for the data set tests: temporary folders, file bytes, the shared data folder.
+// Helpers for the data set tests: temporary folders, file bytes.
 #pragma once
 
 #include <cstdint>
@@ -34,10 +34,5 @@ inline void write_file(const std::filesystem::path& p, const std::string& text) 
 }
 
 inline std::vector<std::uint8_t> bytes_of(const std::string& s) { return {s.begin(), s.end()}; }
-
-inline std::filesystem::path shared_dir() {
-  const char* env = std::getenv("TEAMSCAN_SHARED_DIR");
-  return env != nullptr ? std::filesystem::path(env) : std::filesystem::path("/work/shared");
-}
 
 }  // namespace teamscan::test

@@ -4,14 +4,16 @@
 
 #include <vector>
 
-#include "onboard/dds/bridge.hpp"
-#include "onboard/dds/qos.hpp"
+#include "onboard/bridge/bridge.hpp"
+#include "dds/qos.hpp"
 #include "teamscan.h"
 #include "tests/support/dds_test_subscriber.hpp"
 #include "tests/support/test_domain.hpp"
 
 namespace teamscan::onboard {
 namespace {
+
+using namespace teamscan::dds;
 
 using test::DdsTestSubscriber;
 constexpr auto kWait = std::chrono::seconds(10);

@@ -1,4 +1,4 @@
-// Real data: every scan of the Intel Research Lab log (shared/data/real/intel-lab-every5th.clf, 180
+// Real data: every scan of the Intel Research Lab log (tests/data/real/intel-lab-every5th.clf, 180
 // beams in metres, SOURCES.md) encoded as 0xB0 telegrams in cm units with the encoder the emulator
 // uses, parsed as one byte stream and decoded by the driver: every range equal after cm rounding.
 //
@@ -18,13 +18,13 @@
 #include "drivers/lms200/codec.hpp"
 #include "drivers/lms200/parser.hpp"
 #include "drivers/lms200/scan.hpp"
+#include "tests/support/real_data.hpp"
 
 namespace teamscan::lms200 {
 namespace {
 
 std::vector<std::vector<double>> load_intel_scans() {
-  const char* shared = std::getenv("TEAMSCAN_SHARED_DIR");
-  const std::string path = std::string{shared != nullptr ? shared : "../shared"} + "/data/real/intel-lab-every5th.clf";
+  const std::string path = teamscan::test::real_data_path("intel-lab-every5th.clf");
   std::ifstream in{path};
   std::vector<std::vector<double>> scans;
   std::string line;

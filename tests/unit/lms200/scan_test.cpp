@@ -136,5 +136,28 @@ TEST(ScanEncode, ValueWordsRoundAndSaturate) {
   EXPECT_EQ(encode_value_word(100, 0x7, BeamInvalid::none, Unit::mm, MeasuringMode::m32_field_a), 100 | 0x8000);
 }
 
+
+// The one beam-flag mapping of the daemon and the simulator (lms200::beam_flags -> kBeam*).
+TEST(ScanBeamFlags, EveryReasonAndTheDazzleBit) {
+  ScanTelegram s;
+  s.mode = MeasuringMode::m8_fields_dazzle;
+  s.count = 9;
+  const BeamInvalid reasons[] = {BeamInvalid::none,      BeamInvalid::not_valid,     BeamInvalid::dazzled,
+                                 BeamInvalid::overflow,  BeamInvalid::low_signal,    BeamInvalid::channel_error,
+                                 BeamInvalid::over_range, BeamInvalid::reserved};
+  for (std::size_t i = 0; i < 8; ++i) s.invalid[i] = reasons[i];
+  EXPECT_EQ(beam_flags(s, 0), 0);
+  EXPECT_EQ(beam_flags(s, 1), kBeamInvalid);
+  EXPECT_EQ(beam_flags(s, 2), kBeamInvalid | kBeamDazzled);  // 0x1FFE: no distance, and dazzled
+  for (std::size_t i = 3; i < 8; ++i) EXPECT_EQ(beam_flags(s, i), kBeamInvalid) << to_string(reasons[i]);
+  // A usable distance with the dazzle bit (bit 15 = flags 4 in mode 0x00): dazzled, still a distance.
+  s.invalid[8] = BeamInvalid::none;
+  s.flags[8] = 4;
+  EXPECT_EQ(beam_flags(s, 8), kBeamDazzled);
+  // The same bit in a mode without a dazzle bit means something else: no flag.
+  s.mode = MeasuringMode::m8_reflectivity;
+  EXPECT_EQ(beam_flags(s, 8), 0);
+}
+
 }  // namespace
 }  // namespace teamscan::lms200

@@ -16,6 +16,7 @@
 
 #include "common/dataset/pcd.hpp"
 #include "groundstation/mapping/ransac.hpp"
+#include "tests/support/real_data.hpp"
 
 namespace teamscan::mapping {
 namespace {
@@ -168,10 +169,9 @@ TEST(RansacVsPcl, SyntheticRoomFloorAgreesWithSacSegmentation) {
 
 TEST(RansacVsPcl, PclsOwnPlaneTestCloudAgrees) {
   if (!have_pcl_tool()) GTEST_SKIP() << "pcl_sac_segmentation_plane (pcl-tools) not installed";
-  const char* shared = std::getenv("TEAMSCAN_SHARED_DIR");
-  const std::string path = std::string(shared ? shared : "../shared") + "/data/real/sac_plane_test.pcd";
+  const std::string path = teamscan::test::real_data_path("sac_plane_test.pcd");
   std::ifstream in(path);
-  if (!in) GTEST_SKIP() << "shared data not found: " << path;
+  ASSERT_TRUE(in) << "cannot read " << path;
   // ASCII PCD: header up to DATA, then x y z nx ny nz curvature per line.
   std::string line;
   while (std::getline(in, line) && line.rfind("DATA", 0) != 0) {}

@@ -12,11 +12,9 @@
 
 #include "onboard/core/pipeline.hpp"
 #include "tests/support/onboard_config_fixture.hpp"
-#if TEAMSCAN_HAVE_LMS200
 #include "drivers/lms200/codec.hpp"
 #include "drivers/lms200/scan.hpp"
 #include "onboard/daemon/lms_scan.hpp"
-#endif
 
 extern "C" {
 void* __libc_malloc(std::size_t);
@@ -79,7 +77,6 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
   std::array<std::uint32_t, kMaxBeams> ranges{};
   std::array<std::uint8_t, kMaxBeams> flags{};
   for (std::size_t i = 0; i < 361; ++i) ranges[i] = 500 + static_cast<std::uint32_t>(i * 17 % 7000);
-#if TEAMSCAN_HAVE_LMS200
   // One 361-value telegram as the scanner sends it (mm, measuring mode 0), decoded on every scan.
   std::array<std::uint16_t, 361> words{};
   for (std::size_t i = 0; i < 361; ++i)
@@ -93,7 +90,6 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
   ASSERT_GT(telegram_len, 722u);
   lms200::ScanTelegram decoded;
   std::array<std::uint8_t, kMaxBeams> beam_flags{};
-#endif
 
   TeamSnapshot team;
   team.count = 8;
@@ -121,12 +117,10 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
       }
       ScanBeams beams{stamp, variant, std::span<const std::uint32_t>(ranges.data(), 361),
                       std::span<const std::uint8_t>(flags.data(), 361)};
-#if TEAMSCAN_HAVE_LMS200
       if (!lms200::decode_scan(std::span<const std::uint8_t>(telegram.data(), telegram_len),
                                lms200::MeasuringMode::m8_fields_dazzle, decoded).ok())
         break;
       if (!to_scan_beams(decoded, stamp, variant, beam_flags, beams)) break;
-#endif
       const OnboardScan& s = pipeline->on_scan(beams);
       published += s.count;
       filtered += pipeline->last_filter_stats().filtered;

@@ -94,10 +94,10 @@ TEST(Scenario, SyntaxErrorGivesLineNumber) {
 }
 
 TEST(Scenario, ResolveByNameAndUnknownName) {
-  const ScenarioLoad byname = resolve_scenario("lap2", "/nonexistent");
+  const ScenarioLoad byname = resolve_scenario("lap2");
   ASSERT_TRUE(byname.scenario) << byname.error;
   EXPECT_EQ(byname.scenario->name, "lap2");
-  const ScenarioLoad unknown = resolve_scenario("nosuchscenario", "/nonexistent");
+  const ScenarioLoad unknown = resolve_scenario("nosuchscenario");
   EXPECT_FALSE(unknown.scenario);
   EXPECT_NE(unknown.error.find("nosuchscenario"), std::string::npos);
 }

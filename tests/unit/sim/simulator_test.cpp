@@ -194,7 +194,6 @@ TEST(Scenarios, ThreeRobotsWithFurnitureAndPauses) {
 }  // namespace
 }  // namespace teamscan::sim
 
-#ifdef TEAMSCAN_HAVE_DATASET_WRITER
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -237,4 +236,3 @@ TEST(Determinism, SameSeedGivesByteIdenticalFiles) {
 
 }  // namespace
 }  // namespace teamscan::sim
-#endif

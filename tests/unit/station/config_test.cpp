@@ -23,7 +23,7 @@ TEST(GroundStationConfig, DeployExampleParsesAndEqualsTheDefaults) {
   EXPECT_DOUBLE_EQ(c.last_pose.default_body.length_m, d.last_pose.default_body.length_m);
   EXPECT_DOUBLE_EQ(c.last_pose.sigma_velocity_mps, d.last_pose.sigma_velocity_mps);
   EXPECT_DOUBLE_EQ(c.kalman.lost_after_s, d.kalman.lost_after_s);
-  EXPECT_EQ(c.team_source, kalman_tracker_available() ? TeamSourceKind::kKalman : TeamSourceKind::kLastPose);
+  EXPECT_EQ(c.team_source, TeamSourceKind::kKalman);
 }
 
 TEST(GroundStationConfig, TeamSourceChoice) {
@@ -33,8 +33,8 @@ TEST(GroundStationConfig, TeamSourceChoice) {
   EXPECT_EQ(c.team_source, TeamSourceKind::kLastPose);
   EXPECT_FALSE(parse_groundstation_config("[team]\nsource = \"magic\"\n", "t.toml", c, e));
   EXPECT_NE(e.message.find("team.source"), std::string::npos);
-  const bool kalman_ok = parse_groundstation_config("[team]\nsource = \"kalman\"\n", "t.toml", c, e);
-  EXPECT_EQ(kalman_ok, kalman_tracker_available()) << e.message;
+  ASSERT_TRUE(parse_groundstation_config("[team]\nsource = \"kalman\"\n", "t.toml", c, e)) << e.message;
+  EXPECT_EQ(c.team_source, TeamSourceKind::kKalman);
 }
 
 TEST(GroundStationConfig, ValuesAreApplied) {

@@ -1,0 +1,75 @@
+// QoS recipes of the teamscan topics (DDS_SYSTEMD.md 1.3; liveliness per 3.2).
+#include "dds/qos.hpp"
+
+namespace teamscan::dds {
+namespace {
+
+dds_duration_t to_dds(Duration d) { return static_cast<dds_duration_t>(d.count()); }
+
+dds_qos_t* reliable(Duration max_blocking) {
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, to_dds(max_blocking));
+  return q;
+}
+
+}  // namespace
+
+dds_qos_t* make_state_writer_qos(Duration liveliness_lease, Duration max_blocking) {
+  dds_qos_t* q = reliable(max_blocking);
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+  // Automatic: Cyclone asserts it with participant-message heartbeats at 80 % of the lease, so a
+  // process that dies is seen as not alive one lease later (DDS_SYSTEMD.md 3.2).
+  dds_qset_liveliness(q, DDS_LIVELINESS_AUTOMATIC, to_dds(liveliness_lease));
+  return q;
+}
+
+dds_qos_t* make_state_reader_qos() {
+  dds_qos_t* q = reliable(std::chrono::milliseconds(100));
+  dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
+  dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+  return q;
+}
+
+dds_qos_t* make_scan_writer_qos(std::uint32_t depth, Duration liveliness_lease, Duration max_blocking) {
+  const auto d = static_cast<std::int32_t>(depth == 0 ? 1 : depth);
+  dds_qos_t* q = reliable(max_blocking);
+  // Keep-last on the writer never blocks the robot's loop: a reader that falls more than `depth`
+  // sweeps behind sees gaps (DDS_SYSTEMD.md 1.3), which the ground station counts from seq.
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, d);
+  dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+  dds_qset_durability_service(q, 0, DDS_HISTORY_KEEP_LAST, d, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED,
+                              DDS_LENGTH_UNLIMITED);
+  dds_qset_liveliness(q, DDS_LIVELINESS_AUTOMATIC, to_dds(liveliness_lease));
+  return q;
+}
+
+dds_qos_t* make_scan_reader_qos() {
+  dds_qos_t* q = reliable(std::chrono::milliseconds(100));
+  dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
+  dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+  return q;
+}
+
+dds_qos_t* make_team_writer_qos(Duration liveliness_lease) {
+  dds_qos_t* q = reliable(std::chrono::milliseconds(10));
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+  dds_qset_liveliness(q, DDS_LIVELINESS_AUTOMATIC, to_dds(liveliness_lease));
+  return q;
+}
+
+dds_qos_t* make_team_reader_qos() {
+  dds_qos_t* q = reliable(std::chrono::milliseconds(100));
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
+  return q;
+}
+
+dds_qos_t* make_map_qos() {
+  dds_qos_t* q = reliable(std::chrono::milliseconds(100));
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, 1);
+  return q;
+}
+
+}  // namespace teamscan::dds

@@ -1,0 +1,36 @@
+// QoS of every teamscan topic, in one place so that the robots, the ground station and the tests agree
+// (DESIGN.md "DDS topics", DDS_SYSTEMD.md 1.3 and 3.2). Each function returns a new dds_qos_t that the
+// caller deletes with dds_delete_qos.
+#pragma once
+
+#include <cstdint>
+
+#include <dds/dds.h>
+
+#include "common/time.hpp"
+
+namespace teamscan::dds {
+
+// Per-robot state topics (pose, status): the writer is reliable, keep-last 1, transient-local, so a
+// ground station that (re)starts gets each robot's latest value at once. The reader keeps all: the
+// station stores every pose it is sent, even when two arrive between its takes.
+[[nodiscard]] dds_qos_t* make_state_writer_qos(Duration liveliness_lease, Duration max_blocking);
+[[nodiscard]] dds_qos_t* make_state_reader_qos();
+
+// teamscan/scan and teamscan/pose: the writer keeps the last `depth` samples per robot, transient-local with the same
+// durability-service depth: a reader that joins late (a restarted ground station) receives the last
+// `depth` sweeps. Without the durability-service depth Cyclone keeps only 1 sample for late joiners.
+[[nodiscard]] dds_qos_t* make_scan_writer_qos(std::uint32_t depth, Duration liveliness_lease, Duration max_blocking);
+// The reader keeps all (reliable, transient-local): a sample the writer delivered is never overwritten
+// in the reader's cache because the taking thread was slow; only the writer's bounded history decides
+// what a reader that is away for too long misses.
+[[nodiscard]] dds_qos_t* make_scan_reader_qos();
+
+// teamscan/team (ground station -> robots): reliable, transient-local, keep-last 1, keyless.
+[[nodiscard]] dds_qos_t* make_team_writer_qos(Duration liveliness_lease);
+[[nodiscard]] dds_qos_t* make_team_reader_qos();
+
+// teamscan/map (ground station -> viewers): reliable, keep-last 1, volatile.
+[[nodiscard]] dds_qos_t* make_map_qos();
+
+}  // namespace teamscan::dds

@@ -1,0 +1,147 @@
+// dds/: topics by generated type, the participant's ownership, and the one take loop (batches, every
+// sample once, invalid samples handed on), over loopback DDS in one process.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstring>
+#include <thread>
+#include <vector>
+
+#include "dds/participant.hpp"
+#include "dds/qos.hpp"
+#include "dds/take.hpp"
+#include "dds/topics.hpp"
+#include "tests/support/test_domain.hpp"
+
+namespace teamscan::dds {
+namespace {
+
+TEST(DdsTopics, EachTypeHasItsOneName) {
+  EXPECT_STREQ(TopicOf<teamscan_msg_RobotPose>::name, "teamscan/pose");
+  EXPECT_STREQ(TopicOf<teamscan_msg_ScanPoints>::name, "teamscan/scan");
+  EXPECT_STREQ(TopicOf<teamscan_msg_RobotStatus>::name, "teamscan/status");
+  EXPECT_STREQ(TopicOf<teamscan_msg_TeamState>::name, "teamscan/team");
+  EXPECT_STREQ(TopicOf<teamscan_msg_MapUpdate>::name, "teamscan/map");
+  EXPECT_EQ(TopicOf<teamscan_msg_RobotPose>::descriptor(), &teamscan_msg_RobotPose_desc);
+  EXPECT_EQ(TopicOf<teamscan_msg_ScanPoints>::descriptor(), &teamscan_msg_ScanPoints_desc);
+}
+
+TEST(DdsParticipant, OwnsItsHandleAndMoves) {
+  Result<Participant> p = Participant::create(test::test_domain_id());
+  ASSERT_TRUE(p.ok()) << p.error().what;
+  const dds_entity_t h = p->handle();
+  EXPECT_GT(h, 0);
+  Participant moved = std::move(p.value());
+  EXPECT_EQ(moved.handle(), h);
+  EXPECT_FALSE(p->valid());
+  moved.reset();
+  EXPECT_FALSE(moved.valid());
+  // The entity is gone: Cyclone refuses it.
+  EXPECT_LT(dds_get_parent(h), 0);
+}
+
+TEST(DdsParticipant, NoTopicWithoutAParticipant) {
+  const Participant none;
+  EXPECT_FALSE(none.topic<teamscan_msg_RobotPose>().ok());
+}
+
+// A writer and a reader of teamscan/pose on one participant; the reader keeps all.
+struct PosePair {
+  Participant participant;
+  dds_entity_t writer = 0;
+  dds_entity_t reader = 0;
+};
+
+PosePair make_pair() {
+  PosePair pp;
+  Result<Participant> p = Participant::create(test::test_domain_id());
+  if (!p.ok()) return pp;
+  pp.participant = std::move(p.value());
+  dds_qos_t* q = make_state_reader_qos();
+  Result<dds_entity_t> r = create_reader<teamscan_msg_RobotPose>(pp.participant, q);
+  dds_delete_qos(q);
+  q = make_scan_writer_qos(100, std::chrono::seconds(2), std::chrono::milliseconds(100));
+  Result<dds_entity_t> w = create_writer<teamscan_msg_RobotPose>(pp.participant, q);
+  dds_delete_qos(q);
+  if (r.ok()) pp.reader = r.value();
+  if (w.ok()) pp.writer = w.value();
+  return pp;
+}
+
+// Takes until `want` samples arrived or 10 s passed.
+std::vector<teamscan_msg_RobotPose> take_until(dds_entity_t reader, TakeBuffer<teamscan_msg_RobotPose>& buf,
+                                               std::size_t want, std::size_t* batches, std::size_t* invalid) {
+  std::vector<teamscan_msg_RobotPose> got;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (got.size() < want && std::chrono::steady_clock::now() < deadline) {
+    (void)take_all(
+        reader, buf, [&] { ++*batches; },
+        [&](const teamscan_msg_RobotPose& s, const dds_sample_info_t& info) {
+          if (info.valid_data) got.push_back(s); else ++*invalid;
+        });
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return got;
+}
+
+TEST(DdsTake, EverySampleOnceInBatchesOfTheBufferSize) {
+  PosePair pp = make_pair();
+  ASSERT_GT(pp.reader, 0);
+  ASSERT_GT(pp.writer, 0);
+  // 10 robots (10 instances), 2 samples each, with a buffer of 3: several dds_takes per take_all.
+  for (std::uint32_t seq = 0; seq < 2; ++seq) {
+    for (std::uint32_t id = 1; id <= 10; ++id) {
+      teamscan_msg_RobotPose s{};
+      s.robot_id = id;
+      s.seq = seq;
+      ASSERT_EQ(dds_write(pp.writer, &s), DDS_RETCODE_OK);
+    }
+  }
+  TakeBuffer<teamscan_msg_RobotPose> buf(3);
+  EXPECT_EQ(buf.capacity(), 3u);
+  std::size_t batches = 0, invalid = 0;
+  const std::vector<teamscan_msg_RobotPose> got = take_until(pp.reader, buf, 20, &batches, &invalid);
+  ASSERT_EQ(got.size(), 20u);
+  EXPECT_GE(batches, 7u);  // at least ceil(20 / 3)
+  EXPECT_EQ(invalid, 0u);
+  std::vector<int> seen(10 * 2, 0);
+  for (const auto& s : got) {
+    ASSERT_GE(s.robot_id, 1u);
+    ASSERT_LE(s.robot_id, 10u);
+    ASSERT_LT(s.seq, 2u);
+    ++seen[(s.robot_id - 1) * 2 + s.seq];
+  }
+  for (int n : seen) EXPECT_EQ(n, 1);
+  // Empty now: no batch, nothing taken.
+  std::size_t after = 0;
+  EXPECT_EQ(take_all(pp.reader, buf, [&] { ++after; }, [](const auto&, const auto&) {}), 0u);
+  EXPECT_EQ(after, 0u);
+}
+
+TEST(DdsTake, ADisposeIsHandedOnAsAnInvalidSample) {
+  PosePair pp = make_pair();
+  ASSERT_GT(pp.reader, 0);
+  teamscan_msg_RobotPose s{};
+  s.robot_id = 7;
+  ASSERT_EQ(dds_write(pp.writer, &s), DDS_RETCODE_OK);
+  TakeBuffer<teamscan_msg_RobotPose> buf(4);
+  std::size_t batches = 0, invalid = 0;
+  ASSERT_EQ(take_until(pp.reader, buf, 1, &batches, &invalid).size(), 1u);
+  ASSERT_EQ(dds_dispose(pp.writer, &s), DDS_RETCODE_OK);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  std::uint32_t state = 0;
+  while (invalid == 0 && std::chrono::steady_clock::now() < deadline) {
+    (void)take_all(pp.reader, buf, [] {}, [&](const teamscan_msg_RobotPose&, const dds_sample_info_t& info) {
+      if (!info.valid_data) {
+        ++invalid;
+        state = info.instance_state;
+      }
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(invalid, 1u);
+  EXPECT_EQ(state, static_cast<std::uint32_t>(DDS_NOT_ALIVE_DISPOSED_INSTANCE_STATE));
+}
+
+}  // namespace
+}  // namespace teamscan::dds
