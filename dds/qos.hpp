@@ -24,7 +24,7 @@ inline constexpr const char* kRobotsPartition = "robot*";
 [[nodiscard]] dds_qos_t* make_state_writer_qos(std::uint32_t robot_id, Duration liveliness_lease, Duration max_blocking);
 [[nodiscard]] dds_qos_t* make_state_reader_qos();
 
-// teamscan/scan: the writer keeps the last `depth` sweeps per robot, transient-local with the same
+// teamscan/scan and teamscan/pose: the writer keeps the last `depth` samples per robot, transient-local with the same
 // durability-service depth: a reader that joins late (a restarted ground station) receives the last
 // `depth` sweeps. Without the durability-service depth Cyclone keeps only 1 sample for late joiners.
 [[nodiscard]] dds_qos_t* make_scan_writer_qos(std::uint32_t robot_id, std::uint32_t depth, Duration liveliness_lease,

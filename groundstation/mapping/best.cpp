@@ -7,23 +7,6 @@
 
 namespace teamscan::mapping {
 
-FilterParams UnionFilter::params() const {
-  FilterParams out;
-  for (const auto& p : parts_)
-    for (const auto& [k, v] : p->params()) out.emplace_back(p->method() + "." + k, v);
-  return out;
-}
-
-void UnionFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
-  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
-  std::fill(removed.begin(), removed.end(), std::uint8_t{0});
-  std::vector<std::uint8_t> part(scan.points.size());
-  for (const auto& p : parts_) {
-    p->classify(scan, part);
-    for (std::size_t i = 0; i < part.size(); ++i) removed[i] = static_cast<std::uint8_t>(removed[i] | part[i]);
-  }
-}
-
 namespace {
 TrackedOptions with_drift(TrackedOptions o, bool drift) {
   o.include_drift = drift;
@@ -47,25 +30,35 @@ FilterParams BestFilter::params() const {
   return out;
 }
 
-void BestFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
-  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
+void BestFilter::point_bits(const ScanView& scan, std::span<std::uint8_t> bits) const {
+  TEAMSCAN_EXPECTS(bits.size() == scan.points.size());
   const std::size_t n = scan.points.size();
-  // Scratch per call (not a firmware path: the ground station's fusion stage, docs/groundstation.md).
-  std::vector<std::uint8_t> part(n), band(n);
-  core_.classify(scan, removed);
-  freespace_.classify(scan, part);
-  outer_.classify(scan, band);
+  // Scratch per call (not a firmware path: the ground station's fusion core, docs/groundstation.md).
+  std::vector<std::uint8_t> core(n), band(n);
+  core_.point_bits(scan, core);
+  outer_.point_bits(scan, band);
+  for (std::size_t i = 0; i < n; ++i) bits[i] = core[i] ? kCore : band[i] ? kBand : 0;
+}
+
+void BestFilter::decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
+                        std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == points.size() && bits.size() == points.size());
   const FreespaceGrid& grid = freespace_.grid();
   const double min_free = static_cast<double>(std::max<std::uint32_t>(1, min_free_));
-  for (std::size_t i = 0; i < n; ++i) {
-    if (removed[i]) continue;
-    if (part[i]) {
+  FreespaceGrid::Lookup lookup;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    removed[i] = 0;
+    if (bits[i] & kCore) {
       removed[i] = 1;
       continue;
     }
-    if (!band[i]) continue;
-    const MapPoint& p = scan.points[i];
-    const FreeCell c = grid.cell(grid.key_of(p.x, p.y, p.z));
+    const MapPoint& p = points[i];
+    if (grid.transient(p, lookup)) {
+      removed[i] = 1;
+      continue;
+    }
+    if (!(bits[i] & kBand)) continue;
+    const FreeCell c = grid.cell(grid.key_of(p.x, p.y, p.z), lookup);
     const double f = static_cast<double>(c.free);
     if (f >= min_free && f >= drift_band_free_per_hit_ * static_cast<double>(c.hits)) removed[i] = 1;
   }

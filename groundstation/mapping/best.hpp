@@ -18,33 +18,17 @@
 
 namespace teamscan::mapping {
 
-// Any-part union of filters (kept for custom combinations).
-class UnionFilter final : public Filter {
- public:
-  UnionFilter(std::string method, std::vector<std::unique_ptr<Filter>> parts)
-      : method_{std::move(method)}, parts_{std::move(parts)} {}
-  [[nodiscard]] std::string method() const override { return method_; }
-  [[nodiscard]] FilterParams params() const override;
-  void observe(const ScanView& scan) override {
-    for (auto& p : parts_) p->observe(scan);
-  }
-  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
-  void reset() override {
-    for (auto& p : parts_) p->reset();
-  }
-
- private:
-  std::string method_;
-  std::vector<std::unique_ptr<Filter>> parts_;
-};
-
 class BestFilter final : public Filter {
  public:
   BestFilter(TrackedOptions tracked, FreespaceOptions freespace, double drift_band_free_per_hit);
   [[nodiscard]] std::string method() const override { return "best"; }
   [[nodiscard]] FilterParams params() const override;
-  void observe(const ScanView& scan) override { freespace_.observe(scan); }
-  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  // Bits: kCore (in the box without the drift band), kBand (only in the band the drift adds).
+  static constexpr std::uint8_t kCore = 1, kBand = 2;
+  void point_bits(const ScanView& scan, std::span<std::uint8_t> bits) const override;
+  void insert(const ScanView& scan, std::span<const std::uint8_t> bits) override { freespace_.insert(scan, bits); }
+  void decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
+              std::span<std::uint8_t> removed) const override;
   void reset() override { freespace_.reset(); }
 
  private:

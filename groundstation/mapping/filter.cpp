@@ -40,24 +40,39 @@ FilterParams FrequencyFilter::params() const {
   return {{"resolution_m", options_.resolution_m}, {"k", options_.k}, {"grid_origin_z_m", options_.grid_origin_z_m}};
 }
 
-void FrequencyFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
-  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
-  const double limit = threshold();  // eq. 4: count < μ − k·σ
-  for (std::size_t i = 0; i < scan.points.size(); ++i)
-    removed[i] = static_cast<double>(map_.count_at(scan.points[i])) < limit ? 1 : 0;
+void Filter::observe(const ScanView& scan) {
+  std::vector<std::uint8_t> bits(scan.points.size());
+  point_bits(scan, bits);
+  insert(scan, bits);
 }
 
-void VisibilityFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+void Filter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
   TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
-  for (std::size_t i = 0; i < scan.points.size(); ++i) {
+  std::vector<std::uint8_t> bits(scan.points.size());
+  point_bits(scan, bits);
+  decide(scan.points, bits, removed);
+}
+
+void FrequencyFilter::decide(std::span<const MapPoint> points, std::span<const std::uint8_t>,
+                             std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == points.size());
+  const double limit = threshold();  // eq. 4: count < μ − k·σ
+  for (std::size_t i = 0; i < points.size(); ++i)
+    removed[i] = static_cast<double>(map_.count_at(points[i])) < limit ? 1 : 0;
+}
+
+void VisibilityFilter::decide(std::span<const MapPoint> points, std::span<const std::uint8_t>,
+                              std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
     // Eq. 5: an occupied voxel strictly below in the same column hides this one from a floor view.
-    const VoxelKey k = map_.key_of(scan.points[i]);
+    const VoxelKey k = map_.key_of(points[i]);
     const auto lowest = map_.column_lowest_z(k.x, k.y);
     removed[i] = (lowest && *lowest < k.z) ? 1 : 0;
   }
 }
 
-void PositionFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+void PositionFilter::point_bits(const ScanView& scan, std::span<std::uint8_t> removed) const {
   TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
   std::fill(removed.begin(), removed.end(), std::uint8_t{0});
   if (!scan.team) return;
@@ -91,7 +106,7 @@ bool DirectionFilter::cone_contains(Vec2 self_m, Vec2 other_m, const MapPoint& p
   return onboard::cone_contains(cone, to_mm(p.x), to_mm(p.y), to_mm(p.z));
 }
 
-void DirectionFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+void DirectionFilter::point_bits(const ScanView& scan, std::span<std::uint8_t> removed) const {
   TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
   std::fill(removed.begin(), removed.end(), std::uint8_t{0});
   if (options_.source == DirectionSource::flags) {
@@ -124,10 +139,13 @@ FilterParams SequentialFilter::params() const {
   return out;
 }
 
-void SequentialFilter::survivors(const ScanView& scan, std::span<const std::uint8_t> removed, Survivors& out) const {
+void SequentialFilter::survivors(const ScanView& scan, std::span<const std::uint8_t> bits, Survivors& out) const {
   out.points.clear();
   out.flags.clear();
   out.kept_index.clear();
+  std::vector<std::uint8_t> first_bits(scan.points.size()), removed(scan.points.size());
+  for (std::size_t i = 0; i < bits.size(); ++i) first_bits[i] = bits[i] & 0x0Fu;
+  first_->decide(scan.points, first_bits, removed);
   for (std::size_t i = 0; i < scan.points.size(); ++i) {
     if (removed[i]) continue;
     out.points.push_back(scan.points[i]);
@@ -136,30 +154,44 @@ void SequentialFilter::survivors(const ScanView& scan, std::span<const std::uint
   }
 }
 
-void SequentialFilter::observe(const ScanView& scan) {
-  first_->observe(scan);
-  std::vector<std::uint8_t> removed(scan.points.size());
-  first_->classify(scan, removed);
+void SequentialFilter::point_bits(const ScanView& scan, std::span<std::uint8_t> bits) const {
+  TEAMSCAN_EXPECTS(bits.size() == scan.points.size());
+  first_->point_bits(scan, bits);
   Survivors kept;
-  survivors(scan, removed, kept);
+  survivors(scan, bits, kept);
   ScanView reduced = scan;
   reduced.points = kept.points;
   reduced.flags = kept.flags;
-  second_->observe(reduced);
+  std::vector<std::uint8_t> second_bits(kept.points.size());
+  second_->point_bits(reduced, second_bits);
+  for (std::size_t j = 0; j < kept.kept_index.size(); ++j)
+    bits[kept.kept_index[j]] = static_cast<std::uint8_t>((bits[kept.kept_index[j]] & 0x0Fu) | ((second_bits[j] & 0x0Fu) << 4));
 }
 
-void SequentialFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
-  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
-  first_->classify(scan, removed);
+void SequentialFilter::insert(const ScanView& scan, std::span<const std::uint8_t> bits) {
+  first_->insert(scan, bits);
   Survivors kept;
-  survivors(scan, removed, kept);
+  survivors(scan, bits, kept);
   ScanView reduced = scan;
   reduced.points = kept.points;
   reduced.flags = kept.flags;
-  std::vector<std::uint8_t> second_removed(kept.points.size());
-  second_->classify(reduced, second_removed);
-  for (std::size_t j = 0; j < kept.kept_index.size(); ++j)
-    if (second_removed[j]) removed[kept.kept_index[j]] = 1;
+  std::vector<std::uint8_t> second_bits(kept.points.size());
+  for (std::size_t j = 0; j < kept.kept_index.size(); ++j) second_bits[j] = static_cast<std::uint8_t>(bits[kept.kept_index[j]] >> 4);
+  second_->insert(reduced, second_bits);
+}
+
+void SequentialFilter::decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
+                              std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == points.size() && bits.size() == points.size());
+  std::vector<std::uint8_t> low(points.size()), high(points.size()), second_removed(points.size());
+  for (std::size_t i = 0; i < bits.size(); ++i) {
+    low[i] = bits[i] & 0x0Fu;
+    high[i] = static_cast<std::uint8_t>(bits[i] >> 4);
+  }
+  first_->decide(points, low, removed);
+  // The second filter's decision only matters for the first's survivors (it saw only those).
+  second_->decide(points, high, second_removed);
+  for (std::size_t i = 0; i < points.size(); ++i) removed[i] = static_cast<std::uint8_t>(removed[i] | second_removed[i]);
 }
 
 const std::vector<std::string>& known_methods() {

@@ -1,9 +1,10 @@
-// The ghost-point filters behind one interface (DESIGN.md "The filters", PAPER_NOTES eqs. 4–8).
-// The same objects run live (observe + classify each scan as it arrives) and offline (observe every
-// scan of a data set, then classify every scan), so live and offline decisions are the same code.
-// Later methods (issue 7: `freespace`, `tracked`, `best`) are further Filter implementations.
+// The ghost-point filters behind one interface (DESIGN.md "The filters", PAPER_NOTES eqs. 4–8). The
+// fusion core (groundstation/fusion/) runs them live and offline alike: a point part decided when a scan
+// is fused, a map part read from the map when a decision is asked for. Later methods (`freespace`,
+// `tracked`, `best`) are further Filter implementations.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -40,14 +41,30 @@ class Filter {
   // The method name as used on the command line, e.g. "visibility".
   [[nodiscard]] virtual std::string method() const = 0;
   [[nodiscard]] virtual FilterParams params() const = 0;
-  // Folds the scan into the filter's state (the voxel map for map-based filters; nothing for the
-  // robot-based ones, which decide from the scan and the team state alone).
-  virtual void observe(const ScanView& scan) = 0;
-  // Decides for every point of the scan against the state so far: removed[i] = 1 filters point i.
-  // Live: call after observe() of the same scan. Offline: after observe() of every scan.
-  virtual void classify(const ScanView& scan, std::span<std::uint8_t> removed) const = 0;
+
+  // A filter's decision for a point has two parts (docs/groundstation.md "The fusion core"):
+  //  - the point part, decided once when the scan is fused, from the scan and the team's state at the
+  //    scan's time (the robot-based filters): a few bits per point, their meaning the filter's own;
+  //  - the map part, read from the map's state whenever asked (the map-based filters): a function of
+  //    the point's voxel and the map, so it is revised as the map grows.
+  // The map state is a sum over the scans (counts), so it does not depend on the order scans come in:
+  // live (scans in arrival order) and offline (in time order) reach the same map and the same decisions.
+  //
+  // The point part of every point of `scan` into `bits` (0 where nothing robot-based applies).
+  virtual void point_bits(const ScanView& scan, std::span<std::uint8_t> bits) const = 0;
+  // Folds the scan into the map state (nothing for the robot-based filters); `bits` from point_bits().
+  virtual void insert(const ScanView& scan, std::span<const std::uint8_t> bits) = 0;
+  // The decision for each point from its bits and the map as it is now: removed[i] = 1 filters point i.
+  virtual void decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
+                      std::span<std::uint8_t> removed) const = 0;
   // Forgets all state (a new survey).
   virtual void reset() = 0;
+
+  // Convenience for one scan at a time (tests, benchmarks): observe() = point_bits() + insert();
+  // classify() = point_bits() + decide() against the map so far. Live: classify after observe of the
+  // same scan. Offline: after observe() of every scan.
+  void observe(const ScanView& scan);
+  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const;
 };
 
 // ---- options, defaults from PAPER_NOTES.md -------------------------------------------------------
@@ -106,8 +123,10 @@ class FrequencyFilter final : public Filter {
       : options_{options}, map_{options.resolution_m, options.grid_origin_z_m} {}
   [[nodiscard]] std::string method() const override { return "frequency"; }
   [[nodiscard]] FilterParams params() const override;
-  void observe(const ScanView& scan) override { map_.insert(scan.points); }
-  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void point_bits(const ScanView&, std::span<std::uint8_t> bits) const override { std::fill(bits.begin(), bits.end(), 0); }
+  void insert(const ScanView& scan, std::span<const std::uint8_t>) override { map_.insert(scan.points); }
+  void decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
+              std::span<std::uint8_t> removed) const override;
   void reset() override { map_.clear(); }
   [[nodiscard]] const VoxelMap& map() const { return map_; }
   [[nodiscard]] double threshold() const { return map_.mean_count() - options_.k * map_.stddev_count(); }
@@ -125,8 +144,10 @@ class VisibilityFilter final : public Filter {
   [[nodiscard]] FilterParams params() const override {
     return {{"resolution_m", options_.resolution_m}, {"grid_origin_z_m", options_.grid_origin_z_m}};
   }
-  void observe(const ScanView& scan) override { map_.insert(scan.points); }
-  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void point_bits(const ScanView&, std::span<std::uint8_t> bits) const override { std::fill(bits.begin(), bits.end(), 0); }
+  void insert(const ScanView& scan, std::span<const std::uint8_t>) override { map_.insert(scan.points); }
+  void decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
+              std::span<std::uint8_t> removed) const override;
   void reset() override { map_.clear(); }
   [[nodiscard]] const VoxelMap& map() const { return map_; }
 
@@ -140,8 +161,11 @@ class PositionFilter final : public Filter {
   explicit PositionFilter(PositionOptions options) : options_{options} {}
   [[nodiscard]] std::string method() const override { return "position"; }
   [[nodiscard]] FilterParams params() const override { return {{"sigma_m", options_.sigma_m}, {"n", options_.n}}; }
-  void observe(const ScanView&) override {}
-  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void point_bits(const ScanView& scan, std::span<std::uint8_t> bits) const override;
+  void insert(const ScanView&, std::span<const std::uint8_t>) override {}
+  void decide(std::span<const MapPoint>, std::span<const std::uint8_t> bits, std::span<std::uint8_t> removed) const override {
+    std::copy(bits.begin(), bits.end(), removed.begin());
+  }
   void reset() override {}
 
  private:
@@ -153,8 +177,11 @@ class DirectionFilter final : public Filter {
   explicit DirectionFilter(DirectionOptions options) : options_{options} {}
   [[nodiscard]] std::string method() const override { return "direction"; }
   [[nodiscard]] FilterParams params() const override;
-  void observe(const ScanView&) override {}
-  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void point_bits(const ScanView& scan, std::span<std::uint8_t> bits) const override;
+  void insert(const ScanView&, std::span<const std::uint8_t>) override {}
+  void decide(std::span<const MapPoint>, std::span<const std::uint8_t> bits, std::span<std::uint8_t> removed) const override {
+    std::copy(bits.begin(), bits.end(), removed.begin());
+  }
   void reset() override {}
   // The decision for one point against one teammate, as the robot computes it (int32 mm, fixed point).
   [[nodiscard]] bool cone_contains(Vec2 self_m, Vec2 other_m, const MapPoint& p) const;
@@ -166,14 +193,18 @@ class DirectionFilter final : public Filter {
 // Runs `first`, then `second` on the points `first` kept: `second` builds its state only from the
 // survivors, as at the ground station when the robots already dropped what their filter removed.
 // The paper's combined method is Sequential(direction ha 7°, visibility 0.1 m) (PAPER_NOTES 8).
+// `first` must be robot-based (its decision a function of the point's bits alone), so the survivors are
+// known when the scan is inserted; a point's bits are first's in the low 4 bits, second's in the high 4.
 class SequentialFilter final : public Filter {
  public:
   SequentialFilter(std::string method, std::unique_ptr<Filter> first, std::unique_ptr<Filter> second)
       : method_{std::move(method)}, first_{std::move(first)}, second_{std::move(second)} {}
   [[nodiscard]] std::string method() const override { return method_; }
   [[nodiscard]] FilterParams params() const override;
-  void observe(const ScanView& scan) override;
-  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void point_bits(const ScanView& scan, std::span<std::uint8_t> bits) const override;
+  void insert(const ScanView& scan, std::span<const std::uint8_t> bits) override;
+  void decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
+              std::span<std::uint8_t> removed) const override;
   void reset() override {
     first_->reset();
     second_->reset();
@@ -186,7 +217,7 @@ class SequentialFilter final : public Filter {
     std::vector<std::uint16_t> flags;
     std::vector<std::size_t> kept_index;
   };
-  void survivors(const ScanView& scan, std::span<const std::uint8_t> removed, Survivors& out) const;
+  void survivors(const ScanView& scan, std::span<const std::uint8_t> bits, Survivors& out) const;
 
   std::string method_;
   std::unique_ptr<Filter> first_;

@@ -208,10 +208,11 @@ FilterParams FreespaceFilter::params() const {
           {"guard_neighbours", static_cast<double>(options_.guard_neighbours)}};
 }
 
-void FreespaceFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
-  TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
+void FreespaceFilter::decide(std::span<const MapPoint> points, std::span<const std::uint8_t>,
+                             std::span<std::uint8_t> removed) const {
+  TEAMSCAN_EXPECTS(removed.size() == points.size());
   FreespaceGrid::Lookup lookup;
-  for (std::size_t i = 0; i < scan.points.size(); ++i) removed[i] = grid_.transient(scan.points[i], lookup) ? 1 : 0;
+  for (std::size_t i = 0; i < points.size(); ++i) removed[i] = grid_.transient(points[i], lookup) ? 1 : 0;
 }
 
 }  // namespace teamscan::mapping

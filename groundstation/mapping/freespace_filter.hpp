@@ -1,9 +1,10 @@
 // `freespace` (issue 7, docs/beyond.md): free-space ray casting through a sparse voxel grid with the
 // Amanatides–Woo traversal. Each voxel counts the points that hit it and the rays that passed through
 // it; a point is transient when its voxel was seen empty (DUFOMap's void evidence, ANCHORS.md §2) often
-// enough. observe() is the same code live and offline; classify() only reads.
+// enough. insert() is the same code live and offline; decide() only reads.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <span>
@@ -87,8 +88,10 @@ class FreespaceFilter final : public Filter {
   explicit FreespaceFilter(FreespaceOptions options) : options_{options}, grid_{options} {}
   [[nodiscard]] std::string method() const override { return "freespace"; }
   [[nodiscard]] FilterParams params() const override;
-  void observe(const ScanView& scan) override { grid_.insert_scan(scan.origin_m, scan.points); }
-  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void point_bits(const ScanView&, std::span<std::uint8_t> bits) const override { std::fill(bits.begin(), bits.end(), 0); }
+  void insert(const ScanView& scan, std::span<const std::uint8_t>) override { grid_.insert_scan(scan.origin_m, scan.points); }
+  void decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
+              std::span<std::uint8_t> removed) const override;
   void reset() override { grid_.clear(); }
   [[nodiscard]] const FreespaceGrid& grid() const { return grid_; }
 

@@ -94,7 +94,7 @@ FilterParams TrackedFilter::params() const {
           {"include_drift", options_.include_drift ? 1.0 : 0.0}};
 }
 
-void TrackedFilter::classify(const ScanView& scan, std::span<std::uint8_t> removed) const {
+void TrackedFilter::point_bits(const ScanView& scan, std::span<std::uint8_t> removed) const {
   TEAMSCAN_EXPECTS(removed.size() == scan.points.size());
   std::fill(removed.begin(), removed.end(), std::uint8_t{0});
   if (!scan.team) return;

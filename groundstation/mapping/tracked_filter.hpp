@@ -4,6 +4,8 @@
 // Kalman position covariance at the scan's time along each box axis and by the heading uncertainty.
 #pragma once
 
+#include <algorithm>
+
 #include "groundstation/mapping/beyond_options.hpp"
 #include "groundstation/mapping/filter.hpp"
 
@@ -43,8 +45,11 @@ class TrackedFilter final : public Filter {
   explicit TrackedFilter(TrackedOptions options) : options_{options} {}
   [[nodiscard]] std::string method() const override { return "tracked"; }
   [[nodiscard]] FilterParams params() const override;
-  void observe(const ScanView&) override {}
-  void classify(const ScanView& scan, std::span<std::uint8_t> removed) const override;
+  void point_bits(const ScanView& scan, std::span<std::uint8_t> bits) const override;
+  void insert(const ScanView&, std::span<const std::uint8_t>) override {}
+  void decide(std::span<const MapPoint>, std::span<const std::uint8_t> bits, std::span<std::uint8_t> removed) const override {
+    std::copy(bits.begin(), bits.end(), removed.begin());
+  }
   void reset() override {}
 
  private:

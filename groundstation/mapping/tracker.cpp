@@ -90,8 +90,11 @@ RobotEstimate RobotTrack::predict(std::int64_t stamp_ns) const {
   State x = x_;
   Covariance p = p_;
   const double dt_s = static_cast<double>(stamp_ns - stamp_ns_) * 1e-9;
-  propagate(dt_s, x, p);
-  e.valid = std::abs(dt_s) <= options_.lost_after_s;
+  // Forwards: at most coast_s (a silent robot stops, TrackerOptions::coast_s); backwards as asked.
+  propagate(std::min(dt_s, options_.coast_s), x, p);
+  e.lost = std::abs(dt_s) > options_.lost_after_s;
+  e.valid = dt_s >= -options_.lost_after_s;
+  if (dt_s > options_.coast_s) x.tail<2>().setZero();  // stopped
   e.position_m = {x(0), x(1)};
   e.velocity_mps = {x(2), x(3)};
   e.drift_cov_m2 = Eigen::Matrix2d::Identity() * (drift_position_sigma_m_ * drift_position_sigma_m_);

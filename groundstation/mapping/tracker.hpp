@@ -29,8 +29,14 @@ struct TrackerOptions {
   bool use_velocity = true;
   // Initial velocity uncertainty when the first pose of a robot arrives (m/s).
   double initial_velocity_sigma_mps = 1.0;
-  // A track older than this (no measurement) is reported invalid (DDS liveliness does the same live).
+  // A track older than this (no measurement) is reported lost on teamscan/team (DDS liveliness does the
+  // same live); the filters keep using it (`coast_s`).
   double lost_after_s = 1.0;
+  // A robot that goes silent (daemon killed, link down) is still there: its Pioneer drives on for at
+  // most the firmware's watchdog time (2 s, PROTOCOLS.md §1.6) and then stops. The prediction runs the
+  // constant-velocity model at most this far past the last pose and then holds the robot there with the
+  // uncertainty it has reached; it stays valid for the filters, so teammates' hits on it are removed.
+  double coast_s = 2.0;
   // Odometry drift (issue 7, docs/beyond.md "Drift"). The Kalman filter smooths the poses a robot
   // reports, but those poses are dead reckoning from the robot's registration: their error against the
   // map grows with what the robot did since, and nothing in the pose stream shows it. Dead-reckoning
@@ -52,7 +58,8 @@ struct TrackerOptions {
 // One robot's estimate at a time: what the filters consume (DESIGN.md teamscan/team).
 struct RobotEstimate {
   std::uint8_t robot = 0;
-  bool valid = false;
+  bool valid = false;                 // tracked (a pose at or before stamp_ns): the filters use it
+  bool lost = false;                  // no pose for more than lost_after_s (teamscan/team's flag)
   std::int64_t stamp_ns = 0;          // time the estimate is for
   std::int64_t last_update_ns = 0;    // time of the last measurement folded in
   Vec2 position_m;

@@ -46,6 +46,11 @@ struct FusionConfig {
   bool latency_log = false;            // also fused_latency.csv: one line per fused scan (docs/demo.md)
   Duration map_interval = std::chrono::seconds(1);     // teamscan/map; 0 = off
   double map_resolution_m = 0.1;
+  // The fusion core (groundstation/fusion/core.hpp): how long a scan waits for every robot's poses to
+  // pass its stamp, and the model store (points kept per voxel of model_resolution_m).
+  double hold_s = 1.0;
+  double model_resolution_m = 0.05;
+  std::uint32_t max_points_per_voxel = 64;
 };
 
 // [ros2]: the fused map and the tracked robots on ROS 2 wire names (ros2_publisher.hpp, docs/ros2.md).

@@ -1,23 +1,19 @@
-// The ground station's live fusion stage (issue 5): every received pose feeds a Kalman tracker, every
-// received scan goes into the configured filter (observe + classify, live) and an incremental voxel map
-// for teamscan/map; the fused model is written as PCD by the offline path of `teamscan eval` over
-// everything received so far (docs/groundstation.md "Live vs offline").
-// It runs from Station hooks, after the sample is stored: a failure here never loses a received sample.
+// The ground station's fusion stage: the received samples converted into the fusion core's inputs
+// (groundstation/fusion/core.hpp, the same core `teamscan eval` runs), the teamscan/map voxel maps fed
+// from the core's released scans, the latency histograms, and the fused model written from the core's
+// memory. It runs from Station hooks, after the sample is stored: a failure here never loses a
+// received sample. After a restart it first replays its session folder through the core
+// (session_replay.hpp), so it decides as it did before.
 #pragma once
 
-#include <array>
 #include <cstdint>
 #include <cstdio>
-#include <functional>
 #include <memory>
-#include <span>
 #include <string>
 #include <vector>
 
-#include "common/dataset/dataset.hpp"
 #include "common/result.hpp"
-#include "groundstation/mapping/filter.hpp"
-#include "groundstation/mapping/tracker.hpp"
+#include "groundstation/fusion/core.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
 #include "groundstation/station/latency_histogram.hpp"
 #include "groundstation/station/scan_record.hpp"
@@ -28,97 +24,39 @@ struct teamscan_msg_MapVoxel;
 namespace teamscan::station {
 
 struct FusionOptions {
-  // One of mapping::known_methods(); default the paper's combined method (direction 7°, then
-  // visibility 0.1 m, PAPER_NOTES 8 / Table 6).
-  std::string method = "combined";
-  mapping::MethodOptions methods;
-  mapping::TrackerOptions tracker;
+  // The core: method (mapping::known_methods() / extended_methods()), its options, the tracker, the
+  // hold time and the model store's cap (fusion/core.hpp CoreOptions).
+  fusion::CoreOptions core;
   // Voxel edge of the teamscan/map updates (metres).
   double map_resolution_m = 0.1;
   // File names inside the session folder. `all_points_pcd` empty: not written.
   std::string kept_pcd = "fused.pcd";
   std::string all_points_pcd;
-  // Sub-folder of the session written on shutdown with everything received as a data set; empty: none.
-  std::string received_dataset = "received";
-  // Per-scan latency histograms (scan stamp -> taken from DDS, scan stamp -> in the fused map), written
-  // by write_latency(); empty: not written.
+  // Per-scan latency histograms (scan stamp -> taken from DDS, scan stamp -> decided and in the fused
+  // map), written by write_latency(); empty: not written.
   std::string latency_csv = "latency.csv";
   // Per fused scan a line `robot,seq,stamp_ns,received_ns,fused_ns` (CLOCK_REALTIME), through one stdio
   // buffer (no allocation per scan); empty: none. For measuring a time window (the demo's run).
   std::string latency_log_csv;
-  // A scan seq up to this far below a robot's newest is a replay of its DDS history (fused already, or
-  // late); further below, a restarted robot. As the station's dds.scan_history_depth (at most 1023).
-  std::uint32_t replay_window = 300;
-  // Points reserved up front for everything received (kept in memory for the model writes). Growing a
-  // vector of millions of points by doubling copied up to ~200 MB inside the receive loop and held scans
-  // back for hundreds of ms at 32 robots (docs/demo.md "Scale"); a reservation costs address space only,
-  // pages are touched as points arrive. 16 M points ≈ 37 s of 32 robots at 75 Hz; beyond it, doubling.
-  std::size_t reserve_points = 16u << 20;
-  // true: every received point stays in memory (received(), write_model(), write_received_dataset();
-  // the unit tests). false (the daemon): the loop keeps only the live map, the tracker and the newest
-  // kLivePosesPerRobot poses per robot; the model and the data set are built from the session files by
-  // ModelWriter (model_writer.hpp), so the loop's memory does not grow with the session.
-  bool keep_received = true;
 };
 
-// What the loop keeps of a robot's poses when keep_received is false: the live own pose of a scan is
-// its newest pose at or before the scan's stamp, and scans arrive within ~1 s of their poses (10 Hz).
-inline constexpr std::size_t kLivePosesPerRobot = 256;
-
-// Everything received as a data set, built one sample at a time in arrival order: the same code feeds
-// the live stage (FusionStage) and the model writer reading the session files back (model_writer.hpp),
-// so the model written from disk equals the one built from memory by construction.
-class ReceivedBuilder {
- public:
-  ReceivedBuilder(bool keep, std::uint32_t replay_window, std::size_t reserve_points);
-  void add_pose(const PoseObservation& pose);
-  // Converts the scan (record + model points in `points`/`flags`). false: a replay of a (robot, seq)
-  // seen recently (kSeqWindow), not to be fused again. Appends to dataset() when keeping.
-  bool add_scan(const StoredScan& scan, ScanRecord& rec, std::vector<mapping::MapPoint>& points,
-                std::vector<std::uint16_t>& flags);
-  // Recomputes every scan's own pose from all poses received (a pose may arrive after its scan).
-  void refresh_scan_poses();
-  // The robot's own pose at `stamp_ns`: its newest pose stamped at or before, moved on with its velocity.
-  [[nodiscard]] Pose2 own_pose(std::uint32_t robot, std::int64_t stamp_ns, double origin_x_m, double origin_y_m) const;
-  [[nodiscard]] Dataset& dataset() { return received_; }
-  [[nodiscard]] const Dataset& dataset() const { return received_; }
-  [[nodiscard]] std::size_t poses_held() const;
-
- private:
-  bool seen_before(std::uint32_t robot, std::uint32_t seq);
-  bool keep_;
-  std::uint32_t replay_window_;
-  Dataset received_;
-  std::vector<std::vector<PoseObservation>> poses_by_robot_;  // index robot id, stamp order as received
-  // Per robot: the newest seq fused and a bitmap of the kSeqWindow seqs up to it (bit k = newest − k).
-  static constexpr std::uint32_t kSeqWindow = 1024;  // > the robots' scan history (300, dds.scan_history_depth)
-  struct SeqWindow {
-    bool any = false;
-    std::uint32_t newest = 0;
-    std::array<std::uint64_t, kSeqWindow / 64> seen{};
-  };
-  std::vector<SeqWindow> seq_windows_;
+// A received pose / scan as the core's input (one conversion, used live and by the session replay).
+[[nodiscard]] fusion::PoseInput pose_input(const PoseObservation& pose);
+// Fills `points`/`flags`/`beams` with the scan's placed points (beams without a 3-D point are stored in
+// scans.bin but are not part of the model) and returns the input viewing them.
+struct ScanBuffers {
+  std::vector<mapping::MapPoint> points;
+  std::vector<std::uint16_t> flags, beams;
 };
-
-// The offline pass (prepare_dataset + run_offline, the code of `teamscan eval`) over `received`, written
-// as binary PCD(s) into `dir` (NAME.tmp then rename(2)). `live_removed`: the live decision per point
-// (fused_all.pcd's live_keep; empty: all kept). `removed` receives the offline decisions.
-struct ModelFigures {
-  std::uint64_t kept = 0;
-  std::uint64_t removed = 0;
-};
-[[nodiscard]] Status write_fused_model(Dataset& received, const FusionOptions& options, const std::string& dir,
-                                       std::span<const std::uint8_t> live_removed, std::vector<std::uint8_t>& removed,
-                                       ModelFigures& figures, const std::function<bool()>& cancelled = {});
-// Writes `received` (with its robots listed and the odometry as truth) as a data set folder.
-[[nodiscard]] Status write_received_as_dataset(Dataset& received, const std::string& dir);
+[[nodiscard]] fusion::ScanInput scan_input(const StoredScan& scan, ScanBuffers& buffers);
 
 struct FusionCounters {
-  std::uint64_t scans = 0;
+  std::uint64_t scans = 0;            // scans fused (released by the core)
   std::uint64_t poses = 0;
   std::uint64_t points = 0;
-  std::uint64_t live_removed = 0;     // points the live classification removed at arrival
+  std::uint64_t live_removed = 0;     // points removed at release (the map so far)
   std::uint64_t duplicates = 0;       // scans received again (DDS history replay): stored, not fused twice
+  std::uint64_t replayed_scans = 0;   // scans of the session folder replayed at start-up
   std::uint64_t writes = 0;           // fused PCDs written
   std::uint64_t write_failures = 0;
   std::uint64_t last_write_kept = 0;  // points in the last fused PCD
@@ -132,81 +70,70 @@ struct KalmanConfig;
 
 class FusionStage {
  public:
-  // Fails if `options.method` is not a known method.
+  // Fails if the core's options are bad (unknown method, ...).
   [[nodiscard]] static Result<std::unique_ptr<FusionStage>> create(const FusionOptions& options,
                                                                    std::string session_dir);
 
-  // Hooks (Station::add_pose_hook / add_scan_hook). A scan whose (robot, seq) was fused recently (within
-  // kSeqWindow) is a replay of the robots' DDS history: counted in `duplicates`, not fused again.
+  // Hooks (Station::add_pose_hook / add_scan_hook). A scan whose (robot, seq) was fused recently is a
+  // replay of the robots' DDS history: counted in `duplicates`, not fused again.
   void add_pose(const PoseObservation& pose);
   void add_scan(const StoredScan& scan);
+  // Rebuilds the core from the session folder's scans.bin and poses.csv (a restart): every sample in
+  // arrival order through the same code, before the loop takes new ones. Returns the samples replayed.
+  [[nodiscard]] Result<std::uint64_t> replay_session(const std::string& dir);
+  // Releases every scan the core holds (shutdown).
+  void flush() { core_->flush(); }
+  // The loop's clock (CLOCK_REALTIME, the receive times' clock): held scans that waited long enough go.
+  void tick(std::int64_t realtime_ns) {
+    if (!resume_) core_->advance_to(realtime_ns);
+  }
 
-  // Runs the offline path (prepare_dataset + run_offline, the code of `teamscan eval`) over every
-  // received scan and writes the kept points (and optionally all points with a `keep` field) as
-  // binary PCD: written to NAME.tmp, then rename(2), so a reader never sees a half file.
-  // Needs keep_received (else an Error: the daemon writes through ModelWriter from the session files).
+  // Writes the fused model from the core's memory into the session folder (fused.pcd, and fused_all.pcd
+  // when configured): NAME.tmp then rename(2), so a reader never sees a half file.
   [[nodiscard]] Status write_model();
-  // Writes everything received as a data set folder (common/dataset: points.pcd, scans.csv, odom.csv,
-  // ...; no labels), so `teamscan eval DIR --method M` reproduces the fused model's decisions offline.
-  [[nodiscard]] Status write_received_dataset(const std::string& dir);
   // Writes the latency histograms (options().latency_csv) into the session folder, atomically.
   [[nodiscard]] Status write_latency() const;
-  // Scan stamp (end of sweep, CLOCK_REALTIME) -> the scan classified and inserted into the live map, and
+  // Scan stamp (end of sweep, CLOCK_REALTIME) -> the scan decided by the core and in the live map, and
   // scan stamp -> taken from DDS (the station stores it right then, before fusion), one sample per scan.
   [[nodiscard]] const LatencyHistogram& fused_latency() const { return fused_latency_; }
   [[nodiscard]] const LatencyHistogram& stored_latency() const { return stored_latency_; }
-  // The live classification at arrival, per point in received().points order (1 = removed). Kept when
-  // keep_received is true or fused_all.pcd is written (its live_keep column); else empty.
-  [[nodiscard]] const std::vector<std::uint8_t>& live_removed() const { return live_removed_points_; }
-  // Removed flags of the last write_model(), in received().points order.
-  [[nodiscard]] const std::vector<std::uint8_t>& last_removed() const { return last_removed_; }
 
   // The occupied voxels of the live map as teamscan/map voxels (flags 1: every point in the voxel
-  // was removed by the live classification). Returns the number written to `out`.
+  // was removed at release).
   void map_voxels(std::vector<teamscan_msg_MapVoxel>& out) const;
   // Only the voxels that changed (new points) since the last call or clear_map_changes(), with their
-  // whole counts and flags (a viewer replaces its voxel), then forgets them: teamscan/map's work per
-  // publication is the change, not the map (issue 6). total: map_total_voxels().
+  // whole counts and flags (a viewer replaces its voxel), then forgets them.
   void map_voxels_changed(std::vector<teamscan_msg_MapVoxel>& out);
   void clear_map_changes() { map_touched_.clear(); }
-  [[nodiscard]] std::uint32_t map_total_voxels() const {
-    return static_cast<std::uint32_t>(map_all_.occupied_voxels());
-  }
+  [[nodiscard]] std::uint32_t map_total_voxels() const { return static_cast<std::uint32_t>(map_all_.occupied_voxels()); }
   [[nodiscard]] std::uint32_t map_resolution_mm() const;
 
-  // Everything received, as a data set (points in mm-exact metres, scan = seq, pose at the stamp).
-  [[nodiscard]] const Dataset& received() const { return received_.dataset(); }
-  // Poses the stage holds (bounded by kLivePosesPerRobot per robot when keep_received is false).
-  [[nodiscard]] std::size_t poses_held() const { return received_.poses_held(); }
+  [[nodiscard]] const fusion::FusionCore& core() const { return *core_; }
+  [[nodiscard]] fusion::FusionCore& core() { return *core_; }
   [[nodiscard]] const FusionCounters& counters() const { return counters_; }
   [[nodiscard]] const FusionOptions& options() const { return options_; }
 
+  ~FusionStage();
+  FusionStage(const FusionStage&) = delete;
+  FusionStage& operator=(const FusionStage&) = delete;
+
  private:
-  FusionStage(const FusionOptions& options, std::string session_dir, std::unique_ptr<mapping::Filter> live);
+  FusionStage(const FusionOptions& options, std::string session_dir, std::unique_ptr<fusion::FusionCore> core);
+  void on_release(const fusion::FusedScan& scan);
 
   FusionOptions options_;
   std::string session_dir_;
-  std::unique_ptr<mapping::Filter> live_;
-  mapping::TeamTracker tracker_;
+  std::unique_ptr<fusion::FusionCore> core_;
   mapping::VoxelMap map_all_;
   mapping::VoxelMap map_kept_;
   mapping::VoxelMap map_touched_;  // voxels with new points since the last teamscan/map publication
-  ReceivedBuilder received_;
-  std::vector<mapping::MapPoint> scratch_points_;
-  std::vector<std::uint16_t> scratch_flags_;
-  std::vector<std::uint8_t> scratch_removed_;
-  std::vector<std::uint8_t> last_removed_;
-  std::vector<std::uint8_t> live_removed_points_;  // grows with received_.points (amortised, as they do)
+  ScanBuffers scratch_;
   LatencyHistogram fused_latency_;
   LatencyHistogram stored_latency_;
   FusionCounters counters_;
   std::FILE* latency_log_ = nullptr;
-  bool keep_live_ = false;  // live_removed_points_ kept (keep_received or fused_all.pcd)
-
- public:
-  ~FusionStage();
-  FusionStage(const FusionStage&) = delete;
-  FusionStage& operator=(const FusionStage&) = delete;
+  bool replaying_ = false;  // replay_session(): no latency samples (they are not this run's)
+  bool resume_ = false;     // the first live sample after a replay resumes the core's arrival clock
 };
 
 }  // namespace teamscan::station

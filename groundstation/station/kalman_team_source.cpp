@@ -46,7 +46,7 @@ std::size_t KalmanTeamSource::estimate(Time at, std::span<TeamMemberEstimate> ou
     e.body = body_[r.robot];
     e.valid = Time::from_ns(r.stamp_ns);
     // Lost by liveliness (the station) or by the tracker's own age limit (no pose for lost_after_s).
-    e.lost = lost_[r.robot] || !r.valid;
+    e.lost = lost_[r.robot] || r.lost;
   }
   return n;
 }

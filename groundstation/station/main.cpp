@@ -24,7 +24,6 @@
 #include "dds/notify.hpp"
 #include "groundstation/station/fusion.hpp"
 #include "groundstation/station/kalman_team_source.hpp"
-#include "groundstation/station/model_writer.hpp"
 #include "groundstation/station/team_source.hpp"
 #include "groundstation/station/view_feeder.hpp"
 #include "groundstation/view/server.hpp"
@@ -152,50 +151,53 @@ int main(int argc, char** argv) {
   // The live fusion stage runs from the hooks, after each sample is stored (storage first: a failing
   // fusion stage never costs a received sample; the station counts the failure and goes on).
   std::unique_ptr<FusionStage> fusion;
-  std::unique_ptr<ModelWriter> writer;
   std::vector<teamscan_msg_MapVoxel> map_voxels;
   if (cfg.fusion.enabled) {
-    FusionOptions fusion_options = fusion_options_from_config(cfg.fusion, cfg.kalman);
-    fusion_options.replay_window = cfg.station.scan_history_depth;  // the robots' history: replays are not fused twice
-    // The loop keeps only the live map and the tracker: the model writes read the session files back
-    // (ModelWriter), so the loop's memory does not grow with the session (issue 6).
-    fusion_options.keep_received = false;
-    auto created = FusionStage::create(fusion_options, store->dir());
+    auto created = FusionStage::create(fusion_options_from_config(cfg.fusion, cfg.kalman), store->dir());
     if (!created) {
       log(kErr, created.error().what);
       return 1;
     }
     fusion = std::move(created.value());
-    writer = std::make_unique<ModelWriter>(fusion_options, store->dir());
+    // A restart on the same session folder: the core is rebuilt from everything stored so far (the same
+    // code, arrival order), so it decides as before; the robots' DDS history then fills the outage.
+    store->sync();
+    auto replayed = fusion->replay_session(store->dir());
+    if (!replayed) {
+      log(kErr, std::string("fusion: cannot replay the session folder: ") + replayed.error().what);
+      store->log_event(now_realtime(), std::string("fusion: session replay failed: ") + replayed.error().what);
+    } else if (replayed.value() > 0) {
+      char text[160];
+      std::snprintf(text, sizeof text, "fusion: rebuilt from the session folder: %llu samples, %llu scans fused",
+                    static_cast<unsigned long long>(replayed.value()),
+                    static_cast<unsigned long long>(fusion->counters().replayed_scans));
+      log(kInfo, text);
+      store->log_event(now_realtime(), text);
+    }
     st.add_pose_hook([&](const PoseObservation& p) { fusion->add_pose(p); });
     st.add_scan_hook([&](const StoredScan& s) { fusion->add_scan(s); });
     log(kInfo, "fusion: method " + cfg.fusion.method + ", model " + store->dir() + "/fused.pcd");
   }
-  // A consistent prefix of the session for the model writer: everything fsync'd right now.
-  auto snapshot = [&](const char* why) {
-    store->sync();
-    SessionSnapshot snap;
-    snap.scans_bytes = store->scans_file_bytes();
-    snap.poses_bytes = store->poses_file_bytes();
-    snap.live_removed = fusion->live_removed();  // fused_all.pcd's live_keep; empty unless written
-    snap.why = why;
-    return snap;
-  };
-  // A finished write, logged from the loop (the session files are the loop's alone).
-  auto log_write = [&](const ModelWriteReport& r) {
-    if (r.cancelled) {
-      store->log_event(now_realtime(), "fused model write (" + r.why + ") cancelled at shutdown");
-      return;
-    }
-    if (!r.ok) {
-      log(kErr, "fusion: " + r.error + " (" + std::strerror(r.sys_errno) + ")");
-      store->log_event(now_realtime(), "fused model write failed: " + r.error);
+  // The fused model written from the core's memory (no read-back of the session), and the latency.
+  auto write_model = [&](const char* why) {
+    const auto t0 = now_monotonic();
+    const Status w = fusion->write_model();
+    const double seconds = to_seconds(now_monotonic() - t0);
+    if (!w.ok()) {
+      log(kErr, std::string("fusion: ") + w.error().what + " (" + std::strerror(w.error().sys_errno) + ")");
+      store->log_event(now_realtime(), std::string("fused model write failed: ") + w.error().what);
     } else {
-      char text[200];
-      std::snprintf(text, sizeof text, "fused model written (%s): %llu kept, %llu removed, %llu scans, %.2f s%s",
-                    r.why.c_str(), static_cast<unsigned long long>(r.kept), static_cast<unsigned long long>(r.removed),
-                    static_cast<unsigned long long>(r.scans), r.seconds,
-                    r.why == "periodic" ? " on the writer thread" : "");
+      const fusion::CoreCounters& c = fusion->core().counters();
+      char text[260];
+      std::snprintf(text, sizeof text,
+                    "fused model written (%s): %llu kept, %llu removed, %llu scans, %.2f s; model store %llu points in %zu voxels "
+                    "(%llu beyond the per-voxel cap), %.1f MiB",
+                    why, static_cast<unsigned long long>(fusion->counters().last_write_kept),
+                    static_cast<unsigned long long>(fusion->counters().last_write_removed),
+                    static_cast<unsigned long long>(fusion->counters().scans), seconds,
+                    static_cast<unsigned long long>(c.stored_points), fusion->core().model_voxels(),
+                    static_cast<unsigned long long>(c.capped_points),
+                    static_cast<double>(fusion->core().model_memory_bytes()) / (1024.0 * 1024.0));
       store->log_event(now_realtime(), text);
     }
     // Scan -> fused-map latency so far (latency.csv; docs/demo.md "Scale").
@@ -275,18 +277,15 @@ int main(int argc, char** argv) {
       store->sync();
       next_sync = now + cfg.sync_interval;
     }
-    // The periodic model write runs on ModelWriter's thread from a snapshot of the session files: the
-    // loop only fsyncs and starts it (at most one in flight; a due write waits for the previous one).
-    if (writer) {
-      if (auto r = writer->take_report()) log_write(*r);
-      if (cfg.fusion.write_interval.count() > 0 && now >= next_write && !writer->busy()) {
-        if (fusion->counters().scans != scans_at_write) {
-          scans_at_write = fusion->counters().scans;
-          writer->start(snapshot("periodic"));
-          now = now_monotonic();
-        }
-        next_write = now + cfg.fusion.write_interval;
+    if (fusion) fusion->tick(now_realtime().ns());
+    // The periodic model write, from the core's memory, in this loop (its time: events.log).
+    if (fusion && cfg.fusion.write_interval.count() > 0 && now >= next_write) {
+      if (fusion->counters().scans != scans_at_write) {
+        scans_at_write = fusion->counters().scans;
+        write_model("periodic");
+        now = now_monotonic();
       }
+      next_write = now + cfg.fusion.write_interval;
     }
     if (fusion && cfg.fusion.map_interval.count() > 0 && now >= next_map) {
       // Only the voxels changed since the last publication, and the whole map every kFullMapEvery-th
@@ -361,17 +360,10 @@ int main(int argc, char** argv) {
   (void)st.write_validation();
   store->log_event(now_realtime(), "station stopping: " + st.status_line());
   station.value().reset();  // leave DDS before closing the files
-  store->sync();  // the session is complete on disk before the (longer) final fusion pass
-  if (writer) {
-    // A periodic write in flight is cancelled at its next phase boundary (it publishes nothing then),
-    // so the stop does not wait for a whole pass before the final one.
-    writer->cancel();
-    writer->wait();
-    if (auto r = writer->take_report()) log_write(*r);
-    // The final model and the received data set from one read-back of the complete session files.
-    const std::string dataset_dir =
-        fusion->options().received_dataset.empty() ? std::string{} : store->dir() + "/" + fusion->options().received_dataset;
-    log_write(writer->run(snapshot("shutdown"), dataset_dir));
+  store->sync();  // the session is complete on disk before the final model write
+  if (fusion) {
+    fusion->flush();  // every held scan decided with what arrived
+    write_model("shutdown");
   }
   return 0;
 }

@@ -121,8 +121,12 @@ Result<DdsBridge> DdsBridge::create(const DdsBridgeOptions& options) {
   b.robot_id_ = options.robot_id;
   b.samples_.reset(new Samples{});
 
-  dds_qos_t* q = dds::make_state_writer_qos(options.robot_id, options.liveliness_lease, options.max_blocking);
+  // Poses keep a history as the scans do (DdsBridgeOptions::pose_history_depth); status keep-last 1.
+  dds_qos_t* q = dds::make_scan_writer_qos(options.robot_id, options.pose_history_depth, options.liveliness_lease,
+                                           options.max_blocking);
   Result<dds_entity_t> pose_writer = dds::create_writer<teamscan_msg_RobotPose>(b.participant_, q);
+  dds_delete_qos(q);
+  q = dds::make_state_writer_qos(options.robot_id, options.liveliness_lease, options.max_blocking);
   Result<dds_entity_t> status_writer = dds::create_writer<teamscan_msg_RobotStatus>(b.participant_, q);
   dds_delete_qos(q);
   q = dds::make_scan_writer_qos(options.robot_id, options.scan_history_depth, options.liveliness_lease, options.max_blocking);

@@ -22,6 +22,10 @@ struct DdsBridgeOptions {
   // Scans kept by the writer (and offered to late joiners, durability transient-local): a ground station
   // that restarts within depth / scan rate seconds receives every scan it missed. 300 = 4 s at 75 Hz.
   std::uint32_t scan_history_depth = 300;
+  // Poses kept the same way, as long as the scans (64 = 6.4 s at the 10 Hz SIP rate ≥ the scans' 4 s):
+  // an outage of the ground station leaves no hole in the poses while no scan is missing, so the scans
+  // of the outage get their team state and their ghosts are removed (docs/groundstation.md).
+  std::uint32_t pose_history_depth = 64;
   // Automatic liveliness lease of every writer: the ground station marks the robot lost within about
   // this long after the process dies. >= 2 s: a 1 s lease was lost spuriously on a loaded 2-core host
   // (DDS_SYSTEMD.md 3.2); the lease must stay below the 3 s detection requirement.

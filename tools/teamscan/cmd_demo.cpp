@@ -37,7 +37,9 @@
 #include "common/dataset/pcd.hpp"
 #include "common/laser_geometry.hpp"
 #include "common/scan_points.hpp"
-#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/station/config.hpp"
+#include "groundstation/station/model_check.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "sim/live.hpp"
 #include "sim/scenario.hpp"
@@ -973,7 +975,56 @@ int run_demo(const DemoArgs& a) {
         << ", \"matched\": " << station.matched << ", \"unmatched\": " << station.unmatched
         << ", \"model_points\": " << station.model_points << "},\n";
   }
-  agree = agree && station_agree;
+  // The station's model against `teamscan eval` of its own session (the fusion core fed the session
+  // read back, in time order): the same decision for every point (docs/groundstation.md "The fusion core").
+  bool session_agree = false;
+  {
+    station::GroundStationConfig gcfg;
+    station::ConfigError gerr;
+    char line[700];
+    if (!station::load_groundstation_config(out + "/config/groundstation.toml", gcfg, gerr)) {
+      std::snprintf(line, sizeof line, "  station model vs `teamscan eval SESSION`: cannot read the station config (%s)\n", gerr.message.c_str());
+      stxt << line;
+    } else if (auto check = station::check_model_against_eval(session, station::fusion_options_from_config(gcfg.fusion, gcfg.kalman)); !check) {
+      std::snprintf(line, sizeof line, "  station model vs `teamscan eval SESSION`: %s\n", check.error().what);
+      stxt << line;
+    } else {
+      const station::ModelCheck& mc = check.value();
+      std::unordered_map<std::uint64_t, std::size_t> labelled;  // identity -> L.ds index
+      labelled.reserve(L.ds.points.size());
+      for (std::size_t i = 0; i < L.ds.points.size(); ++i)
+        labelled[station::point_key(L.ds.points[i].robot, L.point_seq[i], L.ds.points[i].beam)] = i;
+      std::vector<LabelledPoint> pts;
+      std::vector<std::uint8_t> rm_model, rm_eval, rm_live;
+      for (const station::PointDecision& d : mc.points) {
+        if (!d.in_model) continue;
+        auto it = labelled.find(station::point_key(d.robot, d.seq, d.beam));
+        if (it == labelled.end()) continue;  // bring-up or after the run window: no label
+        pts.push_back(L.ds.points[it->second]);
+        rm_model.push_back(d.model_removed ? 1 : 0);
+        rm_eval.push_back(d.eval_removed ? 1 : 0);
+        rm_live.push_back(d.live_removed ? 1 : 0);
+      }
+      const mapping::RemovalMetrics mm = mapping::removal_metrics(pts, rm_model), me = mapping::removal_metrics(pts, rm_eval),
+                                    ml = mapping::removal_metrics(pts, rm_live);
+      session_agree = mc.mismatches == 0 && mc.compared > 0;
+      std::snprintf(line, sizeof line,
+                    "  station model vs `teamscan eval SESSION` (%s, the same core on the session read back): %llu of %llu session points in "
+                    "the model (%llu beyond the per-voxel cap), %llu decisions differ: %s\n"
+                    "    labelled (%zu points): station DA %.2f %%, SA %.3f %% | eval DA %.2f %%, SA %.3f %% | ΔDA %+.2f, ΔSA %+.3f; "
+                    "decisions at release (`live_keep`): DA %.2f %%, SA %.3f %%\n",
+                    gcfg.fusion.method.c_str(), static_cast<unsigned long long>(mc.compared),
+                    static_cast<unsigned long long>(mc.compared + mc.not_in_model), static_cast<unsigned long long>(mc.not_in_model),
+                    static_cast<unsigned long long>(mc.mismatches), session_agree ? "identical" : "DIFFERENT", pts.size(), mm.da, mm.sa,
+                    me.da, me.sa, mm.da - me.da, mm.sa - me.sa, ml.da, ml.sa);
+      stxt << line;
+      stj << "  \"station_vs_session_eval\": {\"method\": \"" << json_escape(gcfg.fusion.method) << "\", \"compared\": " << mc.compared
+          << ", \"not_in_model\": " << mc.not_in_model << ", \"mismatches\": " << mc.mismatches << ", \"labelled\": " << pts.size()
+          << ", \"station_da\": " << mm.da << ", \"station_sa\": " << mm.sa << ", \"eval_da\": " << me.da << ", \"eval_sa\": " << me.sa
+          << ", \"live_da\": " << ml.da << ", \"live_sa\": " << ml.sa << ", \"identical\": " << (session_agree ? "true" : "false") << "},\n";
+    }
+  }
+  agree = agree && station_agree && session_agree;
 
   // Delivery: every scan a robot published reached the session.
   bool none_lost = true;
@@ -1060,7 +1111,8 @@ int run_demo(const DemoArgs& a) {
       if (f.size() < 20 || std::stoi(f[2]) != *a.unplug_robot) continue;
       const unsigned st = static_cast<unsigned>(std::stoul(f[6]));
       if (states.empty() || states.back() != st) states.push_back(st);
-      reopens = std::max(reopens, static_cast<std::uint32_t>(std::stoul(f[19])));
+      // status.csv (session_store.cpp append_status): column 18 is lms_reopens (19 is points_team_stale).
+      reopens = std::max(reopens, static_cast<std::uint32_t>(std::stoul(f[18])));
     }
     fj << "  \"unplug\": {\"robot\": " << *a.unplug_robot << ", \"lms_states\": [";
     for (std::size_t k = 0; k < states.size(); ++k) fj << (k ? ", " : "") << states[k];

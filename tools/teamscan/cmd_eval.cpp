@@ -1,6 +1,6 @@
 // `teamscan eval DIR…`: runs the tracker and the paper's filters on labelled data sets and prints,
 // per data set, the paper's metrics, SA/DA/AA/HA, the share kept per class and Table 1 (issue 5).
-// Thin: the work is in groundstation/mapping/evaluation.hpp.
+// Thin: the work is in groundstation/fusion/evaluation.hpp.
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -12,7 +12,8 @@
 #include <vector>
 
 #include "common/dataset/dataset.hpp"
-#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/station/session_replay.hpp"
 #include "tools/teamscan/subcommand.hpp"
 #if __has_include("tools/render/render.hpp")
 #include "tools/render/render.hpp"
@@ -273,7 +274,18 @@ int run_eval(const EvalArgs& a) {
   int status = 0;
   for (const std::string& dir : a.dirs) {
     std::fprintf(stderr, "teamscan eval: reading %s\n", dir.c_str());
-    Result<Dataset> dataset = read_dataset(dir);
+    // A ground-station session folder (scans.bin, no dataset.toml) is read as what the station received
+    // and decided by the same fusion core (groundstation/station/session_replay.hpp).
+    Result<Dataset> dataset = Error{""};
+    if (!std::filesystem::exists(dir + "/dataset.toml") && std::filesystem::exists(dir + "/scans.bin")) {
+      station::SessionReadStats stats;
+      dataset = station::read_session_dataset(dir, stats);
+      if (stats.bad_pose_lines + stats.bad_scan_records > 0)
+        std::fprintf(stderr, "teamscan eval: %s: skipped %llu bad poses.csv lines and %llu bad scans.bin records\n", dir.c_str(),
+                     static_cast<unsigned long long>(stats.bad_pose_lines), static_cast<unsigned long long>(stats.bad_scan_records));
+    } else {
+      dataset = read_dataset(dir);
+    }
     if (!dataset) {
       std::fprintf(stderr, "teamscan eval: %s: %s\n", dir.c_str(), describe(dataset.error()).c_str());
       status = 1;
@@ -327,7 +339,7 @@ int run_eval(const EvalArgs& a) {
 
 const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on labelled data sets", [](CLI::App& app) {
   auto a = std::make_shared<EvalArgs>();
-  app.add_option("DIR", a->dirs, "Data set folder(s) written by `teamscan sim`")->required()->check(CLI::ExistingDirectory);
+  app.add_option("DIR", a->dirs, "Data set folder(s) written by `teamscan sim`, or ground-station session folders (scans.bin, poses.csv)")->required()->check(CLI::ExistingDirectory);
   app.add_option("--method", a->methods,
                  "Methods, comma separated, or 'all': frequency (eq. 4), visibility (eq. 5), position (eq. 6), "
                  "direction (eq. 7), combined (direction then visibility, Table 6). Without --resolution/--half-angle "

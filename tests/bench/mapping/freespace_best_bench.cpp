@@ -14,7 +14,7 @@
 #include <cstdlib>
 #include <ctime>
 
-#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/mapping/freespace_filter.hpp"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 

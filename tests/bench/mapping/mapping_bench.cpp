@@ -11,7 +11,7 @@
 #include <cstdlib>
 #include <random>
 
-#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/mapping/ransac.hpp"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 

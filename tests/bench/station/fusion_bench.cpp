@@ -72,10 +72,11 @@ void BM_LiveScans(benchmark::State& state, const char* method, double resolution
   std::uint64_t points = 0;
   for (auto _ : state) {
     FusionOptions o;
-    o.method = method;
-    o.methods.frequency.resolution_m = o.methods.visibility.resolution_m = o.methods.combined_resolution_m = resolution_m;
+    o.core.method = method;
+    o.core.methods.frequency.resolution_m = o.core.methods.visibility.resolution_m = o.core.methods.combined_resolution_m = resolution_m;
     auto stage = FusionStage::create(o, "/tmp");
     run_feed(**stage, f);
+    (*stage)->flush();
     points += (*stage)->counters().points;
     benchmark::DoNotOptimize((*stage)->counters().live_removed);
   }
@@ -89,7 +90,8 @@ BENCHMARK_CAPTURE(BM_LiveScans, frequency_0_05m, "frequency", 0.05)->Unit(benchm
 BENCHMARK_CAPTURE(BM_LiveScans, direction, "direction", 0.1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, position, "position", 0.1)->Unit(benchmark::kMillisecond);
 
-// One fused-model write after the whole survey: the offline pass + two PCDs (kept, all with keep).
+// One fused-model write after the whole survey, from the core's memory: every stored point decided
+// against the map + two PCDs (kept, all with keep).
 void BM_WriteModel(benchmark::State& state) {
   const std::string dir = std::filesystem::temp_directory_path() / "teamscan-station-fusion-bench";
   std::filesystem::create_directories(dir);
@@ -97,6 +99,7 @@ void BM_WriteModel(benchmark::State& state) {
   o.all_points_pcd = "fused_all.pcd";
   auto stage = FusionStage::create(o, dir);
   run_feed(**stage, feed());
+  (*stage)->flush();
   for (auto _ : state) {
     if (!(*stage)->write_model().ok()) state.SkipWithError("write failed");
   }

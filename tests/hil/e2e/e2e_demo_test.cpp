@@ -2,8 +2,9 @@
 // each robot published reached the ground station's session (sequence numbers without gaps, up to what
 // the robot's last status said it had published), the ground station's own live fused model and the
 // post-run evaluation of the session agree with the offline evaluation of the same scenario and seed
-// within the demo's stated tolerance (docs/demo.md), the station measured scan -> fused map, and every
-// process stopped cleanly with exit code 0.
+// within the demo's stated tolerance (docs/demo.md), the station's model decides every point exactly as
+// `teamscan eval` of its session, the station measured scan -> fused map, and every process stopped
+// cleanly with exit code 0.
 #include <gtest/gtest.h>
 
 #include "tests/hil/e2e/e2e_support.hpp"
@@ -46,6 +47,15 @@ TEST(E2eDemo, Lap2LiveRunDeliversEveryScanAndAgreesWithOfflineEval) {
   EXPECT_GT(json_number(s, "da", sm), 90.0) << s;
   EXPECT_GT(json_number(s, "sa", sm), 99.0) << s;        // best keeps the scene (combined: ~12 %)
   EXPECT_GT(json_number(s, "live_da", sm), 90.0) << s;   // the decisions taken at arrival
+  // Live vs offline identity: the station's model gives every point it holds the decision `teamscan eval`
+  // gives it on the session read back (the same fusion core, in time order): not one differs.
+  const std::size_t se = s.find("\"station_vs_session_eval\":");
+  ASSERT_NE(se, std::string::npos) << s;
+  EXPECT_EQ(json_value(s, "identical", se), "true") << log;
+  EXPECT_EQ(json_number(s, "mismatches", se), 0) << s;
+  EXPECT_GT(json_number(s, "compared", se), 0.9 * (json_number(s, "compared", se) + json_number(s, "not_in_model", se))) << s;
+  EXPECT_EQ(json_number(s, "station_da", se), json_number(s, "eval_da", se)) << s;
+  EXPECT_EQ(json_number(s, "station_sa", se), json_number(s, "eval_sa", se)) << s;
   // The station measured scan -> fused map for every scan it fused; it cannot be faster than storing.
   EXPECT_EQ(json_value(s, "fused_latency_present"), "true") << log;
   EXPECT_GE(json_number(s, "fused_latency_scans"), 0.95 * 2 * 1425) << s;

@@ -1,8 +1,9 @@
 // Issue 5, live fusion: a teamscan-groundstation process fed by two test robots (DdsBridge in this
 // process, loopback DDS) with a small labelled survey writes, on SIGTERM, a fused PCD whose per-point
-// keep/remove decisions equal the offline evaluation code (`teamscan eval`: prepare_dataset +
-// run_offline) run on the same survey as it goes over the wire (millimetres, microradians). The
-// teamscan/team topic carries the Kalman tracker's estimates of the poses it was sent.
+// keep/remove decisions equal the offline evaluation (`teamscan eval`: the fusion core fed the data set
+// in time order) run on the same survey as it goes over the wire (millimetres, microradians), and
+// `teamscan eval SESSION` (the session folder read back). The teamscan/team topic carries the Kalman
+// tracker's estimates of the poses it was sent.
 #include <gtest/gtest.h>
 
 #include <dds/dds.h>
@@ -18,8 +19,9 @@
 
 #include "common/clock.hpp"
 #include "common/dataset/pcd.hpp"
-#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/mapping/filter.hpp"
+#include "groundstation/station/session_replay.hpp"
 #include "onboard/bridge/bridge.hpp"
 #include "dds/qos.hpp"
 #include "teamscan.h"
@@ -268,12 +270,9 @@ TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
   EXPECT_EQ(csv_rows(session + "/poses.csv"), wire.odom.size());
 
   // The offline evaluation on the same data.
-  const mapping::PreparedDataset prepared = mapping::prepare_dataset(wire, tracker);
   mapping::MethodOptions options;  // the config's defaults: resolution 0.1 m, half-angle 7°
   options.frequency.resolution_m = options.visibility.resolution_m = 0.1;
-  auto filter = mapping::make_filter(method, options);
-  ASSERT_NE(filter, nullptr);
-  const std::vector<std::uint8_t> removed = mapping::run_offline(prepared, *filter);
+  const std::vector<std::uint8_t> removed = mapping::decide_through_core(wire, method, options, tracker);
 
   auto all = read_pcd(session + "/fused_all.pcd");
   ASSERT_TRUE(all.ok()) << all.error().what;
@@ -304,13 +303,12 @@ TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
   EXPECT_EQ(fused->size(), kept);
   EXPECT_FALSE(std::filesystem::exists(session + "/fused.pcd.tmp"));
 
-  // The session's received/ data set (what `teamscan eval SESSION/received` reads) gives the same
-  // decisions through the evaluation code.
-  auto received = read_dataset(session + "/received");
+  // The session folder read back (what `teamscan eval SESSION` reads) gives the same decisions.
+  station::SessionReadStats read_stats;
+  auto received = station::read_session_dataset(session, read_stats);
   ASSERT_TRUE(received.ok()) << received.error().what;
   ASSERT_EQ(received->points.size(), wire.points.size());
-  const mapping::PreparedDataset prepared_received = mapping::prepare_dataset(received.value(), tracker);
-  const std::vector<std::uint8_t> removed_received = mapping::run_offline(prepared_received, *filter);
+  const std::vector<std::uint8_t> removed_received = mapping::decide_through_core(received.value(), method, options, tracker);
   std::size_t received_mismatches = 0;
   for (std::size_t i = 0; i < received->points.size(); ++i) {
     const LabelledPoint& p = received->points[i];

@@ -12,7 +12,7 @@
 #include <unistd.h>
 
 #include "groundstation/mapping/dynamicmap_export.hpp"
-#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/fusion/evaluation.hpp"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 
 namespace teamscan::mapping {

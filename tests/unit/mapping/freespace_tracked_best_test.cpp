@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "groundstation/mapping/best.hpp"
-#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/mapping/freespace_filter.hpp"
 #include "groundstation/mapping/tracked_filter.hpp"
 #include "tests/bench/mapping/synthetic_survey.hpp"

@@ -55,19 +55,35 @@ TEST(Tracker, FollowsACircleUsingOdometrySpeedAndHeading) {
   EXPECT_LT(worst, 0.01);  // 1 cm: far below the filters' 0.35 m robot size
 }
 
-TEST(Tracker, UncertaintyGrowsWithPredictionTimeAndTrackGoesInvalid) {
+TEST(Tracker, UncertaintyGrowsWithPredictionTimeAndASilentRobotStopsWhereItCoasted) {
   TrackerOptions o;
   o.lost_after_s = 1.0;
+  o.coast_s = 2.0;
   TeamTracker tracker(o);
   for (int i = 0; i < 10; ++i) tracker.add_pose(3, i * kPosePeriodNs, {0.1 * i, 0.0, 0.0}, 1.0);
   const std::int64_t last = 9 * kPosePeriodNs;
   const RobotEstimate near = tracker.predict(last + 10'000'000).robots.at(0);
   const RobotEstimate far = tracker.predict(last + 900'000'000).robots.at(0);
   const RobotEstimate lost = tracker.predict(last + 1'500'000'000).robots.at(0);
+  const RobotEstimate stopped = tracker.predict(last + 2'500'000'000).robots.at(0);
+  const RobotEstimate much_later = tracker.predict(last + 60'000'000'000).robots.at(0);
   EXPECT_LT(near.position_cov_m2(0, 0), far.position_cov_m2(0, 0));
   EXPECT_TRUE(far.valid);
-  EXPECT_FALSE(lost.valid);
+  EXPECT_FALSE(far.lost);
+  // Silent for more than lost_after_s: lost for teamscan/team, still tracked for the filters.
+  EXPECT_TRUE(lost.lost);
+  EXPECT_TRUE(lost.valid);
   EXPECT_NEAR(far.position_m.x, 0.9 + 0.9, 0.02);  // 1 m/s for 0.9 s
+  // Past coast_s (the firmware watchdog) the robot has stopped: held where it coasted to, speed 0,
+  // with the uncertainty it reached (no further growth: it no longer moves).
+  EXPECT_NEAR(stopped.position_m.x, 0.9 + 2.0, 0.02);
+  EXPECT_NEAR(much_later.position_m.x, 0.9 + 2.0, 0.02);
+  EXPECT_EQ(much_later.velocity_mps.x, 0.0);
+  EXPECT_TRUE(much_later.valid);
+  EXPECT_GT(stopped.position_cov_m2(0, 0), far.position_cov_m2(0, 0));
+  EXPECT_DOUBLE_EQ(much_later.position_cov_m2(0, 0), stopped.position_cov_m2(0, 0));
+  // Before its first pose a robot is not predicted backwards beyond lost_after_s.
+  EXPECT_FALSE(tracker.predict(-2'000'000'000).robots.at(0).valid);
 }
 
 TEST(Tracker, RejectsBadIdsAndNonFinitePoses) {

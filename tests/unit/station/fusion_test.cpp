@@ -1,7 +1,7 @@
-// FusionStage fed directly (no DDS) with a small survey: live decisions equal the evaluation's live
-// run for every method, the written model equals its offline run, the model write is atomic, the
-// teamscan/map voxels account for every point, the wire flags map to the data set's, and the
-// [fusion] config keys parse and name themselves in errors.
+// FusionStage fed directly (no DDS) with a small survey: for every method, the model written from the
+// core's memory gives every point the decision `teamscan eval` gives it (the core fed in time order),
+// whatever order the poses and scans arrive in; the model write is atomic; the teamscan/map voxels
+// account for every point; the wire flags map to the data set's; the [fusion] config keys parse.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,7 +13,7 @@
 
 #include "common/dataset/pcd.hpp"
 #include "common/scan_points.hpp"
-#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/station/config.hpp"
 #include "groundstation/station/fusion.hpp"
 #include "teamscan.h"
@@ -50,25 +50,37 @@ Dataset survey() {
   return d;
 }
 
-// Feeds the stage in time order: each stamp's poses, then its scans (as the robots send them).
-void feed(FusionStage& stage, const Dataset& d) {
+PoseObservation pose_observation(const TrajectorySample& s, std::int64_t received_ns) {
+  PoseObservation p;
+  p.robot_id = s.robot;
+  p.stamp = Time::from_ns(s.stamp_ns);
+  p.received = Time::from_ns(received_ns);
+  p.x_m = s.pose.x_m;
+  p.y_m = s.pose.y_m;
+  p.yaw_rad = s.pose.theta_rad;
+  return p;
+}
+
+// Feeds the stage as the robots send it. `pose_delay` > 0: every pose arrives that many scans late
+// (after scans stamped later than it), so the core must hold those scans for their team state.
+void feed(FusionStage& stage, const Dataset& d, std::size_t pose_delay = 0) {
   static StoredScan scan;
   std::size_t next_odom = 0;
+  std::vector<const TrajectorySample*> late;
+  std::int64_t clock_ns = 0;
   for (const ScanRecord& r : d.scans) {
-    while (next_odom < d.odom.size() && d.odom[next_odom].stamp_ns <= r.stamp_ns) {
-      const TrajectorySample& s = d.odom[next_odom++];
-      PoseObservation p;
-      p.robot_id = s.robot;
-      p.stamp = Time::from_ns(s.stamp_ns);
-      p.x_m = s.pose.x_m;
-      p.y_m = s.pose.y_m;
-      p.yaw_rad = s.pose.theta_rad;
-      stage.add_pose(p);
+    while (next_odom < d.odom.size() && d.odom[next_odom].stamp_ns <= r.stamp_ns) late.push_back(&d.odom[next_odom++]);
+    while (late.size() > pose_delay * 2) {  // ~pose_delay scans late (two robots)
+      clock_ns = std::max(clock_ns, late.front()->stamp_ns);
+      stage.add_pose(pose_observation(*late.front(), clock_ns));
+      late.erase(late.begin());
     }
     scan = StoredScan{};
     scan.robot_id = r.robot;
     scan.seq = r.scan;
     scan.stamp_ns = r.stamp_ns;
+    clock_ns = std::max(clock_ns, r.stamp_ns);
+    scan.recv_realtime_ns = clock_ns;
     scan.origin_x_mm = mm(r.origin.x);
     scan.origin_y_mm = mm(r.origin.y);
     scan.origin_z_mm = mm(r.origin.z);
@@ -80,6 +92,9 @@ void feed(FusionStage& stage, const Dataset& d) {
     scan.points[scan.count++] = StoredPoint{0, 0, 0, 400, kPointInvalid};
     stage.add_scan(scan);
   }
+  for (const TrajectorySample* s : late) stage.add_pose(pose_observation(*s, clock_ns));
+  while (next_odom < d.odom.size()) stage.add_pose(pose_observation(d.odom[next_odom++], clock_ns));
+  stage.flush();
 }
 
 std::string temp_dir() {
@@ -89,45 +104,54 @@ std::string temp_dir() {
 
 class FusionMethods : public ::testing::TestWithParam<const char*> {};
 
-TEST_P(FusionMethods, LiveEqualsEvalLiveAndModelEqualsEvalOffline) {
+// The station's model (the core fed in arrival order, poses late) gives every point the decision of
+// `teamscan eval` (the core fed the data set in time order), bit for bit, and so does the filter run
+// scan by scan in the old offline order (observe all, then classify all).
+TEST_P(FusionMethods, ModelDecisionsEqualEvalWhateverTheArrivalOrder) {
   const Dataset d = survey();
-  const std::string dir = temp_dir();
-  FusionOptions o;
-  o.method = GetParam();
-  o.all_points_pcd = "fused_all.pcd";
-  auto stage = FusionStage::create(o, dir);
-  ASSERT_TRUE(stage.ok());
-  feed(**stage, d);
-  EXPECT_EQ((*stage)->counters().points, d.points.size());  // the invalid beams are not points
+  for (std::size_t pose_delay : {std::size_t{0}, std::size_t{3}}) {
+    const std::string dir = temp_dir();
+    FusionOptions o;
+    o.core.method = GetParam();
+    o.core.max_points_per_voxel = 100000;  // every point in the model
+    o.all_points_pcd = "fused_all.pcd";
+    auto stage = FusionStage::create(o, dir);
+    ASSERT_TRUE(stage.ok());
+    feed(**stage, d, pose_delay);
+    EXPECT_EQ((*stage)->counters().points, d.points.size());  // the invalid beams are not points
+    EXPECT_EQ((*stage)->core().held_scans(), 0u);
+    EXPECT_EQ((*stage)->core().counters().scans_forced, 0u);  // released by the poses, never by hold_s
 
-  const mapping::PreparedDataset prepared = mapping::prepare_dataset(d, o.tracker);
-  auto filter = mapping::make_filter(o.method, o.methods);
-  const std::vector<std::uint8_t> live = mapping::run_live(prepared, *filter);
-  const std::vector<std::uint8_t> offline = mapping::run_offline(prepared, *filter);
-  EXPECT_EQ((*stage)->counters().live_removed, std::accumulate(live.begin(), live.end(), std::uint64_t{0}));
+    const std::vector<std::uint8_t> eval =
+        mapping::decide_through_core(d, o.core.method, o.core.methods, o.core.tracker);
+    const mapping::PreparedDataset prepared = mapping::prepare_dataset(d, o.core.tracker);
+    auto filter = mapping::make_filter(o.core.method, o.core.methods);
+    const std::vector<std::uint8_t> offline = mapping::run_offline(prepared, *filter);
+    ASSERT_EQ(eval, offline);
 
-  ASSERT_TRUE((*stage)->write_model().ok());
-  // received() holds the points in arrival order, the data set in scan order: compare by (robot, scan, beam).
-  const Dataset& got = (*stage)->received();
-  ASSERT_EQ(got.points.size(), d.points.size());
-  std::map<std::tuple<int, std::uint32_t, int>, std::uint8_t> decided;
-  for (std::size_t i = 0; i < got.points.size(); ++i)
-    decided[{got.points[i].robot, got.points[i].scan, got.points[i].beam}] = (*stage)->last_removed()[i];
-  std::size_t removed = 0;
-  for (std::size_t i = 0; i < d.points.size(); ++i) {
-    ASSERT_EQ((decided[{d.points[i].robot, d.points[i].scan, d.points[i].beam}]), offline[i]) << "point " << i;
-    removed += offline[i];
+    ASSERT_TRUE((*stage)->write_model().ok());
+    auto all = read_pcd(dir + "/fused_all.pcd");
+    ASSERT_TRUE(all.ok());
+    ASSERT_EQ(all->size(), d.points.size());
+    const int fr = all->field("robot"), fs = all->field("scan"), fb = all->field("beam"), fk = all->field("keep");
+    ASSERT_GE(fk, 0);
+    std::map<std::tuple<int, std::uint32_t, int>, std::uint8_t> decided;
+    for (std::size_t i = 0; i < all->size(); ++i) {
+      auto col = [&](int f) { return all->columns[static_cast<std::size_t>(f)][i]; };
+      decided[{static_cast<int>(col(fr)), static_cast<std::uint32_t>(col(fs)), static_cast<int>(col(fb))}] = col(fk) == 0.0 ? 1 : 0;
+    }
+    std::size_t removed = 0;
+    for (std::size_t i = 0; i < d.points.size(); ++i) {
+      ASSERT_EQ((decided[{d.points[i].robot, d.points[i].scan, d.points[i].beam}]), eval[i]) << "point " << i << " pose_delay " << pose_delay << " robot " << int(d.points[i].robot) << " scan " << d.points[i].scan;
+      removed += eval[i];
+    }
+    EXPECT_GT(removed, 0u);
+    auto kept = read_pcd(dir + "/fused.pcd");
+    ASSERT_TRUE(kept.ok());
+    EXPECT_EQ(kept->size(), d.points.size() - removed);
+    EXPECT_FALSE(std::filesystem::exists(dir + "/fused.pcd.tmp"));
+    std::filesystem::remove_all(dir);
   }
-  EXPECT_GT(removed, 0u);
-  auto kept = read_pcd(dir + "/fused.pcd");
-  ASSERT_TRUE(kept.ok());
-  EXPECT_EQ(kept->size(), d.points.size() - removed);
-  auto all = read_pcd(dir + "/fused_all.pcd");
-  ASSERT_TRUE(all.ok());
-  EXPECT_EQ(all->size(), d.points.size());
-  EXPECT_GE(all->field("keep"), 0);
-  EXPECT_FALSE(std::filesystem::exists(dir + "/fused.pcd.tmp"));
-  std::filesystem::remove_all(dir);
 }
 
 INSTANTIATE_TEST_SUITE_P(AllMethods, FusionMethods,
@@ -137,7 +161,8 @@ INSTANTIATE_TEST_SUITE_P(AllMethods, FusionMethods,
 TEST(Fusion, MapVoxelsAccountForEveryPointAndFlagFullyRemovedVoxels) {
   const Dataset d = survey();
   const std::string dir = temp_dir();
-  FusionOptions o;  // combined
+  FusionOptions o;
+  o.core.method = "combined";
   o.map_resolution_m = 0.2;
   auto stage = FusionStage::create(o, dir);
   ASSERT_TRUE(stage.ok());
@@ -174,8 +199,8 @@ StoredScan small_scan(std::uint32_t robot, std::uint32_t seq, std::int64_t stamp
 TEST(Fusion, HistoryReplaysAreNotFusedTwiceButRestartsAre) {
   const std::string dir = temp_dir();
   FusionOptions o;
-  o.method = "direction";
-  o.replay_window = 300;
+  o.core.method = "direction";
+  o.core.hold_s = 0;  // scans without poses: decided at arrival
   o.latency_log_csv = "fused_latency.csv";
   auto stage = FusionStage::create(o, dir);
   ASSERT_TRUE(stage.ok());
@@ -190,27 +215,29 @@ TEST(Fusion, HistoryReplaysAreNotFusedTwiceButRestartsAre) {
   f.add_scan(small_scan(2, 50, t0));
   EXPECT_EQ(f.counters().duplicates, 301u);
   EXPECT_EQ(f.counters().scans, 450u);
-  EXPECT_EQ(f.received().points.size(), 450u * 3);
+  EXPECT_EQ(f.counters().points, 450u * 3);
   // A gap filled late is new; the same scan again is not.
   f.add_scan(small_scan(2, 60, t0));
   f.add_scan(small_scan(2, 55, t0));
   f.add_scan(small_scan(2, 55, t0));
   EXPECT_EQ(f.counters().scans, 452u);
   EXPECT_EQ(f.counters().duplicates, 302u);
-  // Robot 1 restarted: seq 1 again, far below its newest (400 − 1 > 300) is a new scan.
+  // Robot 1 restarted: seq 1 again, far below its newest (more than the core's 1024-seq window).
+  for (std::uint32_t seq = 401; seq <= 1500; ++seq) f.add_scan(small_scan(1, seq, t0 + seq * kPeriod));
+  ASSERT_EQ(f.counters().scans, 452u + 1100u);
   f.add_scan(small_scan(1, 1, t0 + 500 * kPeriod));
   f.add_scan(small_scan(1, 2, t0 + 501 * kPeriod));
-  EXPECT_EQ(f.counters().scans, 454u);
+  EXPECT_EQ(f.counters().scans, 1554u);
   EXPECT_EQ(f.counters().duplicates, 302u);
   // Jumps larger than the bitmap forget the old window without confusing the new one.
   f.add_scan(small_scan(2, 5000, t0));
   f.add_scan(small_scan(2, 4999, t0));
   f.add_scan(small_scan(2, 5000, t0));
-  EXPECT_EQ(f.counters().scans, 456u);
+  EXPECT_EQ(f.counters().scans, 1556u);
   EXPECT_EQ(f.counters().duplicates, 303u);
   // Every fused scan has one latency sample (stamp -> fused) and one stored sample (stamp -> received).
-  EXPECT_EQ(f.fused_latency().count(), 456u);
-  EXPECT_EQ(f.stored_latency().count(), 456u);
+  EXPECT_EQ(f.fused_latency().count(), 1556u);
+  EXPECT_EQ(f.stored_latency().count(), 1556u + 303u);
   EXPECT_GE(f.stored_latency().quantile_ns(0.5), 1'000'000);
   EXPECT_LE(f.stored_latency().quantile_ns(0.5), 1'000'000 + LatencyHistogram::kBucketNs);
   ASSERT_TRUE(f.write_latency().ok());
@@ -230,15 +257,17 @@ TEST(Fusion, HistoryReplaysAreNotFusedTwiceButRestartsAre) {
     ++lines;
     scans.insert({robot, seq});
   }
-  EXPECT_EQ(lines, 456u);
-  EXPECT_EQ(scans.size(), 454u);  // robot 1 seq 1 and 2 fused twice: before and after its restart
+  EXPECT_EQ(lines, 1556u);
+  EXPECT_EQ(scans.size(), 1554u);  // robot 1 seq 1 and 2 fused twice: before and after its restart
   std::filesystem::remove_all(dir);
 }
 
 TEST(Fusion, AllPointsModelCarriesTheLiveDecisions) {
   const Dataset d = survey();
   const std::string dir = temp_dir();
-  FusionOptions o;  // combined: live decisions against the map so far differ from the final ones
+  FusionOptions o;  // combined: decisions at release (the map so far) differ from the final ones
+  o.core.method = "combined";
+  o.core.max_points_per_voxel = 100000;
   o.all_points_pcd = "fused_all.pcd";
   auto stage = FusionStage::create(o, dir);
   ASSERT_TRUE(stage.ok());
@@ -246,17 +275,16 @@ TEST(Fusion, AllPointsModelCarriesTheLiveDecisions) {
   ASSERT_TRUE((*stage)->write_model().ok());
   auto all = read_pcd(dir + "/fused_all.pcd");
   ASSERT_TRUE(all.ok());
-  const int live = all->field("live_keep");
+  const int live = all->field("live_keep"), keep = all->field("keep");
   ASSERT_GE(live, 0);
-  const auto& live_removed = (*stage)->live_removed();
-  ASSERT_EQ(live_removed.size(), all->size());
-  std::uint64_t removed = 0;
+  std::uint64_t removed = 0, differ = 0;
   for (std::size_t i = 0; i < all->size(); ++i) {
-    EXPECT_EQ(all->columns[static_cast<std::size_t>(live)][i], live_removed[i] ? 0.0 : 1.0) << i;
-    removed += live_removed[i];
+    removed += all->columns[static_cast<std::size_t>(live)][i] == 0.0 ? 1 : 0;
+    differ += all->columns[static_cast<std::size_t>(live)][i] != all->columns[static_cast<std::size_t>(keep)][i] ? 1 : 0;
   }
   EXPECT_EQ(removed, (*stage)->counters().live_removed);
   EXPECT_GT(removed, 0u);
+  EXPECT_GT(differ, 0u);  // the map part was revised as the map grew
   std::filesystem::remove_all(dir);
 }
 
@@ -270,7 +298,7 @@ TEST(Fusion, WriteIntoAMissingFolderFailsAsAValueAndIsCounted) {
 
 TEST(Fusion, UnknownMethodIsRejected) {
   FusionOptions o;
-  o.method = "magic";
+  o.core.method = "magic";
   EXPECT_FALSE(FusionStage::create(o, "/tmp").ok());
 }
 
@@ -286,19 +314,20 @@ TEST(FusionConfig, KeysParseIntoOptions) {
   EXPECT_EQ(c.fusion.write_interval, std::chrono::milliseconds(2500));
   EXPECT_EQ(c.fusion.map_interval.count(), 0);
   const FusionOptions o = fusion_options_from_config(c.fusion, c.kalman);
-  EXPECT_DOUBLE_EQ(o.methods.visibility.resolution_m, 0.05);
-  EXPECT_DOUBLE_EQ(o.methods.combined_resolution_m, 0.05);
-  EXPECT_NEAR(o.methods.direction.half_angle_rad, 5.0 * M_PI / 180.0, 1e-12);
-  EXPECT_DOUBLE_EQ(o.methods.frequency.k, 0.5);
+  EXPECT_DOUBLE_EQ(o.core.methods.visibility.resolution_m, 0.05);
+  EXPECT_DOUBLE_EQ(o.core.methods.combined_resolution_m, 0.05);
+  EXPECT_NEAR(o.core.methods.direction.half_angle_rad, 5.0 * M_PI / 180.0, 1e-12);
+  EXPECT_DOUBLE_EQ(o.core.methods.frequency.k, 0.5);
   EXPECT_EQ(o.all_points_pcd, "fused_all.pcd");
 }
 
 TEST(FusionConfig, DefaultsAreBestWithThePapersCombinedParameters) {
   GroundStationConfig c;
   const FusionOptions o = fusion_options_from_config(c.fusion, c.kalman);
-  EXPECT_EQ(o.method, "best");  // docs/beyond.md: the recommended default
-  EXPECT_DOUBLE_EQ(o.methods.combined_resolution_m, 0.1);
-  EXPECT_NEAR(o.methods.combined_half_angle_rad, 7.0 * M_PI / 180.0, 1e-12);
+  EXPECT_EQ(o.core.method, "best");  // docs/beyond.md: the recommended default
+  EXPECT_DOUBLE_EQ(o.core.methods.combined_resolution_m, 0.1);
+  EXPECT_NEAR(o.core.methods.combined_half_angle_rad, 7.0 * M_PI / 180.0, 1e-12);
+  EXPECT_EQ(o.core.max_points_per_voxel, 64u);
   EXPECT_TRUE(o.all_points_pcd.empty());
 }
 
@@ -326,7 +355,8 @@ namespace {
 TEST(Fusion, ChangedMapVoxelsAreThoseWithNewPointsSinceTheLastCall) {
   const std::string dir = temp_dir();
   FusionOptions o;
-  o.method = "direction";
+  o.core.method = "direction";
+  o.core.hold_s = 0;  // scans without poses: decided at arrival
   auto stage = FusionStage::create(o, dir);
   ASSERT_TRUE(stage.ok());
   FusionStage& f = **stage;

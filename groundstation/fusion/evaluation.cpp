@@ -1,15 +1,17 @@
 // Offline evaluation: data set → time-ordered scans with team states → each method → metrics.
-#include "groundstation/mapping/evaluation.hpp"
+#include "groundstation/fusion/evaluation.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <tuple>
 
 #include "common/units.hpp"
+#include "groundstation/fusion/core.hpp"
 
 namespace teamscan::mapping {
 
@@ -151,6 +153,105 @@ PreparedDataset prepare_dataset(const Dataset& dataset, const TrackerOptions& tr
   return out;
 }
 
+std::vector<std::uint8_t> decide_through_core(const Dataset& dataset, const std::string& method, const MethodOptions& options,
+                                              const TrackerOptions& tracker, const PoseNoise& noise) {
+  fusion::CoreOptions co;
+  co.method = method;
+  co.methods = options;
+  co.tracker = tracker;
+  co.max_points_per_voxel = 0;  // the decisions are kept here, per point
+  auto created = fusion::FusionCore::create(co);
+  TEAMSCAN_EXPECTS(created.ok());
+  fusion::FusionCore& core = *created.value();
+
+  // Points grouped by (robot, scan), in data set order within a scan.
+  std::map<std::pair<std::uint8_t, std::uint32_t>, std::vector<std::size_t>> by_scan;
+  for (std::size_t i = 0; i < dataset.points.size(); ++i) by_scan[{dataset.points[i].robot, dataset.points[i].scan}].push_back(i);
+  std::vector<ScanRecord> records;
+  std::map<std::pair<std::uint8_t, std::uint32_t>, bool> known;
+  for (const ScanRecord& r : dataset.scans)
+    if (known.emplace(std::make_pair(r.robot, r.scan), true).second) records.push_back(r);
+  for (const auto& [key, indices] : by_scan) {
+    if (known.count(key)) continue;
+    ScanRecord r;  // a scan with points but no row in scans.csv: at time 0 (no team state)
+    r.robot = key.first;
+    r.scan = key.second;
+    records.push_back(r);
+  }
+  // One time line: poses before scans of the same stamp (the pose at the scan's stamp is its pose).
+  struct Event {
+    std::int64_t stamp_ns;
+    int kind;  // 0 pose, 1 scan
+    std::uint8_t robot;
+    std::uint32_t scan;
+    std::size_t index;
+  };
+  std::vector<Event> events;
+  events.reserve(dataset.odom.size() + records.size());
+  for (std::size_t i = 0; i < dataset.odom.size(); ++i)
+    events.push_back({dataset.odom[i].stamp_ns, 0, dataset.odom[i].robot, 0, i});
+  for (std::size_t i = 0; i < records.size(); ++i) events.push_back({records[i].stamp_ns, 1, records[i].robot, records[i].scan, i});
+  std::stable_sort(events.begin(), events.end(), [](const Event& a, const Event& b) {
+    return std::tie(a.stamp_ns, a.kind, a.robot, a.scan) < std::tie(b.stamp_ns, b.kind, b.robot, b.scan);
+  });
+
+  std::vector<std::uint8_t> bits(dataset.points.size(), 0);
+  core.set_release_callback([&](const fusion::FusedScan& f) {
+    auto it = by_scan.find({f.robot, f.seq});
+    if (it == by_scan.end()) return;
+    for (std::size_t j = 0; j < it->second.size() && j < f.bits.size(); ++j) bits[it->second[j]] = f.bits[j];
+  });
+  PoseErrorProcess pose_error(noise);
+  std::vector<MapPoint> points;
+  std::vector<std::uint16_t> flags, beams;
+  for (const Event& e : events) {
+    if (e.kind == 0) {
+      const TrajectorySample& s = dataset.odom[e.index];
+      fusion::PoseInput p{s.robot, s.stamp_ns, s.stamp_ns, s.pose, s.v_mps, s.w_radps};
+      if (noise.active()) {
+        const Pose2 err = pose_error.at(s.robot, s.stamp_ns);
+        p.odom = {s.pose.x_m + err.x_m, s.pose.y_m + err.y_m, s.pose.theta_rad + err.theta_rad};
+      }
+      core.add_pose(p);
+      continue;
+    }
+    const ScanRecord& r = records[e.index];
+    points.clear();
+    flags.clear();
+    beams.clear();
+    auto it = by_scan.find({r.robot, r.scan});
+    if (it != by_scan.end()) {
+      for (std::size_t i : it->second) {
+        const LabelledPoint& lp = dataset.points[i];
+        points.push_back({lp.x, lp.y, lp.z});
+        flags.push_back(lp.flags);
+        beams.push_back(lp.beam);
+      }
+    }
+    fusion::ScanInput in;
+    in.robot = r.robot;
+    in.seq = r.scan;
+    in.stamp_ns = r.stamp_ns;
+    in.arrival_ns = r.stamp_ns;
+    in.origin_m = r.origin;
+    if (noise.active()) {
+      const Pose2 err = pose_error.at(r.robot, r.stamp_ns);
+      in.origin_m = {r.origin.x + err.x_m, r.origin.y + err.y_m, r.origin.z};
+    }
+    in.points = points;
+    in.flags = flags;
+    in.beams = beams;
+    core.add_scan(in);
+  }
+  core.flush();
+  std::vector<MapPoint> all;
+  all.reserve(dataset.points.size());
+  for (const LabelledPoint& lp : dataset.points) all.push_back({lp.x, lp.y, lp.z});
+  std::vector<std::uint8_t> removed(dataset.points.size(), 0);
+  core.decide(all, bits, removed);
+  return removed;
+}
+
 std::vector<std::uint8_t> run_offline(const PreparedDataset& prepared, Filter& filter) {
   filter.reset();
   for (std::size_t s = 0; s < prepared.scans.size(); ++s) filter.observe(prepared.view(s));
@@ -251,8 +352,12 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
   for (const LabelledPoint& p : dataset.points)
     if (p.is_ghost()) ++report.ghosts;
 
-  const PreparedDataset prepared = prepare_dataset(dataset, options.tracker, options.pose_noise);
-  report.orphan_points = prepared.orphan_points;
+  {
+    std::set<std::pair<std::uint8_t, std::uint32_t>> scans;
+    for (const ScanRecord& r : dataset.scans) scans.emplace(r.robot, r.scan);
+    for (const LabelledPoint& p : dataset.points)
+      if (!scans.count({p.robot, p.scan})) ++report.orphan_points;
+  }
   std::vector<MapPoint> cloud;
   cloud.reserve(dataset.points.size());
   for (const LabelledPoint& p : dataset.points) cloud.push_back({p.x, p.y, p.z});
@@ -287,7 +392,7 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
     r.name = m.name;
     r.method = m.method;
     r.params = filter->params();
-    r.removed = run_offline(prepared, *filter);
+    r.removed = decide_through_core(dataset, m.method, m.options, options.tracker, options.pose_noise);
     r.removal = removal_metrics(dataset.points, r.removed);
     r.plane_after = fit_plane_ransac(cloud, options.ransac, r.removed);
     r.plane_error_improvement_pct = plane_error_improvement_pct(report.plane_before, r.plane_after);

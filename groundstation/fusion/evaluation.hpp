@@ -1,6 +1,6 @@
-// Offline evaluation of the filters on a labelled data set (`teamscan eval`, issue 5): the tracker
-// runs on the data set's odometry in time order as the live system would, every method runs through
-// the same Filter objects as live, and the metrics are computed per method.
+// Offline evaluation of the filters on a labelled data set (`teamscan eval`): the data set's poses and
+// scans go through the fusion core (groundstation/fusion/core.hpp) in time order, the same code the
+// ground station runs on live data, and the metrics are computed per method from the core's decisions.
 #pragma once
 
 #include <cstdint>
@@ -62,6 +62,14 @@ struct MethodSpec {
   std::string method;
   MethodOptions options;
 };
+
+// Every point's decision (1 = removed, Dataset::points order) by the fusion core fed the data set's
+// odometry and scans in time order (a pose before a scan of the same stamp), with `method` and the
+// options in `core` (its method and model store are overridden: no store). With `noise` active, the
+// poses and scan origins the core sees carry the PoseNoise error.
+[[nodiscard]] std::vector<std::uint8_t> decide_through_core(const Dataset& dataset, const std::string& method,
+                                                             const MethodOptions& options, const TrackerOptions& tracker,
+                                                             const PoseNoise& noise = {});
 
 // Method list from the command line: "all" or a comma list of known_methods(). Without an explicit
 // resolution / half-angle, "frequency" and "visibility" expand to 0.05 m and 0.1 m and "direction"

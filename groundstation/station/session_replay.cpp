@@ -1,0 +1,242 @@
+// Session folder read back in arrival order (session_replay.hpp).
+#include "groundstation/station/session_replay.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <set>
+#include <vector>
+
+#include "groundstation/fusion/pose_history.hpp"
+#include "groundstation/station/fusion.hpp"
+
+namespace teamscan::station {
+
+bool parse_pose_line(const char* line, PoseObservation& p) {
+  long long recv_rt = 0, recv_mono = 0, stamp = 0;
+  unsigned robot = 0, seq = 0;
+  int x = 0, y = 0, yaw = 0, vx = 0, vy = 0, w = 0;
+  if (std::sscanf(line, "%lld,%lld,%u,%u,%lld,%d,%d,%d,%d,%d,%d", &recv_rt, &recv_mono, &robot, &seq, &stamp, &x, &y,
+                  &yaw, &vx, &vy, &w) != 11) {
+    return false;
+  }
+  p = PoseObservation{};
+  p.robot_id = robot;
+  p.seq = seq;
+  p.stamp = Time::from_ns(stamp);
+  p.received = Time::from_ns(recv_rt);
+  // The same conversion as the station's take (station.cpp): the wire's mm, µrad, mm/s, mrad/s.
+  p.x_m = x * 1e-3;
+  p.y_m = y * 1e-3;
+  p.yaw_rad = yaw * 1e-6;
+  p.vx_mps = vx * 1e-3;
+  p.vy_mps = vy * 1e-3;
+  p.yaw_rate_radps = w * 1e-3;
+  return true;
+}
+
+namespace {
+
+// scans.bin streamed in chunks: next() decodes one record at a time (resyncing past bad bytes).
+class ScanFileStream {
+ public:
+  explicit ScanFileStream(SessionReadStats& stats) : stats_{stats} {}
+  ~ScanFileStream() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  ScanFileStream(const ScanFileStream&) = delete;
+  ScanFileStream& operator=(const ScanFileStream&) = delete;
+
+  Status open(const std::string& path) {
+    fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd_ < 0) {
+      if (errno == ENOENT) return ok_status();  // no scans yet
+      return Error{"session: cannot open scans.bin", errno};
+    }
+    buf_.resize(kChunk + kScanRecordMaxBytes);
+    if (Status st = fill(); !st.ok()) return st;
+    if (have_ == 0) return ok_status();  // empty file
+    if (have_ < kScanFileHeaderBytes || !std::equal(kScanFileMagic, kScanFileMagic + 8, buf_.begin()))
+      return Error{"session: scans.bin has no teamscan header"};
+    pos_ = kScanFileHeaderBytes;
+    return ok_status();
+  }
+
+  // false at the end (or on a read error: error()).
+  bool next(StoredScan& out) {
+    for (;;) {
+      if (fd_ < 0) return false;
+      if (pos_ < have_) {
+        const long r = decode_scan_record(std::span<const std::uint8_t>(buf_.data() + pos_, have_ - pos_), out, decode_);
+        if (r > 0) {
+          pos_ += static_cast<std::size_t>(r);
+          return true;
+        }
+        if (r < 0) {
+          ++pos_;
+          continue;
+        }
+      }
+      // Need more bytes (or at the end).
+      if (eof_) {
+        if (pos_ < have_) stats_.scans_torn_tail = true;
+        stats_.bad_scan_records = decode_.bad_crc + decode_.bad_length;
+        return false;
+      }
+      std::memmove(buf_.data(), buf_.data() + pos_, have_ - pos_);
+      have_ -= pos_;
+      pos_ = 0;
+      if (Status st = fill(); !st.ok()) {
+        error_ = st;
+        return false;
+      }
+    }
+  }
+  [[nodiscard]] const Status& error() const { return error_; }
+
+ private:
+  static constexpr std::size_t kChunk = 4u << 20;
+  Status fill() {
+    while (have_ < buf_.size() && !eof_) {
+      const ssize_t n = ::read(fd_, buf_.data() + have_, buf_.size() - have_);
+      if (n < 0) {
+        if (errno == EINTR) continue;
+        return Error{"session: cannot read scans.bin", errno};
+      }
+      if (n == 0) eof_ = true;
+      have_ += static_cast<std::size_t>(n);
+    }
+    return ok_status();
+  }
+  SessionReadStats& stats_;
+  ScanDecodeStats decode_;
+  int fd_ = -1;
+  std::vector<std::uint8_t> buf_;
+  std::size_t have_ = 0, pos_ = 0;
+  bool eof_ = false;
+  Status error_ = ok_status();
+};
+
+// poses.csv streamed line by line.
+class PoseFileStream {
+ public:
+  explicit PoseFileStream(SessionReadStats& stats) : stats_{stats} {}
+  void open(const std::string& path) { in_.open(path); }
+  bool next(PoseObservation& out) {
+    std::string line;
+    while (in_ && std::getline(in_, line)) {
+      if (line.empty() || line.rfind("recv_realtime_ns", 0) == 0) continue;
+      if (!parse_pose_line(line.c_str(), out)) {
+        ++stats_.bad_pose_lines;
+        continue;
+      }
+      return true;
+    }
+    return false;
+  }
+
+ private:
+  SessionReadStats& stats_;
+  std::ifstream in_;
+};
+
+}  // namespace
+
+Status replay_session_files(const std::string& dir, const std::function<void(const PoseObservation&)>& on_pose,
+                            const std::function<void(const StoredScan&)>& on_scan, SessionReadStats& stats) {
+  PoseFileStream poses(stats);
+  poses.open(dir + "/poses.csv");
+  ScanFileStream scans(stats);
+  if (Status st = scans.open(dir + "/scans.bin"); !st.ok()) return st;
+  auto scan = std::make_unique<StoredScan>();
+  PoseObservation pose;
+  bool have_pose = poses.next(pose), have_scan = scans.next(*scan);
+  // Merged by receive time; a pose before a scan received in the same nanosecond (the loop takes poses
+  // first, station.cpp).
+  while (have_pose || have_scan) {
+    if (have_pose && (!have_scan || pose.received.ns() <= scan->recv_realtime_ns)) {
+      ++stats.poses;
+      on_pose(pose);
+      have_pose = poses.next(pose);
+    } else {
+      ++stats.scans;
+      on_scan(*scan);
+      have_scan = scans.next(*scan);
+    }
+  }
+  return scans.error();
+}
+
+Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& stats) {
+  Dataset ds;
+  ds.scenario = "session";
+  std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
+  std::set<std::uint8_t> robots;
+  ScanBuffers buffers;
+  Status st = replay_session_files(
+      dir,
+      [&](const PoseObservation& p) {
+        if (p.robot_id == 0 || p.robot_id > kMaxRobots) return;
+        const fusion::PoseInput in = pose_input(p);
+        ds.odom.push_back({in.robot, in.stamp_ns, in.odom, in.v_mps, in.w_radps});
+        robots.insert(in.robot);
+      },
+      [&](const StoredScan& s) {
+        if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
+        if (!seen.emplace(s.robot_id, s.seq).second) return;  // a DDS history replay: stored twice
+        const fusion::ScanInput in = scan_input(s, buffers);
+        ScanRecord r;
+        r.robot = in.robot;
+        r.scan = in.seq;
+        r.stamp_ns = in.stamp_ns;
+        r.beams = static_cast<std::uint16_t>(std::min<std::size_t>(s.count, kMaxBeams));
+        r.points = static_cast<std::uint16_t>(in.points.size());
+        r.origin = in.origin_m;
+        ds.scans.push_back(r);
+        for (std::size_t i = 0; i < in.points.size(); ++i) {
+          LabelledPoint lp;
+          lp.x = in.points[i].x;
+          lp.y = in.points[i].y;
+          lp.z = in.points[i].z;
+          lp.tx = lp.x;
+          lp.ty = lp.y;
+          lp.tz = lp.z;
+          lp.robot = in.robot;
+          lp.scan = in.seq;
+          lp.beam = in.beams[i];
+          lp.flags = in.flags[i];
+          ds.points.push_back(lp);
+        }
+        robots.insert(in.robot);
+      },
+      stats);
+  if (!st.ok()) return st.error();
+  // Each scan's pose as the core decides it (for exports and pictures; the core recomputes it).
+  std::stable_sort(ds.odom.begin(), ds.odom.end(), [](const TrajectorySample& a, const TrajectorySample& b) {
+    return a.robot != b.robot ? a.robot < b.robot : a.stamp_ns < b.stamp_ns;
+  });
+  fusion::PoseHistory history(fusion::PoseHistoryOptions{{}, 1e9});
+  for (const TrajectorySample& s : ds.odom) history.add({s.robot, s.stamp_ns, s.stamp_ns, s.pose, s.v_mps, s.w_radps});
+  for (ScanRecord& r : ds.scans) {
+    const auto pose = history.scan_pose(r.robot, r.stamp_ns);
+    r.pose = pose.found ? pose.map_from_robot : Pose2{r.origin.x, r.origin.y, 0.0};
+    r.true_pose = r.pose;
+  }
+  ds.truth = ds.odom;  // no ground truth at the station: the odometry stands in
+  for (std::uint8_t id : robots) {
+    DatasetRobot r;
+    r.id = id;
+    r.name = "robot" + std::to_string(id);
+    ds.robots.push_back(r);
+  }
+  return ds;
+}
+
+}  // namespace teamscan::station

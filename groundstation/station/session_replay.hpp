@@ -1,0 +1,39 @@
+// A session folder (scans.bin + poses.csv, the complete raw record) read back as what the station
+// received: every pose and scan in arrival order (merged by receive time), streamed in bounded memory,
+// bad records skipped and counted. Used by the station after a restart (rebuilding the fusion core)
+// and by `teamscan eval SESSION` (the session as a data set in time order, decided by the same core).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "common/dataset/dataset.hpp"
+#include "common/result.hpp"
+#include "groundstation/station/scan_record.hpp"
+#include "groundstation/station/team_source.hpp"
+
+namespace teamscan::station {
+
+struct SessionReadStats {
+  std::uint64_t poses = 0;
+  std::uint64_t scans = 0;
+  std::uint64_t bad_pose_lines = 0;
+  std::uint64_t bad_scan_records = 0;  // CRC / length failures (the decoder resyncs past them)
+  bool scans_torn_tail = false;        // scans.bin ends inside a record (a crash mid-write)
+};
+
+// One poses.csv line (session_store.cpp append_pose) as the station's PoseObservation; false: malformed.
+[[nodiscard]] bool parse_pose_line(const char* line, PoseObservation& out);
+
+// Streams `dir`/poses.csv and `dir`/scans.bin in receive order (recv_realtime_ns; a missing file is
+// empty). Fails only when a file exists but cannot be read or scans.bin has no teamscan header.
+[[nodiscard]] Status replay_session_files(const std::string& dir, const std::function<void(const PoseObservation&)>& on_pose,
+                                          const std::function<void(const StoredScan&)>& on_scan, SessionReadStats& stats);
+
+// The session as a data set (no labels): odometry from poses.csv, every scan's placed points from
+// scans.bin (a (robot, seq) stored twice, a DDS history replay, kept once), stamps as received, each
+// scan's pose the fusion core's scan pose. `teamscan eval SESSION` runs on this.
+[[nodiscard]] Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& stats);
+
+}  // namespace teamscan::station

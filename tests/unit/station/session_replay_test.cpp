@@ -1,0 +1,247 @@
+// A station restart: the session folder (scans.bin + poses.csv written by SessionStore) replayed through
+// the fusion core, then the rest of the survey live, decides every point as an uninterrupted run and as
+// `teamscan eval` of the session (read_session_dataset + the core in time order); a robot that goes silent
+// keeps its teammates' hits on it removed.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <tuple>
+
+#include "common/dataset/pcd.hpp"
+#include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/station/fusion.hpp"
+#include "groundstation/station/session_replay.hpp"
+#include "groundstation/station/session_store.hpp"
+#include "teamscan.h"
+#include "tests/bench/mapping/synthetic_survey.hpp"
+
+namespace teamscan::station {
+namespace {
+
+std::int32_t mm(double m) { return static_cast<std::int32_t>(std::lround(m * 1000.0)); }
+
+std::string temp_dir() {
+  char tmpl[] = "/tmp/teamscan-replay-unit-XXXXXX";
+  return ::mkdtemp(tmpl);
+}
+
+// The survey as the robots publish it: poses (wire units) and scans, with receive times (a pose arrives
+// 20 ms after its stamp, a scan 5 ms after).
+struct Sample {
+  std::int64_t recv_ns = 0;
+  bool is_pose = false;
+  teamscan_msg_RobotPose pose{};
+  std::size_t scan = 0;  // index in scans
+};
+struct Feed {
+  std::vector<Sample> samples;
+  std::vector<StoredScan> scans;
+};
+
+Feed make_feed(const Dataset& d) {
+  Feed f;
+  for (const TrajectorySample& s : d.odom) {
+    Sample x;
+    x.is_pose = true;
+    x.recv_ns = s.stamp_ns + 20'000'000;
+    x.pose.robot_id = s.robot;
+    x.pose.stamp_ns = s.stamp_ns;
+    x.pose.x_mm = mm(s.pose.x_m);
+    x.pose.y_mm = mm(s.pose.y_m);
+    x.pose.yaw_urad = static_cast<std::int32_t>(std::lround(s.pose.theta_rad * 1e6));
+    x.pose.vx_mmps = static_cast<std::int32_t>(std::lround(s.v_mps * std::cos(s.pose.theta_rad) * 1e3));
+    x.pose.vy_mmps = static_cast<std::int32_t>(std::lround(s.v_mps * std::sin(s.pose.theta_rad) * 1e3));
+    f.samples.push_back(x);
+  }
+  f.scans.reserve(d.scans.size());
+  for (const ScanRecord& r : d.scans) {
+    StoredScan s{};
+    s.robot_id = r.robot;
+    s.seq = r.scan;
+    s.stamp_ns = r.stamp_ns;
+    s.recv_realtime_ns = r.stamp_ns + 5'000'000;
+    s.origin_x_mm = mm(r.origin.x);
+    s.origin_y_mm = mm(r.origin.y);
+    s.origin_z_mm = mm(r.origin.z);
+    for (const LabelledPoint& p : d.points)
+      if (p.robot == r.robot && p.scan == r.scan) s.points[s.count++] = StoredPoint{mm(p.x), mm(p.y), mm(p.z), p.beam, 0};
+    Sample x;
+    x.recv_ns = s.recv_realtime_ns;
+    x.scan = f.scans.size();
+    f.scans.push_back(s);
+    f.samples.push_back(x);
+  }
+  std::stable_sort(f.samples.begin(), f.samples.end(), [](const Sample& a, const Sample& b) { return a.recv_ns < b.recv_ns; });
+  return f;
+}
+
+PoseObservation observation(const teamscan_msg_RobotPose& p, std::int64_t recv_ns) {
+  PoseObservation o;
+  o.robot_id = p.robot_id;
+  o.stamp = Time::from_ns(p.stamp_ns);
+  o.received = Time::from_ns(recv_ns);
+  o.x_m = p.x_mm * 1e-3;
+  o.y_m = p.y_mm * 1e-3;
+  o.yaw_rad = p.yaw_urad * 1e-6;
+  o.vx_mps = p.vx_mmps * 1e-3;
+  o.vy_mps = p.vy_mmps * 1e-3;
+  o.yaw_rate_radps = p.yaw_rate_mradps * 1e-3;
+  return o;
+}
+
+// Stores then fuses samples [from, to) as the station's loop does (storage first).
+void run(const Feed& f, std::size_t from, std::size_t to, SessionStore* store, FusionStage& stage) {
+  for (std::size_t i = from; i < to; ++i) {
+    const Sample& x = f.samples[i];
+    if (x.is_pose) {
+      if (store) store->append_pose(x.pose, ReceiveTime{Time::from_ns(x.recv_ns), Time::from_ns(x.recv_ns)});
+      stage.add_pose(observation(x.pose, x.recv_ns));
+    } else {
+      if (store) store->append_scan(f.scans[x.scan]);
+      stage.add_scan(f.scans[x.scan]);
+    }
+  }
+}
+
+using Decisions = std::map<std::tuple<int, std::uint32_t, int>, std::uint8_t>;
+Decisions model_decisions(const std::string& path) {
+  Decisions out;
+  auto all = read_pcd(path);
+  EXPECT_TRUE(all.ok());
+  if (!all.ok()) return out;
+  const int fr = all->field("robot"), fs = all->field("scan"), fb = all->field("beam"), fk = all->field("keep");
+  for (std::size_t i = 0; i < all->size(); ++i) {
+    auto col = [&](int c) { return all->columns[static_cast<std::size_t>(c)][i]; };
+    out[{static_cast<int>(col(fr)), static_cast<std::uint32_t>(col(fs)), static_cast<int>(col(fb))}] = col(fk) == 0.0 ? 1 : 0;
+  }
+  return out;
+}
+
+FusionOptions options() {
+  FusionOptions o;
+  o.core.method = "best";
+  o.core.max_points_per_voxel = 100000;
+  o.all_points_pcd = "fused_all.pcd";
+  return o;
+}
+
+Dataset survey() {
+  bench::SurveyOptions o;
+  o.duration_s = 3.0;
+  o.room_m = 6.0;
+  o.seed = 5;
+  return bench::synthetic_survey(o);
+}
+
+TEST(SessionReplay, ARestartedStationDecidesAsTheUninterruptedRunAndAsEvalOfTheSession) {
+  const Dataset d = survey();
+  const Feed f = make_feed(d);
+  const std::size_t half = f.samples.size() / 2;
+
+  // Uninterrupted.
+  const std::string whole = temp_dir();
+  {
+    auto s = SessionStore::open(whole);
+    ASSERT_TRUE(s.ok());
+    auto stage = FusionStage::create(options(), whole);
+    ASSERT_TRUE(stage.ok());
+    run(f, 0, f.samples.size(), &*s, **stage);
+    (*stage)->flush();
+    ASSERT_TRUE((*stage)->write_model().ok());
+  }
+  // Killed halfway (its held scans and in-memory state lost), restarted on the same folder.
+  const std::string restarted = temp_dir();
+  {
+    auto s = SessionStore::open(restarted);
+    ASSERT_TRUE(s.ok());
+    {
+      auto first = FusionStage::create(options(), restarted);
+      ASSERT_TRUE(first.ok());
+      run(f, 0, half, &*s, **first);
+    }
+    s->sync();
+    auto second = FusionStage::create(options(), restarted);
+    ASSERT_TRUE(second.ok());
+    auto replayed = (*second)->replay_session(restarted);
+    ASSERT_TRUE(replayed.ok());
+    EXPECT_EQ(replayed.value(), half);
+    EXPECT_GT((*second)->counters().replayed_scans, 0u);
+    // The robots' DDS history delivers the last samples before the kill again: not fused twice.
+    run(f, half > 200 ? half - 200 : 0, f.samples.size(), &*s, **second);
+    (*second)->flush();
+    EXPECT_GT((*second)->counters().duplicates, 0u);
+    ASSERT_TRUE((*second)->write_model().ok());
+  }
+  const Decisions a = model_decisions(whole + "/fused_all.pcd"), b = model_decisions(restarted + "/fused_all.pcd");
+  ASSERT_EQ(a.size(), d.points.size());
+  EXPECT_EQ(a, b);
+
+  // `teamscan eval` of the session: the session as a data set, the core in time order.
+  SessionReadStats stats;
+  auto ds = read_session_dataset(whole, stats);
+  ASSERT_TRUE(ds.ok());
+  EXPECT_EQ(ds->points.size(), d.points.size());
+  EXPECT_EQ(stats.bad_pose_lines + stats.bad_scan_records, 0u);
+  const FusionOptions o = options();
+  const std::vector<std::uint8_t> eval = mapping::decide_through_core(*ds, o.core.method, o.core.methods, o.core.tracker);
+  std::size_t removed = 0;
+  for (std::size_t i = 0; i < ds->points.size(); ++i) {
+    const LabelledPoint& p = ds->points[i];
+    ASSERT_EQ((a.at({p.robot, p.scan, p.beam})), eval[i]) << i;
+    removed += eval[i];
+  }
+  EXPECT_GT(removed, 0u);
+  std::filesystem::remove_all(whole);
+  std::filesystem::remove_all(restarted);
+}
+
+TEST(SessionReplay, ASilentRobotStaysWhereItWasLastSeenAndItsHitsAreStillRemoved) {
+  // Robot 2 stands at (2, 0) and goes silent after its poses of the first second; robot 1 keeps
+  // scanning it for 10 s (a point on its body, one on the wall behind).
+  FusionOptions o;
+  o.core.method = "tracked";
+  o.core.max_points_per_voxel = 1000;
+  o.all_points_pcd = "fused_all.pcd";
+  const std::string dir = temp_dir();
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  const std::int64_t t0 = 1'700'000'000'000'000'000;
+  std::uint32_t seq = 0;
+  for (std::int64_t ms = 0; ms <= 10'000; ms += 100) {
+    const std::int64_t t = t0 + ms * 1'000'000;
+    PoseObservation p1;
+    p1.robot_id = 1;
+    p1.stamp = p1.received = Time::from_ns(t);
+    (*stage)->add_pose(p1);
+    if (ms <= 1000) {
+      PoseObservation p2;
+      p2.robot_id = 2;
+      p2.stamp = p2.received = Time::from_ns(t);
+      p2.x_m = 2.0;
+      (*stage)->add_pose(p2);
+    }
+    StoredScan s{};
+    s.robot_id = 1;
+    s.seq = ++seq;
+    s.stamp_ns = t;
+    s.recv_realtime_ns = t;
+    s.origin_z_mm = 300;
+    s.points[s.count++] = StoredPoint{1750, 0, 150, 0, 0};  // robot 2's front face
+    s.points[s.count++] = StoredPoint{5000, 0, 300, 1, 0};  // the wall
+    (*stage)->add_scan(s);
+  }
+  (*stage)->flush();
+  ASSERT_TRUE((*stage)->write_model().ok());
+  const Decisions m = model_decisions(dir + "/fused_all.pcd");
+  for (std::uint32_t q = 1; q <= seq; ++q) {
+    EXPECT_EQ((m.at({1, q, 0})), 1) << "body hit of scan " << q << " kept";
+    EXPECT_EQ((m.at({1, q, 1})), 0) << "wall of scan " << q << " removed";
+  }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace teamscan::station
