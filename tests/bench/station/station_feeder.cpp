@@ -27,6 +27,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -41,6 +42,7 @@
 #include "common/dataset/dataset.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "dds/qos.hpp"
+#include "tests/support/robot_writers.hpp"
 #include "dds/topics.hpp"
 #include "teamscan.h"
 #include "tests/bench/mapping/synthetic_survey.hpp"
@@ -149,31 +151,21 @@ double quantile(std::vector<double> v, double q) {
   return v[k];
 }
 
+// The feeder's participant: one writer per robot and topic in the robot's partition (the station checks
+// that a sample's robot id is its sender's), with the robots' QoS.
 struct Publisher {
-  dds_entity_t participant = 0, pose = 0, scan = 0, status = 0;
+  dds_entity_t participant = 0;
+  std::unique_ptr<test::RobotWriters> robots;
   ~Publisher() {
     if (participant > 0) (void)dds_delete(participant);
   }
   bool create(std::uint32_t domain) {
     participant = dds_create_participant(domain, nullptr, nullptr);
     if (participant < 0) return false;
-    const dds_entity_t tp_pose = dds_create_topic(participant, &teamscan_msg_RobotPose_desc, dds::kTopicPose, nullptr, nullptr);
-    const dds_entity_t tp_scan = dds_create_topic(participant, &teamscan_msg_ScanPoints_desc, dds::kTopicScan, nullptr, nullptr);
-    const dds_entity_t tp_status = dds_create_topic(participant, &teamscan_msg_RobotStatus_desc, dds::kTopicStatus, nullptr, nullptr);
-    // The robots' QoS (dds/qos.hpp): the station sees the feeder as N robots on 3 writers.
-    dds_qos_t* q = dds::make_state_writer_qos(std::chrono::seconds(2), std::chrono::milliseconds(100));
-    pose = dds_create_writer(participant, tp_pose, q, nullptr);
-    status = dds_create_writer(participant, tp_status, q, nullptr);
-    dds_delete_qos(q);
-    q = dds::make_scan_writer_qos(300, std::chrono::seconds(2), std::chrono::milliseconds(100));
-    scan = dds_create_writer(participant, tp_scan, q, nullptr);
-    dds_delete_qos(q);
-    return pose > 0 && scan > 0 && status > 0;
+    robots = std::make_unique<test::RobotWriters>(participant, /*keep_all=*/false);
+    return robots->ok();
   }
-  [[nodiscard]] std::uint32_t scan_readers() const {
-    dds_publication_matched_status_t st{};
-    return dds_get_publication_matched_status(scan, &st) == 0 ? st.current_count : 0;
-  }
+  [[nodiscard]] std::uint32_t scan_readers() const { return robots->matched(test::RobotWriters::kScan, 1); }
 };
 
 std::string slurp(const std::string& path) {
@@ -398,7 +390,7 @@ int main(int argc, char** argv) {
           scan_msg.points[p].x_mm += dx;
           scan_msg.points[p].y_mm += dy;
         }
-        if (dds_write(pub.scan, &scan_msg) < 0) ++write_errors;
+        if (dds_write(pub.robots->writer(test::RobotWriters::kScan, scan_msg.robot_id), &scan_msg) < 0) ++write_errors;
         ++r.scans;
         ++published;
       }
@@ -422,7 +414,7 @@ int main(int argc, char** argv) {
         pose_msg.vx_mmps = mm(s.v_mps * o.warp * std::cos(s.pose.theta_rad));
         pose_msg.vy_mmps = mm(s.v_mps * o.warp * std::sin(s.pose.theta_rad));
         pose_msg.yaw_rate_mradps = mm(s.w_radps * o.warp);
-        if (dds_write(pub.pose, &pose_msg) < 0) ++write_errors;
+        if (dds_write(pub.robots->writer(test::RobotWriters::kPose, pose_msg.robot_id), &pose_msg) < 0) ++write_errors;
         ++r.poses;
       }
       ++k_pose;
@@ -437,7 +429,7 @@ int main(int argc, char** argv) {
         status_msg.scan_rate_mhz = static_cast<std::uint32_t>(o.scan_hz * 1000);
         status_msg.scans_published = static_cast<std::uint32_t>(r.scans);
         status_msg.uptime_s = static_cast<std::uint32_t>(robot_s);
-        if (dds_write(pub.status, &status_msg) < 0) ++write_errors;
+        if (dds_write(pub.robots->writer(test::RobotWriters::kStatus, status_msg.robot_id), &status_msg) < 0) ++write_errors;
         ++r.statuses;
       }
       ++k_status;

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <string>
@@ -23,6 +24,7 @@
 #include "common/clock.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "dds/qos.hpp"
+#include "tests/support/robot_writers.hpp"
 #include "dds/topics.hpp"
 #include "teamscan.h"
 #include "tests/hil/station/process.hpp"
@@ -56,35 +58,24 @@ std::vector<std::vector<std::string>> csv(const std::string& path) {
 // The bad participant: keep-all reliable writers with the robots' durability, so every sample it sends
 // reaches the station (the counts below are exact).
 struct BadPublisher {
-  dds_entity_t participant = 0, pose = 0, scan = 0, status = 0, team_reader = 0;
+  dds_entity_t participant = 0, team_reader = 0;
+  std::unique_ptr<test::RobotWriters> robots;
   explicit BadPublisher(std::uint32_t domain) {
     participant = dds_create_participant(domain, nullptr, nullptr);
-    const dds_entity_t tp = dds_create_topic(participant, &teamscan_msg_RobotPose_desc, dds::kTopicPose, nullptr, nullptr);
-    const dds_entity_t ts = dds_create_topic(participant, &teamscan_msg_ScanPoints_desc, dds::kTopicScan, nullptr, nullptr);
-    const dds_entity_t tst = dds_create_topic(participant, &teamscan_msg_RobotStatus_desc, dds::kTopicStatus, nullptr, nullptr);
+    robots = std::make_unique<test::RobotWriters>(participant, /*keep_all=*/true);
     const dds_entity_t tt = dds_create_topic(participant, &teamscan_msg_TeamState_desc, dds::kTopicTeam, nullptr, nullptr);
-    dds_qos_t* q = dds::make_state_writer_qos(2s, 1s);
-    dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
-    pose = dds_create_writer(participant, tp, q, nullptr);
-    status = dds_create_writer(participant, tst, q, nullptr);
-    dds_delete_qos(q);
-    q = dds::make_scan_writer_qos(300, 2s, 1s);
-    dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
-    scan = dds_create_writer(participant, ts, q, nullptr);
-    dds_delete_qos(q);
-    q = dds::make_team_reader_qos();
+    dds_qos_t* q = dds::make_team_reader_qos();
     team_reader = dds_create_reader(participant, tt, q, nullptr);
     dds_delete_qos(q);
   }
   ~BadPublisher() {
     if (participant > 0) (void)dds_delete(participant);
   }
-  [[nodiscard]] bool ok() const { return participant > 0 && pose > 0 && scan > 0 && status > 0 && team_reader > 0; }
+  [[nodiscard]] bool ok() const { return participant > 0 && robots->ok() && team_reader > 0; }
+  // Robot 1's writers as the sign that the station subscribed (the others match the same reader).
   [[nodiscard]] bool matched() const {
-    dds_publication_matched_status_t a{}, b{}, c{};
-    return dds_get_publication_matched_status(pose, &a) == 0 && dds_get_publication_matched_status(scan, &b) == 0 &&
-           dds_get_publication_matched_status(status, &c) == 0 && a.current_count > 0 && b.current_count > 0 &&
-           c.current_count > 0;
+    return robots->matched(test::RobotWriters::kPose, 1) > 0 && robots->matched(test::RobotWriters::kScan, 1) > 0 &&
+           robots->matched(test::RobotWriters::kStatus, 1) > 0;
   }
 };
 
@@ -132,14 +123,14 @@ TEST(StationBadSamples, EveryReasonCountedRawStoredTeamAndStatisticsUntouched) {
   std::map<std::string, int> sent;  // reason -> samples sent with it
   int bad_poses = 0, bad_scans = 0;
   auto write_pose = [&](const teamscan_msg_RobotPose& p, const char* reason) {
-    ASSERT_EQ(dds_write(pub.pose, &p), 0);
+    ASSERT_EQ(dds_write(pub.robots->writer(test::RobotWriters::kPose, p.robot_id), &p), 0);
     if (reason) {
       ++sent[reason];
       ++bad_poses;
     }
   };
   auto write_scan = [&](const teamscan_msg_ScanPoints& s, const char* reason) {
-    ASSERT_EQ(dds_write(pub.scan, &s), 0);
+    ASSERT_EQ(dds_write(pub.robots->writer(test::RobotWriters::kScan, s.robot_id), &s), 0);
     if (reason) {
       ++sent[reason];
       ++bad_scans;
@@ -210,10 +201,10 @@ TEST(StationBadSamples, EveryReasonCountedRawStoredTeamAndStatisticsUntouched) {
     st.seq = 1;
     st.stamp_ns = now_realtime().ns();
     st.clock_sync = 2;
-    ASSERT_EQ(dds_write(pub.status, &st), 0);
+    ASSERT_EQ(dds_write(pub.robots->writer(test::RobotWriters::kStatus, st.robot_id), &st), 0);
     st.robot_id = 3;
     st.stamp_ns = 1'000'000'000;  // 1970-01-01T00:00:01Z
-    ASSERT_EQ(dds_write(pub.status, &st), 0);
+    ASSERT_EQ(dds_write(pub.robots->writer(test::RobotWriters::kStatus, st.robot_id), &st), 0);
     ++sent["clock_unset"];
   }
   write_pose(good_pose(5, 0x80000001u), "seq_jump");
