@@ -27,7 +27,7 @@ int main(int argc, char** argv) {
   struct sigaction sa{};
   sa.sa_handler = on_term;
   sigaction(SIGTERM, &sa, nullptr);
-  const teamscan::Duration wd = teamscan::onboard::watchdog_interval();
+  const teamscan::Duration wd = teamscan::dds::watchdog_interval();
   const std::int64_t ping_ms = wd.count() > 0 ? wd.count() / 2'000'000 : 100;
   const std::int64_t start = mono_ms();
   teamscan::dds::notify_status("starting");
