@@ -3,11 +3,21 @@
 
 #include <utility>
 
+#include "dds/security/credentials.hpp"
+
 namespace teamscan::dds {
 
-Result<Participant> Participant::create(std::uint32_t domain_id) {
-  const dds_entity_t h = dds_create_participant(domain_id, nullptr, nullptr);
-  if (h < 0) return Error{"dds: cannot create participant (check CYCLONEDDS_URI)", 0, static_cast<long>(h)};
+Result<Participant> Participant::create(std::uint32_t domain_id, const char* pki_dir) {
+  dds_qos_t* qos = dds_create_qos();
+  if (pki_dir != nullptr) security::add_security_properties(qos, pki_dir);
+  const dds_entity_t h = dds_create_participant(domain_id, qos, nullptr);
+  dds_delete_qos(qos);
+  if (h < 0) {
+    return Error{pki_dir != nullptr ? "dds: cannot create the secured participant (Cyclone's log says why; check the "
+                                      "credentials with teamscan pki check, and CYCLONEDDS_URI)"
+                                    : "dds: cannot create participant (check CYCLONEDDS_URI)",
+                 0, static_cast<long>(h)};
+  }
   return Participant{h};
 }
 

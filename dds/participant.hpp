@@ -17,7 +17,10 @@ inline constexpr std::uint32_t kDefaultDomain = 0xFFFFFFFFu;
 
 class Participant {
  public:
-  [[nodiscard]] static Result<Participant> create(std::uint32_t domain_id);
+  // pki_dir: a DDS Security credential bundle (dds/security/credentials.hpp), checked by the caller
+  // (check_credentials_for); the participant then authenticates, is access-controlled and encrypts as the
+  // bundle's signed governance says. Null: an unsecured participant.
+  [[nodiscard]] static Result<Participant> create(std::uint32_t domain_id, const char* pki_dir = nullptr);
 
   Participant() = default;  // holds nothing
   Participant(Participant&& other) noexcept;

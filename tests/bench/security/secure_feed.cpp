@@ -21,7 +21,7 @@
 #include <dds/dds.h>
 
 #include "dds/security/credentials.hpp"
-#include "onboard/dds/qos.hpp"
+#include "dds/qos.hpp"
 #include "teamscan.h"
 
 namespace {
@@ -74,10 +74,10 @@ int main(int argc, char** argv) {
     }
     const dds_entity_t ts = dds_create_topic(r.participant, &teamscan_msg_ScanPoints_desc, "teamscan/scan", nullptr, nullptr);
     const dds_entity_t tp = dds_create_topic(r.participant, &teamscan_msg_RobotPose_desc, "teamscan/pose", nullptr, nullptr);
-    dds_qos_t* q = onboard::make_scan_writer_qos(r.id, 300, std::chrono::seconds(2), std::chrono::milliseconds(10));
+    dds_qos_t* q = dds::make_scan_writer_qos(r.id, 300, std::chrono::seconds(2), std::chrono::milliseconds(10));
     r.scan = dds_create_writer(r.participant, ts, q, nullptr);
     dds_delete_qos(q);
-    q = onboard::make_state_writer_qos(r.id, std::chrono::seconds(2), std::chrono::milliseconds(10));
+    q = dds::make_state_writer_qos(r.id, std::chrono::seconds(2), std::chrono::milliseconds(10));
     r.pose = dds_create_writer(r.participant, tp, q, nullptr);
     dds_delete_qos(q);
     if (r.scan < 0 || r.pose < 0) {

@@ -21,7 +21,7 @@
 #include <dds/dds.h>
 
 #include "dds/security/credentials.hpp"
-#include "onboard/dds/qos.hpp"
+#include "dds/qos.hpp"
 #include "teamscan.h"
 
 namespace {
@@ -121,11 +121,11 @@ int run_publish(int argc, char** argv, double seconds) {
   const dds_entity_t tp_scan = dds_create_topic(pp, &teamscan_msg_ScanPoints_desc, "teamscan/scan", nullptr, nullptr);
   const dds_entity_t tp_pose = dds_create_topic(pp, &teamscan_msg_RobotPose_desc, "teamscan/pose", nullptr, nullptr);
   // The robots' own writer QoS (what the station expects), in the partition asked for.
-  dds_qos_t* q = teamscan::onboard::make_scan_writer_qos(robot, 300, std::chrono::seconds(2), std::chrono::milliseconds(10));
+  dds_qos_t* q = teamscan::dds::make_scan_writer_qos(robot, 300, std::chrono::seconds(2), std::chrono::milliseconds(10));
   dds_qset_partition1(q, partition);
   const dds_entity_t scan_wr = dds_create_writer(pp, tp_scan, q, nullptr);
   dds_delete_qos(q);
-  q = teamscan::onboard::make_state_writer_qos(robot, std::chrono::seconds(2), std::chrono::milliseconds(10));
+  q = teamscan::dds::make_state_writer_qos(robot, std::chrono::seconds(2), std::chrono::milliseconds(10));
   dds_qset_partition1(q, partition);
   const dds_entity_t pose_wr = dds_create_writer(pp, tp_pose, q, nullptr);
   dds_delete_qos(q);
@@ -133,7 +133,7 @@ int run_publish(int argc, char** argv, double seconds) {
   dds_entity_t team_wr = 0;
   if (flag(argc, argv, "--team")) {
     const dds_entity_t tp_team = dds_create_topic(pp, &teamscan_msg_TeamState_desc, "teamscan/team", nullptr, nullptr);
-    q = teamscan::onboard::make_team_writer_qos(std::chrono::seconds(2));
+    q = teamscan::dds::make_team_writer_qos(std::chrono::seconds(2));
     team_wr = tp_team < 0 ? tp_team : dds_create_writer(pp, tp_team, q, nullptr);
     dds_delete_qos(q);
     std::printf("team_writer %d\n", team_wr < 0 ? team_wr : 0);

@@ -60,7 +60,7 @@ PosePair make_pair() {
   dds_qos_t* q = make_state_reader_qos();
   Result<dds_entity_t> r = create_reader<teamscan_msg_RobotPose>(pp.participant, q);
   dds_delete_qos(q);
-  q = make_scan_writer_qos(100, std::chrono::seconds(2), std::chrono::milliseconds(100));
+  q = make_scan_writer_qos(1, 100, std::chrono::seconds(2), std::chrono::milliseconds(100));
   Result<dds_entity_t> w = create_writer<teamscan_msg_RobotPose>(pp.participant, q);
   dds_delete_qos(q);
   if (r.ok()) pp.reader = r.value();
