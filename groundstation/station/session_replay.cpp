@@ -19,15 +19,16 @@
 
 namespace teamscan::station {
 
-bool parse_pose_line(const char* line, PoseObservation& p) {
+bool parse_pose_line(const char* line, PoseObservation& p, std::uint16_t* rejected_out) {
   long long recv_rt = 0, recv_mono = 0, stamp = 0;
   unsigned robot = 0, seq = 0;
   int x = 0, y = 0, yaw = 0, vx = 0, vy = 0, w = 0;
-  if (std::sscanf(line, "%lld,%lld,%u,%u,%lld,%d,%d,%d,%d,%d,%d", &recv_rt, &recv_mono, &robot, &seq, &stamp, &x, &y,
-                  &yaw, &vx, &vy, &w) != 11) {
-    return false;
-  }
+  unsigned rejected = 0;  // the trailing column (sample_validation.hpp Reject); absent in older sessions
+  const int fields = std::sscanf(line, "%lld,%lld,%u,%u,%lld,%d,%d,%d,%d,%d,%d,%u", &recv_rt, &recv_mono, &robot, &seq,
+                                 &stamp, &x, &y, &yaw, &vx, &vy, &w, &rejected);
+  if (fields < 11) return false;
   p = PoseObservation{};
+  if (rejected_out != nullptr) *rejected_out = static_cast<std::uint16_t>(fields == 12 ? rejected : 0u);
   p.robot_id = robot;
   p.seq = seq;
   p.stamp = Time::from_ns(stamp);
@@ -133,8 +134,13 @@ class PoseFileStream {
     std::string line;
     while (in_ && std::getline(in_, line)) {
       if (line.empty() || line.rfind("recv_realtime_ns", 0) == 0) continue;
-      if (!parse_pose_line(line.c_str(), out)) {
+      std::uint16_t rejected = 0;
+      if (!parse_pose_line(line.c_str(), out, &rejected)) {
         ++stats_.bad_pose_lines;
+        continue;
+      }
+      if (rejected != 0) {  // refused at the edge: stored raw, never fused (live or replayed)
+        ++stats_.refused_poses;
         continue;
       }
       return true;
@@ -166,8 +172,12 @@ Status replay_session_files(const std::string& dir, const std::function<void(con
       on_pose(pose);
       have_pose = poses.next(pose);
     } else {
-      ++stats.scans;
-      on_scan(*scan);
+      if (scan->rejected != 0) {
+        ++stats.refused_scans;  // refused at the edge: stored raw, never fused (live or replayed)
+      } else {
+        ++stats.scans;
+        on_scan(*scan);
+      }
       have_scan = scans.next(*scan);
     }
   }

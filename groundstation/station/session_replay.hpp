@@ -19,12 +19,15 @@ struct SessionReadStats {
   std::uint64_t poses = 0;
   std::uint64_t scans = 0;
   std::uint64_t bad_pose_lines = 0;
+  std::uint64_t refused_poses = 0;     // marked refused at receipt (sample_validation.hpp): not replayed
+  std::uint64_t refused_scans = 0;
   std::uint64_t bad_scan_records = 0;  // CRC / length failures (the decoder resyncs past them)
   bool scans_torn_tail = false;        // scans.bin ends inside a record (a crash mid-write)
 };
 
 // One poses.csv line (session_store.cpp append_pose) as the station's PoseObservation; false: malformed.
-[[nodiscard]] bool parse_pose_line(const char* line, PoseObservation& out);
+// `rejected` (optional): the line's refusal code (sample_validation.hpp; 0 = accepted or an older file).
+[[nodiscard]] bool parse_pose_line(const char* line, PoseObservation& out, std::uint16_t* rejected = nullptr);
 
 // Streams `dir`/poses.csv and `dir`/scans.bin in receive order (recv_realtime_ns; a missing file is
 // empty). Fails only when a file exists but cannot be read or scans.bin has no teamscan header.
