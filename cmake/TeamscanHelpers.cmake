@@ -20,6 +20,7 @@ endfunction()
 # A library of ours: the repository root is the include root (#include "drivers/arcos/codec.hpp").
 function(teamscan_library name)
   cmake_parse_arguments(ARG "FIRMWARE;INTERFACE" "" "SOURCES;DEPS" ${ARGN})
+  set_property(GLOBAL APPEND PROPERTY TEAMSCAN_LIBRARIES ${name})  # cmake/ModuleGraph.cmake
   if(ARG_INTERFACE)
     add_library(${name} INTERFACE)
     target_include_directories(${name} INTERFACE ${TEAMSCAN_SOURCE_DIR} ${CMAKE_BINARY_DIR}/generated)

@@ -1,0 +1,99 @@
+# The module graph from the CMake targets themselves: every library of ours (teamscan_*), its folder
+# (the module) and the modules it links. teamscan_module_graph() checks it against the layering of
+# DESIGN.md "Layout" (dependencies point down the table, never back up; a violation stops the
+# configure) and writes ${CMAKE_BINARY_DIR}/module_graph.md, the table docs/architecture.md carries
+# (checked by the test architecture_doc_test).
+
+# Which modules each module may link (DESIGN.md "Layout"); a module may always link its own folder.
+set(TEAMSCAN_ALLOWED_DEPS
+  "idl:"
+  "common:"
+  "common/dataset:common"
+  "drivers/serial:common"
+  "drivers/arcos:common drivers/serial"
+  "drivers/lms200:common drivers/serial"
+  "dds:common idl"
+  "onboard/core:common"
+  "onboard/bridge:common dds idl"
+  "onboard/daemon:common drivers/serial drivers/arcos drivers/lms200 dds onboard/core onboard/bridge"
+  "sim:common common/dataset drivers/serial drivers/arcos drivers/lms200"
+  "groundstation/mapping:common common/dataset onboard/core"
+  "groundstation/fusion:common common/dataset idl dds onboard/core groundstation/mapping"
+  "groundstation/registration:common common/dataset groundstation/mapping"
+  "groundstation/station:common common/dataset idl dds groundstation/mapping groundstation/fusion groundstation/registration"
+  "tools/render:common common/dataset"
+  "tools/demo:*"
+)
+
+function(_teamscan_module_of target out)
+  get_target_property(dir ${target} SOURCE_DIR)
+  file(RELATIVE_PATH rel ${TEAMSCAN_SOURCE_DIR} ${dir})
+  set(${out} ${rel} PARENT_SCOPE)
+endfunction()
+
+function(teamscan_module_graph)
+  get_property(targets GLOBAL PROPERTY TEAMSCAN_LIBRARIES)
+  list(SORT targets)
+  set(modules "")
+  foreach(t ${targets})
+    _teamscan_module_of(${t} m)
+    list(APPEND modules ${m})
+    list(APPEND "_targets_${m}" ${t})
+    get_target_property(links ${t} LINK_LIBRARIES)
+    if(NOT links)
+      set(links "")
+    endif()
+    foreach(l ${links})
+      if(TARGET ${l} AND l IN_LIST targets)
+        _teamscan_module_of(${l} lm)
+        if(NOT lm STREQUAL m)
+          list(APPEND "_deps_${m}" ${lm})
+        endif()
+      endif()
+    endforeach()
+  endforeach()
+  list(REMOVE_DUPLICATES modules)
+  list(SORT modules)
+  set(table "| module | targets | links (modules of ours) |\n| --- | --- | --- |\n")
+  set(violations "")
+  foreach(m ${modules})
+    set(deps ${_deps_${m}})
+    if(deps)
+      list(REMOVE_DUPLICATES deps)
+      list(SORT deps)
+    endif()
+    set(allowed "")
+    set(known FALSE)
+    foreach(rule ${TEAMSCAN_ALLOWED_DEPS})
+      string(REPLACE ":" ";" parts "${rule}")
+      list(GET parts 0 rm)
+      if(rm STREQUAL m)
+        set(known TRUE)
+        list(LENGTH parts n)
+        if(n GREATER 1)
+          list(GET parts 1 a)
+          string(REPLACE " " ";" allowed "${a}")
+        endif()
+      endif()
+    endforeach()
+    if(NOT known)
+      string(APPEND violations "  ${m}: not in the layering (cmake/ModuleGraph.cmake TEAMSCAN_ALLOWED_DEPS)\n")
+    endif()
+    foreach(d ${deps})
+      if(NOT "*" IN_LIST allowed AND NOT d IN_LIST allowed)
+        string(APPEND violations "  ${m} -> ${d}\n")
+      endif()
+    endforeach()
+    set(ts ${_targets_${m}})
+    string(REPLACE ";" ", " ts "${ts}")
+    string(REPLACE ";" ", " ds "${deps}")
+    if(ds STREQUAL "")
+      set(ds "–")
+    endif()
+    string(APPEND table "| `${m}/` | ${ts} | ${ds} |\n")
+  endforeach()
+  if(violations)
+    message(FATAL_ERROR "Module layering violated (DESIGN.md \"Layout\"):\n${violations}")
+  endif()
+  file(WRITE ${CMAKE_BINARY_DIR}/module_graph.md "${table}")
+endfunction()
