@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cmath>
 #include <ctime>
+#include <limits>
 #include <filesystem>
 #include <thread>
 
@@ -15,6 +16,7 @@
 #include "drivers/lms200/emulator_pty.hpp"
 #include "drivers/serial/pty_runner.hpp"
 #include "sim/devices.hpp"
+#include "sim/motion_hold.hpp"
 #include "sim/rng.hpp"
 #include "sim/simulator.hpp"
 
@@ -37,13 +39,35 @@ struct WorldClock {
   [[nodiscard]] double scene(double t_s) const { return loop_s > 0 && t_s > 0 ? std::fmod(t_s, loop_s) : t_s; }
 };
 
+// The live world: the scenario's robots on their tracks, each held still while its firmware holds it
+// (client silent, MotionHold), at world time from a WorldClock. Every pose the feeder, the ray casters
+// and the scoring use comes from here.
+struct LiveWorld {
+  LiveWorld(const TeamWorld& t, std::size_t robots) : team{t}, holds(robots) {}
+  const TeamWorld& team;
+  std::vector<MotionHold> holds;  // by team index
+  // World time from which the precast tables no longer hold (a robot was held or released): +inf.
+  std::atomic<double> precast_valid_until_s{std::numeric_limits<double>::infinity()};
+
+  // Robot k's true pose at world time t_s (>= 0), as `clock` maps it onto the scene.
+  [[nodiscard]] Pose2 pose(std::size_t k, double t_s, const WorldClock& clock) const {
+    return team.motion(k).pose_at(clock.scene(holds[k].track_time(t_s)));
+  }
+  void changed_at(double t_s) {
+    double cur = precast_valid_until_s.load();
+    while (t_s < cur && !precast_valid_until_s.compare_exchange_weak(cur, t_s)) {
+    }
+  }
+};
+
 // The Pioneer's wheel model behind the SIP hook (as in simulator.cpp's device path): true motion at
 // the SIP's world time -> noisy firmware odometry -> XPOS/YPOS/THPOS and wheel velocities. Before
 // world time 0 the robot stands at its start pose.
 class LiveWheels final : public arcos::SipSource {
  public:
-  LiveWheels(const TeamWorld& team, std::size_t ri, std::uint64_t seed, const WorldClock& clock)
+  LiveWheels(const TeamWorld& team, LiveWorld& world, std::size_t ri, std::uint64_t seed, const WorldClock& clock)
       : team_{team},
+        world_{world},
         ri_{ri},
         clock_{clock},
         firmware_{pioneer_params(team.spec(ri).subclass), team.spec(ri).odometry,
@@ -51,7 +75,7 @@ class LiveWheels final : public arcos::SipSource {
 
   bool fill_sip(Time now, arcos::SipPacket& sip) override {
     const double t_s = std::max(0.0, clock_.at(now));
-    const Pose2 truth = team_.motion(ri_).pose_at(clock_.scene(t_s));
+    const Pose2 truth = world_.pose(ri_, t_s, clock_);  // held still while the firmware holds the robot
     const double dt_s = have_last_ ? std::max(0.0, t_s - last_s_) : 0.0;
     const SipOdometry o = firmware_.step(truth, dt_s);
     last_s_ = t_s;
@@ -60,8 +84,22 @@ class LiveWheels final : public arcos::SipSource {
     return true;
   }
 
+  // PROTOCOLS.md §1.6: the emulated firmware stopped the robot (its client went silent) / the client
+  // is back. Before world time 0 the robot stands anyway.
+  void on_client_silent(Time since) override {
+    const double t_s = std::max(0.0, clock_.at(since));
+    world_.holds[ri_].hold(t_s);
+    world_.changed_at(t_s);
+  }
+  void on_client_back(Time at) override {
+    const double t_s = std::max(0.0, clock_.at(at));
+    world_.holds[ri_].release(t_s);
+    world_.changed_at(t_s);
+  }
+
  private:
   const TeamWorld& team_;
+  LiveWorld& world_;
   std::size_t ri_;
   const WorldClock& clock_;
   PioneerOdometry firmware_;
@@ -73,7 +111,8 @@ class LiveWheels final : public arcos::SipSource {
 // room and the teammates' bodies at that time. Holds its own scratch, so each thread has one.
 class SweepCaster {
  public:
-  SweepCaster(const TeamWorld& team, std::size_t ri) : team_{team}, ri_{ri}, bound_radius_m_{bound_radii(team)} {}
+  SweepCaster(const LiveWorld& world, std::size_t ri)
+      : team_{world.team}, world_{world}, ri_{ri}, bound_radius_m_{bound_radii(world.team)} {}
 
   // Casts the sweep ending at monotonic `sweep_end`, world time from `clock`; fills n readings and truths.
   // Returns the beams that hit a teammate.
@@ -88,7 +127,9 @@ class SweepCaster {
     // are left out of that beam's cast: the same hits (checked against the full cast: 0 differences in
     // 1.8 M beams, 46 k of them on a teammate, 8 robots), without placing and testing every body per beam.
     const Time mid_time = sweep_end - variant.beam_age(static_cast<std::uint16_t>(n / 2));
-    team_.place(clock.scene(std::max(0.0, clock.at(mid_time))), placed_);
+    const double mid_s = std::max(0.0, clock.at(mid_time));
+    team_.place(clock.scene(mid_s), placed_);
+    for (std::size_t k = 0; k < placed_.size(); ++k) placed_[k].map_from_robot = world_.pose(k, mid_s, clock);
     const Ray mid_ray = team_.beam_ray(ri_, placed_[ri_].map_from_robot, Vec3{1.0, 0.0, 0.0});
     cull_.clear();
     for (std::size_t k = 0; k < placed_.size(); ++k) {
@@ -100,15 +141,15 @@ class SweepCaster {
     }
     for (std::uint16_t i = 0; i < n; ++i) {
       const Time beam_time = sweep_end - variant.beam_age(i);
-      const double t_s = clock.scene(std::max(0.0, clock.at(beam_time)));
+      const double t_s = std::max(0.0, clock.at(beam_time));
       const double a = variant.beam_angle_rad(i);
       const Vec3 dir = spec.robot_from_laser.rotation.apply({std::cos(a), std::sin(a), 0.0});
-      const Ray ray = team_.beam_ray(ri_, team_.motion(ri_).pose_at(t_s), dir);
+      const Ray ray = team_.beam_ray(ri_, world_.pose(ri_, t_s, clock), dir);
       const double h = std::hypot(ray.direction.x, ray.direction.y);
       beam_robots_.clear();
       for (const Candidate& c : cull_) {
         if (h > 1e-9 && (ray.direction.x * c.ux + ray.direction.y * c.uy) / h < c.cos_half) continue;
-        beam_robots_.push_back({team_.spec(c.index).id, team_.motion(c.index).pose_at(t_s), &team_.body(c.index)});
+        beam_robots_.push_back({team_.spec(c.index).id, world_.pose(c.index, t_s, clock), &team_.body(c.index)});
       }
       const Hit hit = team_.world().cast(ray, beam_robots_, spec.id);
       if (hits_out != nullptr) hits_out[i] = hit;
@@ -153,6 +194,7 @@ class SweepCaster {
   }
 
   const TeamWorld& team_;
+  const LiveWorld& world_;
   std::size_t ri_;
   std::vector<double> bound_radius_m_;
   std::vector<PlacedRobot> placed_;
@@ -170,14 +212,16 @@ std::int64_t thread_cpu_ns() {
 // precast), else ray-cast now; the truth of each sent scan recorded with its sweep end in CLOCK_REALTIME.
 class LiveLaser final : public lms200::RangeSource {
  public:
-  LiveLaser(const TeamWorld& team, std::size_t ri, std::uint64_t seed, const WorldClock& clock, std::int64_t realtime_offset_ns)
-      : team_{team},
+  LiveLaser(const LiveWorld& world, std::size_t ri, std::uint64_t seed, const WorldClock& clock,
+            std::int64_t realtime_offset_ns)
+      : team_{world.team},
+        world_{world},
         ri_{ri},
         seed_{seed},
         clock_{clock},
         realtime_offset_ns_{realtime_offset_ns},
-        rng_{seed, team.spec(ri).id, RngStream::range_noise},
-        caster_{team, ri} {}
+        rng_{seed, world.team.spec(ri).id, RngStream::range_noise},
+        caster_{world, ri} {}
 
   void measure(const lms200::SweepTiming& sweep, std::span<lms200::BeamReading> beams) override {
     const std::int64_t cpu_start_ns = thread_cpu_ns();
@@ -241,7 +285,7 @@ class LiveLaser final : public lms200::RangeSource {
     pc->truths.resize(count * n);
     pc->ghosts.resize(count);
     pc->ready = std::make_unique<std::atomic<bool>[]>(count);
-    SweepCaster caster{team_, ri_};
+    SweepCaster caster{world_, ri_};
     Rng rng{seed_ ^ 0x5eedULL, team_.spec(ri_).id, RngStream::range_noise};
     for (std::size_t k = 0; k < count; ++k) {
       const Time end = Time::from_ns(pc->first_end_ns + static_cast<std::int64_t>(k) * pc->period_ns);
@@ -301,6 +345,8 @@ class LiveLaser final : public lms200::RangeSource {
       pc = precast_.get();
     }
     if (pc == nullptr || pc->beams != n || !(sweep.variant == variant_)) return nullptr;
+    // Cast before a robot was held or released: from then on the table shows a world that did not happen.
+    if (clock_.at(sweep.sweep_end) >= world_.precast_valid_until_s.load()) return nullptr;
     const std::int64_t d = sweep.sweep_end.ns() - pc->first_end_ns;
     if (d < 0 || d % pc->period_ns != 0) return nullptr;  // before the table, or a new grid (scanner restarted)
     const auto k = static_cast<std::size_t>(d / pc->period_ns);
@@ -309,6 +355,7 @@ class LiveLaser final : public lms200::RangeSource {
   }
 
   const TeamWorld& team_;
+  const LiveWorld& world_;
   std::size_t ri_;
   std::uint64_t seed_;
   const WorldClock& clock_;
@@ -334,8 +381,8 @@ class LiveLaser final : public lms200::RangeSource {
 
 class LiveRobot {
  public:
-  LiveRobot(const TeamWorld& team, std::size_t ri, std::uint64_t seed, const WorldClock& clock, std::int64_t rt_offset)
-      : index{ri}, wheels{team, ri, seed, clock}, laser{team, ri, seed, clock, rt_offset} {}
+  LiveRobot(LiveWorld& world, std::size_t ri, std::uint64_t seed, const WorldClock& clock, std::int64_t rt_offset)
+      : index{ri}, wheels{world.team, world, ri, seed, clock}, laser{world, ri, seed, clock, rt_offset} {}
   std::size_t index;
   LiveWheels wheels;
   LiveLaser laser;
@@ -345,9 +392,10 @@ class LiveRobot {
 };
 
 struct LiveTeam::Impl {
-  explicit Impl(const Scenario& s) : scenario{s}, team{s} {}
+  explicit Impl(const Scenario& s) : scenario{s}, team{s}, world{team, team.robot_count()} {}
   Scenario scenario;
   TeamWorld team;
+  LiveWorld world;
   WorldClock clock;
   std::vector<std::unique_ptr<LiveRobot>> robots;
   bool started = false;
@@ -377,7 +425,7 @@ Result<std::unique_ptr<LiveTeam>> LiveTeam::create(const Scenario& scenario, con
     if (!options.robot_ids.empty() &&
         std::find(options.robot_ids.begin(), options.robot_ids.end(), spec.id) == options.robot_ids.end())
       continue;
-    auto r = std::make_unique<LiveRobot>(im.team, ri, seed, im.clock, rt_offset);
+    auto r = std::make_unique<LiveRobot>(im.world, ri, seed, im.clock, rt_offset);
     const std::string base = options.run_dir.empty() ? std::string{} : options.run_dir + "/robot" + std::to_string(spec.id);
 
     arcos::PioneerEmulatorOptions po;
@@ -477,6 +525,21 @@ Status LiveTeam::replug_laser(std::size_t i) { return impl_->robots[i]->lms->rep
 std::vector<LiveScanTruth> LiveTeam::take_truth(std::size_t i) { return impl_->robots[i]->laser.take(); }
 std::uint64_t LiveTeam::scans_measured(std::size_t i) const { return impl_->robots[i]->laser.measured(); }
 std::uint64_t LiveTeam::ghost_beams(std::size_t i) const { return impl_->robots[i]->laser.ghost_beams(); }
+LiveTruth LiveTeam::true_motion(std::size_t i, double world_t_s) const {
+  const Impl& im = *impl_;
+  const std::size_t k = im.robots[i]->index;
+  const double t_s = std::max(0.0, world_t_s);
+  LiveTruth out;
+  out.pose = im.world.pose(k, t_s, im.clock);
+  out.held = im.world.holds[k].held_at(t_s);
+  if (!out.held) {
+    const double track_s = im.clock.scene(im.world.holds[k].track_time(t_s));
+    out.v_mps = im.team.motion(k).speed_at(track_s);
+    out.w_radps = im.team.motion(k).yaw_rate_at(track_s);
+  }
+  return out;
+}
+std::size_t LiveTeam::holds(std::size_t i) const { return impl_->world.holds[impl_->robots[i]->index].holds(); }
 std::uint64_t LiveTeam::scans_from_precast() const {
   std::uint64_t n = 0;
   for (const auto& r : impl_->robots) n += r->laser.from_precast();

@@ -2,7 +2,8 @@
 // pseudo-terminals (serial::PtyRunner, symlinks RUN/robotN-arcos and RUN/robotN-lms200) and are fed
 // by the simulator's wheel model (the emulator's SIP source hook) and ray caster at wall-clock time ×
 // speed, so a real teamscan-onboard can open them like /dev/ttyS*. The host's VEL/RVEL commands do
-// not move the simulated robot: the scenario's tracks do. The ray cast's truth of every sent scan is
+// not move the simulated robot: the scenario's tracks do, except that a robot whose client goes silent
+// stops as the firmware stops it (PROTOCOLS.md §1.6) and drives on when its client is back. The ray cast's truth of every sent scan is
 // recorded (per beam: class, hit robot, true point) so the live result can be scored (docs/demo.md).
 #pragma once
 
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include "common/dataset/dataset.hpp"
+#include "common/pose.hpp"
 #include "common/result.hpp"
 #include "common/time.hpp"
 #include "sim/scenario.hpp"
@@ -29,6 +31,14 @@ struct LiveOptions {
   // adapter does on its latency timer; 0: a thread per pty, each byte on time (serial::PtyRunner::start).
   Duration feed_period = std::chrono::milliseconds(1);
   bool loop = false;                   // replay the scenario's motion forever (period: its duration), for soaks
+};
+
+// What robot i is doing at a world time in the live world: its true pose and motion; `held` while its
+// firmware holds it still (client silent, PROTOCOLS.md §1.6), velocities 0 then.
+struct LiveTruth {
+  Pose2 pose;
+  double v_mps = 0, w_radps = 0;
+  bool held = false;
 };
 
 // Truth of one beam as cast (what the scanner's value word was made from).
@@ -85,6 +95,14 @@ class LiveTeam {
   // World time of a CLOCK_REALTIME stamp.
   [[nodiscard]] double world_time_of(std::int64_t realtime_ns) const;
   [[nodiscard]] double speed() const { return options_.speed; }
+
+  // Robot i's truth at world time t_s: the scenario's track, held still from the moment its emulated
+  // firmware stopped it (no client command for the watchdog time, or a CLOSE) until its client is back;
+  // the track drives on from where the robot stopped. The ray casts (its own scans and its teammates'
+  // scans of it) use the same poses.
+  [[nodiscard]] LiveTruth true_motion(std::size_t i, double world_t_s) const;
+  // How many times robot i's firmware held it still so far.
+  [[nodiscard]] std::size_t holds(std::size_t i) const;
 
   // Cable out / in on one robot's laser (index i): the host sees EIO, then a new pty.
   void unplug_laser(std::size_t i);

@@ -88,6 +88,20 @@ void PioneerEmulator::stop_motion() {
   rot_rad_s_ = 0;
 }
 
+void PioneerEmulator::client_went_silent(Time since) {
+  if (client_silent_) return;
+  client_silent_ = true;
+  silent_since_ = since;
+  ++stats_.client_silences;
+  if (source_ != nullptr) source_->on_client_silent(since);
+}
+
+void PioneerEmulator::client_came_back(Time at) {
+  if (!client_silent_) return;
+  client_silent_ = false;
+  if (source_ != nullptr) source_->on_client_back(at);
+}
+
 void PioneerEmulator::integrate(Time now) {
   if (!have_integrate_time_) {
     last_integrate_ = now;
@@ -124,8 +138,8 @@ bool PioneerEmulator::make_sip(Time now, SipPacket& sip) {
 Time PioneerEmulator::next_deadline() const {
   const Time flush = parser_.buffered() > 0 ? last_rx_ + opt_.inter_byte_timeout : Time::from_ns(INT64_MAX);
   if (state_ != PioneerState::kServerOpen) return flush;
-  const bool moving = trans_mm_s_ != 0 || rot_rad_s_ != 0;
-  return std::min(flush, moving ? std::min(next_sip_, last_cmd_ + opt_.watchdog) : next_sip_);
+  // The watchdog is due while the client is not silent yet: the robot stops at that very instant.
+  return std::min(flush, client_silent_ ? next_sip_ : std::min(next_sip_, last_cmd_ + opt_.watchdog));
 }
 
 void PioneerEmulator::on_tick(Time now) {
@@ -134,12 +148,18 @@ void PioneerEmulator::on_tick(Time now) {
     drain_parser(now);
   }
   if (state_ != PioneerState::kServerOpen) return;
-  integrate(now);
-  if (now - last_cmd_ >= opt_.watchdog && (trans_mm_s_ != 0 || rot_rad_s_ != 0)) {
-    // §1.6: the firmware stops the robot when no client command arrived within the watchdog time.
-    ++stats_.watchdog_stops;
-    stop_motion();
+  if (!client_silent_ && now - last_cmd_ >= opt_.watchdog) {
+    // §1.6: the firmware stops the robot when no client command arrived within the watchdog time: the
+    // motion up to that instant counts, none after it (a late tick does not move the robot further).
+    const Time stop_at = last_cmd_ + opt_.watchdog;
+    if (!have_integrate_time_ || stop_at > last_integrate_) integrate(stop_at);
+    if (trans_mm_s_ != 0 || rot_rad_s_ != 0) {
+      ++stats_.watchdog_stops;
+      stop_motion();
+    }
+    client_went_silent(stop_at);
   }
+  integrate(now);
   if (now >= next_sip_) {
     SipPacket sip;
     if (make_sip(now, sip)) {
@@ -196,6 +216,7 @@ void PioneerEmulator::on_packet(const PacketView& p, Time now) {
         motors_enabled_ = opt_.motors_enabled_at_open;
         stop_motion();
         last_cmd_ = now;
+        client_came_back(now);
         next_sip_ = now;
         have_integrate_time_ = false;
         integrate(now);
@@ -235,6 +256,7 @@ void PioneerEmulator::server_command(const PacketView& p, Time now) {
   ++stats_.commands;
   last_cmd_ = now;  // any command feeds the watchdog, PULSE included (§1.6)
   const CommandPacket& c = cmd.value();
+  if (static_cast<Command>(c.command) != Command::kClose) client_came_back(now);
   const double max_v = params_.max_velocity_mm_s;
   const double max_w = deg_to_rad(params_.max_rot_velocity_deg_s);
   switch (static_cast<Command>(c.command)) {
@@ -245,6 +267,7 @@ void PioneerEmulator::server_command(const PacketView& p, Time now) {
       // CLOSE at every rate when the robot is silent (§1.4).
       ++stats_.closes;
       stop_motion();
+      client_went_silent(now);  // the motors stop with the server: the robot stands until a new OPEN
       encoder_stream_ = false;
       state_ = PioneerState::kWaitSync0;
       baud_ = opt_.baud;

@@ -1,7 +1,8 @@
 // PioneerEmulator: the robot side of the ARCOS link as the firmware behaves (PROTOCOLS.md §1.4-§1.9),
 // a sans-I/O serial::SerialEndpoint for in-process tests, the simulator and `teamscan emulate`.
 // Answers SYNC0/1/2, restarts the handshake on an out-of-sequence SYNC, streams SIPs after OPEN,
-// obeys the motion commands, stops the motors after the watchdog time without commands (§1.6).
+// obeys the motion commands, stops the robot after the watchdog time without commands (§1.6) and
+// tells its SIP source, so that a simulated world holds the robot still while its client is silent.
 #pragma once
 
 #include <array>
@@ -39,6 +40,12 @@ struct PioneerEmulatorOptions {
 class SipSource {
  public:
   virtual bool fill_sip(Time now, SipPacket& sip) = 0;
+  // §1.6: the firmware stopped the robot at `since` (the last command + the watchdog time, or a CLOSE)
+  // because its client went silent. A source that moves the robot (the simulator's world) holds it
+  // still from `since` until on_client_back. Default: nothing.
+  virtual void on_client_silent(Time since) { (void)since; }
+  // A command arrived again at `at` (the client is back, or a new one opened the server).
+  virtual void on_client_back(Time at) { (void)at; }
 
  protected:
   ~SipSource() = default;
@@ -59,7 +66,8 @@ struct PioneerEmulatorStatistics {
   std::uint64_t bad_commands = 0;
   std::uint64_t ignored_commands = 0;    // understood but not modelled (sonar, gripper, ...)
   std::uint64_t sips_sent = 0, configs_sent = 0, encoder_packets_sent = 0;
-  std::uint64_t watchdog_stops = 0;
+  std::uint64_t watchdog_stops = 0;       // commanded motion stopped by the watchdog
+  std::uint64_t client_silences = 0;      // the client went silent (watchdog time or CLOSE): robot held
   std::uint64_t baud_changes = 0;        // HOSTBAUD obeyed
   std::uint64_t tx_overflows = 0;
   ArcosParserStatistics parser;
@@ -102,6 +110,10 @@ class PioneerEmulator final : public serial::SerialEndpoint {
   [[nodiscard]] PioneerEmulatorStatistics statistics() const;
   [[nodiscard]] const RobotParams& params() const { return params_; }
   [[nodiscard]] Time last_command_time() const { return last_cmd_; }
+  // True from the moment the client went silent (watchdog time without a command after an OPEN, or a
+  // CLOSE) until its next command: the firmware holds the robot still (§1.6).
+  [[nodiscard]] bool client_silent() const { return client_silent_; }
+  [[nodiscard]] Time client_silent_since() const { return silent_since_; }
 
  private:
   void on_packet(const PacketView& p, Time now);
@@ -110,6 +122,8 @@ class PioneerEmulator final : public serial::SerialEndpoint {
   void integrate(Time now);
   void send(const PacketBuffer& p);
   void stop_motion();
+  void client_went_silent(Time since);
+  void client_came_back(Time at);
 
   PioneerEmulatorOptions opt_;
   RobotParams params_;
@@ -130,6 +144,8 @@ class PioneerEmulator final : public serial::SerialEndpoint {
   Time next_sip_;
   Time last_cmd_;
   Time last_rx_;
+  bool client_silent_ = false;
+  Time silent_since_;
 
   std::array<std::uint8_t, 8 * kMaxArcosPacket> tx_{};
   std::size_t tx_head_ = 0, tx_size_ = 0;

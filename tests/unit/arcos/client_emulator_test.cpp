@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cmath>
+#include <vector>
 
 #include "drivers/arcos/client.hpp"
 #include "drivers/arcos/emulator.hpp"
@@ -455,6 +456,110 @@ TEST(PioneerEmulator, CorruptedCountDoesNotStallCommands) {
   e.on_tick(t + 10ms + o.inter_byte_timeout);
   EXPECT_DOUBLE_EQ(e.trans_vel_mm_s(), 250.0);
   EXPECT_EQ(e.statistics().parser.bad_length, 1U);
+}
+
+
+// §1.6 with the emulator alone: the robot stops exactly at the last command + the watchdog time, even
+// when the next tick comes late, and stays there; its SIPs say velocity 0 and a frozen position.
+struct SilenceRecorder final : SipSource {
+  bool fill_sip(Time, SipPacket&) override { return true; }  // the emulator's own motion
+  void on_client_silent(Time since) override { silences.push_back(since); }
+  void on_client_back(Time at) override { backs.push_back(at); }
+  std::vector<Time> silences, backs;
+};
+
+PioneerEmulatorOptions motors_on() {
+  PioneerEmulatorOptions o;
+  o.motors_enabled_at_open = true;
+  return o;
+}
+
+void open_server(PioneerEmulator& e, Time t, SipSource* source) {
+  e.set_sip_source(source);
+  for (auto c : {Command::kSync0, Command::kSync1, Command::kSync2, Command::kOpen}) e.on_rx(make_command(c).span(), t);
+  (void)drain(e);
+}
+
+TEST(PioneerEmulator, WatchdogFreezesThePoseAtTheDeadlineEvenWithALateTick) {
+  SilenceRecorder rec;
+  Time t = Time::from_seconds(1);
+  PioneerEmulator e{motors_on()};
+  open_server(e, t, &rec);
+  e.on_rx(make_command(Command::kVel, 300).span(), t);
+  const Time last_command = t;
+  EXPECT_LE(e.next_deadline(), last_command + 2000ms);
+  e.on_tick(t + 1000ms);
+  EXPECT_NEAR(e.x_mm(), 300.0, 1e-6);
+  EXPECT_FALSE(e.client_silent());
+  // The feeder was starved: the next tick is 3 s late. The robot moved only until the deadline.
+  e.on_tick(t + 5000ms);
+  EXPECT_NEAR(e.x_mm(), 600.0, 1e-6);  // 300 mm/s × 2 s
+  EXPECT_EQ(e.trans_vel_mm_s(), 0.0);
+  EXPECT_TRUE(e.client_silent());
+  EXPECT_EQ(e.client_silent_since(), last_command + 2000ms);
+  ASSERT_EQ(rec.silences.size(), 1U);
+  EXPECT_EQ(rec.silences[0], last_command + 2000ms);
+  EXPECT_EQ(e.statistics().watchdog_stops, 1U);
+  EXPECT_EQ(e.statistics().client_silences, 1U);
+  const SipPacket sip = e.make_sip(t + 6000ms);
+  EXPECT_EQ(sip.left_vel, 0);
+  EXPECT_EQ(sip.right_vel, 0);
+  e.on_tick(t + 9000ms);
+  EXPECT_NEAR(e.x_mm(), 600.0, 1e-6);  // frozen
+  EXPECT_EQ(rec.silences.size(), 1U);  // one silence, told once
+}
+
+TEST(PioneerEmulator, TheWatchdogIsDueEvenWhenTheRobotIsNotCommandedToMove) {
+  // The simulator moves the robot through the SIP source, not by commands: the silence still counts.
+  SilenceRecorder rec;
+  const Time t = Time::from_seconds(1);
+  PioneerEmulator e{motors_on()};
+  open_server(e, t, &rec);
+  EXPECT_LE(e.next_deadline(), t + 2000ms);
+  e.on_tick(t + 1999ms);
+  EXPECT_TRUE(rec.silences.empty());
+  e.on_tick(t + 2000ms);
+  ASSERT_EQ(rec.silences.size(), 1U);
+  EXPECT_EQ(rec.silences[0], t + 2000ms);
+  EXPECT_EQ(e.statistics().watchdog_stops, 0U);  // nothing was commanded to move
+  EXPECT_TRUE(e.server_open());                  // the watchdog stops the robot, not the server
+}
+
+TEST(PioneerEmulator, AnyCommandEndsTheSilenceAndKeepAliveNeverStartsOne) {
+  SilenceRecorder rec;
+  Time t = Time::from_seconds(1);
+  PioneerEmulator e{motors_on()};
+  open_server(e, t, &rec);
+  for (int i = 0; i < 20; ++i) {  // PULSE every 500 ms for 10 s: never silent
+    t += 500ms;
+    e.on_tick(t);
+    e.on_rx(make_command(Command::kPulse).span(), t);
+  }
+  EXPECT_TRUE(rec.silences.empty());
+  e.on_tick(t + 2500ms);
+  ASSERT_EQ(rec.silences.size(), 1U);
+  e.on_rx(make_command(Command::kPulse).span(), t + 3000ms);
+  ASSERT_EQ(rec.backs.size(), 1U);
+  EXPECT_EQ(rec.backs[0], t + 3000ms);
+  EXPECT_FALSE(e.client_silent());
+  // The robot obeys motion again.
+  e.on_rx(make_command(Command::kVel, 100).span(), t + 3000ms);
+  e.on_tick(t + 4000ms);
+  EXPECT_EQ(e.trans_vel_mm_s(), 100.0);
+}
+
+TEST(PioneerEmulator, CloseStopsTheRobotUntilTheNextOpen) {
+  SilenceRecorder rec;
+  const Time t = Time::from_seconds(1);
+  PioneerEmulator e{motors_on()};
+  open_server(e, t, &rec);
+  e.on_rx(make_command(Command::kClose).span(), t + 100ms);
+  ASSERT_EQ(rec.silences.size(), 1U);
+  EXPECT_EQ(rec.silences[0], t + 100ms);
+  EXPECT_FALSE(e.server_open());
+  for (auto c : {Command::kSync0, Command::kSync1, Command::kSync2, Command::kOpen}) e.on_rx(make_command(c).span(), t + 500ms);
+  ASSERT_EQ(rec.backs.size(), 1U);
+  EXPECT_EQ(rec.backs[0], t + 500ms);
 }
 
 }  // namespace
