@@ -1,8 +1,10 @@
 // The one checked reader of teamscan's TOML configs on top of toml++: typed values by section and key,
 // required keys, ranges, unknown keys refused; the first error is kept as "<section>.<key>: <why>
 // (line N)". Header-only and exception-free, so both the robot daemon (-fno-exceptions, toml++ with
-// TOML_EXCEPTIONS 0) and the ground station use it; the caller parses the text and includes toml++.
+// TOML_EXCEPTIONS 0, defined before its first include of toml++) and the ground station use it.
 #pragma once
+
+#include <toml++/toml.h>
 
 #include <cmath>
 #include <cstdint>

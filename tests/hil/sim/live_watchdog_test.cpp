@@ -71,13 +71,14 @@ TEST(LiveWatchdog, ASilentClientStopsTheRobotInTheWorldAndItDrivesOnWhenBack) {
   Host host{std::move(port.value())};
   for (auto c : {arcos::Command::kSync0, arcos::Command::kSync1, arcos::Command::kSync2, arcos::Command::kOpen}) host.send(c);
   // Alive: PULSE every 250 ms for 1.5 s (ARIA sends one every 500 ms).
+  double last_pulse_s = 0;
   for (int i = 0; i < 6; ++i) {
     host.send(arcos::Command::kPulse);
+    last_pulse_s = live.world_time_s();
     host.read_for(250ms);
   }
   EXPECT_EQ(live.holds(0), 0u);
   EXPECT_FALSE(live.true_motion(0, live.world_time_s()).held);
-  const double last_pulse_s = live.world_time_s();
 
   // Silent: the firmware's watchdog (2 s) stops the robot.
   const Time silent_from = now_monotonic();
