@@ -12,7 +12,9 @@ set(TEAMSCAN_ALLOWED_DEPS
   "drivers/serial:common"
   "drivers/arcos:common drivers/serial"
   "drivers/lms200:common drivers/serial"
-  "dds:common idl"
+  "dds/security:common"
+  "dds:common idl dds/security"
+  "dds/ros2:common idl dds"
   "onboard/core:common"
   "onboard/bridge:common dds idl"
   "onboard/daemon:common drivers/serial drivers/arcos drivers/lms200 dds onboard/core onboard/bridge"
@@ -20,8 +22,10 @@ set(TEAMSCAN_ALLOWED_DEPS
   "groundstation/mapping:common common/dataset onboard/core"
   "groundstation/fusion:common common/dataset idl dds onboard/core groundstation/mapping"
   "groundstation/registration:common common/dataset groundstation/mapping"
-  "groundstation/station:common common/dataset idl dds groundstation/mapping groundstation/fusion groundstation/registration"
+  "groundstation/view:common"
+  "groundstation/station:common common/dataset idl dds dds/security dds/ros2 groundstation/mapping groundstation/fusion groundstation/registration groundstation/view"
   "tools/render:common common/dataset"
+  "tools/pki:common dds/security"
   "tools/demo:*"
 )
 
