@@ -427,7 +427,7 @@ std::string report_json(const EvalReport& r, const std::string& command) {
       o << (i ? ", " : "") << "{\"robot\": " << int(c.robot) << ", \"matches\": " << c.matches << ", \"accepted\": " << c.accepted
         << ", \"degenerate\": " << c.degenerate << ", \"standing_still\": " << c.standing_still << ", \"first_lap\": " << c.first_lap
         << ", \"rejected_overlap\": " << c.rejected_overlap << ", \"rejected_fit\": " << c.rejected_fit
-        << ", \"rejected_step\": " << c.rejected_step << "}";
+        << ", \"rejected_step\": " << c.rejected_step << ", \"too_few_features\": " << c.too_few_features << "}";
     }
     o << "]},\n";
   }
@@ -470,11 +470,11 @@ std::string report_markdown(const EvalReport& r, const std::string& command) {
         << stats(g.point_m_after, 100, 1) << " |\n";
   }
   if (r.registration.enabled) {
-    o << "\n| robot | matches | accepted | degenerate | standing still | first lap | rejected overlap / fit / step |\n";
-    o << "| ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+    o << "\n| robot | matches | accepted | degenerate | standing still | first lap | too few features | rejected overlap / fit / step |\n";
+    o << "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
     for (const registration::RobotCorrection& c : r.registration.robots)
       o << "| " << int(c.robot) << " | " << c.matches << " | " << c.accepted << " | " << c.degenerate << " | " << c.standing_still
-        << " | " << c.first_lap << " | " << c.rejected_overlap << " / " << c.rejected_fit << " / " << c.rejected_step << " |\n";
+        << " | " << c.first_lap << " | " << c.too_few_features << " | " << c.rejected_overlap << " / " << c.rejected_fit << " / " << c.rejected_step << " |\n";
     o << "\nPoints kept out of the match (onboard-flagged, inside a teammate's tracked body): " << r.registration.masked_points << ".\n";
   }
   const Table1& t = r.table1;

@@ -97,7 +97,14 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
   for (const WindowScan& ws : r.window)
     for (const Vec3& p : ws.points) (void)window_grid_.add(p);
   window_grid_.features(scratch_);
-  const MatchResult m = match(map_, scratch_, r.c.map_from_odom, options_.match);
+  // The bounded step opens with the prediction's uncertainty (3σ): a robot that went unmatched for a
+  // while may move further, one matched a moment ago may not jump.
+  MatchOptions mo = options_.match;
+  const double sigma_m = std::sqrt(std::max(r.c.covariance(0, 0), r.c.covariance(1, 1)));
+  mo.max_step_m = std::max(mo.max_step_m, 3.0 * sigma_m);
+  mo.max_step_rad = std::max(mo.max_step_rad, 3.0 * std::sqrt(r.c.covariance(2, 2)));
+  mo.gate_start_m = std::max(mo.gate_start_m, mo.max_step_m + mo.gate_end_m);
+  const MatchResult m = match(map_, scratch_, r.c.map_from_odom, mo);
   ++r.c.matches;
   r.c.last = m;
   switch (m.status) {

@@ -32,7 +32,7 @@ namespace teamscan::registration {
 struct RegistrationOptions {
   SurfaceOptions surface;            // reference and window grids
   MatchOptions match;
-  double window_s = 2.0;             // a robot's recent points matched as one rigid piece
+  double window_s = 3.0;             // a robot's recent points matched as one rigid piece
   double match_every_s = 0.5;        // at most one match per robot this often
   double min_motion_m = 0.05;        // since the last match: less motion than this (and …
   double min_motion_rad = 0.017;     // … less turn) is standing still: no match

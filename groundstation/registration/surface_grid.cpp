@@ -56,6 +56,16 @@ void SurfaceGrid::features(std::vector<LineFeature>& out) const {
     const double n = v.n;
     const Eigen::Vector3d mean_rel = v.sum / n;
     const Eigen::Matrix3d cov = v.scatter / n - mean_rel * mean_rel.transpose();
+    if (options_.planar_scans) {
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es2;
+      es2.computeDirect(cov.topLeftCorner<2, 2>());
+      const Eigen::Vector2d ev2 = es2.eigenvalues();
+      if (!(ev2(1) >= options_.min_extent_m * options_.min_extent_m) || ev2(0) > options_.max_flatness * ev2(1)) return;
+      const Eigen::Vector2d n2 = es2.eigenvectors().col(0).normalized();
+      const Eigen::Vector3d mean = v.origin + mean_rel;
+      candidates.push_back({key >> 21, {mean.x(), mean.y(), n2.x(), n2.y(), static_cast<float>(v.n)}});
+      return;
+    }
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
     es.computeDirect(cov);
     const Eigen::Vector3d ev = es.eigenvalues();  // ascending

@@ -25,6 +25,9 @@ struct SurfaceOptions {
   double min_extent_m = 0.02;       // √λ_mid: the points span a surface, not one laser stripe (a line
                                     // whose normal could point anywhere round it)
   double floor_band_m = 0.06;       // points below this height are floor and never enter
+  // Horizontal 2-D lasers (every point at the mount's height): a voxel's surface is a line in the
+  // floor plane; its normal comes from the points' spread in x, y alone.
+  bool planar_scans = false;
 };
 
 // One feature: a piece of vertical surface seen from above, in the map (or odometry-map) frame.
