@@ -29,6 +29,60 @@ bool has_truth(const Dataset& d) { return !d.truth.empty(); }
 
 }  // namespace
 
+RevisitConsistency revisit_consistency(const Dataset& d, double min_age_s, double radius_m) {
+  RevisitConsistency out;
+  std::map<std::pair<std::uint8_t, std::uint32_t>, std::int64_t> stamp_of;
+  for (const ScanRecord& s : d.scans) stamp_of[{s.robot, s.scan}] = s.stamp_ns;
+  // Points in time order; a 2-D grid of radius-sized cells holding what has been seen so far.
+  struct Seen {
+    float x, y;
+    std::int64_t stamp_ns;
+  };
+  std::vector<std::pair<std::int64_t, std::size_t>> order;
+  order.reserve(d.points.size());
+  for (std::size_t i = 0; i < d.points.size(); ++i) {
+    const auto it = stamp_of.find({d.points[i].robot, d.points[i].scan});
+    if (it != stamp_of.end() && d.points[i].z >= 0.06f) order.push_back({it->second, i});
+  }
+  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::map<std::pair<int, int>, std::vector<Seen>> grid;
+  const double cell_m = radius_m / 2;
+  auto cell = [&](double v) { return static_cast<int>(std::floor(v / cell_m)); };
+  const auto min_age_ns = static_cast<std::int64_t>(min_age_s * 1e9);
+  std::vector<double> distances;
+  for (const auto& [stamp, i] : order) {
+    const LabelledPoint& p = d.points[i];
+    const int cx = cell(p.x), cy = cell(p.y);
+    double best2 = radius_m * radius_m;
+    bool revisit = false;
+    for (int dx = -2; dx <= 2; ++dx) {
+      for (int dy = -2; dy <= 2; ++dy) {
+        const auto it = grid.find({cx + dx, cy + dy});
+        if (it == grid.end()) continue;
+        for (const Seen& s : it->second) {
+          if (s.stamp_ns > stamp - min_age_ns) continue;
+          const double ex = double(s.x) - p.x, ey = double(s.y) - p.y, e2 = ex * ex + ey * ey;
+          if (e2 <= best2) {
+            best2 = e2;
+            revisit = true;
+          }
+        }
+      }
+    }
+    ++out.points;
+    if (revisit) distances.push_back(std::sqrt(best2));
+    std::vector<Seen>& here = grid[{cx, cy}];
+    if (here.size() < 64) here.push_back({p.x, p.y, stamp});  // the earliest passes of each cell
+  }
+  out.revisit_points = distances.size();
+  if (!distances.empty()) {
+    std::sort(distances.begin(), distances.end());
+    out.median_m = distances[distances.size() / 2];
+    out.p90_m = distances[std::min(distances.size() - 1, distances.size() * 9 / 10)];
+  }
+  return out;
+}
+
 void measure_errors(const Dataset& d, ErrorStats& pose_m, ErrorStats& pose_deg, ErrorStats& point_m) {
   if (!has_truth(d)) return;
   std::vector<double> t, r, p;
@@ -54,6 +108,7 @@ RegistrationReport register_dataset(Dataset& d, const TrackerOptions& tracker_op
   report.enabled = true;
   report.have_truth = has_truth(d);
   measure_errors(d, report.pose_m_before, report.pose_deg_before, report.point_m_before);
+  report.consistency_before = revisit_consistency(d);
 
   // Points by scan, scans in time order (as prepare_dataset orders them).
   std::map<std::pair<std::uint8_t, std::uint32_t>, std::vector<std::size_t>> by_scan;
@@ -70,7 +125,13 @@ RegistrationReport register_dataset(Dataset& d, const TrackerOptions& tracker_op
     return std::tie(d.odom[a].stamp_ns, d.odom[a].robot) < std::tie(d.odom[b].stamp_ns, d.odom[b].robot);
   });
 
-  registration::Registration reg{options.registration};
+  // Horizontal 2-D lasers (an imported CARMEN log): every point at the mount's height, walls seen
+  // edge-on (SurfaceOptions::planar_scans).
+  registration::RegistrationOptions ro = options.registration;
+  bool planar = !d.robots.empty();
+  for (const DatasetRobot& r : d.robots) planar = planar && r.mount_rpy_rad[0] == 0.0 && r.mount_rpy_rad[1] == 0.0;
+  if (planar) ro.surface.planar_scans = true;
+  registration::Registration reg{ro};
   TeamTracker tracker{tracker_options};
   std::map<std::uint8_t, Pose2> current;  // each robot's correction so far
   std::size_t next_odom = 0;
@@ -133,6 +194,7 @@ RegistrationReport register_dataset(Dataset& d, const TrackerOptions& tracker_op
   for (const DatasetRobot& r : d.robots)
     if (const registration::RobotCorrection* c = reg.correction(r.id)) report.robots.push_back(*c);
   measure_errors(d, report.pose_m_after, report.pose_deg_after, report.point_m_after);
+  report.consistency_after = revisit_consistency(d);
   return report;
 }
 

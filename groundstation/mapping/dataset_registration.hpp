@@ -21,6 +21,17 @@ struct ErrorStats {
   double p50 = 0, p99 = 0, max = 0;
 };
 
+// Revisit consistency, a figure that needs no truth: for every point measured at least `min_age_s`
+// after the earliest point within `radius_m` of it (a revisit of a place mapped before), its
+// horizontal distance to the nearest point of that earlier pass. A consistent map puts a revisit on
+// the surfaces seen before (median ≈ range noise and beam spacing); drift shifts it by the pose
+// error accumulated in between. Reported: median and p90 over the revisit points, and their share.
+struct RevisitConsistency {
+  double median_m = 0, p90_m = 0;
+  std::uint64_t revisit_points = 0, points = 0;
+};
+[[nodiscard]] RevisitConsistency revisit_consistency(const Dataset& dataset, double min_age_s = 30.0, double radius_m = 0.5);
+
 struct RegistrationReport {
   bool enabled = false;
   bool have_truth = false;
@@ -28,6 +39,7 @@ struct RegistrationReport {
   ErrorStats point_m_before, point_m_after;                                 // per non-ghost point: vs true hit
   std::vector<registration::RobotCorrection> robots;                        // counters and last correction
   std::uint64_t masked_points = 0;                                          // kept out of the match
+  RevisitConsistency consistency_before, consistency_after;                 // also without truth
 };
 
 struct DatasetRegistrationOptions {

@@ -413,7 +413,9 @@ std::string report_json(const EvalReport& r, const std::string& command) {
       return "{\"p50\": " + json_number(e.p50) + ", \"p99\": " + json_number(e.p99) + ", \"max\": " + json_number(e.max) +
              ", \"count\": " + std::to_string(e.count) + "}";
     };
-    o << "  \"registration\": {\"enabled\": " << (g.enabled ? "true" : "false") << ", \"have_truth\": " << (g.have_truth ? "true" : "false");
+    o << "  \"registration\": {\"enabled\": " << (g.enabled ? "true" : "false") << ", \"have_truth\": " << (g.have_truth ? "true" : "false")
+      << ", \"consistency_before_median_m\": " << json_number(g.consistency_before.median_m)
+      << ", \"consistency_after_median_m\": " << json_number(g.enabled ? g.consistency_after.median_m : g.consistency_before.median_m);
     if (g.have_truth) {
       o << ", \"pose_m_before\": " << js(g.pose_m_before) << ", \"pose_deg_before\": " << js(g.pose_deg_before)
         << ", \"point_m_before\": " << js(g.point_m_before);
@@ -468,6 +470,18 @@ std::string report_markdown(const EvalReport& r, const std::string& command) {
     if (g.enabled)
       o << "| registered | " << stats(g.pose_m_after, 100, 1) << " | " << stats(g.pose_deg_after, 1, 2) << " | "
         << stats(g.point_m_after, 100, 1) << " |\n";
+  }
+  if (r.registration.consistency_before.points > 0) {
+    const RegistrationReport& g = r.registration;
+    auto c = [&](const RevisitConsistency& k) {
+      return md(k.median_m * 100, 1) + " / " + md(k.p90_m * 100, 1) + " cm (" +
+             md(k.points ? 100.0 * static_cast<double>(k.revisit_points) / static_cast<double>(k.points) : 0.0) + " % of the points)";
+    };
+    o << "\nRevisit consistency (median / p90 distance of a revisit's points to the earlier pass, ≥ 30 s before, within 0.5 m; "
+         "docs/registration.md): odometry "
+      << c(g.consistency_before);
+    if (g.enabled) o << ", registered " << c(g.consistency_after);
+    o << ".\n";
   }
   if (r.registration.enabled) {
     o << "\n| robot | matches | accepted | degenerate | standing still | first lap | too few features | rejected overlap / fit / step |\n";

@@ -290,6 +290,7 @@ int run_eval(const EvalArgs& a) {
     } else {
       registered.have_truth = !dataset.value().truth.empty();
       mapping::measure_errors(dataset.value(), registered.pose_m_before, registered.pose_deg_before, registered.point_m_before);
+      registered.consistency_before = mapping::revisit_consistency(dataset.value());
     }
     EvalReport report = mapping::evaluate(dataset.value(), options);
     report.registration = registered;

@@ -61,3 +61,36 @@ TEST(SurfaceGrid, OnlyATableTopAndFloorGiveNoFeature) {
 
 }  // namespace
 }  // namespace teamscan::registration
+
+namespace teamscan::registration {
+namespace {
+
+TEST(SurfaceGrid, AHorizontalLaserSeesWallsEdgeOn) {
+  // Every point at one height (a horizontal 2-D laser, SurfaceOptions::planar_scans): each wall voxel
+  // holds a horizontal line whose normal in the floor plane is the wall's.
+  std::mt19937_64 rng{3};
+  std::uniform_real_distribution<double> u(-3.9, 3.9);
+  std::normal_distribution<double> g(0.0, 0.005);
+  SurfaceOptions o;
+  o.planar_scans = true;
+  SurfaceGrid grid{o};
+  for (int i = 0; i < 20000; ++i) {
+    (void)grid.add({u(rng), 3.0 + g(rng), 0.3});
+    (void)grid.add({4.0 + g(rng), 0.75 * u(rng), 0.3});
+  }
+  std::vector<LineFeature> f;
+  grid.features(f);
+  ASSERT_GT(f.size(), 100u);
+  for (const LineFeature& l : f) {
+    if (std::abs(l.x_m) > 3.8 && std::abs(l.y_m) > 2.8) continue;  // the corner
+    if (std::abs(l.y_m - 3.0) < 0.05) {
+      EXPECT_GT(std::abs(l.ny), 0.99) << l.x_m;
+    } else {
+      EXPECT_NEAR(l.x_m, 4.0, 0.05);
+      EXPECT_GT(std::abs(l.nx), 0.99) << l.y_m;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace teamscan::registration
