@@ -18,6 +18,7 @@ $SUDO apt-get install -y --no-install-recommends \
   build-essential cmake ninja-build pkg-config git python3 \
   clang libclang-rt-14-dev \
   libeigen3-dev \
+  libnanoflann-dev \
   cyclonedds-dev cyclonedds-tools \
   libsystemd-dev systemd \
   libgtest-dev libgmock-dev libbenchmark-dev \

@@ -25,10 +25,14 @@ SipOdometry PioneerOdometry::step(const Pose2& true_pose, double dt_s) {
   last_true_ = true_pose;
 
   // Wheel slip and drift (seeded): what the encoders report, not what happened.
-  double ds_meas = ds, dtheta_meas = dtheta;
+  // Systematic terms first (OdometryNoise), then the random ones; a random term draws only when on,
+  // so adding one never shifts the others' streams.
+  double ds_meas = ds * (1.0 + noise_.slip), dtheta_meas = dtheta * (1.0 + noise_.turn_slip);
   if (noise_.slip_sigma > 0) ds_meas *= 1.0 + noise_.slip_sigma * rng_.normal();
   if (noise_.heading_sigma > 0) dtheta_meas *= 1.0 + noise_.heading_sigma * rng_.normal();
   dtheta_meas += noise_.drift_rad_per_m * std::abs(ds_meas);
+  if (noise_.heading_walk_rad_per_sqrt_m > 0 && ds != 0.0)
+    dtheta_meas += noise_.heading_walk_rad_per_sqrt_m * std::sqrt(std::abs(ds)) * rng_.normal();
 
   const double heading_mid = odom_.theta_rad + 0.5 * dtheta_meas;
   odom_.x_m += ds_meas * std::cos(heading_mid);

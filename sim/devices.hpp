@@ -35,10 +35,22 @@ struct SipOdometry {
 // 0.1°/s from the wheel difference (PROTOCOLS.md §1.8; DiffConvFactor §1.11).
 void fill_sip_odometry(const SipOdometry& o, arcos::SipPacket& sip, double diff_conv = PioneerParams{}.diff_conv);
 
+// How a skid-steered Pioneer 3-AT's dead reckoning departs from the truth (sim/scenarios/README.md
+// `[robot.odometry]`). Four wheels that must skid sideways to turn: the encoders see the wheels, not
+// the ground. Systematic terms dominate (Borenstein & Feng's UMBmark): the wheels slip, so the
+// encoders report more distance than was travelled (`slip`); on a turn the wheels skid, so the
+// wheel difference over-states the rotation (`turn_slip`: the effective wheelbase is not the one the
+// firmware's DiffConvFactor was calibrated for); unequal tyres turn the robot a little on every metre
+// (`drift_rad_per_m`). Random terms: per-cycle jitter of distance and turn (`slip_sigma`,
+// `heading_sigma`) and a random walk of the heading error with the distance (`heading_walk_*`: floor
+// irregularities). Every random term draws from the robot's seeded odometry stream, only when on.
 struct OdometryNoise {
   double slip_sigma = 0.0;             // relative σ of each SIP cycle's travelled distance
   double heading_sigma = 0.0;          // relative σ of each SIP cycle's heading change
   double drift_rad_per_m = 0.0;        // systematic heading drift per metre driven (sign = direction)
+  double slip = 0.0;                   // systematic: reported distance = true distance · (1 + slip)
+  double turn_slip = 0.0;              // systematic: reported heading change = true change · (1 + turn_slip)
+  double heading_walk_rad_per_sqrt_m = 0.0;  // σ of the heading error's random walk after 1 m driven
 };
 
 // Firmware dead reckoning: integrates the (noisy) wheel motion between SIP cycles from a pose that

@@ -254,10 +254,14 @@ void read_robot(const Reader& r, RobotSpec& robot, std::size_t index) {
                                                robot.mount_rpy_rad[0], robot.mount_rpy_rad[1], robot.mount_rpy_rad[2]);
   if (const toml::table* t = r.subtable("odometry")) {
     Reader orr{*t, r.key_path("odometry"), r.error()};
-    orr.only({"slip_sigma", "heading_sigma", "drift_deg_per_m"});
+    orr.only({"slip_sigma", "heading_sigma", "drift_deg_per_m", "slip_percent", "turn_slip_percent",
+              "heading_walk_deg_per_sqrt_m"});
     robot.odometry.slip_sigma = orr.number("slip_sigma", 0.0, 0.0, 1.0);
     robot.odometry.heading_sigma = orr.number("heading_sigma", 0.0, 0.0, 1.0);
     robot.odometry.drift_rad_per_m = deg_to_rad(orr.number("drift_deg_per_m", 0.0, -90.0, 90.0));
+    robot.odometry.slip = 0.01 * orr.number("slip_percent", 0.0, -50.0, 50.0);
+    robot.odometry.turn_slip = 0.01 * orr.number("turn_slip_percent", 0.0, -50.0, 50.0);
+    robot.odometry.heading_walk_rad_per_sqrt_m = deg_to_rad(orr.number("heading_walk_deg_per_sqrt_m", 0.0, 0.0, 10.0));
   }
 }
 

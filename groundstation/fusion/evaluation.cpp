@@ -511,7 +511,34 @@ std::string report_json(const EvalReport& r, const std::string& command) {
     }
     o << "}}";
   }
-  o << "\n  ],\n  \"plane_fits\": {\"before\": " << json_plane(r.plane_before);
+  o << "\n  ],\n";
+  {
+    const RegistrationReport& g = r.registration;
+    auto js = [&](const ErrorStats& e) {
+      return "{\"p50\": " + json_number(e.p50) + ", \"p99\": " + json_number(e.p99) + ", \"max\": " + json_number(e.max) +
+             ", \"count\": " + std::to_string(e.count) + "}";
+    };
+    o << "  \"registration\": {\"enabled\": " << (g.enabled ? "true" : "false") << ", \"have_truth\": " << (g.have_truth ? "true" : "false")
+      << ", \"consistency_before_median_m\": " << json_number(g.consistency_before.median_m)
+      << ", \"consistency_after_median_m\": " << json_number(g.enabled ? g.consistency_after.median_m : g.consistency_before.median_m);
+    if (g.have_truth) {
+      o << ", \"pose_m_before\": " << js(g.pose_m_before) << ", \"pose_deg_before\": " << js(g.pose_deg_before)
+        << ", \"point_m_before\": " << js(g.point_m_before);
+      if (g.enabled)
+        o << ", \"pose_m_after\": " << js(g.pose_m_after) << ", \"pose_deg_after\": " << js(g.pose_deg_after)
+          << ", \"point_m_after\": " << js(g.point_m_after);
+    }
+    o << ", \"robots\": [";
+    for (std::size_t i = 0; i < g.robots.size(); ++i) {
+      const registration::RobotCorrection& c = g.robots[i];
+      o << (i ? ", " : "") << "{\"robot\": " << int(c.robot) << ", \"matches\": " << c.matches << ", \"accepted\": " << c.accepted
+        << ", \"degenerate\": " << c.degenerate << ", \"standing_still\": " << c.standing_still << ", \"first_lap\": " << c.first_lap
+        << ", \"rejected_overlap\": " << c.rejected_overlap << ", \"rejected_fit\": " << c.rejected_fit
+        << ", \"rejected_step\": " << c.rejected_step << ", \"too_few_features\": " << c.too_few_features << "}";
+    }
+    o << "]},\n";
+  }
+  o << "  \"plane_fits\": {\"before\": " << json_plane(r.plane_before);
   for (const MethodResult& m : r.methods) o << ",\n                 " << json_string(m.name) << ": " << json_plane(m.plane_after);
   o << "},\n  \"command\": " << json_string(command) << "\n}\n";
   return o.str();
@@ -533,6 +560,41 @@ std::string report_markdown(const EvalReport& r, const std::string& command) {
       << " | " << md(m.removal.da) << " | " << md(m.removal.aa) << " | " << md(m.removal.ha);
     for (std::size_t c : kSceneClasses) o << " | " << md(m.removal.by_class[c].kept_pct());
     o << " | " << md(m.floor_bias_improvement_pct) << " |\n";
+  }
+  if (r.registration.have_truth) {
+    const RegistrationReport& g = r.registration;
+    o << "\n**Registration** (pose error per scan and point error per non-ghost point, against the truth; "
+      << (g.enabled ? "scan-to-map registration, docs/registration.md" : "registration off: odometry alone") << "):\n\n";
+    o << "| poses | translation p50 / p99 / max (cm) | rotation p50 / p99 / max (°) | point error p50 / p99 / max (cm) |\n";
+    o << "| --- | ---: | ---: | ---: |\n";
+    auto stats = [&](const ErrorStats& e, double scale, int decimals) {
+      return md(e.p50 * scale, decimals) + " / " + md(e.p99 * scale, decimals) + " / " + md(e.max * scale, decimals);
+    };
+    o << "| odometry | " << stats(g.pose_m_before, 100, 1) << " | " << stats(g.pose_deg_before, 1, 2) << " | "
+      << stats(g.point_m_before, 100, 1) << " |\n";
+    if (g.enabled)
+      o << "| registered | " << stats(g.pose_m_after, 100, 1) << " | " << stats(g.pose_deg_after, 1, 2) << " | "
+        << stats(g.point_m_after, 100, 1) << " |\n";
+  }
+  if (r.registration.consistency_before.points > 0) {
+    const RegistrationReport& g = r.registration;
+    auto c = [&](const RevisitConsistency& k) {
+      return md(k.median_m * 100, 1) + " / " + md(k.p90_m * 100, 1) + " cm (" +
+             md(k.points ? 100.0 * static_cast<double>(k.revisit_points) / static_cast<double>(k.points) : 0.0) + " % of the points)";
+    };
+    o << "\nRevisit consistency (median / p90 distance of a revisit's points to the earlier pass, ≥ 30 s before, within 0.5 m; "
+         "docs/registration.md): odometry "
+      << c(g.consistency_before);
+    if (g.enabled) o << ", registered " << c(g.consistency_after);
+    o << ".\n";
+  }
+  if (r.registration.enabled) {
+    o << "\n| robot | matches | accepted | degenerate | standing still | first lap | too few features | rejected overlap / fit / step |\n";
+    o << "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+    for (const registration::RobotCorrection& c : r.registration.robots)
+      o << "| " << int(c.robot) << " | " << c.matches << " | " << c.accepted << " | " << c.degenerate << " | " << c.standing_still
+        << " | " << c.first_lap << " | " << c.too_few_features << " | " << c.rejected_overlap << " / " << c.rejected_fit << " / " << c.rejected_step << " |\n";
+    o << "\nPoints kept out of the match (onboard-flagged, inside a teammate's tracked body): " << r.registration.masked_points << ".\n";
   }
   const Table1& t = r.table1;
   o << "\n**Table 1** (floor plane by RANSAC, ghosts removed by label):\n\n";

@@ -11,6 +11,7 @@
 
 #include "common/dataset/dataset.hpp"
 #include "common/result.hpp"
+#include "groundstation/mapping/dataset_registration.hpp"
 #include "groundstation/mapping/filter.hpp"
 #include "groundstation/mapping/metrics.hpp"
 #include "groundstation/mapping/tracker.hpp"
@@ -114,6 +115,9 @@ struct EvalReport {
   double floor_bias_before_m = 0;
   double floor_bias_ghost_free_m = 0;
   std::vector<MethodResult> methods;
+  // Pose and point error against the truth before/after registration (dataset_registration.hpp); the
+  // caller registers the data set before evaluate() and fills this in.
+  RegistrationReport registration;
 };
 
 [[nodiscard]] EvalReport evaluate(const Dataset& dataset, const EvalOptions& options);

@@ -34,6 +34,8 @@ struct EvalArgs {
   std::optional<double> resolution_m;
   std::optional<double> half_angle_deg;
   std::uint64_t seed = 1;
+  bool registration = false;     // scan-to-map registration before the filters (docs/registration.md)
+  bool no_registration = false;  // odometry alone (the default until the live station registers too)
   std::string json_path;
   std::string out_dir;
   // Named interpretations of the paper (PAPER_NOTES.md), defaults as there.
@@ -93,6 +95,7 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.resolution_m) o << " --resolution " << number(*a.resolution_m);
   if (a.half_angle_deg) o << " --half-angle " << number(*a.half_angle_deg);
   o << " --seed " << a.seed;
+  if (a.registration && !a.no_registration) o << " --registration";
   if (a.frequency_k != d.frequency_k) o << " --k " << number(a.frequency_k);
   if (a.grid_origin_z_m != d.grid_origin_z_m) o << " --grid-origin-z " << number(a.grid_origin_z_m);
   if (a.sigma_m != d.sigma_m) o << " --sigma " << number(a.sigma_m);
@@ -292,7 +295,17 @@ int run_eval(const EvalArgs& a) {
       continue;
     }
     options.progress = [&](const std::string& stage) { std::fprintf(stderr, "teamscan eval: %s: %s\n", dir.c_str(), stage.c_str()); };
-    const EvalReport report = mapping::evaluate(dataset.value(), options);
+    mapping::RegistrationReport registered;
+    if (a.registration && !a.no_registration) {
+      options.progress("registration (scan-to-map, docs/registration.md)");
+      registered = mapping::register_dataset(dataset.value(), options.tracker);
+    } else {
+      registered.have_truth = !dataset.value().truth.empty();
+      mapping::measure_errors(dataset.value(), registered.pose_m_before, registered.pose_deg_before, registered.point_m_before);
+      registered.consistency_before = mapping::revisit_consistency(dataset.value());
+    }
+    EvalReport report = mapping::evaluate(dataset.value(), options);
+    report.registration = registered;
     const std::string command = reproduce_command(a, dir);
     const std::string md = mapping::report_markdown(report, command);
     std::fputs(md.c_str(), stdout);
@@ -349,6 +362,10 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
       ->check(CLI::PositiveNumber);
   app.add_option("--half-angle", a->half_angle_deg, "Direction-filter cone half-angle ha in degrees (paper: 5, 7)")
       ->check(CLI::Range(0.0, 60.0));
+  app.add_flag("--registration", a->registration,
+               "Correct each robot's odometry drift by scan-to-map registration before the filters; reports pose and point "
+               "error before/after (docs/registration.md)");
+  app.add_flag("--no-registration", a->no_registration, "Odometry alone (the default)");
   app.add_option("--seed", a->seed, "RANSAC seed (the report is deterministic for a seed)")->capture_default_str();
   app.add_option("--json", a->json_path, "Write the JSON report to FILE");
   app.add_option("--out", a->out_dir, "Write report.md and report.json (and pictures) into REPORTDIR");

@@ -86,6 +86,97 @@ TEST(PioneerOdometry, NoiseIsSeededAndChangesThePose) {
   EXPECT_NEAR(run(3).x_m, 10.0, 0.5);
 }
 
+// Drives `metres` straight along x (or turns on the spot when `turn_rad` is set) in 3 cm SIP steps and
+// returns the firmware's odometry pose.
+Pose2 drive(const OdometryNoise& noise, std::uint64_t seed, double metres, double turn_rad = 0.0) {
+  PioneerOdometry fw{pioneer_params("p3at-sh"), noise, Rng{seed, 1, RngStream::odometry}, {0, 0, 0}};
+  (void)fw.step({0, 0, 0}, 0);
+  const int steps = 1000;
+  for (int k = 1; k <= steps; ++k) (void)fw.step({metres * k / steps, 0, normalize_angle(turn_rad * k / steps)}, 0.1);
+  return fw.internal_pose();
+}
+
+TEST(SkidSteerDrift, SystematicSlipScalesTheReportedDistance) {
+  OdometryNoise n;
+  n.slip = 0.02;
+  const Pose2 p = drive(n, 1, 30.0);
+  EXPECT_NEAR(p.x_m, 30.6, 1e-9);  // 2 % more than travelled
+  EXPECT_NEAR(p.y_m, 0.0, 1e-9);
+}
+
+TEST(SkidSteerDrift, HeadingDriftPerMetreAccumulatesLinearly) {
+  OdometryNoise n;
+  n.drift_rad_per_m = deg_to_rad(0.25);
+  const Pose2 p = drive(n, 1, 20.0);
+  EXPECT_NEAR(rad_to_deg(p.theta_rad), 5.0, 1e-9);  // 0.25°/m × 20 m
+  // The path bends with the heading: a constant curvature κ = drift gives y = (1 − cos(κs))/κ.
+  const double k = n.drift_rad_per_m;
+  EXPECT_NEAR(p.y_m, (1.0 - std::cos(k * 20.0)) / k, 1e-3);
+}
+
+TEST(SkidSteerDrift, TurnSlipOverstatesTheRotationOnlyWhenTurning) {
+  OdometryNoise n;
+  n.turn_slip = 0.03;
+  EXPECT_NEAR(drive(n, 1, 10.0).theta_rad, 0.0, 1e-12);  // straight: no effect
+  // A quarter turn on the spot (in steps): reported 3 % more.
+  EXPECT_NEAR(drive(n, 1, 0.0, kPi / 2).theta_rad, 1.03 * kPi / 2, 1e-9);
+  EXPECT_NEAR(drive(n, 1, 0.0, -kPi / 2).theta_rad, -1.03 * kPi / 2, 1e-9);
+}
+
+TEST(SkidSteerDrift, HeadingRandomWalkHasTheConfiguredSpread) {
+  // σ of the heading error after d metres = walk · √d, over many seeds; the mean stays at zero.
+  OdometryNoise n;
+  n.heading_walk_rad_per_sqrt_m = deg_to_rad(0.5);
+  const double d = 16.0;
+  const int runs = 400;
+  double sum = 0, sum2 = 0;
+  for (int seed = 1; seed <= runs; ++seed) {
+    const double e = drive(n, static_cast<std::uint64_t>(seed), d).theta_rad;
+    sum += e;
+    sum2 += e * e;
+  }
+  const double mean = sum / runs, sd = std::sqrt(sum2 / runs - mean * mean);
+  const double expected = n.heading_walk_rad_per_sqrt_m * std::sqrt(d);
+  EXPECT_NEAR(sd, expected, 0.1 * expected);                     // 400 runs: σ of the estimate ≈ 3.5 %
+  EXPECT_NEAR(mean, 0.0, 4.0 * expected / std::sqrt(runs));
+}
+
+TEST(SkidSteerDrift, SlipSigmaIsZeroMeanJitterOfTheDistance) {
+  OdometryNoise n;
+  n.slip_sigma = 0.2;  // per 3 cm cycle; 1000 cycles → σ of the total ≈ 0.2 · 30 m / √1000
+  const int runs = 200;
+  double sum = 0, sum2 = 0;
+  for (int seed = 1; seed <= runs; ++seed) {
+    const double e = drive(n, static_cast<std::uint64_t>(seed), 30.0).x_m - 30.0;
+    sum += e;
+    sum2 += e * e;
+  }
+  const double mean = sum / runs, sd = std::sqrt(sum2 / runs - mean * mean);
+  const double expected = 0.2 * 0.03 * std::sqrt(1000.0);
+  EXPECT_NEAR(sd, expected, 0.15 * expected);
+  EXPECT_NEAR(mean, 0.0, 4.0 * expected / std::sqrt(runs));
+}
+
+TEST(SkidSteerDrift, DeterministicBySeedAndStreamsDoNotShift) {
+  OdometryNoise n;
+  n.slip = 0.02;
+  n.drift_rad_per_m = deg_to_rad(0.25);
+  n.slip_sigma = 0.01;
+  n.heading_sigma = 0.01;
+  n.heading_walk_rad_per_sqrt_m = deg_to_rad(0.05);
+  const Pose2 a = drive(n, 5, 12.0, 2.0), b = drive(n, 5, 12.0, 2.0), c = drive(n, 6, 12.0, 2.0);
+  EXPECT_EQ(a.x_m, b.x_m);  // bit for bit
+  EXPECT_EQ(a.y_m, b.y_m);
+  EXPECT_EQ(a.theta_rad, b.theta_rad);
+  EXPECT_NE(a.theta_rad, c.theta_rad);
+  // Systematic terms draw nothing: with only them on, the pose is the same for every seed.
+  OdometryNoise sys;
+  sys.slip = 0.02;
+  sys.turn_slip = 0.01;
+  sys.drift_rad_per_m = deg_to_rad(0.25);
+  EXPECT_EQ(drive(sys, 5, 12.0, 2.0).x_m, drive(sys, 6, 12.0, 2.0).x_m);
+}
+
 TEST(LmsValue, RoundsToMillimetresAndUsesReservedCodes) {
   Rng rng{1, 1, RngStream::range_noise};
   EXPECT_EQ(lms_value_word(true, 1.2344, 0.0, rng), 1234);

@@ -42,6 +42,26 @@ TEST(Scenario, ShippedScenariosLoad) {
   EXPECT_EQ(team3.scenario->robots[1].variant.beams(), 361);
 }
 
+TEST(Scenario, DriftScenariosLoadWithTheirSkidSteerTerms) {
+  for (const char* name : {"lap2-drift", "corridor2", "team3-drift"}) {
+    const ScenarioLoad load = load_scenario_file(scenario_dir() + name + ".toml");
+    ASSERT_TRUE(load.scenario.has_value()) << load.error;
+    EXPECT_EQ(load.scenario->name, name);
+    for (const RobotSpec& r : load.scenario->robots) EXPECT_GT(r.odometry.slip, 0.0) << name;
+  }
+  const ScenarioLoad lap2 = load_scenario_file(scenario_dir() + "lap2-drift.toml");
+  ASSERT_TRUE(lap2.scenario);
+  const OdometryNoise& o = lap2.scenario->robots[0].odometry;
+  EXPECT_DOUBLE_EQ(o.slip, 0.02);
+  EXPECT_DOUBLE_EQ(o.turn_slip, 0.005);
+  EXPECT_NEAR(o.drift_rad_per_m, 0.25 * kPi / 180.0, 1e-15);
+  EXPECT_NEAR(o.heading_walk_rad_per_sqrt_m, 0.05 * kPi / 180.0, 1e-15);
+  EXPECT_DOUBLE_EQ(*lap2.scenario->duration_s, 180.0);
+  const ScenarioLoad bad = parse_scenario("[[robot]]\n[robot.track]\n[robot.odometry]\nslip_percent = 80\n", "bad.toml");
+  EXPECT_FALSE(bad.scenario);
+  EXPECT_NE(bad.error.find("robot[0].odometry.slip_percent:"), std::string::npos) << bad.error;
+}
+
 TEST(Scenario, MinimalFileGetsDefaults) {
   const ScenarioLoad load = parse_scenario("[[robot]]\n[robot.track]\nkind = \"oval\"\n", "min.toml");
   ASSERT_TRUE(load.scenario) << load.error;

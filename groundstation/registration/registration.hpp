@@ -1,0 +1,114 @@
+// Scan-to-map registration of a robot team (docs/registration.md): per robot, its recent points (a
+// sliding window of scans, odometry-map frame) are matched against the reference built from every
+// robot's older, corrected points; the match (matcher.hpp) is a measurement of the robot's
+// correction map_from_odom, fused with the correction's own prediction in a 3-state Kalman filter
+// whose uncertainty grows with the distance driven (skid-steer drift). Scans leave the window into
+// the reference with the correction their robot has then. Pure: no I/O, no clocks; counters.
+//
+// Policy for what such matchers hit in the field:
+//  - standing still: no new information → no match (counted), the correction is kept;
+//  - a corridor: the unconstrained direction keeps the prediction (matcher degeneracy, counted);
+//  - a failed or ambiguous match: rejected by overlap, residual and a bounded step (counted);
+//  - the first lap: no match until the reference has enough vertical structure where the robot is;
+//  - two robots building the same walls: one reference for the team, so each robot is corrected
+//    against what the others (and its own earlier passes) saw.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "common/capacities.hpp"
+#include "common/pose.hpp"
+#include "groundstation/registration/matcher.hpp"
+#include "groundstation/registration/surface_grid.hpp"
+
+namespace teamscan::registration {
+
+struct RegistrationOptions {
+  SurfaceOptions surface;            // reference and window grids
+  MatchOptions match;
+  double window_s = 3.0;             // a robot's recent points matched as one rigid piece
+  double match_every_s = 0.5;        // at most one match per robot this often
+  double min_motion_m = 0.05;        // since the last match: less motion than this (and …
+  double min_motion_rad = 0.017;     // … less turn) is standing still: no match
+  double rebuild_every_s = 1.0;      // the reference's k-d tree is rebuilt at most this often
+  std::size_t min_map_features = 60; // the first lap: no match before the reference has this many
+  // Prediction: the correction's uncertainty grows with what the robot does (skid-steer drift):
+  // σ² per metre driven for x and y and for yaw, and per radian turned for yaw.
+  double drift_m2_per_m = 0.03 * 0.03;
+  double drift_rad2_per_m = 0.01 * 0.01;
+  double drift_rad2_per_rad = 0.03 * 0.03;
+  double initial_sigma_m = 0.01;     // at the registration (the start pose is known)
+  double initial_sigma_rad = 0.002;
+};
+
+// A robot's correction and what registration did for it.
+struct RobotCorrection {
+  std::uint8_t robot = 0;
+  Pose2 map_from_odom;                                  // applied on top of the odometry-map frame
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero(); // (x, y, yaw) about the robot's position
+  Vec2 pivot_m;                                         // the robot's position (map frame)
+  std::uint64_t matches = 0, accepted = 0, degenerate = 0, standing_still = 0, first_lap = 0;
+  std::uint64_t rejected_overlap = 0, rejected_fit = 0, rejected_step = 0, too_few_features = 0;
+  MatchResult last;                                     // the last match tried
+};
+
+class Registration {
+ public:
+  explicit Registration(RegistrationOptions options = {});
+
+  // One scan of `robot` (1..kMaxRobots) at `stamp_ns` (non-decreasing per robot): its odometry pose
+  // and points in the odometry-map frame (registration · odometry, no correction), `usable[i] = 0`
+  // for points that must not pull the match nor enter the reference (ghost-flagged, inside a
+  // teammate's tracked body). Returns the robot's correction to apply to this scan.
+  const RobotCorrection& add_scan(std::uint8_t robot, std::int64_t stamp_ns, const Pose2& odom_pose,
+                                  std::span<const Vec3> points, std::span<const std::uint8_t> usable);
+
+  [[nodiscard]] const RobotCorrection* correction(std::uint8_t robot) const;
+  [[nodiscard]] std::size_t reference_features() const { return map_.size(); }
+  [[nodiscard]] std::size_t reference_voxels() const { return reference_.voxels(); }
+  [[nodiscard]] std::uint64_t rejected_scans() const { return rejected_scans_; }
+  [[nodiscard]] const RegistrationOptions& options() const { return options_; }
+
+ private:
+  struct WindowScan {
+    std::int64_t stamp_ns = 0;
+    std::vector<Vec3> points;  // usable points only, odometry-map frame
+  };
+  struct Robot {
+    bool started = false;
+    RobotCorrection c;
+    Pose2 last_odom;
+    Pose2 odom_at_match;
+    std::int64_t last_attempt_ns = 0;
+    std::deque<WindowScan> window;
+  };
+
+  void predict(Robot& r, const Pose2& odom_pose);
+  void retire(Robot& r, std::int64_t now_ns);
+  void try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_pose);
+  void fuse(Robot& r, const MatchResult& m);
+
+  RegistrationOptions options_;
+  SurfaceGrid reference_;
+  LineMap map_;
+  bool map_dirty_ = false;
+  std::int64_t map_built_ns_ = 0;
+  std::array<Robot, kMaxRobots + 1> robots_{};
+  SurfaceGrid window_grid_;
+  std::vector<LineFeature> scratch_;
+  std::uint64_t rejected_scans_ = 0;
+};
+
+// Applies a correction to a point of the odometry-map frame.
+[[nodiscard]] inline Vec3 corrected(const Pose2& map_from_odom, const Vec3& p) {
+  const Vec2 q = map_from_odom.apply({p.x, p.y});
+  return {q.x, q.y, p.z};
+}
+
+}  // namespace teamscan::registration

@@ -1,0 +1,233 @@
+// Team registration over synthetic surveys: drift corrected against a shared reference, masked
+// ghosts, standing still, a corridor, the first lap, bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <Eigen/LU>
+
+#include "groundstation/registration/registration.hpp"
+#include "tests/unit/registration/synthetic_scene.hpp"
+
+namespace teamscan::registration {
+namespace {
+
+using testing::Scene;
+
+Scene furnished_room() {
+  Scene s = Scene::room(8, 6, 2.5);
+  s.box(-1.0, -1.0, 1.2, 0.6, 0.9);
+  s.box(2.5, 2.0, 0.6, 0.8, 1.8);
+  return s;
+}
+
+// A robot driving a path with skid-steer odometry: slip and heading drift per metre.
+struct DriftingRobot {
+  DriftingRobot(std::uint8_t robot, double slip_fraction, double drift) : id{robot}, slip{slip_fraction}, drift_rad_per_m{drift} {}
+  std::uint8_t id = 1;
+  double slip = 0.0, drift_rad_per_m = 0.0;
+  Pose2 truth, odom;
+  bool started = false;
+
+  // Moves to `next` (true pose); odometry integrates the motion with its errors.
+  void move_to(const Pose2& next) {
+    if (!started) {
+      truth = next;
+      odom = next;  // registered at the true start
+      started = true;
+      return;
+    }
+    const double dx = next.x_m - truth.x_m, dy = next.y_m - truth.y_m;
+    const double dtheta = normalize_angle(next.theta_rad - truth.theta_rad);
+    const double ds = dx * std::cos(truth.theta_rad + dtheta / 2) + dy * std::sin(truth.theta_rad + dtheta / 2);
+    const double ds_odom = ds * (1 + slip), dth_odom = dtheta + drift_rad_per_m * std::abs(ds);
+    odom.x_m += ds_odom * std::cos(odom.theta_rad + dth_odom / 2);
+    odom.y_m += ds_odom * std::sin(odom.theta_rad + dth_odom / 2);
+    odom.theta_rad = normalize_angle(odom.theta_rad + dth_odom);
+    truth = next;
+  }
+  // map_from_odom that puts the odometry pose on the truth.
+  [[nodiscard]] Pose2 true_correction() const { return truth * odom.inverse(); }
+};
+
+Pose2 on_oval(double phase, double a, double b) {
+  return {a * std::cos(phase), b * std::sin(phase), normalize_angle(std::atan2(b * std::cos(phase), -a * std::sin(phase)))};
+}
+
+struct Errors {
+  double before_m = 0, after_m = 0, before_deg = 0, after_deg = 0;
+};
+
+Errors error_of(const RobotCorrection& c, const DriftingRobot& r) {
+  const Vec2 at{r.truth.x_m, r.truth.y_m};
+  const Eigen::Vector3d before = difference(Pose2{}, r.true_correction(), at);
+  const Eigen::Vector3d after = difference(c.map_from_odom, r.true_correction(), at);
+  return {before.head<2>().norm(), after.head<2>().norm(), std::abs(rad_to_deg(before(2))), std::abs(rad_to_deg(after(2)))};
+}
+
+TEST(Registration, CorrectsSkidSteerDriftAgainstTheTeamsMap) {
+  const Scene s = furnished_room();
+  Registration reg;
+  DriftingRobot r1{1, 0.02, deg_to_rad(0.25)}, r2{2, 0.0, 0.0};
+  std::mt19937_64 rng{1};
+  std::vector<std::uint8_t> usable;
+  double worst_after_m = 0, worst_after_deg = 0;
+  Errors e;
+  for (int k = 0; k <= 1200; ++k) {  // 120 s at 10 scans/s, 0.3 m/s on a 13 m oval: 2.7 laps
+    const std::int64_t t_ns = static_cast<std::int64_t>(k) * 100'000'000;
+    const double phase = 0.3 * 0.1 * k / 2.1;
+    for (DriftingRobot* r : {&r1, &r2}) {
+      r->move_to(on_oval(phase + (r->id == 2 ? kPi : 0.0), 2.6, 1.7));
+      const auto pts = testing::into_odometry(s.sample({r->truth.x_m, r->truth.y_m}, 3.0, 1500, rng), r->true_correction());
+      usable.assign(pts.size(), 1);
+      const RobotCorrection& c = reg.add_scan(r->id, t_ns, r->odom, pts, usable);
+      if (r->id == 1) {
+        e = error_of(c, *r);
+        if (k > 100) {  // after the first 10 s (the reference is being built)
+          worst_after_m = std::max(worst_after_m, e.after_m);
+          worst_after_deg = std::max(worst_after_deg, e.after_deg);
+        }
+      }
+    }
+  }
+  const RobotCorrection& c = *reg.correction(1);
+  EXPECT_GT(e.before_m, 0.2) << "the drift this test corrects";
+  EXPECT_GT(e.before_deg, 5.0);
+  EXPECT_LT(worst_after_m, 0.03);
+  EXPECT_LT(worst_after_deg, 0.4);
+  EXPECT_GT(c.accepted, 150u);
+  EXPECT_EQ(c.rejected_step, 0u);
+  // The covariance is the robot's pose uncertainty: small after matches, positive definite.
+  EXPECT_GT(c.covariance.determinant(), 0.0);
+  EXPECT_LT(std::sqrt(c.covariance(0, 0)), 0.03);
+  EXPECT_GT(reg.reference_features(), 500u);
+}
+
+TEST(Registration, MaskedGhostsNeitherPullTheMatchNorEnterTheReference) {
+  const Scene s = furnished_room();
+  Registration reg;
+  DriftingRobot r1{1, 0.02, deg_to_rad(0.25)}, r2{2, 0.0, 0.0};
+  std::mt19937_64 rng{2};
+  std::vector<std::uint8_t> usable;
+  Errors e;
+  for (int k = 0; k <= 600; ++k) {
+    const std::int64_t t_ns = static_cast<std::int64_t>(k) * 100'000'000;
+    const double phase = 0.3 * 0.1 * k / 2.1;
+    for (DriftingRobot* r : {&r1, &r2}) {
+      r->move_to(on_oval(phase + (r->id == 2 ? 0.5 : 0.0), 2.6, 1.7));
+      auto pts = s.sample({r->truth.x_m, r->truth.y_m}, 3.0, 1500, rng);
+      usable.assign(pts.size(), 1);
+      // The teammate's body, 0.6 m away, a wall-like side the matcher would love: flagged.
+      if (r->id == 1) {
+        Scene body;
+        body.box(r2.truth.x_m, r2.truth.y_m, 0.6, 0.5, 0.5);
+        for (const Vec3& p : body.sample({r2.truth.x_m, r2.truth.y_m}, 1.0, 200, rng)) {
+          pts.push_back(p);
+          usable.push_back(0);
+        }
+      }
+      const auto odom_pts = testing::into_odometry(pts, r->true_correction());
+      const RobotCorrection& c = reg.add_scan(r->id, t_ns, r->odom, odom_pts, usable);
+      if (r->id == 1) e = error_of(c, *r);
+    }
+  }
+  EXPECT_GT(e.before_m, 0.1);
+  EXPECT_LT(e.after_m, 0.03);
+  EXPECT_LT(e.after_deg, 0.3);
+}
+
+TEST(Registration, StandingStillGivesNoNewMeasurement) {
+  const Scene s = furnished_room();
+  Registration reg;
+  std::mt19937_64 rng{3};
+  std::vector<std::uint8_t> usable;
+  // Robot 2 builds the reference; robot 1 stands still at a slightly wrong odometry pose.
+  const Pose2 wrong{0.03, 0.0, 0.0};
+  for (int k = 0; k <= 300; ++k) {
+    const std::int64_t t_ns = static_cast<std::int64_t>(k) * 100'000'000;
+    const Pose2 p2 = on_oval(0.02 * k, 2.6, 1.7);
+    auto pts = s.sample({p2.x_m, p2.y_m}, 3.0, 1500, rng);
+    usable.assign(pts.size(), 1);
+    (void)reg.add_scan(2, t_ns, p2, pts, usable);
+    const auto pts1 = testing::into_odometry(s.sample({1.0, 0.5}, 3.0, 1500, rng), wrong);
+    usable.assign(pts1.size(), 1);
+    (void)reg.add_scan(1, t_ns, Pose2{1.0, 0.5, 0.3}, pts1, usable);
+  }
+  const RobotCorrection& c = *reg.correction(1);
+  EXPECT_EQ(c.matches, 0u);
+  EXPECT_GT(c.standing_still, 50u);
+  EXPECT_EQ(c.map_from_odom.x_m, 0.0);
+}
+
+TEST(Registration, CorridorCorrectsAcrossAndKeepsOdometryAlong) {
+  Scene s;
+  s.walls = {{{-40, -1.2}, {40, -1.2}, 0, 2.5}, {{40, 1.2}, {-40, 1.2}, 0, 2.5}};
+  s.slabs = {{-40, 40, -1.2, 1.2, 0.0}};
+  Registration reg;
+  DriftingRobot r1{1, 0.015, deg_to_rad(0.2)}, r2{2, 0.0, 0.0};
+  std::mt19937_64 rng{4};
+  std::vector<std::uint8_t> usable;
+  Errors e;
+  for (int k = 0; k <= 600; ++k) {
+    const std::int64_t t_ns = static_cast<std::int64_t>(k) * 100'000'000;
+    // Robot 2 drives ahead, robot 1 follows 3 m behind, along y = −0.4.
+    r2.move_to({-20.0 + 0.03 * k + 3.0, 0.4, 0.0});
+    r1.move_to({-20.0 + 0.03 * k, -0.4, 0.0});
+    for (DriftingRobot* r : {&r2, &r1}) {
+      const auto pts = testing::into_odometry(s.sample({r->truth.x_m, r->truth.y_m}, 3.0, 1500, rng), r->true_correction());
+      usable.assign(pts.size(), 1);
+      const RobotCorrection& c = reg.add_scan(r->id, t_ns, r->odom, pts, usable);
+      if (r->id == 1) e = error_of(c, *r);
+    }
+  }
+  const RobotCorrection& c = *reg.correction(1);
+  EXPECT_GT(c.degenerate, 10u);
+  EXPECT_EQ(c.degenerate, c.accepted);
+  // Across the corridor and in heading: corrected. Along it: the slip stays (odometry kept).
+  const Vec2 at{r1.truth.x_m, r1.truth.y_m};
+  const Eigen::Vector3d before = difference(Pose2{}, r1.true_correction(), at);
+  const Eigen::Vector3d after = difference(c.map_from_odom, r1.true_correction(), at);
+  EXPECT_GT(std::abs(before(1)), 0.3);
+  EXPECT_LT(std::abs(after(1)), 0.08);  // 6 cm today: docs/registration.md "Not done"
+  EXPECT_LT(std::abs(rad_to_deg(after(2))), 0.5);
+  EXPECT_NEAR(after(0), before(0), 0.03);
+  // Its reported uncertainty along the corridor stays large.
+  EXPECT_GT(c.covariance(0, 0), 10 * c.covariance(1, 1));
+}
+
+TEST(Registration, FirstLapWaitsForAReference) {
+  const Scene s = furnished_room();
+  RegistrationOptions o;
+  o.min_map_features = 100000;  // never enough
+  Registration reg{o};
+  std::mt19937_64 rng{5};
+  std::vector<std::uint8_t> usable;
+  for (int k = 0; k <= 100; ++k) {
+    const Pose2 p = on_oval(0.02 * k, 2.6, 1.7);
+    const auto pts = s.sample({p.x_m, p.y_m}, 3.0, 1500, rng);
+    usable.assign(pts.size(), 1);
+    (void)reg.add_scan(1, static_cast<std::int64_t>(k) * 100'000'000, p, pts, usable);
+  }
+  const RobotCorrection& c = *reg.correction(1);
+  EXPECT_EQ(c.matches, 0u);
+  EXPECT_GT(c.first_lap, 10u);
+  // Uncertainty grows with the distance driven while nothing corrects it.
+  EXPECT_GT(c.covariance(2, 2), o.initial_sigma_rad * o.initial_sigma_rad * 2);
+}
+
+TEST(Registration, BadInputIsCountedAndChangesNothing) {
+  Registration reg;
+  const std::vector<Vec3> pts{{1, 1, 1}, {1, 1, 1.1}};
+  const std::vector<std::uint8_t> short_mask{1};
+  (void)reg.add_scan(0, 0, Pose2{}, pts, {});
+  (void)reg.add_scan(40, 0, Pose2{}, pts, {});
+  (void)reg.add_scan(1, 0, Pose2{}, pts, short_mask);
+  EXPECT_EQ(reg.rejected_scans(), 3u);
+  EXPECT_EQ(reg.correction(1), nullptr);
+  (void)reg.add_scan(1, 10, Pose2{}, pts, {});
+  (void)reg.add_scan(1, 5, Pose2{}, pts, {});  // older than the window's newest
+  EXPECT_EQ(reg.rejected_scans(), 4u);
+}
+
+}  // namespace
+}  // namespace teamscan::registration
