@@ -312,22 +312,19 @@ void Station::take(int topic, OnSample&& on_sample) {
 }
 
 void Station::store_refused(const teamscan_msg_RobotPose& p, const ReceiveTime& at, Reject reason) {
-  ++counters_.rejected;
   store_.append_pose(p, at, static_cast<std::uint16_t>(reason));
 }
 void Station::store_refused(const teamscan_msg_RobotStatus& s, const ReceiveTime& at, Reject reason) {
-  ++counters_.rejected;
   store_.append_status(s, at, static_cast<std::uint16_t>(reason));
 }
 void Station::store_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject reason) {
-  ++counters_.rejected;
   store_.append_scan(stored_from(s, at, reason, dds_->stored));
 }
 
 Verdict Station::check_and_store_if_refused(const teamscan_msg_RobotPose& p, const ReceiveTime& at) {
   const Verdict v = validator_.check_pose(p, at.realtime);
   if (!v.ok()) {
-    store_.append_pose(p, at, static_cast<std::uint16_t>(v.reason));
+    store_refused(p, at, v.reason);
     refused(SampleTopic::kPose, v, p.robot_id, p.seq, p.stamp_ns, at);
   }
   return v;
@@ -336,7 +333,7 @@ Verdict Station::check_and_store_if_refused(const teamscan_msg_RobotPose& p, con
 Verdict Station::check_and_store_if_refused(const teamscan_msg_RobotStatus& s, const ReceiveTime& at) {
   const Verdict v = validator_.check_status(s, at.realtime);
   if (!v.ok()) {
-    store_.append_status(s, at, static_cast<std::uint16_t>(v.reason));
+    store_refused(s, at, v.reason);
     refused(SampleTopic::kStatus, v, s.robot_id, s.seq, s.stamp_ns, at);
   }
   return v;
@@ -345,7 +342,7 @@ Verdict Station::check_and_store_if_refused(const teamscan_msg_RobotStatus& s, c
 Verdict Station::check_and_store_if_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at) {
   const Verdict v = validator_.check_scan(s, at.realtime);
   if (!v.ok()) {
-    store_.append_scan(stored_from(s, at, v.reason, dds_->stored));
+    store_refused(s, at, v.reason);
     refused(SampleTopic::kScan, v, s.robot_id, s.seq, s.stamp_ns, at);
   }
   return v;

@@ -148,7 +148,8 @@ class Station {
   template <class Sample, class OnSample>
   void take(int topic, OnSample&& on_sample);
   // The edge validation of one sample; a refused one is stored raw (marked) and reported here.
-  // A sample refused after validation (its sender is not the robot it claims): stored raw, marked.
+  // A refused sample stored raw, marked with its reason (validation, or a sender that is not the robot it
+  // claims: counted in identity_mismatches).
   void store_refused(const teamscan_msg_RobotPose& p, const ReceiveTime& at, Reject reason);
   void store_refused(const teamscan_msg_RobotStatus& s, const ReceiveTime& at, Reject reason);
   void store_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject reason);
