@@ -43,6 +43,14 @@ class RobotWriters {
     }
     return it->second[kind];
   }
+  // Waits until every writer's samples are acknowledged by its matched readers (at most `timeout` each);
+  // false if any was not.
+  bool wait_for_acks(dds_duration_t timeout) {
+    bool all = true;
+    for (auto& [id, w] : writers_)
+      for (dds_entity_t e : w) all = dds_wait_for_acks(e, timeout) == 0 && all;
+    return all;
+  }
   // Readers matched by robot_id's writer of `kind` (0 if it has none yet).
   [[nodiscard]] std::uint32_t matched(Kind kind, std::uint32_t robot_id) {
     dds_publication_matched_status_t st{};

@@ -437,8 +437,7 @@ int main(int argc, char** argv) {
   }
   const double feed_wall_s = to_seconds(now_monotonic() - wall0);
   const double robot_s_done = static_cast<double>(k_scan) / o.scan_hz;
-  (void)dds_wait_for_acks(pub.scan, DDS_SECS(30));
-  (void)dds_wait_for_acks(pub.pose, DDS_SECS(5));
+  (void)pub.robots->wait_for_acks(DDS_SECS(30));
   std::printf("fed: %" PRIu64 " scans in %.1f s wall (%.1f s robot time, %.0f scans/s), write errors %" PRIu64
               ", feeder late %" PRIu64 " times (max %.1f ms)%s%s\n",
               published, feed_wall_s, robot_s_done, static_cast<double>(published) / feed_wall_s, write_errors, late,

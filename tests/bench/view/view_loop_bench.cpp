@@ -139,13 +139,11 @@ double thread_cpu_s() {
 // One run of the station's loop over the feed in real time; with_view: the view and three clients.
 void run(const Feed& f, bool with_view, double speed, const char* method) {
   FusionOptions fo;
-  fo.method = method;
-  fo.keep_received = false;
+  fo.core.method = method;
   fo.latency_csv.clear();
-  fo.received_dataset.clear();
   auto stage = FusionStage::create(fo, "/tmp");
   FusionStage& fusion = **stage;
-  KalmanTeamSource team(fo.tracker);
+  KalmanTeamSource team(fo.core.tracker);
   std::array<RobotRecord, kMaxRobots + 1> records{};
   for (std::uint32_t i = 0; i <= kMaxRobots; ++i) records[i].robot_id = i;
 

@@ -209,9 +209,7 @@ TEST(StationBadSamples, EveryReasonCountedRawStoredTeamAndStatisticsUntouched) {
   }
   write_pose(good_pose(5, 0x80000001u), "seq_jump");
   write_scan(good_scan(5, 0x80000001u), "seq_jump");
-  ASSERT_EQ(dds_wait_for_acks(pub.scan, DDS_SECS(10)), 0);
-  ASSERT_EQ(dds_wait_for_acks(pub.pose, DDS_SECS(10)), 0);
-  ASSERT_EQ(dds_wait_for_acks(pub.status, DDS_SECS(10)), 0);
+  ASSERT_TRUE(pub.robots->wait_for_acks(DDS_SECS(10)));
 
   // The team state the station publishes after all of it: only sane positions (the good ones).
   std::this_thread::sleep_for(600ms);
