@@ -1,6 +1,7 @@
 // Units and conversions. Names carry their unit (STYLE.md): range_mm, angle_rad, stamp_ns.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <numbers>
 
@@ -15,8 +16,11 @@ inline constexpr double kRadToDeg = 180.0 / kPi;
 [[nodiscard]] constexpr double mm_to_m(double mm) { return mm * 1e-3; }
 [[nodiscard]] constexpr double m_to_mm(double m) { return m * 1e3; }
 
-// Wrap an angle to (-pi, pi].
+// Wrap an angle to (-pi, pi]. Not finite: returned as it is (not an angle; inputs are validated at the
+// edge). Far outside (a corrupt file's 1e300): one std::remainder instead of ~1e299 turns of the loop.
 [[nodiscard]] inline double normalize_angle(double a) {
+  if (!std::isfinite(a)) return a;
+  if (std::fabs(a) > 1e3) a = std::remainder(a, 2.0 * kPi);
   while (a > kPi) a -= 2.0 * kPi;
   while (a <= -kPi) a += 2.0 * kPi;
   return a;

@@ -1,6 +1,9 @@
 // Poses: composition, inverse and the pitch convention (positive pitch points +x down).
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+
 #include "common/pose.hpp"
 
 namespace teamscan {
@@ -35,3 +38,15 @@ TEST(Pose3, InverseUndoesTransform) {
 
 }  // namespace
 }  // namespace teamscan
+
+// A corrupt file's heading (1e300, inf) must not hang the wrap (found by fuzz_carmen).
+TEST(NormalizeAngle, FarOutsideAndNotFinite) {
+  EXPECT_NEAR(teamscan::normalize_angle(3.0 * teamscan::kPi), teamscan::kPi, 1e-12);
+  EXPECT_NEAR(teamscan::normalize_angle(-0.5), -0.5, 0.0);
+  const double far = teamscan::normalize_angle(1e300);
+  EXPECT_GT(far, -teamscan::kPi);
+  EXPECT_LE(far, teamscan::kPi);
+  EXPECT_NEAR(teamscan::normalize_angle(2001.0 * teamscan::kPi), teamscan::kPi, 1e-9);
+  EXPECT_TRUE(std::isinf(teamscan::normalize_angle(std::numeric_limits<double>::infinity())));
+  EXPECT_TRUE(std::isnan(teamscan::normalize_angle(std::numeric_limits<double>::quiet_NaN())));
+}
