@@ -50,13 +50,8 @@ dds_qos_t* make_scan_writer_qos(std::uint32_t robot_id, std::uint32_t depth, Dur
   return q;
 }
 
-dds_qos_t* make_scan_reader_qos() {
-  dds_qos_t* q = reliable(std::chrono::milliseconds(100));
-  dds_qset_partition1(q, kRobotsPartition);
-  dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
-  dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
-  return q;
-}
+// The station reads scans as it reads poses and status: every robot's partition, keep-all.
+dds_qos_t* make_scan_reader_qos() { return make_state_reader_qos(); }
 
 dds_qos_t* make_team_writer_qos(Duration liveliness_lease) {
   dds_qos_t* q = reliable(std::chrono::milliseconds(10));

@@ -321,29 +321,23 @@ void Station::store_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime&
   store_.append_scan(stored_from(s, at, reason, dds_->stored));
 }
 
-Verdict Station::check_and_store_if_refused(const teamscan_msg_RobotPose& p, const ReceiveTime& at) {
-  const Verdict v = validator_.check_pose(p, at.realtime);
-  if (!v.ok()) {
-    store_refused(p, at, v.reason);
-    refused(SampleTopic::kPose, v, p.robot_id, p.seq, p.stamp_ns, at);
+template <class Sample>
+Verdict Station::check_and_store_if_refused(const Sample& sample, const ReceiveTime& at) {
+  Verdict v;
+  SampleTopic topic;
+  if constexpr (std::is_same_v<Sample, teamscan_msg_RobotPose>) {
+    v = validator_.check_pose(sample, at.realtime);
+    topic = SampleTopic::kPose;
+  } else if constexpr (std::is_same_v<Sample, teamscan_msg_RobotStatus>) {
+    v = validator_.check_status(sample, at.realtime);
+    topic = SampleTopic::kStatus;
+  } else {
+    v = validator_.check_scan(sample, at.realtime);
+    topic = SampleTopic::kScan;
   }
-  return v;
-}
-
-Verdict Station::check_and_store_if_refused(const teamscan_msg_RobotStatus& s, const ReceiveTime& at) {
-  const Verdict v = validator_.check_status(s, at.realtime);
   if (!v.ok()) {
-    store_refused(s, at, v.reason);
-    refused(SampleTopic::kStatus, v, s.robot_id, s.seq, s.stamp_ns, at);
-  }
-  return v;
-}
-
-Verdict Station::check_and_store_if_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at) {
-  const Verdict v = validator_.check_scan(s, at.realtime);
-  if (!v.ok()) {
-    store_refused(s, at, v.reason);
-    refused(SampleTopic::kScan, v, s.robot_id, s.seq, s.stamp_ns, at);
+    store_refused(sample, at, v.reason);
+    refused(topic, v, sample.robot_id, sample.seq, sample.stamp_ns, at);
   }
   return v;
 }

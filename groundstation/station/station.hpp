@@ -153,9 +153,9 @@ class Station {
   void store_refused(const teamscan_msg_RobotPose& p, const ReceiveTime& at, Reject reason);
   void store_refused(const teamscan_msg_RobotStatus& s, const ReceiveTime& at, Reject reason);
   void store_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject reason);
-  Verdict check_and_store_if_refused(const teamscan_msg_RobotPose& p, const ReceiveTime& at);
-  Verdict check_and_store_if_refused(const teamscan_msg_RobotStatus& s, const ReceiveTime& at);
-  Verdict check_and_store_if_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at);
+  // Validates a received sample; a refused one is stored raw, marked, counted and logged (refused()).
+  template <class Sample>
+  Verdict check_and_store_if_refused(const Sample& sample, const ReceiveTime& at);
   void on_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at);
   void on_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const ReceiveTime& at);
   void on_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at);
