@@ -28,4 +28,11 @@ $SUDO apt-get install -y --no-install-recommends \
   pcl-tools \
   help2man file dpkg-dev lintian \
   libboost-dev nlohmann-json3-dev \
-  nodejs npm chromium
+  chromium
+# node + npm: Debian's nodejs and npm packages, unless a node with its npm is already installed (a
+# NodeSource nodejs bundles npm and conflicts with Debian's npm package: asking for both fails).
+if command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1; then
+  echo "install-deps.sh: using the installed node $(node --version) and npm $(npm --version)"
+else
+  $SUDO apt-get install -y --no-install-recommends nodejs npm
+fi
