@@ -4,7 +4,7 @@
 # dpkg-shlibdeps), lintian.
 # The browser view (groundstation/view): Boost.Beast (libboost-dev) serves it; node + npm bundle its
 # page at build time (npm ci from the npm registry, package-lock.json); chromium runs its browser test;
-# nlohmann-json3-dev parses its JSON in the unit tests.
+# nlohmann-json3-dev parses its JSON in the unit tests. libssl-dev: the site PKI tool (OpenSSL libcrypto).
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 SUDO=""
@@ -27,7 +27,7 @@ $SUDO apt-get install -y --no-install-recommends \
   liboctomap-dev \
   pcl-tools \
   help2man file dpkg-dev lintian \
-  libboost-dev nlohmann-json3-dev \
+  libboost-dev nlohmann-json3-dev libssl-dev \
   chromium
 # node + npm: Debian's nodejs and npm packages, unless a node with its npm is already installed (a
 # NodeSource nodejs bundles npm and conflicts with Debian's npm package: asking for both fails).
