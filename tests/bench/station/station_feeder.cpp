@@ -191,7 +191,7 @@ int main(int argc, char** argv) {
   app.add_option("--cell", o.cell_m, "distance between the robots' cells, metres");
   app.add_option("--station", o.station, "start this teamscan-groundstation and measure it");
   app.add_option("--warmup", o.warmup_s, "seconds of feed (wall) left out of the steady-state latency")->check(CLI::Range(0.0, 1e6));
-  app.add_option("--station-config", o.station_config, "TOML file appended to the generated station config");
+  app.add_option("--station-config", o.station_config, "TOML file appended to the generated station config (after its [fusion] keys; without a [view] table the view is off)");
   app.add_option("--session-dir", o.session_dir, "the station's session folder (default: a new /tmp folder)");
   app.add_option("--method", o.method, "the station's fusion.method");
   app.add_option("--write-interval", o.write_interval_s, "the station's fusion.write_interval_s (0: no periodic writes)");
@@ -252,7 +252,11 @@ int main(int argc, char** argv) {
       std::ofstream cfg(cfg_path);
       cfg << "[station]\nstatus_interval_s = 1.0\n[dds]\ndomain_id = " << domain << "\n[fusion]\nmethod = \"" << o.method
           << "\"\nwrite_interval_s = " << o.write_interval_s << "\nlatency_log = true\n";
-      if (!o.station_config.empty()) cfg << slurp(o.station_config);
+      const std::string extra = o.station_config.empty() ? std::string{} : slurp(o.station_config);
+      cfg << extra;
+      // The browser view off unless the extra config sets it (its default port would collide with any
+      // other station on the host).
+      if (extra.find("[view]") == std::string::npos) cfg << "[view]\nlisten = \"\"\n";
     }
     station_pid = ::fork();
     if (station_pid == 0) {
