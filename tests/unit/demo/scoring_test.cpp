@@ -67,6 +67,23 @@ TEST(DemoScoring, StationModelMatchedByRobotSeqBeam) {
   EXPECT_FALSE(score_station_model(dir.path() + "/none.pcd", pts, seq).error.empty());
 }
 
+// The identity check (station model vs `teamscan eval` of its session) never passes on what it could
+// not read: a missing station config or an empty session is an error, not "identical".
+TEST(DemoScoring, SessionEvalCheckFailsOnWhatItCannotRead) {
+  test::TempDir dir;
+  const SessionEvalCheck no_config =
+      check_station_against_session_eval(dir.path() + "/session", dir.path() + "/none.toml", {}, {});
+  EXPECT_FALSE(no_config.identical);
+  EXPECT_NE(no_config.error.find("cannot read the station config"), std::string::npos) << no_config.error;
+
+  write_file(dir.path() + "/groundstation.toml", "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"best\"\n");
+  const SessionEvalCheck no_session =
+      check_station_against_session_eval(dir.path() + "/session", dir.path() + "/groundstation.toml", {}, {});
+  EXPECT_FALSE(no_session.identical);
+  EXPECT_FALSE(no_session.error.empty());
+  EXPECT_EQ(no_session.method, "best");
+}
+
 TEST(DemoScoring, LatencyHistogramSummaries) {
   test::TempDir dir;
   write_file(dir.path() + "/latency.csv",
