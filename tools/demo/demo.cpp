@@ -16,15 +16,12 @@
 #include <fstream>
 #include <sstream>
 #include <thread>
-#include <unordered_map>
 #include <vector>
 
 #include "common/data_paths.hpp"
 #include "common/dataset/dataset.hpp"
 #include "common/dataset/pcd.hpp"
 #include "groundstation/fusion/evaluation.hpp"
-#include "groundstation/station/config.hpp"
-#include "groundstation/station/model_check.hpp"
 #include "sim/live.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulator.hpp"
