@@ -5,20 +5,13 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
-
-#include "common/dataset/pcd.hpp"
+#include <cstring>
 
 namespace teamscan::fusion {
 
 namespace {
 bool is_identity(const Pose2& p) { return p.x_m == 0.0 && p.y_m == 0.0 && p.theta_rad == 0.0; }
 
-Status write_atomically(const std::string& path, const PcdCloud& cloud, const std::vector<PcdField>& layout) {
-  const std::string tmp = path + ".tmp";
-  if (Status st = write_pcd(tmp, cloud, layout); !st.ok()) return st;
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) return Error{"fusion: cannot rename the fused PCD into place", errno};
-  return ok_status();
-}
 }  // namespace
 
 Result<std::unique_ptr<FusionCore>> FusionCore::create(const CoreOptions& options) {
@@ -262,45 +255,134 @@ void FusionCore::for_each_model_point(const std::function<void(const ModelPoint&
   }
 }
 
-Result<FusionCore::ModelFigures> FusionCore::write_model(const std::string& kept_path, const std::string& all_path) const {
-  const bool all = !all_path.empty();
-  PcdCloud kept, every;
-  kept.fields = {"x", "y", "z", "robot", "scan", "beam"};
-  kept.columns.assign(kept.fields.size(), {});
-  std::vector<PcdField> layout = {{"x", 4, 'F', 1},     {"y", 4, 'F', 1},    {"z", 4, 'F', 1},
-                                  {"robot", 1, 'U', 1}, {"scan", 4, 'U', 1}, {"beam", 2, 'U', 1}};
-  if (all) {
-    every.fields = kept.fields;
-    every.fields.push_back("keep");
-    every.fields.push_back("live_keep");
-    every.columns.assign(every.fields.size(), {});
+void FusionCore::snapshot_model(ModelSnapshot& out) const {
+  out.points.clear();
+  out.removed.clear();
+  out.kept = 0;
+  std::vector<mapping::MapPoint> pts;
+  std::vector<std::uint8_t> bits;
+  for (const std::vector<ModelPoint>& v : voxels_) {
+    pts.clear();
+    bits.clear();
+    for (const ModelPoint& m : v) {
+      pts.push_back(m.p);
+      bits.push_back(m.bits);
+    }
+    const std::size_t at = out.removed.size();
+    out.removed.resize(at + v.size(), 0);
+    filter_->decide(pts, bits, std::span<std::uint8_t>(out.removed).subspan(at));
+    out.points.insert(out.points.end(), v.begin(), v.end());
   }
+  for (std::uint8_t r : out.removed) out.kept += r == 0 ? 1 : 0;
+}
+
+Result<ModelFigures> FusionCore::write_model(const std::string& kept_path, const std::string& all_path) const {
+  ModelSnapshot snapshot;
+  snapshot_model(snapshot);
+  return write_model_snapshot(snapshot, kept_path, all_path);
+}
+
+namespace {
+
+// One binary PCD written record by record through a fixed buffer, as NAME.tmp then rename(2). The
+// header is encode_pcd's (common/dataset/pcd.hpp) for the same fields, so the bytes are those of
+// write_pcd for the same points.
+class PcdStream {
+ public:
+  PcdStream(const std::string& path, bool all, std::uint64_t points) : path_{path}, tmp_{path + ".tmp"}, all_{all} {
+    file_ = std::fopen(tmp_.c_str(), "wb");
+    if (file_ == nullptr) {
+      errno_ = errno;
+      return;
+    }
+    const std::string n = std::to_string(points);
+    std::string header = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z robot scan beam";
+    header += all ? " keep live_keep\nSIZE 4 4 4 1 4 2 1 1\nTYPE F F F U U U U U\nCOUNT 1 1 1 1 1 1 1 1"
+                  : "\nSIZE 4 4 4 1 4 2\nTYPE F F F U U U\nCOUNT 1 1 1 1 1 1";
+    header += "\nWIDTH " + n + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + n + "\nDATA binary\n";
+    put(header.data(), header.size());
+  }
+  ~PcdStream() {
+    if (file_ != nullptr) {
+      std::fclose(file_);
+      std::remove(tmp_.c_str());
+    }
+  }
+  PcdStream(const PcdStream&) = delete;
+  PcdStream& operator=(const PcdStream&) = delete;
+
+  void add(const ModelPoint& m, bool removed) {
+    std::uint8_t rec[21];
+    std::memcpy(rec + 0, &m.p.x, 4);
+    std::memcpy(rec + 4, &m.p.y, 4);
+    std::memcpy(rec + 8, &m.p.z, 4);
+    rec[12] = m.robot;
+    std::memcpy(rec + 13, &m.seq, 4);
+    std::memcpy(rec + 17, &m.beam, 2);
+    rec[19] = removed ? 0 : 1;
+    rec[20] = m.removed_at_release ? 0 : 1;
+    put(rec, all_ ? 21 : 19);
+  }
+  // Flushes, closes and renames into place.
+  [[nodiscard]] Status finish() {
+    if (file_ == nullptr) return Error{"fusion: cannot create the fused PCD", errno_};
+    if (used_ > 0 && std::fwrite(buffer_.data(), 1, used_, file_) != used_ && errno_ == 0) errno_ = errno != 0 ? errno : EIO;
+    used_ = 0;
+    const int closed = std::fclose(file_);
+    file_ = nullptr;
+    if (closed != 0 && errno_ == 0) errno_ = errno;
+    if (errno_ != 0) {
+      std::remove(tmp_.c_str());
+      return Error{"fusion: cannot write the fused PCD", errno_};
+    }
+    if (std::rename(tmp_.c_str(), path_.c_str()) != 0) {
+      const int e = errno;
+      std::remove(tmp_.c_str());
+      return Error{"fusion: cannot rename the fused PCD into place", e};
+    }
+    return ok_status();
+  }
+
+ private:
+  void put(const void* data, std::size_t n) {
+    if (file_ == nullptr || errno_ != 0) return;
+    if (used_ + n > buffer_.size()) {
+      if (std::fwrite(buffer_.data(), 1, used_, file_) != used_) errno_ = errno != 0 ? errno : EIO;
+      used_ = 0;
+    }
+    if (n > buffer_.size()) {
+      if (std::fwrite(data, 1, n, file_) != n) errno_ = errno != 0 ? errno : EIO;
+      return;
+    }
+    std::memcpy(buffer_.data() + used_, data, n);
+    used_ += n;
+  }
+
+  std::string path_, tmp_;
+  bool all_ = false;
+  std::FILE* file_ = nullptr;
+  int errno_ = 0;
+  std::array<std::uint8_t, 1 << 16> buffer_{};
+  std::size_t used_ = 0;
+};
+
+}  // namespace
+
+Result<ModelFigures> write_model_snapshot(const ModelSnapshot& snap, const std::string& kept_path, const std::string& all_path) {
+  const std::size_t n = std::min(snap.points.size(), snap.removed.size());
   ModelFigures fig;
-  for_each_model_point([&](const ModelPoint& m, bool removed) {
-    const double row[6] = {m.p.x, m.p.y, m.p.z, static_cast<double>(m.robot), static_cast<double>(m.seq),
-                           static_cast<double>(m.beam)};
-    if (!removed) {
-      ++fig.kept;
-      for (std::size_t c = 0; c < 6; ++c) kept.columns[c].push_back(row[c]);
-    } else {
-      ++fig.removed;
-    }
-    if (all) {
-      for (std::size_t c = 0; c < 6; ++c) every.columns[c].push_back(row[c]);
-      every.columns[6].push_back(removed ? 0.0 : 1.0);
-      every.columns[7].push_back(m.removed_at_release ? 0.0 : 1.0);
-    }
-  });
-  kept.width = fig.kept;
-  kept.height = 1;
-  if (Status st = write_atomically(kept_path, kept, layout); !st.ok()) return st.error();
-  if (all) {
-    every.width = fig.kept + fig.removed;
-    every.height = 1;
-    std::vector<PcdField> layout_all = layout;
-    layout_all.push_back({"keep", 1, 'U', 1});
-    layout_all.push_back({"live_keep", 1, 'U', 1});
-    if (Status st = write_atomically(all_path, every, layout_all); !st.ok()) return st.error();
+  fig.kept = snap.kept;
+  fig.removed = n - std::min<std::uint64_t>(snap.kept, n);
+  {
+    auto kept = std::make_unique<PcdStream>(kept_path, false, fig.kept);
+    for (std::size_t i = 0; i < n; ++i)
+      if (snap.removed[i] == 0) kept->add(snap.points[i], false);
+    if (Status st = kept->finish(); !st.ok()) return st.error();
+  }
+  if (!all_path.empty()) {
+    auto all = std::make_unique<PcdStream>(all_path, true, n);
+    for (std::size_t i = 0; i < n; ++i) all->add(snap.points[i], snap.removed[i] != 0);
+    if (Status st = all->finish(); !st.ok()) return st.error();
   }
   return fig;
 }

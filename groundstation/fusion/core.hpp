@@ -89,6 +89,24 @@ struct ModelPoint {
   std::uint8_t removed_at_release = 0;
 };
 
+// The model store at one moment: every stored point and its decision then (FusionCore::snapshot_model).
+// Owns its copy, so it can be written on another thread while the core goes on.
+struct ModelSnapshot {
+  std::vector<ModelPoint> points;
+  std::vector<std::uint8_t> removed;  // one per point: the decision at the snapshot
+  std::uint64_t kept = 0;
+};
+
+struct ModelFigures {
+  std::uint64_t kept = 0, removed = 0;
+};
+
+// Writes a snapshot as binary PCD, streamed (no copy of the model beyond the snapshot): `kept_path`
+// (kept points: x y z robot scan beam) and, if not empty, `all_path` (every stored point, plus keep
+// and live_keep), each NAME.tmp then rename(2), so a reader never sees a half file.
+[[nodiscard]] Result<ModelFigures> write_model_snapshot(const ModelSnapshot& snapshot, const std::string& kept_path,
+                                                        const std::string& all_path);
+
 struct CoreCounters {
   std::uint64_t scans_in = 0;
   std::uint64_t duplicate_scans = 0;   // (robot, seq) fused recently: a DDS history replay
@@ -129,11 +147,10 @@ class FusionCore {
   }
   // Every stored point with its decision now (f(const ModelPoint&, bool removed)), voxel by voxel.
   void for_each_model_point(const std::function<void(const ModelPoint&, bool removed)>& f) const;
-  // Writes the model from memory: `kept_path` (kept points: x y z robot scan beam) and, if not empty,
-  // `all_path` (every stored point, plus keep and live_keep), each NAME.tmp then rename(2).
-  struct ModelFigures {
-    std::uint64_t kept = 0, removed = 0;
-  };
+  // The model store with every point's decision now, into `out` (its capacity reused): what a writer
+  // thread formats and writes while the core goes on (write_model_snapshot).
+  void snapshot_model(ModelSnapshot& out) const;
+  // snapshot_model then write_model_snapshot, on the caller's thread.
   [[nodiscard]] Result<ModelFigures> write_model(const std::string& kept_path, const std::string& all_path) const;
 
   [[nodiscard]] PoseHistory& poses() { return poses_; }

@@ -42,7 +42,24 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   o.map_resolution_m = f.map_resolution_m;
   if (f.write_all_points) o.all_points_pcd = "fused_all.pcd";
   if (f.latency_log) o.latency_log_csv = "fused_latency.csv";
+  o.compare_methods = f.compare_methods;
   return o;
+}
+
+std::string method_file_name(const std::string& name, const std::string& method) {
+  const std::size_t dot = name.rfind('.');
+  if (dot == std::string::npos || dot == 0 || name.find('/', dot) != std::string::npos) return name + "." + method;
+  return name.substr(0, dot) + "." + method + name.substr(dot);
+}
+
+FusionOptions compared_options(const FusionOptions& o, const std::string& method) {
+  FusionOptions c = o;
+  c.compare_methods.clear();
+  if (method == o.core.method) return c;
+  c.core.method = method;
+  c.kept_pcd = method_file_name(o.kept_pcd, method);
+  if (!o.all_points_pcd.empty()) c.all_points_pcd = method_file_name(o.all_points_pcd, method);
+  return c;
 }
 
 fusion::PoseInput pose_input(const PoseObservation& p) {
@@ -84,15 +101,33 @@ fusion::ScanInput scan_input(const StoredScan& s, ScanBuffers& b) {
 
 Result<std::unique_ptr<FusionStage>> FusionStage::create(const FusionOptions& options, std::string session_dir) {
   if (!(options.map_resolution_m > 0.0)) return Error{"fusion: map resolution must be > 0 (fusion.map_resolution_m)"};
-  auto core = fusion::FusionCore::create(options.core);
-  if (!core.ok()) return core.error();
-  return std::unique_ptr<FusionStage>(new FusionStage(options, std::move(session_dir), std::move(core.value())));
+  std::vector<std::unique_ptr<Model>> models;
+  std::vector<std::string> methods{options.core.method};
+  for (const std::string& m : options.compare_methods) {
+    if (std::find(methods.begin(), methods.end(), m) != methods.end())
+      return Error{"fusion: a compared method is the primary method or listed twice (fusion.compare_methods)"};
+    methods.push_back(m);
+  }
+  for (const std::string& m : methods) {
+    const FusionOptions o = compared_options(options, m);
+    auto core = fusion::FusionCore::create(o.core);
+    if (!core.ok()) {
+      if (m == options.core.method) return core.error();
+      return Error{"fusion: unknown compared method (fusion.compare_methods)"};
+    }
+    auto model = std::make_unique<Model>();
+    model->core = std::move(core.value());
+    model->kept_path = session_dir + "/" + o.kept_pcd;
+    if (!o.all_points_pcd.empty()) model->all_path = session_dir + "/" + o.all_points_pcd;
+    models.push_back(std::move(model));
+  }
+  return std::unique_ptr<FusionStage>(new FusionStage(options, std::move(session_dir), std::move(models)));
 }
 
-FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, std::unique_ptr<fusion::FusionCore> core)
+FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, std::vector<std::unique_ptr<Model>> models)
     : options_{options},
       session_dir_{std::move(session_dir)},
-      core_{std::move(core)},
+      models_{std::move(models)},
       map_all_{options.map_resolution_m},
       map_kept_{options.map_resolution_m},
       map_touched_{options.map_resolution_m} {
@@ -103,11 +138,46 @@ FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, 
   scratch_.points.reserve(kMaxBeams);
   scratch_.flags.reserve(kMaxBeams);
   scratch_.beams.reserve(kMaxBeams);
-  core_->set_release_callback([this](const fusion::FusedScan& f) { on_release(f); });
+  core().set_release_callback([this](const fusion::FusedScan& f) { on_release(f); });
 }
 
 FusionStage::~FusionStage() {
+  if (writer_.joinable()) {
+    {
+      std::lock_guard<std::mutex> lock(writer_mutex_);
+      writer_stop_ = true;
+    }
+    writer_cv_.notify_all();
+    writer_.join();  // a write in flight finishes first
+  }
   if (latency_log_ != nullptr) std::fclose(latency_log_);
+}
+
+const fusion::FusionCore* FusionStage::compared_core(const std::string& method) const {
+  for (std::size_t i = 1; i < models_.size(); ++i)
+    if (models_[i]->core->options().method == method) return models_[i]->core.get();
+  return nullptr;
+}
+
+std::size_t FusionStage::model_memory_bytes() const {
+  std::size_t n = 0;
+  for (const auto& m : models_) n += m->core->model_memory_bytes();
+  return n;
+}
+
+void FusionStage::flush() {
+  for (const auto& m : models_) m->core->flush();
+}
+
+void FusionStage::tick(std::int64_t realtime_ns) {
+  if (resume_) return;
+  for (const auto& m : models_) m->core->advance_to(realtime_ns);
+}
+
+// Every core takes the same input in the same order; the primary's answer counts the duplicates.
+void FusionStage::add_scan_to_cores(const fusion::ScanInput& in) {
+  if (!core().add_scan(in)) ++counters_.duplicates;
+  for (std::size_t i = 1; i < models_.size(); ++i) (void)models_[i]->core->add_scan(in);
 }
 
 void FusionStage::add_pose(const PoseObservation& p) {
@@ -115,20 +185,20 @@ void FusionStage::add_pose(const PoseObservation& p) {
   ++counters_.poses;
   const fusion::PoseInput in = pose_input(p);
   if (resume_ && !replaying_) {
-    core_->resume_at(in.arrival_ns);
+    for (const auto& m : models_) m->core->resume_at(in.arrival_ns);
     resume_ = false;
   }
-  core_->add_pose(in);
+  for (const auto& m : models_) m->core->add_pose(in);
 }
 
 void FusionStage::add_scan(const StoredScan& s) {
   if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
   if (!replaying_) stored_latency_.add(s.recv_realtime_ns - s.stamp_ns);
   if (resume_) {
-    core_->resume_at(s.recv_realtime_ns);
+    for (const auto& m : models_) m->core->resume_at(s.recv_realtime_ns);
     resume_ = false;
   }
-  if (!core_->add_scan(scan_input(s, scratch_))) ++counters_.duplicates;
+  add_scan_to_cores(scan_input(s, scratch_));
 }
 
 void FusionStage::on_release(const fusion::FusedScan& f) {
@@ -164,7 +234,7 @@ Result<std::uint64_t> FusionStage::replay_session(const std::string& dir) {
       dir, [&](const PoseObservation& p) { add_pose(p); },
       [&](const StoredScan& s) {
         if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
-        if (!core_->add_scan(scan_input(s, buffers))) ++counters_.duplicates;
+        add_scan_to_cores(scan_input(s, buffers));
       },
       stats);
   replaying_ = false;
@@ -173,17 +243,123 @@ Result<std::uint64_t> FusionStage::replay_session(const std::string& dir) {
   return stats.poses + stats.scans;
 }
 
-Status FusionStage::write_model() {
-  auto fig = core_->write_model(session_dir_ + "/" + options_.kept_pcd,
-                                options_.all_points_pcd.empty() ? std::string{} : session_dir_ + "/" + options_.all_points_pcd);
-  if (!fig.ok()) {
-    ++counters_.write_failures;
-    return fig.error();
+// In the caller's thread: every core's model store with its decisions now, into the models' snapshots.
+void FusionStage::snapshot_all(ModelWriteReport& report) {
+  const Time t0 = now_monotonic();
+  report = ModelWriteReport{};
+  for (const auto& m : models_) {
+    m->core->snapshot_model(m->snapshot);
+    report.points += m->snapshot.points.size();
   }
-  ++counters_.writes;
-  counters_.last_write_kept = fig.value().kept;
-  counters_.last_write_removed = fig.value().removed;
+  const fusion::ModelSnapshot& primary = models_.front()->snapshot;
+  report.kept = primary.kept;
+  report.removed = primary.points.size() - primary.kept;
+  report.snapshot_s = to_seconds(now_monotonic() - t0);
+}
+
+// Every model's files from its snapshot (the writer thread, or the caller's for write_model()).
+void FusionStage::write_snapshots(ModelWriteReport& report) {
+  const Time t0 = now_monotonic();
+  for (const auto& m : models_) {
+    auto fig = fusion::write_model_snapshot(m->snapshot, m->kept_path, m->all_path);
+    if (!fig.ok() && report.ok) {
+      report.ok = false;
+      report.error = fig.error();
+    }
+  }
+  report.write_s = to_seconds(now_monotonic() - t0);
+}
+
+void FusionStage::wait_writer_idle() {
+  std::unique_lock<std::mutex> lock(writer_mutex_);
+  writer_cv_.wait(lock, [&] { return !writer_busy_; });
+}
+
+bool FusionStage::write_in_flight() const {
+  std::lock_guard<std::mutex> lock(writer_mutex_);
+  return writer_busy_;
+}
+
+// A finished write of the writer thread into the counters and the callback (the caller's thread).
+bool FusionStage::collect_finished() {
+  {
+    std::lock_guard<std::mutex> lock(writer_mutex_);
+    if (!writer_done_) return false;
+    writer_done_ = false;
+    last_write_ = writer_report_;
+  }
+  finish_write();
+  return true;
+}
+
+void FusionStage::finish_write() {
+  if (!last_write_.ok) {
+    ++counters_.write_failures;
+  } else {
+    ++counters_.writes;
+    counters_.last_write_kept = last_write_.kept;
+    counters_.last_write_removed = last_write_.removed;
+  }
+  if (on_write_) on_write_(last_write_);
+}
+
+Status FusionStage::write_model() {
+  wait_writer_idle();
+  (void)collect_finished();
+  write_pending_ = false;  // this write serves a coalesced request
+  snapshot_all(last_write_);
+  write_snapshots(last_write_);
+  finish_write();
+  if (!last_write_.ok) return last_write_.error;
   return ok_status();
+}
+
+void FusionStage::request_write() {
+  if (write_in_flight()) {
+    ++counters_.writes_coalesced;
+    write_pending_ = true;
+    return;
+  }
+  start_write();
+}
+
+void FusionStage::start_write() {
+  (void)collect_finished();  // its report before the next write's
+  write_pending_ = false;
+  ModelWriteReport report;
+  snapshot_all(report);
+  report.on_writer_thread = true;
+  {
+    std::lock_guard<std::mutex> lock(writer_mutex_);
+    writer_report_ = report;
+    writer_job_ = true;
+    writer_busy_ = true;
+  }
+  if (!writer_.joinable()) writer_ = std::thread([this] { writer_main(); });
+  writer_cv_.notify_all();
+}
+
+bool FusionStage::poll_write() {
+  const bool finished = collect_finished();
+  if (write_pending_ && !write_in_flight()) start_write();
+  return finished;
+}
+
+void FusionStage::writer_main() {
+  std::unique_lock<std::mutex> lock(writer_mutex_);
+  for (;;) {
+    writer_cv_.wait(lock, [&] { return writer_job_ || writer_stop_; });
+    if (!writer_job_) return;
+    writer_job_ = false;
+    ModelWriteReport report = writer_report_;
+    lock.unlock();
+    write_snapshots(report);
+    lock.lock();
+    writer_report_ = report;
+    writer_done_ = true;
+    writer_busy_ = false;
+    writer_cv_.notify_all();
+  }
 }
 
 Status FusionStage::write_latency() const {
