@@ -193,7 +193,7 @@ int main(int argc, char** argv) {
     } else {
       const fusion::CoreCounters& c = fusion->core().counters();
       const FusionCounters& fc = fusion->counters();
-      char text[420];
+      char text[640];
       std::snprintf(text, sizeof text,
                     "fused model written (%s): %llu kept, %llu removed, %llu scans; snapshot %.3f s in the loop, write %.2f s %s "
                     "(%zu models, %llu points; %llu requests coalesced); model store %llu points in %zu voxels (%llu beyond the "

@@ -1,6 +1,9 @@
 // Live fusion throughput on one core: scans per second through FusionStage::add_scan (tracker
-// prediction, filter observe + classify, voxel map) for each method, and the cost of one fused-model
-// write (the offline pass over everything received) at the end of a lap2-like survey.
+// prediction, filter observe + classify, voxel map) for each method, alone and with the paper's methods
+// compared side by side (compare_methods), and the cost of a fused-model write at the end of a
+// lap2-like survey: the whole write on the caller's thread (write_model: the shutdown write, and what
+// every periodic write cost the receive loop before), and the loop's share of a write off the loop
+// (request_write: the snapshot; the files on the writer thread).
 // Run: build/dev/tests/bench/station/station_fusion_bench   (figures in docs/groundstation.md)
 #include <benchmark/benchmark.h>
 
@@ -90,6 +93,22 @@ BENCHMARK_CAPTURE(BM_LiveScans, frequency_0_05m, "frequency", 0.05)->Unit(benchm
 BENCHMARK_CAPTURE(BM_LiveScans, direction, "direction", 0.1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, position, "position", 0.1)->Unit(benchmark::kMillisecond);
 
+// best with the paper's five methods decided side by side: six cores on the same input.
+void BM_LiveScansCompared(benchmark::State& state) {
+  const Feed& f = feed();
+  for (auto _ : state) {
+    FusionOptions o;
+    o.compare_methods = {"frequency", "visibility", "position", "direction", "combined"};
+    auto stage = FusionStage::create(o, "/tmp");
+    run_feed(**stage, f);
+    (*stage)->flush();
+    benchmark::DoNotOptimize((*stage)->counters().live_removed);
+  }
+  state.counters["scans_per_s"] =
+      benchmark::Counter(static_cast<double>(f.scans.size() * state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_LiveScansCompared)->Unit(benchmark::kMillisecond);
+
 // One fused-model write after the whole survey, from the core's memory: every stored point decided
 // against the map + two PCDs (kept, all with keep).
 void BM_WriteModel(benchmark::State& state) {
@@ -108,5 +127,31 @@ void BM_WriteModel(benchmark::State& state) {
   std::filesystem::remove_all(dir);
 }
 BENCHMARK(BM_WriteModel)->Unit(benchmark::kMillisecond);
+
+// A periodic write as the station's loop sees it: request_write() (the snapshot of every stored point
+// with its decision, handed to the writer thread) is timed; the write itself runs on the writer thread
+// while the timer is paused.
+void BM_RequestWrite(benchmark::State& state) {
+  const std::string dir = std::filesystem::temp_directory_path() / "teamscan-station-fusion-bench-async";
+  std::filesystem::create_directories(dir);
+  FusionOptions o;
+  o.all_points_pcd = "fused_all.pcd";
+  auto stage = FusionStage::create(o, dir);
+  run_feed(**stage, feed());
+  (*stage)->flush();
+  double thread_s = 0;
+  for (auto _ : state) {
+    (*stage)->request_write();
+    state.PauseTiming();
+    (*stage)->wait_for_write();
+    if (!(*stage)->poll_write() || !(*stage)->last_write().ok) state.SkipWithError("write failed");
+    thread_s += (*stage)->last_write().write_s;
+    state.ResumeTiming();
+  }
+  state.counters["points"] = static_cast<double>((*stage)->counters().points);
+  state.counters["writer_thread_ms"] = state.iterations() ? 1e3 * thread_s / static_cast<double>(state.iterations()) : 0.0;
+  std::filesystem::remove_all(dir);
+}
+BENCHMARK(BM_RequestWrite)->Unit(benchmark::kMillisecond);
 
 }  // namespace
