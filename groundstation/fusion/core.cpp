@@ -259,9 +259,15 @@ void FusionCore::snapshot_model(ModelSnapshot& out) const {
   out.points.clear();
   out.removed.clear();
   out.kept = 0;
+  (void)snapshot_model_part(out, 0, voxels_.size());
+}
+
+std::size_t FusionCore::snapshot_model_part(ModelSnapshot& out, std::size_t from, std::size_t count) const {
+  const std::size_t to = std::min(voxels_.size(), from + std::min(count, voxels_.size()));
   std::vector<mapping::MapPoint> pts;
   std::vector<std::uint8_t> bits;
-  for (const std::vector<ModelPoint>& v : voxels_) {
+  for (std::size_t k = from; k < to; ++k) {
+    const std::vector<ModelPoint>& v = voxels_[k];
     pts.clear();
     bits.clear();
     for (const ModelPoint& m : v) {
@@ -270,10 +276,12 @@ void FusionCore::snapshot_model(ModelSnapshot& out) const {
     }
     const std::size_t at = out.removed.size();
     out.removed.resize(at + v.size(), 0);
-    filter_->decide(pts, bits, std::span<std::uint8_t>(out.removed).subspan(at));
+    const std::span<std::uint8_t> removed = std::span<std::uint8_t>(out.removed).subspan(at);
+    filter_->decide(pts, bits, removed);
+    for (std::uint8_t r : removed) out.kept += r == 0 ? 1 : 0;
     out.points.insert(out.points.end(), v.begin(), v.end());
   }
-  for (std::uint8_t r : out.removed) out.kept += r == 0 ? 1 : 0;
+  return std::max(from, to);
 }
 
 Result<ModelFigures> FusionCore::write_model(const std::string& kept_path, const std::string& all_path) const {

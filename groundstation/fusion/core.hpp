@@ -150,6 +150,11 @@ class FusionCore {
   // The model store with every point's decision now, into `out` (its capacity reused): what a writer
   // thread formats and writes while the core goes on (write_model_snapshot).
   void snapshot_model(ModelSnapshot& out) const;
+  // The same in parts, so a loop can spread it over several turns: appends the model voxels
+  // [from, min(from + count, model_voxels())) with their decisions now to `out` and returns the next
+  // voxel to take. Voxels are never removed or reordered, so a snapshot taken in parts holds every
+  // point stored before it started (each voxel's decisions as of the part that took it).
+  std::size_t snapshot_model_part(ModelSnapshot& out, std::size_t from, std::size_t count) const;
   // snapshot_model then write_model_snapshot, on the caller's thread.
   [[nodiscard]] Result<ModelFigures> write_model(const std::string& kept_path, const std::string& all_path) const;
 

@@ -97,7 +97,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.only(fusion, "fusion", {"enabled", "method", "resolution_m", "half_angle_deg", "grid_origin_z_m", "frequency_k",
                             "position_sigma_m", "position_n", "direction_from_flags", "write_interval_s",
                             "write_all_points", "map_interval_s", "map_resolution_m", "latency_log", "hold_s",
-                            "model_resolution_m", "max_points_per_voxel", "compare_methods"});
+                            "model_resolution_m", "max_points_per_voxel", "compare_methods", "write_slice_ms"});
   r.boolean(fusion, "fusion", "enabled", f.enabled);
   if (r.string(fusion, "fusion", "method", f.method, false) && f.method.empty())
     r.fail("fusion.method", "must not be empty", r.node(fusion, "method"));
@@ -109,6 +109,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.number_in(fusion, "fusion", "position_n", f.position_n, 0.0, 100.0);
   r.boolean(fusion, "fusion", "direction_from_flags", f.direction_from_flags);
   r.strings(fusion, "fusion", "compare_methods", f.compare_methods);
+  r.number_in(fusion, "fusion", "write_slice_ms", f.write_slice_ms, 0.0, 1000.0, true);
   r.number_in(fusion, "fusion", "write_interval_s", write_s, 0.0, 86400.0, true);
   r.boolean(fusion, "fusion", "write_all_points", f.write_all_points);
   r.boolean(fusion, "fusion", "latency_log", f.latency_log);

@@ -43,6 +43,7 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   if (f.write_all_points) o.all_points_pcd = "fused_all.pcd";
   if (f.latency_log) o.latency_log_csv = "fused_latency.csv";
   o.compare_methods = f.compare_methods;
+  o.write_slice_ms = f.write_slice_ms;
   return o;
 }
 
@@ -243,18 +244,50 @@ Result<std::uint64_t> FusionStage::replay_session(const std::string& dir) {
   return stats.poses + stats.scans;
 }
 
-// In the caller's thread: every core's model store with its decisions now, into the models' snapshots.
-void FusionStage::snapshot_all(ModelWriteReport& report) {
+// A write's snapshot, in the caller's thread: every core's model store with its decisions, into the
+// models' snapshot buffers, taken in slices of at most options().write_slice_ms (`all`: to the end).
+// True when every model is taken.
+bool FusionStage::advance_snapshot(bool all) {
+  constexpr std::size_t kVoxelsPerStep = 64;
   const Time t0 = now_monotonic();
-  report = ModelWriteReport{};
+  const auto slice = std::chrono::duration<double, std::milli>(options_.write_slice_ms);
+  bool done = true;
   for (const auto& m : models_) {
-    m->core->snapshot_model(m->snapshot);
-    report.points += m->snapshot.points.size();
+    while (m->snapshot_next < m->snapshot_end) {
+      m->snapshot_next = m->core->snapshot_model_part(m->snapshot, m->snapshot_next,
+                                                      std::min(kVoxelsPerStep, m->snapshot_end - m->snapshot_next));
+      if (!all && now_monotonic() - t0 >= slice) break;
+    }
+    if (m->snapshot_next < m->snapshot_end) {
+      done = false;
+      break;
+    }
   }
+  const double took_s = to_seconds(now_monotonic() - t0);
+  snapshot_report_.snapshot_s += took_s;
+  snapshot_report_.snapshot_slice_max_s = std::max(snapshot_report_.snapshot_slice_max_s, took_s);
+  ++snapshot_report_.snapshot_slices;
+  if (!done) return false;
+  snapshot_report_.snapshot_span_s = to_seconds(now_monotonic() - snapshot_started_);
+  for (const auto& m : models_) snapshot_report_.points += m->snapshot.points.size();
   const fusion::ModelSnapshot& primary = models_.front()->snapshot;
-  report.kept = primary.kept;
-  report.removed = primary.points.size() - primary.kept;
-  report.snapshot_s = to_seconds(now_monotonic() - t0);
+  snapshot_report_.kept = primary.kept;
+  snapshot_report_.removed = primary.points.size() - primary.kept;
+  return true;
+}
+
+void FusionStage::begin_snapshot() {
+  snapshotting_ = true;
+  write_pending_ = false;
+  snapshot_started_ = now_monotonic();
+  snapshot_report_ = ModelWriteReport{};
+  for (const auto& m : models_) {
+    m->snapshot.points.clear();
+    m->snapshot.removed.clear();
+    m->snapshot.kept = 0;
+    m->snapshot_next = 0;
+    m->snapshot_end = m->core->model_voxels();  // voxels stored later wait for the next write
+  }
 }
 
 // Every model's files from its snapshot (the writer thread, or the caller's for write_model()).
@@ -270,12 +303,32 @@ void FusionStage::write_snapshots(ModelWriteReport& report) {
   report.write_s = to_seconds(now_monotonic() - t0);
 }
 
+// The finished snapshot to the writer thread (started by the first write).
+void FusionStage::hand_to_writer() {
+  snapshotting_ = false;
+  snapshot_report_.on_writer_thread = true;
+  {
+    std::lock_guard<std::mutex> lock(writer_mutex_);
+    writer_report_ = snapshot_report_;
+    writer_job_ = true;
+    writer_busy_ = true;
+  }
+  if (!writer_.joinable()) writer_ = std::thread([this] { writer_main(); });
+  writer_cv_.notify_all();
+}
+
 void FusionStage::wait_writer_idle() {
   std::unique_lock<std::mutex> lock(writer_mutex_);
   writer_cv_.wait(lock, [&] { return !writer_busy_; });
 }
 
+void FusionStage::wait_for_write() {
+  if (snapshotting_ && advance_snapshot(true)) hand_to_writer();
+  wait_writer_idle();
+}
+
 bool FusionStage::write_in_flight() const {
+  if (snapshotting_) return true;
   std::lock_guard<std::mutex> lock(writer_mutex_);
   return writer_busy_;
 }
@@ -306,8 +359,11 @@ void FusionStage::finish_write() {
 Status FusionStage::write_model() {
   wait_writer_idle();
   (void)collect_finished();
-  write_pending_ = false;  // this write serves a coalesced request
-  snapshot_all(last_write_);
+  // A periodic snapshot in progress or a coalesced request: this write serves them.
+  begin_snapshot();
+  (void)advance_snapshot(true);
+  snapshotting_ = false;
+  last_write_ = snapshot_report_;
   write_snapshots(last_write_);
   finish_write();
   if (!last_write_.ok) return last_write_.error;
@@ -320,28 +376,19 @@ void FusionStage::request_write() {
     write_pending_ = true;
     return;
   }
-  start_write();
-}
-
-void FusionStage::start_write() {
   (void)collect_finished();  // its report before the next write's
-  write_pending_ = false;
-  ModelWriteReport report;
-  snapshot_all(report);
-  report.on_writer_thread = true;
-  {
-    std::lock_guard<std::mutex> lock(writer_mutex_);
-    writer_report_ = report;
-    writer_job_ = true;
-    writer_busy_ = true;
-  }
-  if (!writer_.joinable()) writer_ = std::thread([this] { writer_main(); });
-  writer_cv_.notify_all();
+  begin_snapshot();
+  if (advance_snapshot(false)) hand_to_writer();
 }
 
 bool FusionStage::poll_write() {
   const bool finished = collect_finished();
-  if (write_pending_ && !write_in_flight()) start_write();
+  if (snapshotting_) {
+    if (advance_snapshot(false)) hand_to_writer();
+  } else if (write_pending_ && !write_in_flight()) {
+    begin_snapshot();
+    if (advance_snapshot(false)) hand_to_writer();
+  }
   return finished;
 }
 

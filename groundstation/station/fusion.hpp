@@ -9,10 +9,10 @@
 // the same order (live and in the replay), each with its own model store and model file
 // (method_file_name); only the primary core feeds teamscan/map, the latency and the counters.
 //
-// Model writes: request_write() takes a snapshot of every core's model store with its decisions (in
-// the caller's loop: the only part that holds the loop) and a writer thread formats and writes it; one
-// write in flight, a request meanwhile is coalesced into one that follows. write_model() is the
-// synchronous write (shutdown, tests).
+// Model writes: request_write() starts a snapshot of every core's model store with its decisions, taken
+// in the caller's loop in slices of at most write_slice_ms per request_write()/poll_write() (the only
+// part that holds the loop), and a writer thread formats and writes it; one write in flight, a request
+// meanwhile is coalesced into one that follows. write_model() is the synchronous write (shutdown, tests).
 #pragma once
 
 #include <condition_variable>
@@ -25,6 +25,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/clock.hpp"
 #include "common/result.hpp"
 #include "groundstation/fusion/core.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
@@ -55,6 +56,9 @@ struct FusionOptions {
   // its own model store, written as method_file_name(kept_pcd / all_points_pcd, method). Not the
   // primary method, no repeats (create() refuses them).
   std::vector<std::string> compare_methods;
+  // A periodic write's snapshot takes at most this much of one loop turn (request_write, poll_write);
+  // the rest waits for the next turns. 0: one step (64 model voxels per core) per turn.
+  double write_slice_ms = 2.0;
 };
 
 // A compared method's model file: "fused_all.pcd" + "position" -> "fused_all.position.pcd" (the
@@ -94,7 +98,10 @@ struct ModelWriteReport {
   bool ok = true;
   Error error{};              // the first file that failed
   bool on_writer_thread = false;
-  double snapshot_s = 0;      // the stores copied with their decisions, in the caller's loop
+  double snapshot_s = 0;      // the stores copied with their decisions, in the caller's loop (all slices)
+  double snapshot_slice_max_s = 0;  // the longest slice: the loop's longest stall for this write
+  std::uint32_t snapshot_slices = 0;
+  double snapshot_span_s = 0; // first slice to the hand-over to the writer thread
   double write_s = 0;         // formatted and written (the writer thread, or the caller's for write_model())
   std::uint64_t points = 0;   // every core's snapshot
   std::uint64_t kept = 0, removed = 0;  // the primary model's
@@ -134,8 +141,9 @@ class FusionStage {
   // write callback); starts a coalesced write if the writer is free.
   bool poll_write();
   [[nodiscard]] bool write_in_flight() const;
-  // Waits for the write in flight (if any); its report comes with the next poll_write().
-  void wait_for_write() { wait_writer_idle(); }
+  // Finishes a snapshot in progress on this thread and waits for the writer; the report comes with
+  // the next poll_write().
+  void wait_for_write();
   [[nodiscard]] const ModelWriteReport& last_write() const { return last_write_; }
   // Called with every finished write's report, on the thread that calls write_model / request_write /
   // poll_write (the loop), never on the writer thread.
@@ -176,15 +184,17 @@ class FusionStage {
     std::unique_ptr<fusion::FusionCore> core;
     std::string kept_path, all_path;
     fusion::ModelSnapshot snapshot;  // the writer thread's while a write is in flight
+    std::size_t snapshot_next = 0, snapshot_end = 0;  // the model voxels still to take
   };
   FusionStage(const FusionOptions& options, std::string session_dir, std::vector<std::unique_ptr<Model>> models);
   void on_release(const fusion::FusedScan& scan);
   void add_scan_to_cores(const fusion::ScanInput& in);
-  void snapshot_all(ModelWriteReport& report);
+  void begin_snapshot();
+  bool advance_snapshot(bool all);
+  void hand_to_writer();
   void write_snapshots(ModelWriteReport& report);
   void writer_main();
   void wait_writer_idle();
-  void start_write();
   bool collect_finished();
   void finish_write();
 
@@ -206,6 +216,9 @@ class FusionStage {
   ModelWriteReport last_write_;
   std::function<void(const ModelWriteReport&)> on_write_;
   bool write_pending_ = false;  // a request coalesced while one was in flight (loop thread only)
+  bool snapshotting_ = false;   // a periodic write's snapshot in progress (loop thread only)
+  Time snapshot_started_{};
+  ModelWriteReport snapshot_report_;
   std::thread writer_;
   mutable std::mutex writer_mutex_;
   std::condition_variable writer_cv_;

@@ -195,11 +195,13 @@ int main(int argc, char** argv) {
       const FusionCounters& fc = fusion->counters();
       char text[640];
       std::snprintf(text, sizeof text,
-                    "fused model written (%s): %llu kept, %llu removed, %llu scans; snapshot %.3f s in the loop, write %.2f s %s "
+                    "fused model written (%s): %llu kept, %llu removed, %llu scans; snapshot %.3f s in the loop (%u slices, longest "
+                    "%.1f ms, over %.2f s), write %.2f s %s "
                     "(%zu models, %llu points; %llu requests coalesced); model store %llu points in %zu voxels (%llu beyond the "
                     "per-voxel cap), %.1f MiB (all models %.1f MiB)",
                     w.on_writer_thread ? "periodic" : "shutdown", static_cast<unsigned long long>(w.kept), static_cast<unsigned long long>(w.removed),
-                    static_cast<unsigned long long>(fc.scans), w.snapshot_s, w.write_s,
+                    static_cast<unsigned long long>(fc.scans), w.snapshot_s, w.snapshot_slices,
+                    w.snapshot_slice_max_s * 1e3, w.snapshot_span_s, w.write_s,
                     w.on_writer_thread ? "on the writer thread" : "in the loop", 1 + cfg.fusion.compare_methods.size(),
                     static_cast<unsigned long long>(w.points), static_cast<unsigned long long>(fc.writes_coalesced),
                     static_cast<unsigned long long>(c.stored_points), fusion->core().model_voxels(),

@@ -175,7 +175,7 @@ std::string station_config(const std::string& session_root, int domain, const st
   // The live fusion stage: its fused_all.pcd (every point with the station's keep flags and scan/beam
   // ids) is what the demo scores against the truth (docs/demo.md "Scoring the live model").
   // write_interval_s (--write-interval; default 0: the model is written once, at shutdown). Periodic
-  // writes run on the station's ModelWriter thread from the session files, off the receive loop
+  // writes take a snapshot in the station's loop and are written on its writer thread
   // (docs/groundstation.md "Model writes"); the demo scores the shutdown model either way.
   o << "\n[fusion]\nenabled = true\nmethod = \"" << method << "\"\nresolution_m = 0.1\nhalf_angle_deg = 7.0\n"
        "write_all_points = true\nwrite_interval_s = "

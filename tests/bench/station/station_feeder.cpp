@@ -536,12 +536,14 @@ int main(int argc, char** argv) {
     std::printf("; max %.1f\n", static_cast<double>(max_kib) / 1024.0);
   }
   // Periodic model writes (events.log, logged by the loop when a write finished: "fused model written
-  // (periodic): ...; snapshot S s in the loop, write W s on the writer thread (... N requests coalesced)"):
-  // when, the loop's stall (the snapshot), the writer thread's time, and the p99 of the scans fused while
-  // a write ran (snapshot start to logged end) against the rest.
+  // (periodic): ...; snapshot S s in the loop (K slices, longest L ms, over T s), write W s on the writer
+  // thread (... N requests coalesced)"): when, the loop's time on the snapshot and its longest stall, the
+  // writer thread's time, and the p99 of the scans fused while a write ran (snapshot start to logged end)
+  // against the rest.
   struct WriteEvent {
     std::int64_t start_ns = 0, end_ns = 0;
-    double snapshot_s = 0, write_s = 0;
+    double snapshot_s = 0, slice_max_ms = 0, span_s = 0, write_s = 0;
+    unsigned slices = 0;
   };
   std::vector<WriteEvent> writes;
   unsigned long long coalesced = 0;
@@ -554,13 +556,14 @@ int main(int argc, char** argv) {
       w.end_ns = std::atoll(line.c_str());
       const auto at = line.find("snapshot ");
       if (at == std::string::npos ||
-          std::sscanf(line.c_str() + at, "snapshot %lf s in the loop, write %lf s", &w.snapshot_s, &w.write_s) != 2)
+          std::sscanf(line.c_str() + at, "snapshot %lf s in the loop (%u slices, longest %lf ms, over %lf s), write %lf s",
+                      &w.snapshot_s, &w.slices, &w.slice_max_ms, &w.span_s, &w.write_s) != 5)
         continue;
       if (const auto c = line.find(" requests coalesced"); c != std::string::npos) {
         const auto from = line.rfind(' ', c - 1);
         coalesced = std::strtoull(line.c_str() + from + 1, nullptr, 10);
       }
-      w.start_ns = w.end_ns - static_cast<std::int64_t>((w.snapshot_s + w.write_s) * 1e9);
+      w.start_ns = w.end_ns - static_cast<std::int64_t>((w.span_s + w.write_s) * 1e9);
       writes.push_back(w);
     }
   }
@@ -573,11 +576,13 @@ int main(int argc, char** argv) {
     }
     const std::int64_t feed_start_rt = now_realtime().ns() - static_cast<std::int64_t>(to_seconds(now_monotonic() - wall0) * 1e9);
     double stall_max_ms = 0, write_max_s = 0;
-    std::printf("model writes: %zu (%llu requests coalesced); at robot time (s): loop stall (snapshot, ms) / writer thread (s):",
+    std::printf("model writes: %zu (%llu requests coalesced); at robot time (s): snapshot in the loop (ms, slices, "
+                "longest slice ms, span s) / writer thread (s):",
                 writes.size(), coalesced);
     for (const WriteEvent& w : writes) {
-      std::printf(" %.0f: %.1f/%.2f", static_cast<double>(w.start_ns - feed_start_rt) * 1e-9 * o.warp, w.snapshot_s * 1e3, w.write_s);
-      stall_max_ms = std::max(stall_max_ms, w.snapshot_s * 1e3);
+      std::printf(" %.0f: %.1f, %u, %.1f, %.1f / %.2f", static_cast<double>(w.start_ns - feed_start_rt) * 1e-9 * o.warp,
+                  w.snapshot_s * 1e3, w.slices, w.slice_max_ms, w.span_s, w.write_s);
+      stall_max_ms = std::max(stall_max_ms, w.slice_max_ms);
       write_max_s = std::max(write_max_s, w.write_s);
     }
     std::printf("\nmodel writes: longest loop stall %.1f ms, longest write on the writer thread %.2f s\n", stall_max_ms, write_max_s);

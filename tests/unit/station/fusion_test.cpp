@@ -4,6 +4,7 @@
 // account for every point; the wire flags map to the data set's; the [fusion] config keys parse.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -429,9 +430,58 @@ TEST(Fusion, StreamedModelFilesAreThePcdWritersBytes) {
   std::filesystem::remove_all(dir);
 }
 
-// request_write(): the snapshot in the caller's loop, the files on the writer thread; requests while a
-// write is in flight are counted and served by one write after it; the files are those of a
-// synchronous write of the same state; a failing write is counted and reported, not thrown.
+// request_write(): the snapshot in the caller's loop, in slices over several poll_write() turns, the
+// files on the writer thread; requests while a write is in flight are counted and served by one write
+// after it; the files are those of a synchronous write of the same state; a failing write is counted
+// and reported, not thrown.
+// A snapshot taken in slices while new scans arrive holds every point stored before it started, and no
+// point twice.
+TEST(Fusion, ASnapshotInSlicesHoldsEveryPointStoredBeforeItStarted) {
+  const Dataset d = survey();
+  const std::int64_t split_ns = d.scans[d.scans.size() / 2].stamp_ns;
+  Dataset first = d, second = d;
+  std::erase_if(first.scans, [&](const ScanRecord& r) { return r.stamp_ns >= split_ns; });
+  std::erase_if(first.odom, [&](const TrajectorySample& t) { return t.stamp_ns >= split_ns; });
+  std::erase_if(second.scans, [&](const ScanRecord& r) { return r.stamp_ns < split_ns; });
+  std::erase_if(second.odom, [&](const TrajectorySample& t) { return t.stamp_ns < split_ns; });
+  const std::string dir = temp_dir();
+  FusionOptions o;
+  o.core.method = "best";
+  o.core.max_points_per_voxel = 100000;
+  o.all_points_pcd = "fused_all.pcd";
+  o.write_slice_ms = 0;
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  FusionStage& f = **stage;
+  feed(f, first);
+  const std::uint64_t stored_before = f.core().counters().stored_points;
+  f.request_write();
+  ASSERT_TRUE(f.write_in_flight());
+  feed(f, second);  // new points into voxels taken and not yet taken, and new voxels
+  ASSERT_GT(f.core().counters().stored_points, stored_before);
+  f.wait_for_write();
+  ASSERT_TRUE(f.poll_write());
+  ASSERT_TRUE(f.last_write().ok);
+  auto all = read_pcd(dir + "/fused_all.pcd");
+  ASSERT_TRUE(all.ok());
+  const int fr = all->field("robot"), fs = all->field("scan"), fb = all->field("beam");
+  std::set<std::tuple<int, std::uint32_t, int>> rows;
+  for (std::size_t i = 0; i < all->size(); ++i) {
+    auto col = [&](int c) { return all->columns[static_cast<std::size_t>(c)][i]; };
+    EXPECT_TRUE(rows.insert({static_cast<int>(col(fr)), static_cast<std::uint32_t>(col(fs)), static_cast<int>(col(fb))}).second);
+  }
+  std::size_t first_points = 0;
+  for (const LabelledPoint& p : d.points) {
+    if (std::none_of(first.scans.begin(), first.scans.end(), [&](const ScanRecord& r) { return r.robot == p.robot && r.scan == p.scan; }))
+      continue;
+    ++first_points;
+    EXPECT_EQ(rows.count({p.robot, p.scan, p.beam}), 1u) << "robot " << int(p.robot) << " scan " << p.scan;
+  }
+  EXPECT_EQ(first_points, stored_before);
+  EXPECT_LT(rows.size(), d.points.size());  // the voxels new since the start wait for the next write
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Fusion, WritesOffTheLoopAreCoalescedAndEqualASynchronousWrite) {
   const Dataset d = survey();
   const std::string dir = temp_dir(), sync_dir = temp_dir();
@@ -440,6 +490,7 @@ TEST(Fusion, WritesOffTheLoopAreCoalescedAndEqualASynchronousWrite) {
   o.core.max_points_per_voxel = 100000;
   o.all_points_pcd = "fused_all.pcd";
   o.compare_methods = {"position", "visibility"};
+  o.write_slice_ms = 0;  // one step (64 model voxels of one core) per turn
   auto stage = FusionStage::create(o, dir);
   auto sync_stage = FusionStage::create(o, sync_dir);
   ASSERT_TRUE(stage.ok());
@@ -450,23 +501,27 @@ TEST(Fusion, WritesOffTheLoopAreCoalescedAndEqualASynchronousWrite) {
   feed(**sync_stage, d);
   FusionStage& f = **stage;
   f.request_write();
-  // Two requests while it runs (if it still does): counted, one write follows.
-  std::uint64_t coalesced = 0;
-  while (f.write_in_flight() && coalesced < 2) {
-    f.request_write();
-    ++coalesced;
-  }
-  EXPECT_EQ(f.counters().writes_coalesced, coalesced);
-  for (int i = 0; i < 20000 && (f.write_in_flight() || f.counters().writes < (coalesced > 0 ? 2u : 1u)); ++i) {
+  ASSERT_TRUE(f.write_in_flight());  // the snapshot is still being taken
+  // Two requests while it runs: counted, one write follows.
+  f.request_write();
+  f.request_write();
+  EXPECT_EQ(f.counters().writes_coalesced, 2u);
+  for (int i = 0; i < 200000 && (f.write_in_flight() || f.counters().writes < 2u); ++i) {
     (void)f.poll_write();
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    if (!f.write_in_flight()) std::this_thread::sleep_for(std::chrono::microseconds(100));
   }
   (void)f.poll_write();
   EXPECT_FALSE(f.write_in_flight());
-  EXPECT_EQ(f.counters().writes, coalesced > 0 ? 2u : 1u);
+  EXPECT_EQ(f.counters().writes, 2u);
   EXPECT_EQ(f.counters().write_failures, 0u);
-  ASSERT_EQ(reports.size(), f.counters().writes);
+  ASSERT_EQ(reports.size(), 2u);
   EXPECT_TRUE(reports.back().on_writer_thread);
+  const std::size_t voxels = f.core().model_voxels() + f.compared_core("position")->model_voxels() +
+                             f.compared_core("visibility")->model_voxels();
+  // Steps of 64 voxels, one per turn (a turn that finishes a core takes the next core's first step too).
+  EXPECT_GE(reports.back().snapshot_slices, voxels / 64 - 2);
+  EXPECT_LE(reports.back().snapshot_slices, (voxels + 63) / 64 + 3);
+  EXPECT_GE(reports.back().snapshot_span_s, reports.back().snapshot_s * 0.5);
   EXPECT_EQ(reports.back().points, 3 * d.points.size());  // three cores, every point stored
   EXPECT_EQ(reports.back().kept + reports.back().removed, d.points.size());
   ASSERT_TRUE((*sync_stage)->write_model().ok());
