@@ -353,8 +353,12 @@ TEST(FusionConfig, CompareMethodsAreKnownOtherThanThePrimaryAndListedOnce) {
                                          "write_all_points = true\n", "t.toml", c, e))
       << e.message;
   ASSERT_EQ(c.fusion.compare_methods, (std::vector<std::string>{"position", "direction"}));
-  const FusionOptions o = fusion_options_from_config(c.fusion, c.kalman);
+  EXPECT_DOUBLE_EQ(c.fusion.write_slice_ms, 2.0);
+  FusionOptions o = fusion_options_from_config(c.fusion, c.kalman);
   EXPECT_EQ(o.compare_methods, c.fusion.compare_methods);
+  GroundStationConfig sliced;
+  ASSERT_TRUE(parse_groundstation_config("[fusion]\nwrite_slice_ms = 0.5\n", "t.toml", sliced, e)) << e.message;
+  EXPECT_DOUBLE_EQ(fusion_options_from_config(sliced.fusion, sliced.kalman).write_slice_ms, 0.5);
   const FusionOptions p = compared_options(o, "position");
   EXPECT_EQ(p.core.method, "position");
   EXPECT_EQ(p.kept_pcd, "fused.position.pcd");
@@ -371,6 +375,7 @@ TEST(FusionConfig, CompareMethodsAreKnownOtherThanThePrimaryAndListedOnce) {
       {"[fusion]\ncompare_methods = [\"position\", \"position\"]\n", "fusion.compare_methods: \"position\" is listed twice"},
       {"[fusion]\ncompare_methods = \"position\"\n", "fusion.compare_methods: must be an array of strings"},
       {"[fusion]\ncompare_methods = [1]\n", "fusion.compare_methods: must be an array of strings"},
+      {"[fusion]\nwrite_slice_ms = -1\n", "fusion.write_slice_ms: must be in"},
   };
   for (const auto& [text, message] : bad) {
     GroundStationConfig b;
