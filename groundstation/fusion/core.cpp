@@ -285,40 +285,28 @@ std::size_t FusionCore::snapshot_model_part(ModelSnapshot& out, std::size_t from
 }
 
 Result<ModelFigures> FusionCore::write_model(const std::string& kept_path, const std::string& all_path) const {
-  ModelSnapshot snapshot;
-  snapshot_model(snapshot);
-  return write_model_snapshot(snapshot, kept_path, all_path);
+  ModelFileWriter w(kept_path, all_path);
+  ModelSnapshot part;
+  for (std::size_t next = 0; next < voxels_.size();) {
+    part.points.clear();
+    part.removed.clear();
+    part.kept = 0;
+    next = snapshot_model_part(part, next, 256);
+    w.add(part);
+  }
+  return w.finish();
 }
 
-namespace {
-
-// One binary PCD written record by record through a fixed buffer, as NAME.tmp then rename(2). The
-// header is encode_pcd's (common/dataset/pcd.hpp) for the same fields, so the bytes are those of
-// write_pcd for the same points.
-class PcdStream {
- public:
-  PcdStream(const std::string& path, bool all, std::uint64_t points) : path_{path}, tmp_{path + ".tmp"}, all_{all} {
-    file_ = std::fopen(tmp_.c_str(), "wb");
-    if (file_ == nullptr) {
-      errno_ = errno;
-      return;
-    }
-    const std::string n = std::to_string(points);
-    std::string header = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z robot scan beam";
-    header += all ? " keep live_keep\nSIZE 4 4 4 1 4 2 1 1\nTYPE F F F U U U U U\nCOUNT 1 1 1 1 1 1 1 1"
-                  : "\nSIZE 4 4 4 1 4 2\nTYPE F F F U U U\nCOUNT 1 1 1 1 1 1";
-    header += "\nWIDTH " + n + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + n + "\nDATA binary\n";
-    put(header.data(), header.size());
+// One PCD being streamed: rows into NAME.rows.tmp, then NAME.tmp = header + rows, renamed to NAME.
+struct ModelFileWriter::File {
+  File(std::string p, bool with_keep) : path{std::move(p)}, rows_path{path + ".rows.tmp"}, all{with_keep} {
+    rows_file = std::fopen(rows_path.c_str(), "w+b");
+    if (rows_file == nullptr) error = errno != 0 ? errno : EIO;
   }
-  ~PcdStream() {
-    if (file_ != nullptr) {
-      std::fclose(file_);
-      std::remove(tmp_.c_str());
-    }
+  ~File() {
+    if (rows_file != nullptr) std::fclose(rows_file);
+    std::remove(rows_path.c_str());
   }
-  PcdStream(const PcdStream&) = delete;
-  PcdStream& operator=(const PcdStream&) = delete;
-
   void add(const ModelPoint& m, bool removed) {
     std::uint8_t rec[21];
     std::memcpy(rec + 0, &m.p.x, 4);
@@ -329,70 +317,99 @@ class PcdStream {
     std::memcpy(rec + 17, &m.beam, 2);
     rec[19] = removed ? 0 : 1;
     rec[20] = m.removed_at_release ? 0 : 1;
-    put(rec, all_ ? 21 : 19);
+    const std::size_t n = all ? 21 : 19;
+    if (used + n > buffer.size()) drain();
+    std::memcpy(buffer.data() + used, rec, n);
+    used += n;
+    ++rows;
   }
-  // Flushes, closes and renames into place.
+  void drain() {
+    if (used > 0 && error == 0 && std::fwrite(buffer.data(), 1, used, rows_file) != used) error = errno != 0 ? errno : EIO;
+    used = 0;
+  }
+  // encode_pcd's header (common/dataset/pcd.hpp) for these fields, so the bytes are write_pcd's.
+  [[nodiscard]] std::string header() const {
+    const std::string n = std::to_string(rows);
+    std::string h = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z robot scan beam";
+    h += all ? " keep live_keep\nSIZE 4 4 4 1 4 2 1 1\nTYPE F F F U U U U U\nCOUNT 1 1 1 1 1 1 1 1"
+             : "\nSIZE 4 4 4 1 4 2\nTYPE F F F U U U\nCOUNT 1 1 1 1 1 1";
+    return h + "\nWIDTH " + n + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + n + "\nDATA binary\n";
+  }
   [[nodiscard]] Status finish() {
-    if (file_ == nullptr) return Error{"fusion: cannot create the fused PCD", errno_};
-    if (used_ > 0 && std::fwrite(buffer_.data(), 1, used_, file_) != used_ && errno_ == 0) errno_ = errno != 0 ? errno : EIO;
-    used_ = 0;
-    const int closed = std::fclose(file_);
-    file_ = nullptr;
-    if (closed != 0 && errno_ == 0) errno_ = errno;
-    if (errno_ != 0) {
-      std::remove(tmp_.c_str());
-      return Error{"fusion: cannot write the fused PCD", errno_};
+    drain();
+    if (error != 0) return Error{"fusion: cannot write the fused PCD", error};
+    const std::string tmp = path + ".tmp";
+    std::FILE* out = std::fopen(tmp.c_str(), "wb");
+    if (out == nullptr) return Error{"fusion: cannot create the fused PCD", errno};
+    const std::string h = header();
+    bool ok = std::fwrite(h.data(), 1, h.size(), out) == h.size() && std::fflush(rows_file) == 0 && std::fseek(rows_file, 0, SEEK_SET) == 0;
+    int err = ok ? 0 : (errno != 0 ? errno : EIO);
+    while (ok) {
+      const std::size_t got = std::fread(buffer.data(), 1, buffer.size(), rows_file);
+      if (got > 0 && std::fwrite(buffer.data(), 1, got, out) != got) {
+        ok = false;
+        err = errno != 0 ? errno : EIO;
+      }
+      if (got < buffer.size()) {
+        if (std::ferror(rows_file)) {
+          ok = false;
+          err = EIO;
+        }
+        break;
+      }
     }
-    if (std::rename(tmp_.c_str(), path_.c_str()) != 0) {
-      const int e = errno;
-      std::remove(tmp_.c_str());
-      return Error{"fusion: cannot rename the fused PCD into place", e};
+    if (std::fclose(out) != 0 && ok) {
+      ok = false;
+      err = errno;
+    }
+    if (!ok) {
+      std::remove(tmp.c_str());
+      return Error{"fusion: cannot write the fused PCD", err};
+    }
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+      err = errno;
+      std::remove(tmp.c_str());
+      return Error{"fusion: cannot rename the fused PCD into place", err};
     }
     return ok_status();
   }
 
- private:
-  void put(const void* data, std::size_t n) {
-    if (file_ == nullptr || errno_ != 0) return;
-    if (used_ + n > buffer_.size()) {
-      if (std::fwrite(buffer_.data(), 1, used_, file_) != used_) errno_ = errno != 0 ? errno : EIO;
-      used_ = 0;
-    }
-    if (n > buffer_.size()) {
-      if (std::fwrite(data, 1, n, file_) != n) errno_ = errno != 0 ? errno : EIO;
-      return;
-    }
-    std::memcpy(buffer_.data() + used_, data, n);
-    used_ += n;
-  }
-
-  std::string path_, tmp_;
-  bool all_ = false;
-  std::FILE* file_ = nullptr;
-  int errno_ = 0;
-  std::array<std::uint8_t, 1 << 16> buffer_{};
-  std::size_t used_ = 0;
+  std::string path, rows_path;
+  bool all = false;
+  std::FILE* rows_file = nullptr;
+  int error = 0;
+  std::array<std::uint8_t, 1 << 16> buffer{};
+  std::size_t used = 0;
+  std::uint64_t rows = 0;
 };
 
-}  // namespace
+ModelFileWriter::ModelFileWriter(std::string kept_path, std::string all_path)
+    : kept_{std::make_unique<File>(std::move(kept_path), false)} {
+  if (!all_path.empty()) all_ = std::make_unique<File>(std::move(all_path), true);
+}
 
-Result<ModelFigures> write_model_snapshot(const ModelSnapshot& snap, const std::string& kept_path, const std::string& all_path) {
-  const std::size_t n = std::min(snap.points.size(), snap.removed.size());
-  ModelFigures fig;
-  fig.kept = snap.kept;
-  fig.removed = n - std::min<std::uint64_t>(snap.kept, n);
-  {
-    auto kept = std::make_unique<PcdStream>(kept_path, false, fig.kept);
-    for (std::size_t i = 0; i < n; ++i)
-      if (snap.removed[i] == 0) kept->add(snap.points[i], false);
-    if (Status st = kept->finish(); !st.ok()) return st.error();
+ModelFileWriter::~ModelFileWriter() = default;
+
+void ModelFileWriter::add(std::span<const ModelPoint> points, std::span<const std::uint8_t> removed) {
+  const std::size_t n = std::min(points.size(), removed.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool r = removed[i] != 0;
+    if (r) {
+      ++figures_.removed;
+    } else {
+      ++figures_.kept;
+      kept_->add(points[i], false);
+    }
+    if (all_) all_->add(points[i], r);
   }
-  if (!all_path.empty()) {
-    auto all = std::make_unique<PcdStream>(all_path, true, n);
-    for (std::size_t i = 0; i < n; ++i) all->add(snap.points[i], snap.removed[i] != 0);
-    if (Status st = all->finish(); !st.ok()) return st.error();
+}
+
+Result<ModelFigures> ModelFileWriter::finish() {
+  if (Status st = kept_->finish(); !st.ok()) return st.error();
+  if (all_) {
+    if (Status st = all_->finish(); !st.ok()) return st.error();
   }
-  return fig;
+  return figures_;
 }
 
 }  // namespace teamscan::fusion

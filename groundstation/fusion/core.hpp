@@ -101,11 +101,27 @@ struct ModelFigures {
   std::uint64_t kept = 0, removed = 0;
 };
 
-// Writes a snapshot as binary PCD, streamed (no copy of the model beyond the snapshot): `kept_path`
-// (kept points: x y z robot scan beam) and, if not empty, `all_path` (every stored point, plus keep
-// and live_keep), each NAME.tmp then rename(2), so a reader never sees a half file.
-[[nodiscard]] Result<ModelFigures> write_model_snapshot(const ModelSnapshot& snapshot, const std::string& kept_path,
-                                                        const std::string& all_path);
+// The model files streamed from rows with their decisions, in any number of parts, on any one thread:
+// `kept_path` (binary PCD of the kept points: x y z robot scan beam) and, if not empty, `all_path`
+// (every row, plus keep and live_keep). The rows go through a 64 KiB buffer into NAME.rows.tmp;
+// finish() writes NAME.tmp (the header, whose point count is known only then, and the rows) and renames
+// it into place, so a reader never sees a half file and the model is never held twice in memory.
+class ModelFileWriter {
+ public:
+  ModelFileWriter(std::string kept_path, std::string all_path);
+  ~ModelFileWriter();  // an unfinished write leaves no file behind
+  ModelFileWriter(const ModelFileWriter&) = delete;
+  ModelFileWriter& operator=(const ModelFileWriter&) = delete;
+
+  void add(std::span<const ModelPoint> points, std::span<const std::uint8_t> removed);
+  void add(const ModelSnapshot& part) { add(part.points, part.removed); }
+  [[nodiscard]] Result<ModelFigures> finish();
+
+ private:
+  struct File;
+  std::unique_ptr<File> kept_, all_;
+  ModelFigures figures_;
+};
 
 struct CoreCounters {
   std::uint64_t scans_in = 0;

@@ -244,35 +244,68 @@ Result<std::uint64_t> FusionStage::replay_session(const std::string& dir) {
   return stats.poses + stats.scans;
 }
 
-// A write's snapshot, in the caller's thread: every core's model store with its decisions, into the
-// models' snapshot buffers, taken in slices of at most options().write_slice_ms (`all`: to the end).
-// True when every model is taken.
+// A periodic write in the caller's thread: every core's model voxels taken with their decisions
+// (snapshot_model_part) in parts of at most kRowsPerPart rows, handed to the writer thread, which
+// streams them into the files; at most options().write_slice_ms per call (`all`: to the end). The
+// parts in the queue are bounded (kMaxQueuedParts): when the writer lags, the loop waits for a later
+// turn instead of holding more of the model. True when every model is taken.
 bool FusionStage::advance_snapshot(bool all) {
-  constexpr std::size_t kVoxelsPerStep = 64;
+  constexpr std::size_t kVoxelsPerStep = 64, kRowsPerPart = 16384, kMaxQueuedParts = 16;
   const Time t0 = now_monotonic();
   const auto slice = std::chrono::duration<double, std::milli>(options_.write_slice_ms);
-  bool done = true;
-  for (const auto& m : models_) {
-    while (m->snapshot_next < m->snapshot_end) {
-      m->snapshot_next = m->core->snapshot_model_part(m->snapshot, m->snapshot_next,
-                                                      std::min(kVoxelsPerStep, m->snapshot_end - m->snapshot_next));
-      if (!all && now_monotonic() - t0 >= slice) break;
+  bool done = false, out_of_time = false, took = false;
+  while (!done && !out_of_time) {
+    fusion::ModelSnapshot part;
+    {
+      std::unique_lock<std::mutex> lock(writer_mutex_);
+      if (all) writer_cv_.wait(lock, [&] { return writer_queue_.size() < kMaxQueuedParts; });
+      if (writer_queue_.size() >= kMaxQueuedParts) break;
+      if (!writer_spare_.empty()) {
+        part = std::move(writer_spare_.back());
+        writer_spare_.pop_back();
+      }
     }
-    if (m->snapshot_next < m->snapshot_end) {
-      done = false;
-      break;
+    part.points.clear();
+    part.removed.clear();
+    part.kept = 0;
+    std::size_t part_model = snapshot_model_;
+    while (snapshot_model_ < models_.size() && part.points.size() < kRowsPerPart) {
+      Model& m = *models_[snapshot_model_];
+      if (m.snapshot_next >= m.snapshot_end) {
+        if (!part.points.empty()) break;  // a part holds one model's rows
+        part_model = ++snapshot_model_;
+        continue;
+      }
+      m.snapshot_next = m.core->snapshot_model_part(part, m.snapshot_next, std::min(kVoxelsPerStep, m.snapshot_end - m.snapshot_next));
+      took = true;
+      if (!all && now_monotonic() - t0 >= slice) {
+        out_of_time = true;
+        break;
+      }
+    }
+    done = snapshot_model_ >= models_.size();
+    if (!part.points.empty()) {
+      std::lock_guard<std::mutex> lock(writer_mutex_);
+      snapshot_report_.points += part.points.size();
+      writer_queue_.push_back(WriterPart{part_model, std::move(part), false});
+    }
+    writer_cv_.notify_all();
+  }
+  const Time now = now_monotonic();
+  const double took_s = to_seconds(now - t0);
+  {
+    std::lock_guard<std::mutex> lock(writer_mutex_);
+    snapshot_report_.snapshot_s += took_s;
+    snapshot_report_.snapshot_slice_max_s = std::max(snapshot_report_.snapshot_slice_max_s, took_s);
+    if (took) ++snapshot_report_.snapshot_slices;  // a turn that waited for the writer took nothing
+    if (done) {
+      snapshot_report_.snapshot_span_s = to_seconds(now - snapshot_started_);
+      writer_queue_.push_back(WriterPart{0, {}, true});  // the write ends: the writer finishes the files
     }
   }
-  const double took_s = to_seconds(now_monotonic() - t0);
-  snapshot_report_.snapshot_s += took_s;
-  snapshot_report_.snapshot_slice_max_s = std::max(snapshot_report_.snapshot_slice_max_s, took_s);
-  ++snapshot_report_.snapshot_slices;
+  writer_cv_.notify_all();
   if (!done) return false;
-  snapshot_report_.snapshot_span_s = to_seconds(now_monotonic() - snapshot_started_);
-  for (const auto& m : models_) snapshot_report_.points += m->snapshot.points.size();
-  const fusion::ModelSnapshot& primary = models_.front()->snapshot;
-  snapshot_report_.kept = primary.kept;
-  snapshot_report_.removed = primary.points.size() - primary.kept;
+  snapshotting_ = false;
   return true;
 }
 
@@ -280,38 +313,17 @@ void FusionStage::begin_snapshot() {
   snapshotting_ = true;
   write_pending_ = false;
   snapshot_started_ = now_monotonic();
-  snapshot_report_ = ModelWriteReport{};
+  snapshot_model_ = 0;
   for (const auto& m : models_) {
-    m->snapshot.points.clear();
-    m->snapshot.removed.clear();
-    m->snapshot.kept = 0;
     m->snapshot_next = 0;
     m->snapshot_end = m->core->model_voxels();  // voxels stored later wait for the next write
   }
-}
-
-// Every model's files from its snapshot (the writer thread, or the caller's for write_model()).
-void FusionStage::write_snapshots(ModelWriteReport& report) {
-  const Time t0 = now_monotonic();
-  for (const auto& m : models_) {
-    auto fig = fusion::write_model_snapshot(m->snapshot, m->kept_path, m->all_path);
-    if (!fig.ok() && report.ok) {
-      report.ok = false;
-      report.error = fig.error();
-    }
-  }
-  report.write_s = to_seconds(now_monotonic() - t0);
-}
-
-// The finished snapshot to the writer thread (started by the first write).
-void FusionStage::hand_to_writer() {
-  snapshotting_ = false;
-  snapshot_report_.on_writer_thread = true;
   {
     std::lock_guard<std::mutex> lock(writer_mutex_);
-    writer_report_ = snapshot_report_;
-    writer_job_ = true;
+    snapshot_report_ = ModelWriteReport{};
+    snapshot_report_.on_writer_thread = true;
     writer_busy_ = true;
+    writer_begin_ = true;
   }
   if (!writer_.joinable()) writer_ = std::thread([this] { writer_main(); });
   writer_cv_.notify_all();
@@ -323,7 +335,7 @@ void FusionStage::wait_writer_idle() {
 }
 
 void FusionStage::wait_for_write() {
-  if (snapshotting_ && advance_snapshot(true)) hand_to_writer();
+  if (snapshotting_) (void)advance_snapshot(true);
   wait_writer_idle();
 }
 
@@ -357,14 +369,28 @@ void FusionStage::finish_write() {
 }
 
 Status FusionStage::write_model() {
-  wait_writer_idle();
+  wait_for_write();  // a periodic write in progress finishes first
   (void)collect_finished();
-  // A periodic snapshot in progress or a coalesced request: this write serves them.
-  begin_snapshot();
-  (void)advance_snapshot(true);
-  snapshotting_ = false;
-  last_write_ = snapshot_report_;
-  write_snapshots(last_write_);
+  write_pending_ = false;  // this write serves a coalesced request
+  const Time t0 = now_monotonic();
+  ModelWriteReport report;
+  for (const auto& m : models_) {
+    auto fig = m->core->write_model(m->kept_path, m->all_path);
+    if (!fig.ok()) {
+      if (report.ok) report.error = fig.error();
+      report.ok = false;
+      continue;
+    }
+    report.points += fig.value().kept + fig.value().removed;
+    if (m == models_.front()) {
+      report.kept = fig.value().kept;
+      report.removed = fig.value().removed;
+    }
+  }
+  // All of it on this thread: the decisions and the files, in one piece.
+  report.write_s = report.snapshot_s = report.snapshot_slice_max_s = report.snapshot_span_s = to_seconds(now_monotonic() - t0);
+  report.snapshot_slices = 1;
+  last_write_ = report;
   finish_write();
   if (!last_write_.ok) return last_write_.error;
   return ok_status();
@@ -378,34 +404,72 @@ void FusionStage::request_write() {
   }
   (void)collect_finished();  // its report before the next write's
   begin_snapshot();
-  if (advance_snapshot(false)) hand_to_writer();
+  (void)advance_snapshot(false);
 }
 
 bool FusionStage::poll_write() {
   const bool finished = collect_finished();
   if (snapshotting_) {
-    if (advance_snapshot(false)) hand_to_writer();
+    (void)advance_snapshot(false);
   } else if (write_pending_ && !write_in_flight()) {
     begin_snapshot();
-    if (advance_snapshot(false)) hand_to_writer();
+    (void)advance_snapshot(false);
   }
   return finished;
 }
 
+// The writer thread: a write's parts, in order, into each model's files; the last part finishes them.
 void FusionStage::writer_main() {
+  std::vector<std::unique_ptr<fusion::ModelFileWriter>> files;
+  double write_s = 0;  // this write's time on this thread
   std::unique_lock<std::mutex> lock(writer_mutex_);
   for (;;) {
-    writer_cv_.wait(lock, [&] { return writer_job_ || writer_stop_; });
-    if (!writer_job_) return;
-    writer_job_ = false;
-    ModelWriteReport report = writer_report_;
+    writer_cv_.wait(lock, [&] { return writer_begin_ || !writer_queue_.empty() || writer_stop_; });
+    if (writer_begin_) {
+      writer_begin_ = false;
+      write_s = 0;
+      lock.unlock();
+      files.clear();
+      for (const auto& m : models_) files.push_back(std::make_unique<fusion::ModelFileWriter>(m->kept_path, m->all_path));
+      lock.lock();
+      continue;
+    }
+    if (writer_queue_.empty()) return;  // stop, nothing in flight
+    WriterPart part = std::move(writer_queue_.front());
+    writer_queue_.pop_front();
+    writer_cv_.notify_all();  // room in the queue
     lock.unlock();
-    write_snapshots(report);
+    const Time t0 = now_monotonic();
+    if (part.model < files.size()) files[part.model]->add(part.rows);
+    ModelWriteReport done;
+    if (part.last) {
+      for (std::size_t i = 0; i < files.size(); ++i) {
+        auto fig = files[i]->finish();
+        if (!fig.ok()) {
+          if (done.ok) done.error = fig.error();
+          done.ok = false;
+        } else if (i == 0) {
+          done.kept = fig.value().kept;
+          done.removed = fig.value().removed;
+        }
+      }
+      files.clear();
+    }
+    write_s += to_seconds(now_monotonic() - t0);
     lock.lock();
-    writer_report_ = report;
-    writer_done_ = true;
-    writer_busy_ = false;
-    writer_cv_.notify_all();
+    writer_spare_.push_back(std::move(part.rows));
+    if (part.last) {
+      // The loop's figures of this write are final once its last part is queued.
+      writer_report_ = snapshot_report_;
+      writer_report_.write_s = write_s;
+      writer_report_.ok = done.ok;
+      writer_report_.error = done.error;
+      writer_report_.kept = done.kept;
+      writer_report_.removed = done.removed;
+      writer_done_ = true;
+      writer_busy_ = false;
+      writer_cv_.notify_all();
+    }
   }
 }
 

@@ -18,6 +18,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <cstdio>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -183,16 +184,19 @@ class FusionStage {
   struct Model {
     std::unique_ptr<fusion::FusionCore> core;
     std::string kept_path, all_path;
-    fusion::ModelSnapshot snapshot;  // the writer thread's while a write is in flight
-    std::size_t snapshot_next = 0, snapshot_end = 0;  // the model voxels still to take
+    std::size_t snapshot_next = 0, snapshot_end = 0;  // a periodic write: the model voxels still to take
+  };
+  // A part of a periodic write for the writer thread: one model's rows; `last`: the write ends here.
+  struct WriterPart {
+    std::size_t model = 0;
+    fusion::ModelSnapshot rows;
+    bool last = false;
   };
   FusionStage(const FusionOptions& options, std::string session_dir, std::vector<std::unique_ptr<Model>> models);
   void on_release(const fusion::FusedScan& scan);
   void add_scan_to_cores(const fusion::ScanInput& in);
   void begin_snapshot();
   bool advance_snapshot(bool all);
-  void hand_to_writer();
-  void write_snapshots(ModelWriteReport& report);
   void writer_main();
   void wait_writer_idle();
   bool collect_finished();
@@ -211,18 +215,22 @@ class FusionStage {
   std::FILE* latency_log_ = nullptr;
   bool replaying_ = false;  // replay_session(): no latency samples (they are not this run's)
   bool resume_ = false;     // the first live sample after a replay resumes the core's arrival clock
-  // The writer thread (started by the first request_write()). Guarded by writer_mutex_: the flags and
-  // writer_report_; the snapshots belong to the writer from request to done.
+  // The writer thread (started by the first request_write()). Guarded by writer_mutex_: the queue, the
+  // spare parts (their capacity reused), the flags, writer_report_ and snapshot_report_'s reads by the
+  // writer (the loop writes it only while holding the mutex or before the write's first part).
   ModelWriteReport last_write_;
   std::function<void(const ModelWriteReport&)> on_write_;
   bool write_pending_ = false;  // a request coalesced while one was in flight (loop thread only)
   bool snapshotting_ = false;   // a periodic write's snapshot in progress (loop thread only)
+  std::size_t snapshot_model_ = 0;  // the model being taken
   Time snapshot_started_{};
   ModelWriteReport snapshot_report_;
   std::thread writer_;
   mutable std::mutex writer_mutex_;
   std::condition_variable writer_cv_;
-  bool writer_job_ = false, writer_busy_ = false, writer_done_ = false, writer_stop_ = false;
+  std::deque<WriterPart> writer_queue_;
+  std::vector<fusion::ModelSnapshot> writer_spare_;
+  bool writer_begin_ = false, writer_busy_ = false, writer_done_ = false, writer_stop_ = false;
   ModelWriteReport writer_report_;
 };
 

@@ -511,9 +511,10 @@ TEST(Fusion, WritesOffTheLoopAreCoalescedAndEqualASynchronousWrite) {
   f.request_write();
   f.request_write();
   EXPECT_EQ(f.counters().writes_coalesced, 2u);
-  for (int i = 0; i < 200000 && (f.write_in_flight() || f.counters().writes < 2u); ++i) {
-    (void)f.poll_write();
-    if (!f.write_in_flight()) std::this_thread::sleep_for(std::chrono::microseconds(100));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while ((f.write_in_flight() || f.counters().writes < 2u) && std::chrono::steady_clock::now() < deadline) {
+    (void)f.poll_write();  // one turn of the loop
+    std::this_thread::sleep_for(std::chrono::microseconds(50));
   }
   (void)f.poll_write();
   EXPECT_FALSE(f.write_in_flight());
