@@ -255,13 +255,6 @@ void FusionCore::for_each_model_point(const std::function<void(const ModelPoint&
   }
 }
 
-void FusionCore::snapshot_model(ModelSnapshot& out) const {
-  out.points.clear();
-  out.removed.clear();
-  out.kept = 0;
-  (void)snapshot_model_part(out, 0, voxels_.size());
-}
-
 std::size_t FusionCore::snapshot_model_part(ModelSnapshot& out, std::size_t from, std::size_t count) const {
   const std::size_t to = std::min(voxels_.size(), from + std::min(count, voxels_.size()));
   std::vector<mapping::MapPoint> pts;

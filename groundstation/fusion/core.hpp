@@ -89,11 +89,11 @@ struct ModelPoint {
   std::uint8_t removed_at_release = 0;
 };
 
-// The model store at one moment: every stored point and its decision then (FusionCore::snapshot_model).
-// Owns its copy, so it can be written on another thread while the core goes on.
+// Model rows with their decisions (FusionCore::snapshot_model_part): a copy, so it can be written on
+// another thread while the core goes on.
 struct ModelSnapshot {
   std::vector<ModelPoint> points;
-  std::vector<std::uint8_t> removed;  // one per point: the decision at the snapshot
+  std::vector<std::uint8_t> removed;  // one per point: the decision when it was taken
   std::uint64_t kept = 0;
 };
 
@@ -163,15 +163,12 @@ class FusionCore {
   }
   // Every stored point with its decision now (f(const ModelPoint&, bool removed)), voxel by voxel.
   void for_each_model_point(const std::function<void(const ModelPoint&, bool removed)>& f) const;
-  // The model store with every point's decision now, into `out` (its capacity reused): what a writer
-  // thread formats and writes while the core goes on (write_model_snapshot).
-  void snapshot_model(ModelSnapshot& out) const;
-  // The same in parts, so a loop can spread it over several turns: appends the model voxels
+  // The model store in parts, so a loop can spread a write over several turns: appends the model voxels
   // [from, min(from + count, model_voxels())) with their decisions now to `out` and returns the next
-  // voxel to take. Voxels are never removed or reordered, so a snapshot taken in parts holds every
-  // point stored before it started (each voxel's decisions as of the part that took it).
+  // voxel to take. Voxels are never removed or reordered, so a model taken in parts holds every point
+  // stored before it started (each voxel's decisions as of the part that took it).
   std::size_t snapshot_model_part(ModelSnapshot& out, std::size_t from, std::size_t count) const;
-  // snapshot_model then write_model_snapshot, on the caller's thread.
+  // The whole model in parts through a ModelFileWriter, on the caller's thread (one instant).
   [[nodiscard]] Result<ModelFigures> write_model(const std::string& kept_path, const std::string& all_path) const;
 
   [[nodiscard]] PoseHistory& poses() { return poses_; }

@@ -9,10 +9,11 @@
 // the same order (live and in the replay), each with its own model store and model file
 // (method_file_name); only the primary core feeds teamscan/map, the latency and the counters.
 //
-// Model writes: request_write() starts a snapshot of every core's model store with its decisions, taken
-// in the caller's loop in slices of at most write_slice_ms per request_write()/poll_write() (the only
-// part that holds the loop), and a writer thread formats and writes it; one write in flight, a request
-// meanwhile is coalesced into one that follows. write_model() is the synchronous write (shutdown, tests).
+// Model writes: request_write() starts taking every core's model store with its decisions in the
+// caller's loop, in slices of at most write_slice_ms per request_write()/poll_write() (the only part
+// that holds the loop); each slice's rows go through a bounded queue to a writer thread that streams
+// them into the files (fusion::ModelFileWriter). One write in flight, a request meanwhile is coalesced
+// into one that follows. write_model() is the synchronous write (shutdown, tests).
 #pragma once
 
 #include <condition_variable>
