@@ -369,7 +369,15 @@ void FusionStage::finish_write() {
 }
 
 Status FusionStage::write_model() {
-  wait_for_write();  // a periodic write in progress finishes first
+  if (snapshotting_) {  // a periodic write still being taken: this write replaces it (not in one piece here)
+    {
+      std::lock_guard<std::mutex> lock(writer_mutex_);
+      writer_queue_.push_back(WriterPart{0, {}, true, true});
+    }
+    writer_cv_.notify_all();
+    snapshotting_ = false;
+  }
+  wait_writer_idle();  // a periodic write being written finishes first
   (void)collect_finished();
   write_pending_ = false;  // this write serves a coalesced request
   const Time t0 = now_monotonic();
@@ -442,7 +450,9 @@ void FusionStage::writer_main() {
     const Time t0 = now_monotonic();
     if (part.model < files.size()) files[part.model]->add(part.rows);
     ModelWriteReport done;
-    if (part.last) {
+    if (part.abandon) {
+      files.clear();  // no file written, the temporary ones removed
+    } else if (part.last) {
       for (std::size_t i = 0; i < files.size(); ++i) {
         auto fig = files[i]->finish();
         if (!fig.ok()) {
@@ -458,7 +468,10 @@ void FusionStage::writer_main() {
     write_s += to_seconds(now_monotonic() - t0);
     lock.lock();
     writer_spare_.push_back(std::move(part.rows));
-    if (part.last) {
+    if (part.abandon) {
+      writer_busy_ = false;
+      writer_cv_.notify_all();
+    } else if (part.last) {
       // The loop's figures of this write are final once its last part is queued.
       writer_report_ = snapshot_report_;
       writer_report_.write_s = write_s;

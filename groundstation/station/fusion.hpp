@@ -187,11 +187,13 @@ class FusionStage {
     std::string kept_path, all_path;
     std::size_t snapshot_next = 0, snapshot_end = 0;  // a periodic write: the model voxels still to take
   };
-  // A part of a periodic write for the writer thread: one model's rows; `last`: the write ends here.
+  // A part of a periodic write for the writer thread: one model's rows; `last`: the write ends here
+  // (`abandon`: without files: a synchronous write replaces it).
   struct WriterPart {
     std::size_t model = 0;
     fusion::ModelSnapshot rows;
     bool last = false;
+    bool abandon = false;
   };
   FusionStage(const FusionOptions& options, std::string session_dir, std::vector<std::unique_ptr<Model>> models);
   void on_release(const fusion::FusedScan& scan);

@@ -39,7 +39,7 @@ if [ "${SKIP_NO_WRITES:-0}" != 1 ]; then
   with_p99="$(p99_of "$out/with.txt")"; without_p99="$(p99_of "$out/without.txt")"
   if [ -n "$with_p99" ] && [ -n "$without_p99" ]; then
     awk -v a="$with_p99" -v b="$without_p99" 'BEGIN {
-      printf "## scan -> fused map p99: with writes %.1f ms, without %.1f ms: %+.1f %% (issue 11: within 10 %%)\n", a, b, b > 0 ? 100 * (a - b) / b : 0 }'
+      printf "## scan -> fused map p99: with writes %.1f ms, without %.1f ms: %+.1f %% (issue 11: within 10 %%)\n", a, b, (b > 0 ? 100 * (a - b) / b : 0) }'
   else
     echo "## scan -> fused map p99: a run printed no station line (see above)"
   fi

@@ -487,6 +487,34 @@ TEST(Fusion, ASnapshotInSlicesHoldsEveryPointStoredBeforeItStarted) {
   std::filesystem::remove_all(dir);
 }
 
+// The shutdown write while a periodic write is still being taken: the periodic one is abandoned (no
+// file, no temporary left), the synchronous one written and counted.
+TEST(Fusion, TheShutdownWriteReplacesAPeriodicWriteInProgress) {
+  const Dataset d = survey();
+  const std::string dir = temp_dir();
+  FusionOptions o;
+  o.core.max_points_per_voxel = 100000;
+  o.all_points_pcd = "fused_all.pcd";
+  o.write_slice_ms = 0;
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  FusionStage& f = **stage;
+  feed(f, d);
+  f.request_write();
+  ASSERT_TRUE(f.write_in_flight());
+  ASSERT_TRUE(f.write_model().ok());
+  EXPECT_FALSE(f.write_in_flight());
+  EXPECT_EQ(f.counters().writes, 1u);
+  EXPECT_FALSE(f.last_write().on_writer_thread);
+  EXPECT_FALSE(f.poll_write());  // nothing else finished
+  auto all = read_pcd(dir + "/fused_all.pcd");
+  ASSERT_TRUE(all.ok());
+  EXPECT_EQ(all->size(), d.points.size());
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Fusion, WritesOffTheLoopAreCoalescedAndEqualASynchronousWrite) {
   const Dataset d = survey();
   const std::string dir = temp_dir(), sync_dir = temp_dir();
