@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace teamscan {
 
@@ -99,6 +100,22 @@ class TomlReader {
     const auto* s = n->as_string();
     if (s == nullptr) return fail(name(sect, key), "must be a string", n);
     out = s->get();
+    return true;
+  }
+
+  // An array of strings (may be empty).
+  bool strings(const toml::table* t, const char* sect, const char* key, std::vector<std::string>& out) {
+    const toml::node* n = find(t, sect, key, false);
+    if (n == nullptr) return false;
+    const auto* a = n->as_array();
+    if (a == nullptr) return fail(name(sect, key), "must be an array of strings", n);
+    std::vector<std::string> v;
+    for (const toml::node& e : *a) {
+      const auto* s = e.as_string();
+      if (s == nullptr) return fail(name(sect, key), "must be an array of strings", &e);
+      v.push_back(s->get());
+    }
+    out = std::move(v);
     return true;
   }
 

@@ -5,20 +5,13 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
-
-#include "common/dataset/pcd.hpp"
+#include <cstring>
 
 namespace teamscan::fusion {
 
 namespace {
 bool is_identity(const Pose2& p) { return p.x_m == 0.0 && p.y_m == 0.0 && p.theta_rad == 0.0; }
 
-Status write_atomically(const std::string& path, const PcdCloud& cloud, const std::vector<PcdField>& layout) {
-  const std::string tmp = path + ".tmp";
-  if (Status st = write_pcd(tmp, cloud, layout); !st.ok()) return st;
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) return Error{"fusion: cannot rename the fused PCD into place", errno};
-  return ok_status();
-}
 }  // namespace
 
 Result<std::unique_ptr<FusionCore>> FusionCore::create(const CoreOptions& options) {
@@ -265,47 +258,154 @@ void FusionCore::for_each_model_point(const std::function<void(const ModelPoint&
   }
 }
 
-Result<FusionCore::ModelFigures> FusionCore::write_model(const std::string& kept_path, const std::string& all_path) const {
-  const bool all = !all_path.empty();
-  PcdCloud kept, every;
-  kept.fields = {"x", "y", "z", "robot", "scan", "beam"};
-  kept.columns.assign(kept.fields.size(), {});
-  std::vector<PcdField> layout = {{"x", 4, 'F', 1},     {"y", 4, 'F', 1},    {"z", 4, 'F', 1},
-                                  {"robot", 1, 'U', 1}, {"scan", 4, 'U', 1}, {"beam", 2, 'U', 1}};
-  if (all) {
-    every.fields = kept.fields;
-    every.fields.push_back("keep");
-    every.fields.push_back("live_keep");
-    every.columns.assign(every.fields.size(), {});
+std::size_t FusionCore::snapshot_model_part(ModelSnapshot& out, std::size_t from, std::size_t count) const {
+  const std::size_t to = std::min(voxels_.size(), from + std::min(count, voxels_.size()));
+  std::vector<mapping::MapPoint> pts;
+  std::vector<std::uint8_t> bits;
+  for (std::size_t k = from; k < to; ++k) {
+    const std::vector<ModelPoint>& v = voxels_[k];
+    pts.clear();
+    bits.clear();
+    for (const ModelPoint& m : v) {
+      pts.push_back(m.p);
+      bits.push_back(m.bits);
+    }
+    const std::size_t at = out.removed.size();
+    out.removed.resize(at + v.size(), 0);
+    const std::span<std::uint8_t> removed = std::span<std::uint8_t>(out.removed).subspan(at);
+    filter_->decide(pts, bits, removed);
+    for (std::uint8_t r : removed) out.kept += r == 0 ? 1 : 0;
+    out.points.insert(out.points.end(), v.begin(), v.end());
   }
-  ModelFigures fig;
-  for_each_model_point([&](const ModelPoint& m, bool removed) {
-    const double row[6] = {m.p.x, m.p.y, m.p.z, static_cast<double>(m.robot), static_cast<double>(m.seq),
-                           static_cast<double>(m.beam)};
-    if (!removed) {
-      ++fig.kept;
-      for (std::size_t c = 0; c < 6; ++c) kept.columns[c].push_back(row[c]);
+  return std::max(from, to);
+}
+
+Result<ModelFigures> FusionCore::write_model(const std::string& kept_path, const std::string& all_path) const {
+  ModelFileWriter w(kept_path, all_path);
+  ModelSnapshot part;
+  for (std::size_t next = 0; next < voxels_.size();) {
+    part.points.clear();
+    part.removed.clear();
+    part.kept = 0;
+    next = snapshot_model_part(part, next, 256);
+    w.add(part);
+  }
+  return w.finish();
+}
+
+// One PCD being streamed: rows into NAME.rows.tmp, then NAME.tmp = header + rows, renamed to NAME.
+struct ModelFileWriter::File {
+  File(std::string p, bool with_keep) : path{std::move(p)}, rows_path{path + ".rows.tmp"}, all{with_keep} {
+    rows_file = std::fopen(rows_path.c_str(), "w+b");
+    if (rows_file == nullptr) error = errno != 0 ? errno : EIO;
+  }
+  ~File() {
+    if (rows_file != nullptr) std::fclose(rows_file);
+    std::remove(rows_path.c_str());
+  }
+  void add(const ModelPoint& m, bool removed) {
+    std::uint8_t rec[21];
+    std::memcpy(rec + 0, &m.p.x, 4);
+    std::memcpy(rec + 4, &m.p.y, 4);
+    std::memcpy(rec + 8, &m.p.z, 4);
+    rec[12] = m.robot;
+    std::memcpy(rec + 13, &m.seq, 4);
+    std::memcpy(rec + 17, &m.beam, 2);
+    rec[19] = removed ? 0 : 1;
+    rec[20] = m.removed_at_release ? 0 : 1;
+    const std::size_t n = all ? 21 : 19;
+    if (used + n > buffer.size()) drain();
+    std::memcpy(buffer.data() + used, rec, n);
+    used += n;
+    ++rows;
+  }
+  void drain() {
+    if (used > 0 && error == 0 && std::fwrite(buffer.data(), 1, used, rows_file) != used) error = errno != 0 ? errno : EIO;
+    used = 0;
+  }
+  // encode_pcd's header (common/dataset/pcd.hpp) for these fields, so the bytes are write_pcd's.
+  [[nodiscard]] std::string header() const {
+    const std::string n = std::to_string(rows);
+    std::string h = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z robot scan beam";
+    h += all ? " keep live_keep\nSIZE 4 4 4 1 4 2 1 1\nTYPE F F F U U U U U\nCOUNT 1 1 1 1 1 1 1 1"
+             : "\nSIZE 4 4 4 1 4 2\nTYPE F F F U U U\nCOUNT 1 1 1 1 1 1";
+    return h + "\nWIDTH " + n + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + n + "\nDATA binary\n";
+  }
+  [[nodiscard]] Status finish() {
+    drain();
+    if (error != 0) return Error{"fusion: cannot write the fused PCD", error};
+    const std::string tmp = path + ".tmp";
+    std::FILE* out = std::fopen(tmp.c_str(), "wb");
+    if (out == nullptr) return Error{"fusion: cannot create the fused PCD", errno};
+    const std::string h = header();
+    bool ok = std::fwrite(h.data(), 1, h.size(), out) == h.size() && std::fflush(rows_file) == 0 && std::fseek(rows_file, 0, SEEK_SET) == 0;
+    int err = ok ? 0 : (errno != 0 ? errno : EIO);
+    while (ok) {
+      const std::size_t got = std::fread(buffer.data(), 1, buffer.size(), rows_file);
+      if (got > 0 && std::fwrite(buffer.data(), 1, got, out) != got) {
+        ok = false;
+        err = errno != 0 ? errno : EIO;
+      }
+      if (got < buffer.size()) {
+        if (std::ferror(rows_file)) {
+          ok = false;
+          err = EIO;
+        }
+        break;
+      }
+    }
+    if (std::fclose(out) != 0 && ok) {
+      ok = false;
+      err = errno;
+    }
+    if (!ok) {
+      std::remove(tmp.c_str());
+      return Error{"fusion: cannot write the fused PCD", err};
+    }
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+      err = errno;
+      std::remove(tmp.c_str());
+      return Error{"fusion: cannot rename the fused PCD into place", err};
+    }
+    return ok_status();
+  }
+
+  std::string path, rows_path;
+  bool all = false;
+  std::FILE* rows_file = nullptr;
+  int error = 0;
+  std::array<std::uint8_t, 1 << 16> buffer{};
+  std::size_t used = 0;
+  std::uint64_t rows = 0;
+};
+
+ModelFileWriter::ModelFileWriter(std::string kept_path, std::string all_path)
+    : kept_{std::make_unique<File>(std::move(kept_path), false)} {
+  if (!all_path.empty()) all_ = std::make_unique<File>(std::move(all_path), true);
+}
+
+ModelFileWriter::~ModelFileWriter() = default;
+
+void ModelFileWriter::add(std::span<const ModelPoint> points, std::span<const std::uint8_t> removed) {
+  const std::size_t n = std::min(points.size(), removed.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool r = removed[i] != 0;
+    if (r) {
+      ++figures_.removed;
     } else {
-      ++fig.removed;
+      ++figures_.kept;
+      kept_->add(points[i], false);
     }
-    if (all) {
-      for (std::size_t c = 0; c < 6; ++c) every.columns[c].push_back(row[c]);
-      every.columns[6].push_back(removed ? 0.0 : 1.0);
-      every.columns[7].push_back(m.removed_at_release ? 0.0 : 1.0);
-    }
-  });
-  kept.width = fig.kept;
-  kept.height = 1;
-  if (Status st = write_atomically(kept_path, kept, layout); !st.ok()) return st.error();
-  if (all) {
-    every.width = fig.kept + fig.removed;
-    every.height = 1;
-    std::vector<PcdField> layout_all = layout;
-    layout_all.push_back({"keep", 1, 'U', 1});
-    layout_all.push_back({"live_keep", 1, 'U', 1});
-    if (Status st = write_atomically(all_path, every, layout_all); !st.ok()) return st.error();
+    if (all_) all_->add(points[i], r);
   }
-  return fig;
+}
+
+Result<ModelFigures> ModelFileWriter::finish() {
+  if (Status st = kept_->finish(); !st.ok()) return st.error();
+  if (all_) {
+    if (Status st = all_->finish(); !st.ok()) return st.error();
+  }
+  return figures_;
 }
 
 }  // namespace teamscan::fusion

@@ -90,6 +90,40 @@ struct ModelPoint {
   std::uint8_t removed_at_release = 0;
 };
 
+// Model rows with their decisions (FusionCore::snapshot_model_part): a copy, so it can be written on
+// another thread while the core goes on.
+struct ModelSnapshot {
+  std::vector<ModelPoint> points;
+  std::vector<std::uint8_t> removed;  // one per point: the decision when it was taken
+  std::uint64_t kept = 0;
+};
+
+struct ModelFigures {
+  std::uint64_t kept = 0, removed = 0;
+};
+
+// The model files streamed from rows with their decisions, in any number of parts, on any one thread:
+// `kept_path` (binary PCD of the kept points: x y z robot scan beam) and, if not empty, `all_path`
+// (every row, plus keep and live_keep). The rows go through a 64 KiB buffer into NAME.rows.tmp;
+// finish() writes NAME.tmp (the header, whose point count is known only then, and the rows) and renames
+// it into place, so a reader never sees a half file and the model is never held twice in memory.
+class ModelFileWriter {
+ public:
+  ModelFileWriter(std::string kept_path, std::string all_path);
+  ~ModelFileWriter();  // an unfinished write leaves no file behind
+  ModelFileWriter(const ModelFileWriter&) = delete;
+  ModelFileWriter& operator=(const ModelFileWriter&) = delete;
+
+  void add(std::span<const ModelPoint> points, std::span<const std::uint8_t> removed);
+  void add(const ModelSnapshot& part) { add(part.points, part.removed); }
+  [[nodiscard]] Result<ModelFigures> finish();
+
+ private:
+  struct File;
+  std::unique_ptr<File> kept_, all_;
+  ModelFigures figures_;
+};
+
 struct CoreCounters {
   std::uint64_t scans_in = 0;
   std::uint64_t duplicate_scans = 0;   // (robot, seq) fused recently: a DDS history replay
@@ -130,11 +164,12 @@ class FusionCore {
   }
   // Every stored point with its decision now (f(const ModelPoint&, bool removed)), voxel by voxel.
   void for_each_model_point(const std::function<void(const ModelPoint&, bool removed)>& f) const;
-  // Writes the model from memory: `kept_path` (kept points: x y z robot scan beam) and, if not empty,
-  // `all_path` (every stored point, plus keep and live_keep), each NAME.tmp then rename(2).
-  struct ModelFigures {
-    std::uint64_t kept = 0, removed = 0;
-  };
+  // The model store in parts, so a loop can spread a write over several turns: appends the model voxels
+  // [from, min(from + count, model_voxels())) with their decisions now to `out` and returns the next
+  // voxel to take. Voxels are never removed or reordered, so a model taken in parts holds every point
+  // stored before it started (each voxel's decisions as of the part that took it).
+  std::size_t snapshot_model_part(ModelSnapshot& out, std::size_t from, std::size_t count) const;
+  // The whole model in parts through a ModelFileWriter, on the caller's thread (one instant).
   [[nodiscard]] Result<ModelFigures> write_model(const std::string& kept_path, const std::string& all_path) const;
 
   [[nodiscard]] PoseHistory& poses() { return poses_; }

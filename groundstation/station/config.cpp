@@ -97,7 +97,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.only(fusion, "fusion", {"enabled", "method", "resolution_m", "half_angle_deg", "grid_origin_z_m", "frequency_k",
                             "position_sigma_m", "position_n", "direction_from_flags", "write_interval_s",
                             "write_all_points", "map_interval_s", "map_resolution_m", "latency_log", "hold_s", "team_lag_s",
-                            "model_resolution_m", "max_points_per_voxel"});
+                            "model_resolution_m", "max_points_per_voxel", "compare_methods", "write_slice_ms"});
   r.boolean(fusion, "fusion", "enabled", f.enabled);
   if (r.string(fusion, "fusion", "method", f.method, false) && f.method.empty())
     r.fail("fusion.method", "must not be empty", r.node(fusion, "method"));
@@ -108,6 +108,8 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.number_in(fusion, "fusion", "position_sigma_m", f.position_sigma_m, 0.0, 100.0);
   r.number_in(fusion, "fusion", "position_n", f.position_n, 0.0, 100.0);
   r.boolean(fusion, "fusion", "direction_from_flags", f.direction_from_flags);
+  r.strings(fusion, "fusion", "compare_methods", f.compare_methods);
+  r.number_in(fusion, "fusion", "write_slice_ms", f.write_slice_ms, 0.0, 1000.0, true);
   r.number_in(fusion, "fusion", "write_interval_s", write_s, 0.0, 86400.0, true);
   r.boolean(fusion, "fusion", "write_all_points", f.write_all_points);
   r.boolean(fusion, "fusion", "latency_log", f.latency_log);
@@ -176,11 +178,28 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   // The paper's methods and the ones beyond it (groundstation/mapping make_filter; docs/beyond.md).
   static const char* const kMethods[] = {"frequency", "visibility", "position", "direction", "combined",
                                          "freespace", "tracked",    "best"};
-  bool known_method = false;
-  for (const char* m : kMethods) known_method = known_method || f.method == m;
-  if (!known_method) {
+  auto known = [&](const std::string& method) {
+    for (const char* m : kMethods)
+      if (method == m) return true;
+    return false;
+  };
+  if (!known(f.method)) {
     return r.fail("fusion.method", "must be frequency, visibility, position, direction, combined, freespace, tracked "
                                    "or best, got \"" + f.method + "\"", r.node(fusion, "method"));
+  }
+  // Compared methods: known, not the primary (it is decided anyway), each once: refused, not ignored.
+  for (std::size_t i = 0; i < f.compare_methods.size(); ++i) {
+    const std::string& m = f.compare_methods[i];
+    const toml::node* at = r.node(fusion, "compare_methods");
+    if (!known(m)) {
+      return r.fail("fusion.compare_methods", "must list methods among frequency, visibility, position, direction, "
+                                              "combined, freespace, tracked and best, got \"" + m + "\"", at);
+    }
+    if (m == f.method) {
+      return r.fail("fusion.compare_methods", "\"" + m + "\" is fusion.method (the primary model); list only other methods", at);
+    }
+    for (std::size_t j = 0; j < i; ++j)
+      if (f.compare_methods[j] == m) return r.fail("fusion.compare_methods", "\"" + m + "\" is listed twice", at);
   }
   f.write_interval = from_seconds(write_s);
   f.map_interval = from_seconds(map_s);

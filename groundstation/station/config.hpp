@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "common/result.hpp"
 #include "groundstation/mapping/tracker.hpp"
@@ -34,6 +35,11 @@ struct KalmanConfig {
 struct FusionConfig {
   bool enabled = true;
   std::string method = "best";         // frequency | visibility | position | direction | combined | freespace | tracked | best
+  // Further methods decided side by side, each by its own core with its own model store (memory: one
+  // more model store, map and pose history per method), written as fused.<method>.pcd (and
+  // fused_all.<method>.pcd) at the same times; only `method` feeds teamscan/map, the view and ROS 2.
+  std::vector<std::string> compare_methods;
+  double write_slice_ms = 2.0;         // a periodic write's snapshot takes at most this much of one loop turn
   double resolution_m = 0.1;           // frequency / visibility / combined voxel edge
   double half_angle_deg = 7.0;         // direction / combined cone half-angle
   double grid_origin_z_m = 0.0;        // vertical voxel grid offset (paper: 0)

@@ -43,7 +43,25 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   o.map_resolution_m = f.map_resolution_m;
   if (f.write_all_points) o.all_points_pcd = "fused_all.pcd";
   if (f.latency_log) o.latency_log_csv = "fused_latency.csv";
+  o.compare_methods = f.compare_methods;
+  o.write_slice_ms = f.write_slice_ms;
   return o;
+}
+
+std::string method_file_name(const std::string& name, const std::string& method) {
+  const std::size_t dot = name.rfind('.');
+  if (dot == std::string::npos || dot == 0 || name.find('/', dot) != std::string::npos) return name + "." + method;
+  return name.substr(0, dot) + "." + method + name.substr(dot);
+}
+
+FusionOptions compared_options(const FusionOptions& o, const std::string& method) {
+  FusionOptions c = o;
+  c.compare_methods.clear();
+  if (method == o.core.method) return c;
+  c.core.method = method;
+  c.kept_pcd = method_file_name(o.kept_pcd, method);
+  if (!o.all_points_pcd.empty()) c.all_points_pcd = method_file_name(o.all_points_pcd, method);
+  return c;
 }
 
 fusion::PoseInput pose_input(const PoseObservation& p) {
@@ -85,15 +103,33 @@ fusion::ScanInput scan_input(const StoredScan& s, ScanBuffers& b) {
 
 Result<std::unique_ptr<FusionStage>> FusionStage::create(const FusionOptions& options, std::string session_dir) {
   if (!(options.map_resolution_m > 0.0)) return Error{"fusion: map resolution must be > 0 (fusion.map_resolution_m)"};
-  auto core = fusion::FusionCore::create(options.core);
-  if (!core.ok()) return core.error();
-  return std::unique_ptr<FusionStage>(new FusionStage(options, std::move(session_dir), std::move(core.value())));
+  std::vector<std::unique_ptr<Model>> models;
+  std::vector<std::string> methods{options.core.method};
+  for (const std::string& m : options.compare_methods) {
+    if (std::find(methods.begin(), methods.end(), m) != methods.end())
+      return Error{"fusion: a compared method is the primary method or listed twice (fusion.compare_methods)"};
+    methods.push_back(m);
+  }
+  for (const std::string& m : methods) {
+    const FusionOptions o = compared_options(options, m);
+    auto core = fusion::FusionCore::create(o.core);
+    if (!core.ok()) {
+      if (m == options.core.method) return core.error();
+      return Error{"fusion: unknown compared method (fusion.compare_methods)"};
+    }
+    auto model = std::make_unique<Model>();
+    model->core = std::move(core.value());
+    model->kept_path = session_dir + "/" + o.kept_pcd;
+    if (!o.all_points_pcd.empty()) model->all_path = session_dir + "/" + o.all_points_pcd;
+    models.push_back(std::move(model));
+  }
+  return std::unique_ptr<FusionStage>(new FusionStage(options, std::move(session_dir), std::move(models)));
 }
 
-FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, std::unique_ptr<fusion::FusionCore> core)
+FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, std::vector<std::unique_ptr<Model>> models)
     : options_{options},
       session_dir_{std::move(session_dir)},
-      core_{std::move(core)},
+      models_{std::move(models)},
       map_all_{options.map_resolution_m},
       map_kept_{options.map_resolution_m},
       map_touched_{options.map_resolution_m} {
@@ -104,11 +140,46 @@ FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, 
   scratch_.points.reserve(kMaxBeams);
   scratch_.flags.reserve(kMaxBeams);
   scratch_.beams.reserve(kMaxBeams);
-  core_->set_release_callback([this](const fusion::FusedScan& f) { on_release(f); });
+  core().set_release_callback([this](const fusion::FusedScan& f) { on_release(f); });
 }
 
 FusionStage::~FusionStage() {
+  if (writer_.joinable()) {
+    {
+      std::lock_guard<std::mutex> lock(writer_mutex_);
+      writer_stop_ = true;
+    }
+    writer_cv_.notify_all();
+    writer_.join();  // a write in flight finishes first
+  }
   if (latency_log_ != nullptr) std::fclose(latency_log_);
+}
+
+const fusion::FusionCore* FusionStage::compared_core(const std::string& method) const {
+  for (std::size_t i = 1; i < models_.size(); ++i)
+    if (models_[i]->core->options().method == method) return models_[i]->core.get();
+  return nullptr;
+}
+
+std::size_t FusionStage::model_memory_bytes() const {
+  std::size_t n = 0;
+  for (const auto& m : models_) n += m->core->model_memory_bytes();
+  return n;
+}
+
+void FusionStage::flush() {
+  for (const auto& m : models_) m->core->flush();
+}
+
+void FusionStage::tick(std::int64_t realtime_ns) {
+  if (resume_) return;
+  for (const auto& m : models_) m->core->advance_to(realtime_ns);
+}
+
+// Every core takes the same input in the same order; the primary's answer counts the duplicates.
+void FusionStage::add_scan_to_cores(const fusion::ScanInput& in) {
+  if (!core().add_scan(in)) ++counters_.duplicates;
+  for (std::size_t i = 1; i < models_.size(); ++i) (void)models_[i]->core->add_scan(in);
 }
 
 void FusionStage::add_pose(const PoseObservation& p) {
@@ -116,20 +187,20 @@ void FusionStage::add_pose(const PoseObservation& p) {
   ++counters_.poses;
   const fusion::PoseInput in = pose_input(p);
   if (resume_ && !replaying_) {
-    core_->resume_at(in.arrival_ns);
+    for (const auto& m : models_) m->core->resume_at(in.arrival_ns);
     resume_ = false;
   }
-  core_->add_pose(in);
+  for (const auto& m : models_) m->core->add_pose(in);
 }
 
 void FusionStage::add_scan(const StoredScan& s) {
   if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
   if (!replaying_) stored_latency_.add(s.recv_realtime_ns - s.stamp_ns);
   if (resume_) {
-    core_->resume_at(s.recv_realtime_ns);
+    for (const auto& m : models_) m->core->resume_at(s.recv_realtime_ns);
     resume_ = false;
   }
-  if (!core_->add_scan(scan_input(s, scratch_))) ++counters_.duplicates;
+  add_scan_to_cores(scan_input(s, scratch_));
 }
 
 void FusionStage::on_release(const fusion::FusedScan& f) {
@@ -165,7 +236,7 @@ Result<std::uint64_t> FusionStage::replay_session(const std::string& dir) {
       dir, [&](const PoseObservation& p) { add_pose(p); },
       [&](const StoredScan& s) {
         if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
-        if (!core_->add_scan(scan_input(s, buffers))) ++counters_.duplicates;
+        add_scan_to_cores(scan_input(s, buffers));
       },
       stats);
   replaying_ = false;
@@ -174,17 +245,246 @@ Result<std::uint64_t> FusionStage::replay_session(const std::string& dir) {
   return stats.poses + stats.scans;
 }
 
-Status FusionStage::write_model() {
-  auto fig = core_->write_model(session_dir_ + "/" + options_.kept_pcd,
-                                options_.all_points_pcd.empty() ? std::string{} : session_dir_ + "/" + options_.all_points_pcd);
-  if (!fig.ok()) {
-    ++counters_.write_failures;
-    return fig.error();
+// A periodic write in the caller's thread: every core's model voxels taken with their decisions
+// (snapshot_model_part) in parts of at most kRowsPerPart rows, handed to the writer thread, which
+// streams them into the files; at most options().write_slice_ms per call (`all`: to the end). The
+// parts in the queue are bounded (kMaxQueuedParts): when the writer lags, the loop waits for a later
+// turn instead of holding more of the model. True when every model is taken.
+bool FusionStage::advance_snapshot(bool all) {
+  constexpr std::size_t kVoxelsPerStep = 64, kRowsPerPart = 16384, kMaxQueuedParts = 16;
+  const Time t0 = now_monotonic();
+  const auto slice = std::chrono::duration<double, std::milli>(options_.write_slice_ms);
+  bool done = false, out_of_time = false, took = false;
+  while (!done && !out_of_time) {
+    fusion::ModelSnapshot part;
+    {
+      std::unique_lock<std::mutex> lock(writer_mutex_);
+      if (all) writer_cv_.wait(lock, [&] { return writer_queue_.size() < kMaxQueuedParts; });
+      if (writer_queue_.size() >= kMaxQueuedParts) break;
+      if (!writer_spare_.empty()) {
+        part = std::move(writer_spare_.back());
+        writer_spare_.pop_back();
+      }
+    }
+    part.points.clear();
+    part.removed.clear();
+    part.kept = 0;
+    std::size_t part_model = snapshot_model_;
+    while (snapshot_model_ < models_.size() && part.points.size() < kRowsPerPart) {
+      Model& m = *models_[snapshot_model_];
+      if (m.snapshot_next >= m.snapshot_end) {
+        if (!part.points.empty()) break;  // a part holds one model's rows
+        part_model = ++snapshot_model_;
+        continue;
+      }
+      m.snapshot_next = m.core->snapshot_model_part(part, m.snapshot_next, std::min(kVoxelsPerStep, m.snapshot_end - m.snapshot_next));
+      took = true;
+      if (!all && now_monotonic() - t0 >= slice) {
+        out_of_time = true;
+        break;
+      }
+    }
+    done = snapshot_model_ >= models_.size();
+    if (!part.points.empty()) {
+      std::lock_guard<std::mutex> lock(writer_mutex_);
+      snapshot_report_.points += part.points.size();
+      writer_queue_.push_back(WriterPart{part_model, std::move(part), false});
+    }
+    writer_cv_.notify_all();
   }
-  ++counters_.writes;
-  counters_.last_write_kept = fig.value().kept;
-  counters_.last_write_removed = fig.value().removed;
+  const Time now = now_monotonic();
+  const double took_s = to_seconds(now - t0);
+  {
+    std::lock_guard<std::mutex> lock(writer_mutex_);
+    snapshot_report_.snapshot_s += took_s;
+    snapshot_report_.snapshot_slice_max_s = std::max(snapshot_report_.snapshot_slice_max_s, took_s);
+    if (took) ++snapshot_report_.snapshot_slices;  // a turn that waited for the writer took nothing
+    if (done) {
+      snapshot_report_.snapshot_span_s = to_seconds(now - snapshot_started_);
+      writer_queue_.push_back(WriterPart{0, {}, true});  // the write ends: the writer finishes the files
+    }
+  }
+  writer_cv_.notify_all();
+  if (!done) return false;
+  snapshotting_ = false;
+  return true;
+}
+
+void FusionStage::begin_snapshot() {
+  snapshotting_ = true;
+  write_pending_ = false;
+  snapshot_started_ = now_monotonic();
+  snapshot_model_ = 0;
+  for (const auto& m : models_) {
+    m->snapshot_next = 0;
+    m->snapshot_end = m->core->model_voxels();  // voxels stored later wait for the next write
+  }
+  {
+    std::lock_guard<std::mutex> lock(writer_mutex_);
+    snapshot_report_ = ModelWriteReport{};
+    snapshot_report_.on_writer_thread = true;
+    writer_busy_ = true;
+    writer_begin_ = true;
+  }
+  if (!writer_.joinable()) writer_ = std::thread([this] { writer_main(); });
+  writer_cv_.notify_all();
+}
+
+void FusionStage::wait_writer_idle() {
+  std::unique_lock<std::mutex> lock(writer_mutex_);
+  writer_cv_.wait(lock, [&] { return !writer_busy_; });
+}
+
+void FusionStage::wait_for_write() {
+  if (snapshotting_) (void)advance_snapshot(true);
+  wait_writer_idle();
+}
+
+bool FusionStage::write_in_flight() const {
+  if (snapshotting_) return true;
+  std::lock_guard<std::mutex> lock(writer_mutex_);
+  return writer_busy_;
+}
+
+// A finished write of the writer thread into the counters and the callback (the caller's thread).
+bool FusionStage::collect_finished() {
+  {
+    std::lock_guard<std::mutex> lock(writer_mutex_);
+    if (!writer_done_) return false;
+    writer_done_ = false;
+    last_write_ = writer_report_;
+  }
+  finish_write();
+  return true;
+}
+
+void FusionStage::finish_write() {
+  if (!last_write_.ok) {
+    ++counters_.write_failures;
+  } else {
+    ++counters_.writes;
+    counters_.last_write_kept = last_write_.kept;
+    counters_.last_write_removed = last_write_.removed;
+  }
+  if (on_write_) on_write_(last_write_);
+}
+
+Status FusionStage::write_model() {
+  if (snapshotting_) {  // a periodic write still being taken: this write replaces it (not in one piece here)
+    {
+      std::lock_guard<std::mutex> lock(writer_mutex_);
+      writer_queue_.push_back(WriterPart{0, {}, true, true});
+    }
+    writer_cv_.notify_all();
+    snapshotting_ = false;
+  }
+  wait_writer_idle();  // a periodic write being written finishes first
+  (void)collect_finished();
+  write_pending_ = false;  // this write serves a coalesced request
+  const Time t0 = now_monotonic();
+  ModelWriteReport report;
+  for (const auto& m : models_) {
+    auto fig = m->core->write_model(m->kept_path, m->all_path);
+    if (!fig.ok()) {
+      if (report.ok) report.error = fig.error();
+      report.ok = false;
+      continue;
+    }
+    report.points += fig.value().kept + fig.value().removed;
+    if (m == models_.front()) {
+      report.kept = fig.value().kept;
+      report.removed = fig.value().removed;
+    }
+  }
+  // All of it on this thread: the decisions and the files, in one piece.
+  report.write_s = report.snapshot_s = report.snapshot_slice_max_s = report.snapshot_span_s = to_seconds(now_monotonic() - t0);
+  report.snapshot_slices = 1;
+  last_write_ = report;
+  finish_write();
+  if (!last_write_.ok) return last_write_.error;
   return ok_status();
+}
+
+void FusionStage::request_write() {
+  if (write_in_flight()) {
+    ++counters_.writes_coalesced;
+    write_pending_ = true;
+    return;
+  }
+  (void)collect_finished();  // its report before the next write's
+  begin_snapshot();
+  (void)advance_snapshot(false);
+}
+
+bool FusionStage::poll_write() {
+  const bool finished = collect_finished();
+  if (snapshotting_) {
+    (void)advance_snapshot(false);
+  } else if (write_pending_ && !write_in_flight()) {
+    begin_snapshot();
+    (void)advance_snapshot(false);
+  }
+  return finished;
+}
+
+// The writer thread: a write's parts, in order, into each model's files; the last part finishes them.
+void FusionStage::writer_main() {
+  std::vector<std::unique_ptr<fusion::ModelFileWriter>> files;
+  double write_s = 0;  // this write's time on this thread
+  std::unique_lock<std::mutex> lock(writer_mutex_);
+  for (;;) {
+    writer_cv_.wait(lock, [&] { return writer_begin_ || !writer_queue_.empty() || writer_stop_; });
+    if (writer_begin_) {
+      writer_begin_ = false;
+      write_s = 0;
+      lock.unlock();
+      files.clear();
+      for (const auto& m : models_) files.push_back(std::make_unique<fusion::ModelFileWriter>(m->kept_path, m->all_path));
+      lock.lock();
+      continue;
+    }
+    if (writer_queue_.empty()) return;  // stop, nothing in flight
+    WriterPart part = std::move(writer_queue_.front());
+    writer_queue_.pop_front();
+    writer_cv_.notify_all();  // room in the queue
+    lock.unlock();
+    const Time t0 = now_monotonic();
+    if (part.model < files.size()) files[part.model]->add(part.rows);
+    ModelWriteReport done;
+    if (part.abandon) {
+      files.clear();  // no file written, the temporary ones removed
+    } else if (part.last) {
+      for (std::size_t i = 0; i < files.size(); ++i) {
+        auto fig = files[i]->finish();
+        if (!fig.ok()) {
+          if (done.ok) done.error = fig.error();
+          done.ok = false;
+        } else if (i == 0) {
+          done.kept = fig.value().kept;
+          done.removed = fig.value().removed;
+        }
+      }
+      files.clear();
+    }
+    write_s += to_seconds(now_monotonic() - t0);
+    lock.lock();
+    writer_spare_.push_back(std::move(part.rows));
+    if (part.abandon) {
+      writer_busy_ = false;
+      writer_cv_.notify_all();
+    } else if (part.last) {
+      // The loop's figures of this write are final once its last part is queued.
+      writer_report_ = snapshot_report_;
+      writer_report_.write_s = write_s;
+      writer_report_.ok = done.ok;
+      writer_report_.error = done.error;
+      writer_report_.kept = done.kept;
+      writer_report_.removed = done.removed;
+      writer_done_ = true;
+      writer_busy_ = false;
+      writer_cv_.notify_all();
+    }
+  }
 }
 
 Status FusionStage::write_latency() const {

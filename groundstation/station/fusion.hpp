@@ -4,14 +4,30 @@
 // memory. It runs from Station hooks, after the sample is stored: a failure here never loses a
 // received sample. After a restart it first replays its session folder through the core
 // (session_replay.hpp), so it decides as it did before.
+//
+// Compared methods (FusionOptions::compare_methods): one more core per method, fed the same samples in
+// the same order (live and in the replay), each with its own model store and model file
+// (method_file_name); only the primary core feeds teamscan/map, the latency and the counters.
+//
+// Model writes: request_write() starts taking every core's model store with its decisions in the
+// caller's loop, in slices of at most write_slice_ms per request_write()/poll_write() (the only part
+// that holds the loop); each slice's rows go through a bounded queue to a writer thread that streams
+// them into the files (fusion::ModelFileWriter). One write in flight, a request meanwhile is coalesced
+// into one that follows. write_model() is the synchronous write (shutdown, tests).
 #pragma once
 
+#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
+#include <deque>
+#include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "common/clock.hpp"
 #include "common/result.hpp"
 #include "groundstation/fusion/core.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
@@ -38,7 +54,22 @@ struct FusionOptions {
   // Per fused scan a line `robot,seq,stamp_ns,received_ns,fused_ns` (CLOCK_REALTIME), through one stdio
   // buffer (no allocation per scan); empty: none. For measuring a time window (the demo's run).
   std::string latency_log_csv;
+  // Methods decided side by side with core.method (same options otherwise), each by its own core with
+  // its own model store, written as method_file_name(kept_pcd / all_points_pcd, method). Not the
+  // primary method, no repeats (create() refuses them).
+  std::vector<std::string> compare_methods;
+  // A periodic write's snapshot takes at most this much of one loop turn (request_write, poll_write);
+  // the rest waits for the next turns. 0: one step (64 model voxels per core) per turn.
+  double write_slice_ms = 2.0;
 };
+
+// A compared method's model file: "fused_all.pcd" + "position" -> "fused_all.position.pcd" (the
+// method before the extension; no extension: appended).
+[[nodiscard]] std::string method_file_name(const std::string& name, const std::string& method);
+// The options a compared method's core runs with, and its files: `o` with core.method = method, the
+// model files named by method_file_name and no compared methods of its own (what model_check and the
+// demo read its model with). `method` == o.core.method: `o` without compare_methods.
+[[nodiscard]] FusionOptions compared_options(const FusionOptions& o, const std::string& method);
 
 // A received pose / scan as the core's input (one conversion, used live and by the session replay).
 [[nodiscard]] fusion::PoseInput pose_input(const PoseObservation& pose);
@@ -57,10 +88,25 @@ struct FusionCounters {
   std::uint64_t live_removed = 0;     // points removed at release (the map so far)
   std::uint64_t duplicates = 0;       // scans received again (DDS history replay): stored, not fused twice
   std::uint64_t replayed_scans = 0;   // scans of the session folder replayed at start-up
-  std::uint64_t writes = 0;           // fused PCDs written
-  std::uint64_t write_failures = 0;
+  std::uint64_t writes = 0;           // model writes done (every core's files written)
+  std::uint64_t write_failures = 0;   // writes with a file not written (the first error: last_write())
+  std::uint64_t writes_coalesced = 0; // request_write() while a write was in flight (served by one write after it)
   std::uint64_t last_write_kept = 0;  // points in the last fused PCD
   std::uint64_t last_write_removed = 0;
+};
+
+// One model write (every core's files), as it finished.
+struct ModelWriteReport {
+  bool ok = true;
+  Error error{};              // the first file that failed
+  bool on_writer_thread = false;
+  double snapshot_s = 0;      // the stores copied with their decisions, in the caller's loop (all slices)
+  double snapshot_slice_max_s = 0;  // the longest slice: the loop's longest stall for this write
+  std::uint32_t snapshot_slices = 0;
+  double snapshot_span_s = 0; // first slice to the hand-over to the writer thread
+  double write_s = 0;         // formatted and written (the writer thread, or the caller's for write_model())
+  std::uint64_t points = 0;   // every core's snapshot
+  std::uint64_t kept = 0, removed = 0;  // the primary model's
 };
 
 struct FusionConfig;
@@ -81,16 +127,29 @@ class FusionStage {
   // Rebuilds the core from the session folder's scans.bin and poses.csv (a restart): every sample in
   // arrival order through the same code, before the loop takes new ones. Returns the samples replayed.
   [[nodiscard]] Result<std::uint64_t> replay_session(const std::string& dir);
-  // Releases every scan the core holds (shutdown).
-  void flush() { core_->flush(); }
+  // Releases every scan the cores hold (shutdown).
+  void flush();
   // The loop's clock (CLOCK_REALTIME, the receive times' clock): held scans that waited long enough go.
-  void tick(std::int64_t realtime_ns) {
-    if (!resume_) core_->advance_to(realtime_ns);
-  }
+  void tick(std::int64_t realtime_ns);
 
-  // Writes the fused model from the core's memory into the session folder (fused.pcd, and fused_all.pcd
-  // when configured): NAME.tmp then rename(2), so a reader never sees a half file.
+  // Writes every core's model from memory into the session folder (fused.pcd, and fused_all.pcd when
+  // configured; the compared methods' files), on this thread, after any write in flight: NAME.tmp then
+  // rename(2), so a reader never sees a half file. The shutdown write; last_write() has its report.
   [[nodiscard]] Status write_model();
+  // The same write off the caller's loop: the snapshot here, the files on the writer thread. While a
+  // write is in flight the request is counted (writes_coalesced) and one write follows it.
+  void request_write();
+  // From the loop: true when a write finished since the last call (its report: last_write(), and the
+  // write callback); starts a coalesced write if the writer is free.
+  bool poll_write();
+  [[nodiscard]] bool write_in_flight() const;
+  // Finishes a snapshot in progress on this thread and waits for the writer; the report comes with
+  // the next poll_write().
+  void wait_for_write();
+  [[nodiscard]] const ModelWriteReport& last_write() const { return last_write_; }
+  // Called with every finished write's report, on the thread that calls write_model / request_write /
+  // poll_write (the loop), never on the writer thread.
+  void set_write_callback(std::function<void(const ModelWriteReport&)> f) { on_write_ = std::move(f); }
   // Writes the latency histograms (options().latency_csv) into the session folder, atomically.
   [[nodiscard]] Status write_latency() const;
   // Scan stamp (end of sweep, CLOCK_REALTIME) -> the scan decided by the core and in the live map, and
@@ -108,8 +167,12 @@ class FusionStage {
   [[nodiscard]] std::uint32_t map_total_voxels() const { return static_cast<std::uint32_t>(map_all_.occupied_voxels()); }
   [[nodiscard]] std::uint32_t map_resolution_mm() const;
 
-  [[nodiscard]] const fusion::FusionCore& core() const { return *core_; }
-  [[nodiscard]] fusion::FusionCore& core() { return *core_; }
+  [[nodiscard]] const fusion::FusionCore& core() const { return *models_.front()->core; }
+  [[nodiscard]] fusion::FusionCore& core() { return *models_.front()->core; }
+  // A compared method's core (compare_methods), or nullptr.
+  [[nodiscard]] const fusion::FusionCore* compared_core(const std::string& method) const;
+  // Every core's model store (the primary's and the compared methods'), bytes.
+  [[nodiscard]] std::size_t model_memory_bytes() const;
   [[nodiscard]] const FusionCounters& counters() const { return counters_; }
   [[nodiscard]] const FusionOptions& options() const { return options_; }
 
@@ -118,12 +181,33 @@ class FusionStage {
   FusionStage& operator=(const FusionStage&) = delete;
 
  private:
-  FusionStage(const FusionOptions& options, std::string session_dir, std::unique_ptr<fusion::FusionCore> core);
+  // A core and its model files; models_[0] is the primary method's.
+  struct Model {
+    std::unique_ptr<fusion::FusionCore> core;
+    std::string kept_path, all_path;
+    std::size_t snapshot_next = 0, snapshot_end = 0;  // a periodic write: the model voxels still to take
+  };
+  // A part of a periodic write for the writer thread: one model's rows; `last`: the write ends here
+  // (`abandon`: without files: a synchronous write replaces it).
+  struct WriterPart {
+    std::size_t model = 0;
+    fusion::ModelSnapshot rows;
+    bool last = false;
+    bool abandon = false;
+  };
+  FusionStage(const FusionOptions& options, std::string session_dir, std::vector<std::unique_ptr<Model>> models);
   void on_release(const fusion::FusedScan& scan);
+  void add_scan_to_cores(const fusion::ScanInput& in);
+  void begin_snapshot();
+  bool advance_snapshot(bool all);
+  void writer_main();
+  void wait_writer_idle();
+  bool collect_finished();
+  void finish_write();
 
   FusionOptions options_;
   std::string session_dir_;
-  std::unique_ptr<fusion::FusionCore> core_;
+  std::vector<std::unique_ptr<Model>> models_;
   mapping::VoxelMap map_all_;
   mapping::VoxelMap map_kept_;
   mapping::VoxelMap map_touched_;  // voxels with new points since the last teamscan/map publication
@@ -134,6 +218,23 @@ class FusionStage {
   std::FILE* latency_log_ = nullptr;
   bool replaying_ = false;  // replay_session(): no latency samples (they are not this run's)
   bool resume_ = false;     // the first live sample after a replay resumes the core's arrival clock
+  // The writer thread (started by the first request_write()). Guarded by writer_mutex_: the queue, the
+  // spare parts (their capacity reused), the flags, writer_report_ and snapshot_report_'s reads by the
+  // writer (the loop writes it only while holding the mutex or before the write's first part).
+  ModelWriteReport last_write_;
+  std::function<void(const ModelWriteReport&)> on_write_;
+  bool write_pending_ = false;  // a request coalesced while one was in flight (loop thread only)
+  bool snapshotting_ = false;   // a periodic write's snapshot in progress (loop thread only)
+  std::size_t snapshot_model_ = 0;  // the model being taken
+  Time snapshot_started_{};
+  ModelWriteReport snapshot_report_;
+  std::thread writer_;
+  mutable std::mutex writer_mutex_;
+  std::condition_variable writer_cv_;
+  std::deque<WriterPart> writer_queue_;
+  std::vector<fusion::ModelSnapshot> writer_spare_;
+  bool writer_begin_ = false, writer_busy_ = false, writer_done_ = false, writer_stop_ = false;
+  ModelWriteReport writer_report_;
 };
 
 }  // namespace teamscan::station

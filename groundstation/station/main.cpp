@@ -104,6 +104,9 @@ int main(int argc, char** argv) {
                 "fusion.write_interval_s = %.3f\nfusion.map_interval_s = %.3f\n",
                 cfg.fusion.enabled ? "true" : "false", cfg.fusion.method.c_str(), cfg.fusion.resolution_m,
                 cfg.fusion.half_angle_deg, to_seconds(cfg.fusion.write_interval), to_seconds(cfg.fusion.map_interval));
+    std::string compared;
+    for (const std::string& m : cfg.fusion.compare_methods) compared += (compared.empty() ? "\"" : ", \"") + m + "\"";
+    std::printf("fusion.compare_methods = [%s]\n", compared.c_str());
     std::printf("ros2.enabled = %s\nros2.map_interval_s = %.3f\nros2.pose_rate_hz = %.3f\nros2.heading_sigma_deg = %.3f\n",
                 cfg.ros2.enabled ? "true" : "false", to_seconds(cfg.ros2.map_interval), cfg.ros2.pose_rate_hz,
                 cfg.ros2.heading_sigma_deg);
@@ -178,27 +181,35 @@ int main(int argc, char** argv) {
     st.add_pose_hook([&](const PoseObservation& p) { fusion->add_pose(p); });
     st.add_scan_hook([&](const StoredScan& s) { fusion->add_scan(s); });
     log(kInfo, "fusion: method " + cfg.fusion.method + ", model " + store->dir() + "/fused.pcd");
+    for (const std::string& m : cfg.fusion.compare_methods)
+      log(kInfo, "fusion: compared method " + m + ", model " + store->dir() + "/" + method_file_name("fused.pcd", m));
   }
-  // The fused model written from the core's memory (no read-back of the session), and the latency.
-  auto write_model = [&](const char* why) {
-    const auto t0 = now_monotonic();
-    const Status w = fusion->write_model();
-    const double seconds = to_seconds(now_monotonic() - t0);
-    if (!w.ok()) {
-      log(kErr, std::string("fusion: ") + w.error().what + " (" + std::strerror(w.error().sys_errno) + ")");
-      store->log_event(now_realtime(), std::string("fused model write failed: ") + w.error().what);
+  // The fused models written from the cores' memory (no read-back of the session): periodic writes
+  // take a snapshot in this loop and are written on the fusion stage's writer thread; the shutdown
+  // write is synchronous. Every finished write is logged here, in the loop, with the latency so far.
+  auto log_write = [&](const ModelWriteReport& w) {
+    if (!w.ok) {
+      log(kErr, std::string("fusion: ") + w.error.what + " (" + std::strerror(w.error.sys_errno) + ")");
+      store->log_event(now_realtime(), std::string("fused model write failed: ") + w.error.what);
     } else {
       const fusion::CoreCounters& c = fusion->core().counters();
-      char text[260];
+      const FusionCounters& fc = fusion->counters();
+      char text[640];
       std::snprintf(text, sizeof text,
-                    "fused model written (%s): %llu kept, %llu removed, %llu scans, %.2f s; model store %llu points in %zu voxels "
-                    "(%llu beyond the per-voxel cap), %.1f MiB",
-                    why, static_cast<unsigned long long>(fusion->counters().last_write_kept),
-                    static_cast<unsigned long long>(fusion->counters().last_write_removed),
-                    static_cast<unsigned long long>(fusion->counters().scans), seconds,
+                    "fused model written (%s): %llu kept, %llu removed, %llu scans; snapshot %.3f s in the loop (%u slices, longest "
+                    "%.1f ms, over %.2f s), write %.2f s %s "
+                    "(%zu models, %llu points; %llu requests coalesced); model store %llu points in %zu voxels (%llu beyond the "
+                    "per-voxel cap), %.1f MiB (all models %.1f MiB); %llu scans released by hold_s",
+                    w.on_writer_thread ? "periodic" : "shutdown", static_cast<unsigned long long>(w.kept), static_cast<unsigned long long>(w.removed),
+                    static_cast<unsigned long long>(fc.scans), w.snapshot_s, w.snapshot_slices,
+                    w.snapshot_slice_max_s * 1e3, w.snapshot_span_s, w.write_s,
+                    w.on_writer_thread ? "on the writer thread" : "in the loop", 1 + cfg.fusion.compare_methods.size(),
+                    static_cast<unsigned long long>(w.points), static_cast<unsigned long long>(fc.writes_coalesced),
                     static_cast<unsigned long long>(c.stored_points), fusion->core().model_voxels(),
                     static_cast<unsigned long long>(c.capped_points),
-                    static_cast<double>(fusion->core().model_memory_bytes()) / (1024.0 * 1024.0));
+                    static_cast<double>(fusion->core().model_memory_bytes()) / (1024.0 * 1024.0),
+                    static_cast<double>(fusion->model_memory_bytes()) / (1024.0 * 1024.0),
+                    static_cast<unsigned long long>(c.scans_forced));
       store->log_event(now_realtime(), text);
     }
     // Scan -> fused-map latency so far (latency.csv; docs/demo.md "Scale").
@@ -210,6 +221,7 @@ int main(int argc, char** argv) {
     store->log_event(now_realtime(), line);
     if (const Status l = fusion->write_latency(); !l.ok()) log(kWarning, std::string("fusion: ") + l.error().what);
   };
+  if (fusion) fusion->set_write_callback(log_write);
   // The browser view (docs/view.md): its own thread serves HTTP/WebSocket; the loop only offers copies
   // to its bounded feed (ViewFeeder). A view that cannot listen is logged and left off: the station runs on.
   std::unique_ptr<view::ViewFeed> view_feed;
@@ -281,12 +293,15 @@ int main(int argc, char** argv) {
       dds::notify_watchdog();
       next_ping = now + ping_period;
     }
-    if (fusion) fusion->tick(now_realtime().ns());
-    // The periodic model write, from the core's memory, in this loop (its time: events.log).
+    if (fusion) {
+      fusion->tick(now_realtime().ns());
+      (void)fusion->poll_write();  // a finished write logged; a coalesced one started
+    }
+    // The periodic model write: the snapshot in this loop, the files on the writer thread (events.log).
     if (fusion && cfg.fusion.write_interval.count() > 0 && now >= next_write) {
       if (fusion->counters().scans != scans_at_write) {
         scans_at_write = fusion->counters().scans;
-        write_model("periodic");
+        fusion->request_write();
         now = now_monotonic();
       }
       next_write = now + cfg.fusion.write_interval;
@@ -376,8 +391,8 @@ int main(int argc, char** argv) {
   }
   store->sync();  // the session is complete on disk before the final model write
   if (fusion) {
-    fusion->flush();  // every held scan decided with what arrived
-    write_model("shutdown");
+    fusion->flush();              // every held scan decided with what arrived
+    (void)fusion->write_model();  // after any write in flight, synchronous: the models are complete at exit
   }
   return 0;
 }

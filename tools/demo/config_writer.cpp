@@ -56,7 +56,9 @@ std::string station_config(const StationConfigInput& in) {
   // (docs/groundstation.md "Model writes"); the demo scores the shutdown model either way.
   o << "\n[fusion]\nenabled = true\nmethod = \"" << in.method << "\"\nresolution_m = 0.1\nhalf_angle_deg = 7.0\n"
        "write_all_points = true\nwrite_interval_s = "
-    << in.write_interval_s << "\nlatency_log = true\n";
+    << in.write_interval_s << "\nlatency_log = true\ncompare_methods = [";
+  for (std::size_t i = 0; i < in.compare_methods.size(); ++i) o << (i ? ", \"" : "\"") << in.compare_methods[i] << "\"";
+  o << "]\n";
   // ROS 2 wire names, for RViz2 / Foxglove watching the demo (docs/ros2.md; --station-ros2 false: off).
   o << "\n[ros2]\nenabled = " << (in.ros2 ? "true" : "false") << "\n";
   // The browser view only when asked for (--view PORT): loopback only.

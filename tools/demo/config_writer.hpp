@@ -4,6 +4,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "common/pose.hpp"
 #include "sim/scenario.hpp"
@@ -22,6 +23,7 @@ struct StationConfigInput {
   std::string session_root;
   int domain = 0;
   std::string method = "best";             // [fusion] method
+  std::vector<std::string> compare_methods;  // [fusion] compare_methods: decided beside it, each its own model
   double write_interval_s = 0.0;           // [fusion] write_interval_s (0: once, at shutdown)
   bool ros2 = true;                        // [ros2] enabled (docs/ros2.md)
   std::optional<int> view_port;            // [view] listen on 127.0.0.1:PORT (unset: no view)

@@ -84,6 +84,21 @@ std::string json_escape(const std::string& s) {
 
 }  // namespace
 
+std::vector<std::string> station_compare_methods(const DemoOptions& a) {
+  std::vector<std::string> out;
+  if (a.station_compare == "none") return out;
+  if (a.station_compare == "paper") {
+    out = mapping::known_methods();
+    out.push_back("best");
+    std::erase(out, a.station_method);
+    return out;
+  }
+  std::stringstream list(a.station_compare);
+  for (std::string m; std::getline(list, m, ',');)
+    if (!m.empty()) out.push_back(m);
+  return out;
+}
+
 int run_demo(const DemoOptions& a) {
   // The robots' and the station's timing is real time (poses at 10 Hz, teamscan/team at 20 Hz, the
   // tracker's noise in m/s²): at --speed s the world moves s times further between two poses, so the
@@ -193,7 +208,7 @@ int run_demo(const DemoOptions& a) {
   Supervisor supervisor;
   std::vector<Child> children;
   write_text(out + "/config/groundstation.toml",
-             station_config({out, domain, a.station_method, a.write_interval_s, a.station_ros2, a.view_port}));
+             station_config({out, domain, a.station_method, station_compare_methods(a), a.write_interval_s, a.station_ros2, a.view_port}));
   const std::vector<std::string> station_argv = with(
       {station_bin, "--config", out + "/config/groundstation.toml", "--session-dir", session, "--domain", std::to_string(domain)},
       pki_args("station"));
@@ -483,13 +498,17 @@ int run_demo(const DemoOptions& a) {
         << ", \"matched\": " << station.matched << ", \"unmatched\": " << station.unmatched
         << ", \"model_points\": " << station.model_points << "},\n";
   }
-  // The station's model against `teamscan eval` of its own session (the fusion core fed the session
-  // read back, in time order): the same decision for every point (docs/groundstation.md "The fusion core").
-  const SessionEvalCheck sc = check_station_against_session_eval(session, out + "/config/groundstation.toml", L.ds.points, L.point_seq);
-  {
+  // The station's models against `teamscan eval` of its own session (the fusion core fed the session
+  // read back, in time order): the same decision for every point (docs/groundstation.md "The fusion
+  // core"), for its method and for each of its [fusion] compare_methods, one line each.
+  bool session_agree = true;
+  std::ostringstream by_method;
+  for (const SessionEvalCheck& sc :
+       check_station_models_against_session_eval(session, out + "/config/groundstation.toml", L.ds.points, L.point_seq)) {
     char line[700];
+    session_agree = session_agree && sc.identical;
     if (!sc.error.empty()) {
-      std::snprintf(line, sizeof line, "  station model vs `teamscan eval SESSION`: %s\n", sc.error.c_str());
+      std::snprintf(line, sizeof line, "  station model (%s) vs `teamscan eval SESSION`: %s\n", sc.method.c_str(), sc.error.c_str());
       stxt << line;
     } else {
       std::snprintf(line, sizeof line,
@@ -503,14 +522,18 @@ int run_demo(const DemoOptions& a) {
                     sc.station.da, sc.station.sa, sc.eval.da, sc.eval.sa, sc.station.da - sc.eval.da, sc.station.sa - sc.eval.sa,
                     sc.live.da, sc.live.sa);
       stxt << line;
-      stj << "  \"station_vs_session_eval\": {\"method\": \"" << json_escape(sc.method) << "\", \"compared\": " << sc.compared
+      std::ostringstream obj;
+      obj << "{\"method\": \"" << json_escape(sc.method) << "\", \"compared\": " << sc.compared
           << ", \"not_in_model\": " << sc.not_in_model << ", \"mismatches\": " << sc.mismatches << ", \"labelled\": " << sc.labelled
           << ", \"station_da\": " << sc.station.da << ", \"station_sa\": " << sc.station.sa << ", \"eval_da\": " << sc.eval.da
           << ", \"eval_sa\": " << sc.eval.sa << ", \"live_da\": " << sc.live.da << ", \"live_sa\": " << sc.live.sa
-          << ", \"identical\": " << (sc.identical ? "true" : "false") << "},\n";
+          << ", \"identical\": " << (sc.identical ? "true" : "false") << "}";
+      if (sc.primary) stj << "  \"station_vs_session_eval\": " << obj.str() << ",\n";
+      by_method << (by_method.tellp() > 0 ? ",\n    " : "\n    ") << obj.str();
     }
   }
-  agree = agree && station_agree && sc.identical;
+  stj << "  \"station_vs_session_eval_by_method\": [" << by_method.str() << "\n  ],\n";
+  agree = agree && station_agree && session_agree;
 
   // Delivery: every scan a robot published reached the session.
   bool none_lost = true;

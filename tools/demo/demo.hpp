@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace teamscan::demo {
 
@@ -44,6 +45,9 @@ struct DemoOptions {
   double write_interval_s = 0.0;
   // The ground station's live fusion method (its [fusion] method); the demo scores its model.
   std::string station_method = "best";
+  // The station's [fusion] compare_methods: "paper" (the paper's methods and best, but station_method),
+  // "none", or a comma-separated list; each compared model gets the identity check of the primary's.
+  std::string station_compare = "paper";
   // The station's [ros2] publishers (rt/teamscan/map_cloud, rt/tf, rt/robotN/odom; docs/ros2.md).
   bool station_ros2 = true;
   // The device feeder: one thread steps every pty this often (ms); 0: a thread per pty (sim/live.hpp).
@@ -54,7 +58,11 @@ struct DemoOptions {
   std::optional<int> view_port;
 };
 
-// Runs the demo; the process exit code (0: nothing lost, live and offline agree, the station's model is
+// --station-compare as the station's [fusion] compare_methods: "paper": the paper's methods and best
+// without the station's own; "none": none; else the comma-separated list (the station validates it).
+[[nodiscard]] std::vector<std::string> station_compare_methods(const DemoOptions& a);
+
+// Runs the demo; the process exit code (0: nothing lost, live and offline agree, the station's models are
 // identical to `teamscan eval` of its session, clean exits; 1: a check failed; 2: bad options).
 [[nodiscard]] int run_demo(const DemoOptions& a);
 

@@ -271,9 +271,27 @@ StationScore score_station_model(const std::string& fused_all_pcd, const std::ve
   return ss;
 }
 
+std::vector<SessionEvalCheck> check_station_models_against_session_eval(const std::string& session,
+                                                                       const std::string& station_config,
+                                                                       const std::vector<LabelledPoint>& points,
+                                                                       const std::vector<std::uint32_t>& point_seq) {
+  station::GroundStationConfig gcfg;
+  station::ConfigError gerr;
+  if (!station::load_groundstation_config(station_config, gcfg, gerr)) {
+    SessionEvalCheck sc;
+    sc.error = "cannot read the station config (" + gerr.message + ")";
+    return {sc};
+  }
+  std::vector<SessionEvalCheck> out;
+  out.push_back(check_station_against_session_eval(session, station_config, points, point_seq));
+  for (const std::string& m : gcfg.fusion.compare_methods)
+    out.push_back(check_station_against_session_eval(session, station_config, points, point_seq, m));
+  return out;
+}
+
 SessionEvalCheck check_station_against_session_eval(const std::string& session, const std::string& station_config,
                                                     const std::vector<LabelledPoint>& points,
-                                                    const std::vector<std::uint32_t>& point_seq) {
+                                                    const std::vector<std::uint32_t>& point_seq, const std::string& method) {
   SessionEvalCheck sc;
   station::GroundStationConfig gcfg;
   station::ConfigError gerr;
@@ -281,8 +299,11 @@ SessionEvalCheck check_station_against_session_eval(const std::string& session, 
     sc.error = "cannot read the station config (" + gerr.message + ")";
     return sc;
   }
-  sc.method = gcfg.fusion.method;
-  auto check = station::check_model_against_eval(session, station::fusion_options_from_config(gcfg.fusion, gcfg.kalman));
+  sc.primary = method.empty() || method == gcfg.fusion.method;
+  sc.method = sc.primary ? gcfg.fusion.method : method;
+  const station::FusionOptions station_options = station::fusion_options_from_config(gcfg.fusion, gcfg.kalman);
+  auto check = station::check_model_against_eval(
+      session, sc.primary ? station_options : station::compared_options(station_options, sc.method));
   if (!check) {
     sc.error = check.error().what;
     return sc;

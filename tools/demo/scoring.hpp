@@ -80,15 +80,23 @@ struct StationScore {
 // at release).
 struct SessionEvalCheck {
   std::string error;   // the station config or the session could not be read; nothing compared
-  std::string method;  // the station's [fusion] method
+  std::string method;  // the method whose model was checked
+  bool primary = false;  // the station's [fusion] method (else one of its compare_methods)
   std::uint64_t compared = 0, not_in_model = 0, mismatches = 0;
   std::size_t labelled = 0;  // model points with a truth label (`points`)
   mapping::RemovalMetrics station, eval, live;
   bool identical = false;  // no mismatch and something compared
 };
+// `method` empty: the station's [fusion] method; else one of its compare_methods (fused_all.<method>.pcd).
 [[nodiscard]] SessionEvalCheck check_station_against_session_eval(const std::string& session, const std::string& station_config,
                                                                   const std::vector<LabelledPoint>& points,
-                                                                  const std::vector<std::uint32_t>& point_seq);
+                                                                  const std::vector<std::uint32_t>& point_seq,
+                                                                  const std::string& method = {});
+// Every model the station wrote: its [fusion] method first, then each of its compare_methods. A station
+// config that cannot be read gives one failed check.
+[[nodiscard]] std::vector<SessionEvalCheck> check_station_models_against_session_eval(
+    const std::string& session, const std::string& station_config, const std::vector<LabelledPoint>& points,
+    const std::vector<std::uint32_t>& point_seq);
 
 // Fault `--unplug-robot`: the robot's lms_state sequence as the station stored it (consecutive
 // duplicates merged) and its highest lms_reopens, from status.csv.

@@ -60,6 +60,10 @@ const SubcommandRegistration kDemo{
                     "DDS Security: a throwaway site PKI in <out>/pki, every daemon authenticated, encrypted, access-controlled");
        app.add_option("--station-method", a->station_method, "The ground station's live fusion method ([fusion] method)")
            ->capture_default_str();
+       app.add_option("--station-compare", a->station_compare,
+                      "The station's [fusion] compare_methods, each model checked against eval: paper (the paper's "
+                      "methods and best), none, or a comma-separated list")
+           ->capture_default_str();
        app.add_option("--station-ros2", a->station_ros2,
                       "The station's ROS 2 publishers ([ros2] enabled: rt/teamscan/map_cloud, rt/tf, rt/robotN/odom)")
            ->capture_default_str();

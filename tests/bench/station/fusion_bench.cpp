@@ -1,9 +1,13 @@
 // Live fusion throughput on one core: scans per second through FusionStage::add_scan (tracker
-// prediction, filter observe + classify, voxel map) for each method, and the cost of one fused-model
-// write (the offline pass over everything received) at the end of a lap2-like survey.
+// prediction, filter observe + classify, voxel map) for each method, alone and with the paper's methods
+// compared side by side (compare_methods), and the cost of a fused-model write at the end of a
+// lap2-like survey: the whole write on the caller's thread (write_model: the shutdown write, and what
+// every periodic write cost the receive loop before), and the loop's share of a write off the loop
+// (request_write: the snapshot; the files on the writer thread).
 // Run: build/dev/tests/bench/station/station_fusion_bench   (figures in docs/groundstation.md)
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -90,6 +94,22 @@ BENCHMARK_CAPTURE(BM_LiveScans, frequency_0_05m, "frequency", 0.05)->Unit(benchm
 BENCHMARK_CAPTURE(BM_LiveScans, direction, "direction", 0.1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, position, "position", 0.1)->Unit(benchmark::kMillisecond);
 
+// best with the paper's five methods decided side by side: six cores on the same input.
+void BM_LiveScansCompared(benchmark::State& state) {
+  const Feed& f = feed();
+  for (auto _ : state) {
+    FusionOptions o;
+    o.compare_methods = {"frequency", "visibility", "position", "direction", "combined"};
+    auto stage = FusionStage::create(o, "/tmp");
+    run_feed(**stage, f);
+    (*stage)->flush();
+    benchmark::DoNotOptimize((*stage)->counters().live_removed);
+  }
+  state.counters["scans_per_s"] =
+      benchmark::Counter(static_cast<double>(f.scans.size() * state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_LiveScansCompared)->Unit(benchmark::kMillisecond);
+
 // One fused-model write after the whole survey, from the core's memory: every stored point decided
 // against the map + two PCDs (kept, all with keep).
 void BM_WriteModel(benchmark::State& state) {
@@ -108,5 +128,39 @@ void BM_WriteModel(benchmark::State& state) {
   std::filesystem::remove_all(dir);
 }
 BENCHMARK(BM_WriteModel)->Unit(benchmark::kMillisecond);
+
+// A periodic write as the station's loop runs it: request_write(), then poll_write() every turn until
+// the write is done (the loop's turns are back to back here). Timed: the whole write; counters: the
+// loop's time on it (loop_ms: the snapshot's slices), its longest stall (longest_slice_ms, at most about
+// fusion.write_slice_ms), the writer thread's time (writer_thread_ms).
+void BM_RequestWrite(benchmark::State& state) {
+  const std::string dir = std::filesystem::temp_directory_path() / "teamscan-station-fusion-bench-async";
+  std::filesystem::create_directories(dir);
+  FusionOptions o;
+  o.all_points_pcd = "fused_all.pcd";
+  auto stage = FusionStage::create(o, dir);
+  run_feed(**stage, feed());
+  (*stage)->flush();
+  double loop_s = 0, slice_max_s = 0, thread_s = 0, slices = 0;
+  for (auto _ : state) {
+    (*stage)->request_write();
+    while ((*stage)->write_in_flight()) (void)(*stage)->poll_write();
+    (void)(*stage)->poll_write();
+    const ModelWriteReport& w = (*stage)->last_write();
+    if (!w.ok) state.SkipWithError("write failed");
+    loop_s += w.snapshot_s;
+    slice_max_s = std::max(slice_max_s, w.snapshot_slice_max_s);
+    thread_s += w.write_s;
+    slices += w.snapshot_slices;
+  }
+  const double n = state.iterations() ? static_cast<double>(state.iterations()) : 1.0;
+  state.counters["points"] = static_cast<double>((*stage)->counters().points);
+  state.counters["loop_ms"] = 1e3 * loop_s / n;
+  state.counters["longest_slice_ms"] = 1e3 * slice_max_s;
+  state.counters["slices"] = slices / n;
+  state.counters["writer_thread_ms"] = 1e3 * thread_s / n;
+  std::filesystem::remove_all(dir);
+}
+BENCHMARK(BM_RequestWrite)->Unit(benchmark::kMillisecond);
 
 }  // namespace

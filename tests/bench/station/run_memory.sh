@@ -2,12 +2,15 @@
 # Station memory over a long mission (issue 11 "Memory"): eight robots for one hour of robot time, as fast
 # as the machine allows (WARP robot seconds per wall second; stamps stay the feeder's real clock, so the
 # station's stamp validation needs no bench mode), with a fused-model write every 60 s of robot time.
-# Prints the station's RSS curve (start, each quarter, end), the write times and durations, and the
-# scan -> fused-map p99 of the scans fused during a write and outside; then the same feed without writes
-# (unless SKIP_NO_WRITES=1). A guard stops the feed if the station's RSS passes RSS_GUARD_MIB (a shared
+# Prints the station's RSS curve (start, each quarter, end), the write times with each write's loop stall
+# (the snapshot taken in the receive loop) and its time on the writer thread, and the scan -> fused-map
+# p99 of the scans fused during a write and outside; then the same feed without writes (unless
+# SKIP_NO_WRITES=1) and the two runs' scan -> fused-map p99 side by side (issue 11: within 10 %).
+# COMPARE=frequency,position,...: the station also decides these methods (fusion.compare_methods, one
+# more core and model store each). A guard stops the feed if the station's RSS passes RSS_GUARD_MIB (a shared
 # host must not run out of memory), MAX_WALL_S bounds each run. Figures, not a test.
 #
-# usage: [WARP=3] [ROBOTS=8] [METHOD=best] [RSS_GUARD_MIB=4096] [MAX_WALL_S=1500] [STATION_CPU=1] [FEEDER_CPU=0]
+# usage: [WARP=3] [ROBOTS=8] [METHOD=best] [COMPARE=] [RSS_GUARD_MIB=4096] [MAX_WALL_S=1500] [STATION_CPU=1] [FEEDER_CPU=0]
 #        [DDS_CONFIG=file] tests/bench/station/run_memory.sh [BUILD_DIR] [ROBOT_SECONDS]     default 3600
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -22,12 +25,24 @@ robots="${ROBOTS:-8}"
 write_s=$(awk -v w="$warp" 'BEGIN { printf "%.3f", 60.0 / w }')  # one write per 60 s of robot time
 common=(-n "$robots" --duration "$seconds" --warp "$warp" --dds-config "${DDS_CONFIG:-$root/deploy/cyclonedds-lo.xml}"
         --station "$station" --station-cpu "${STATION_CPU:-1}" --method "${METHOD:-best}"
-        --rss-guard-mib "${RSS_GUARD_MIB:-4096}" --max-wall "${MAX_WALL_S:-1500}" --stop-timeout 30)
+        --rss-guard-mib "${RSS_GUARD_MIB:-4096}" --max-wall "${MAX_WALL_S:-1500}" --stop-timeout 30
+        --compare-methods "${COMPARE:-}")
+out="$(mktemp -d /tmp/teamscan-run-memory-XXXXXX)"
+# The "station: ..." line's scan -> fused map p99 (ms) of a run's output.
+p99_of() { sed -n 's/^station: .* p99 \([0-9.]*\) ms,.*/\1/p' "$1" | head -n 1; }
 echo "# $(date -u +%FT%TZ) station memory: $robots robots, $seconds s robot time at ${warp}x, a model write every 60 s of robot time ($write_s s wall), $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "## with model writes"
-taskset -c "${FEEDER_CPU:-0}" "$feeder" "${common[@]}" --write-interval "$write_s"
+taskset -c "${FEEDER_CPU:-0}" "$feeder" "${common[@]}" --write-interval "$write_s" | tee "$out/with.txt"
 if [ "${SKIP_NO_WRITES:-0}" != 1 ]; then
   echo "## without model writes"
-  taskset -c "${FEEDER_CPU:-0}" "$feeder" "${common[@]}" --write-interval 0
+  taskset -c "${FEEDER_CPU:-0}" "$feeder" "${common[@]}" --write-interval 0 | tee "$out/without.txt"
+  with_p99="$(p99_of "$out/with.txt")"; without_p99="$(p99_of "$out/without.txt")"
+  if [ -n "$with_p99" ] && [ -n "$without_p99" ]; then
+    awk -v a="$with_p99" -v b="$without_p99" 'BEGIN {
+      printf "## scan -> fused map p99: with writes %.1f ms, without %.1f ms: %+.1f %% (issue 11: within 10 %%)\n", a, b, (b > 0 ? 100 * (a - b) / b : 0) }'
+  else
+    echo "## scan -> fused map p99: a run printed no station line (see above)"
+  fi
 fi
+rm -rf "$out"
 echo "# load after: $(cut -d' ' -f1-3 /proc/loadavg)"

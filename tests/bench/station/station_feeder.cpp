@@ -70,6 +70,7 @@ struct Options {
   std::string session_dir;      // default: a fresh /tmp folder
   std::string method = "best";
   double write_interval_s = 0;  // periodic fused-model writes (0: none)
+  std::string compare_methods;  // the station's fusion.compare_methods, comma-separated (empty: none)
   int station_cpu = -1;         // pin the station to this CPU (-1: no pinning)
   double rss_guard_mib = 4096;  // stop feeding if the station's RSS exceeds this (protects a shared host)
   double max_wall_s = 0;        // stop feeding after this much wall time (0: no limit)
@@ -195,6 +196,7 @@ int main(int argc, char** argv) {
   app.add_option("--session-dir", o.session_dir, "the station's session folder (default: a new /tmp folder)");
   app.add_option("--method", o.method, "the station's fusion.method");
   app.add_option("--write-interval", o.write_interval_s, "the station's fusion.write_interval_s (0: no periodic writes)");
+  app.add_option("--compare-methods", o.compare_methods, "the station's fusion.compare_methods, comma-separated (one more core each)");
   app.add_option("--station-cpu", o.station_cpu, "pin the station to this CPU");
   app.add_option("--rss-guard-mib", o.rss_guard_mib, "stop feeding when the station's RSS exceeds this");
   app.add_option("--max-wall", o.max_wall_s, "stop feeding after this many wall seconds (0: no limit)");
@@ -251,7 +253,15 @@ int main(int argc, char** argv) {
     {
       std::ofstream cfg(cfg_path);
       cfg << "[station]\nstatus_interval_s = 1.0\n[dds]\ndomain_id = " << domain << "\n[fusion]\nmethod = \"" << o.method
-          << "\"\nwrite_interval_s = " << o.write_interval_s << "\nlatency_log = true\n";
+          << "\"\nwrite_interval_s = " << o.write_interval_s << "\nlatency_log = true\ncompare_methods = [";
+      std::stringstream list(o.compare_methods);
+      bool first = true;
+      for (std::string m; std::getline(list, m, ',');) {
+        if (m.empty()) continue;
+        cfg << (first ? "\"" : ", \"") << m << "\"";
+        first = false;
+      }
+      cfg << "]\n";
       const std::string extra = o.station_config.empty() ? std::string{} : slurp(o.station_config);
       cfg << extra;
       // The browser view off unless the extra config sets it (its default port would collide with any
@@ -555,33 +565,58 @@ int main(int argc, char** argv) {
     for (const RssSample& s : rss) max_kib = std::max(max_kib, s.kib);
     std::printf("; max %.1f\n", static_cast<double>(max_kib) / 1024.0);
   }
-  // Periodic model writes (events.log: "fused model written (periodic): ... S s"): when, how long, and
-  // the p99 of the scans fused while a write ran against the rest.
-  std::vector<std::pair<std::int64_t, std::int64_t>> writes;  // [start, end] CLOCK_REALTIME ns
+  // Periodic model writes (events.log, logged by the loop when a write finished: "fused model written
+  // (periodic): ...; snapshot S s in the loop (K slices, longest L ms, over T s), write W s on the writer
+  // thread (... N requests coalesced)"): when, the loop's time on the snapshot and its longest stall, the
+  // writer thread's time, and the p99 of the scans fused while a write ran (snapshot start to logged end)
+  // against the rest.
+  struct WriteEvent {
+    std::int64_t start_ns = 0, end_ns = 0;
+    double snapshot_s = 0, slice_max_ms = 0, span_s = 0, write_s = 0;
+    unsigned slices = 0;
+  };
+  std::vector<WriteEvent> writes;
+  unsigned long long coalesced = 0;
   {
     std::ifstream in(session + "/events.log");
     std::string line;
     while (std::getline(in, line)) {
       if (line.find("fused model written (periodic)") == std::string::npos) continue;
-      const long long end_ns = std::atoll(line.c_str());
-      const auto comma = line.rfind(", ");
-      const double secs = comma == std::string::npos ? 0.0 : std::atof(line.c_str() + comma + 2);
-      writes.emplace_back(end_ns - static_cast<long long>(secs * 1e9), end_ns);
+      WriteEvent w;
+      w.end_ns = std::atoll(line.c_str());
+      const auto at = line.find("snapshot ");
+      if (at == std::string::npos ||
+          std::sscanf(line.c_str() + at, "snapshot %lf s in the loop (%u slices, longest %lf ms, over %lf s), write %lf s",
+                      &w.snapshot_s, &w.slices, &w.slice_max_ms, &w.span_s, &w.write_s) != 5)
+        continue;
+      if (const auto c = line.find(" requests coalesced"); c != std::string::npos) {
+        const auto from = line.rfind(' ', c - 1);
+        coalesced = std::strtoull(line.c_str() + from + 1, nullptr, 10);
+      }
+      w.start_ns = w.end_ns - static_cast<std::int64_t>((w.span_s + w.write_s) * 1e9);
+      writes.push_back(w);
     }
   }
   if (!writes.empty()) {
     std::vector<double> during, outside;
     for (const auto& [fused, ms] : fused_at) {
       bool in = false;
-      for (const auto& [a, b] : writes) in = in || (fused >= a && fused <= b);
+      for (const WriteEvent& w : writes) in = in || (fused >= w.start_ns && fused <= w.end_ns);
       (in ? during : outside).push_back(ms);
     }
     const std::int64_t feed_start_rt = now_realtime().ns() - static_cast<std::int64_t>(to_seconds(now_monotonic() - wall0) * 1e9);
-    std::printf("model writes: %zu; at robot time (s) / duration (s):", writes.size());
-    for (const auto& [a, b] : writes) {
-      std::printf(" %.0f/%.2f", static_cast<double>(a - feed_start_rt) * 1e-9 * o.warp, static_cast<double>(b - a) * 1e-9);
+    double stall_max_ms = 0, write_max_s = 0;
+    std::printf("model writes: %zu (%llu requests coalesced); at robot time (s): snapshot in the loop (ms, slices, "
+                "longest slice ms, span s) / writer thread (s):",
+                writes.size(), coalesced);
+    for (const WriteEvent& w : writes) {
+      std::printf(" %.0f: %.1f, %u, %.1f, %.1f / %.2f", static_cast<double>(w.start_ns - feed_start_rt) * 1e-9 * o.warp,
+                  w.snapshot_s * 1e3, w.slices, w.slice_max_ms, w.span_s, w.write_s);
+      stall_max_ms = std::max(stall_max_ms, w.slice_max_ms);
+      write_max_s = std::max(write_max_s, w.write_s);
     }
-    std::printf("\nscan -> fused map p99 during writes %.1f ms (%zu scans), outside writes %.1f ms (%zu scans)\n",
+    std::printf("\nmodel writes: longest loop stall %.1f ms, longest write on the writer thread %.2f s\n", stall_max_ms, write_max_s);
+    std::printf("scan -> fused map p99 during writes %.1f ms (%zu scans), outside writes %.1f ms (%zu scans)\n",
                 quantile(during, 0.99), during.size(), quantile(outside, 0.99), outside.size());
   }
   std::printf("station exit: %s\n", exited ? "clean (final model pass done)" : "killed after --stop-timeout (final model pass not waited for)");

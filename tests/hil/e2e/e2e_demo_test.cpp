@@ -3,8 +3,8 @@
 // the robot's last status said it had published), the ground station's own live fused model and the
 // post-run evaluation of the session agree with the offline evaluation of the same scenario and seed
 // within the demo's stated tolerance (docs/demo.md), the station's model decides every point exactly as
-// `teamscan eval` of its session, the station measured scan -> fused map, and every process stopped
-// cleanly with exit code 0.
+// `teamscan eval` of its session (for best and for each paper method, decided side by side), the station
+// measured scan -> fused map, and every process stopped cleanly with exit code 0.
 #include <gtest/gtest.h>
 
 #include "tests/hil/e2e/e2e_support.hpp"
@@ -59,6 +59,16 @@ TEST(E2eDemo, Lap2LiveRunDeliversEveryScanAndAgreesWithOfflineEval) {
   EXPECT_GT(json_number(s, "compared", se), 0.5 * (json_number(s, "compared", se) + json_number(s, "not_in_model", se))) << s;
   EXPECT_EQ(json_number(s, "station_da", se), json_number(s, "eval_da", se)) << s;
   EXPECT_EQ(json_number(s, "station_sa", se), json_number(s, "eval_sa", se)) << s;
+  // The paper's methods decided side by side in the station (--station-compare paper, the default): each
+  // method's model gives every point the decision `teamscan eval` of the session gives it with that method.
+  const std::size_t by_method = s.find("\"station_vs_session_eval_by_method\":");
+  ASSERT_NE(by_method, std::string::npos) << s;
+  for (const char* m : {"best", "frequency", "visibility", "position", "direction", "combined"}) {
+    const std::size_t at = s.find("{\"method\": \"" + std::string(m) + "\"", by_method);
+    ASSERT_NE(at, std::string::npos) << m << "\n" << s;
+    EXPECT_EQ(json_value(s, "identical", at), "true") << m << "\n" << log;
+    EXPECT_EQ(json_number(s, "mismatches", at), 0) << m;
+  }
   // The station measured scan -> fused map for every scan it fused; it cannot be faster than storing.
   EXPECT_EQ(json_value(s, "fused_latency_present"), "true") << log;
   EXPECT_GE(json_number(s, "fused_latency_scans"), 0.95 * 2 * 1425) << s;

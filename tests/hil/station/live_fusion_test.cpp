@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <thread>
 #include <tuple>
 
@@ -21,6 +22,9 @@
 #include "common/dataset/pcd.hpp"
 #include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/mapping/filter.hpp"
+#include "groundstation/station/config.hpp"
+#include "groundstation/station/fusion.hpp"
+#include "groundstation/station/model_check.hpp"
 #include "groundstation/station/session_replay.hpp"
 #include "onboard/bridge/bridge.hpp"
 #include "dds/qos.hpp"
@@ -83,8 +87,9 @@ struct Robots {
   std::vector<onboard::DdsBridge> bridges;
 };
 
-// Publishes the survey in time order: each robot's odometry pose at the stamp, then its scan.
-void publish_survey(Robots& robots, const Dataset& d, const std::string& poses_csv) {
+// Publishes the survey in time order: each robot's odometry pose at the stamp, then its scan. Pose seqs
+// and the rows awaited in poses.csv count on from `poses_before` (a survey published in parts).
+void publish_survey(Robots& robots, const Dataset& d, const std::string& poses_csv, std::size_t poses_before = 0) {
   static onboard::OnboardScan scan;
   std::map<std::pair<std::uint8_t, std::uint32_t>, std::vector<const LabelledPoint*>> points;
   for (const LabelledPoint& p : d.points) points[{p.robot, p.scan}].push_back(&p);
@@ -97,7 +102,7 @@ void publish_survey(Robots& robots, const Dataset& d, const std::string& poses_c
       const TrajectorySample& s = d.odom[next_odom++];
       onboard::OnboardPose pose;
       pose.robot_id = s.robot;
-      pose.seq = static_cast<std::uint32_t>(next_odom);
+      pose.seq = static_cast<std::uint32_t>(poses_before + next_odom);
       pose.stamp_ns = s.stamp_ns;
       pose.x_mm = mm(s.pose.x_m);
       pose.y_mm = mm(s.pose.y_m);
@@ -109,7 +114,7 @@ void publish_survey(Robots& robots, const Dataset& d, const std::string& poses_c
       // teamscan/pose is keep-last 1: wait until the station has stored this pose before sending the
       // next, so a loaded machine cannot make the station miss one (bounded: 10 s per pose).
       const auto deadline = std::chrono::steady_clock::now() + 10s;
-      while (csv_rows(poses_csv) < next_odom && std::chrono::steady_clock::now() < deadline)
+      while (csv_rows(poses_csv) < poses_before + next_odom && std::chrono::steady_clock::now() < deadline)
         std::this_thread::sleep_for(1ms);
     }
     scan.robot_id = r.robot;
@@ -320,6 +325,106 @@ TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Methods, LiveFusion, ::testing::Values("combined", "direction", "visibility"));
+
+// The station deciding every method side by side (`best` primary, the seven others in
+// [fusion] compare_methods), with periodic model writes off its loop, killed halfway and restarted on
+// its session folder: each method's model file gives every point the decision `teamscan eval` of the
+// session gives it with that method (model_check, the demo's identity check).
+TEST(LiveFusionCompared, EveryMethodsModelEqualsEvalOfTheSessionAcrossARestart) {
+  char tmpl[] = "/tmp/teamscan-station-compared-XXXXXX";
+  const std::string root = ::mkdtemp(tmpl);
+  const std::string session = root + "/session";
+  const std::string config = root + "/gs.toml";
+  {
+    std::ofstream c(config);
+    c << "[team.kalman]\nlost_after_s = 60.0\n"
+      << "[fusion]\nmethod = \"best\"\ncompare_methods = [\"frequency\", \"visibility\", \"position\", \"direction\", "
+         "\"combined\", \"freespace\", \"tracked\"]\nwrite_interval_s = 0.2\nwrite_all_points = true\n"
+      << "[view]\nlisten = \"\"\n";
+  }
+  station::GroundStationConfig cfg;
+  station::ConfigError cerr;
+  ASSERT_TRUE(station::load_groundstation_config(config, cfg, cerr)) << cerr.message;
+  const station::FusionOptions options = station::fusion_options_from_config(cfg.fusion, cfg.kalman);
+
+  const std::int64_t base_ns = now_realtime().ns() - 4'000'000'000;
+  const Dataset survey = make_survey(base_ns);
+  // The survey in two parts at its middle stamp: before the kill, after the restart.
+  const std::int64_t split_ns = survey.scans[survey.scans.size() / 2].stamp_ns;
+  Dataset first = survey, second = survey;
+  auto before = [&](std::int64_t t) { return t < split_ns; };
+  std::erase_if(first.scans, [&](const ScanRecord& r) { return !before(r.stamp_ns); });
+  std::erase_if(first.odom, [&](const TrajectorySample& s) { return !before(s.stamp_ns); });
+  std::erase_if(second.scans, [&](const ScanRecord& r) { return before(r.stamp_ns); });
+  std::erase_if(second.odom, [&](const TrajectorySample& s) { return before(s.stamp_ns); });
+  ASSERT_FALSE(first.scans.empty());
+  ASSERT_FALSE(second.scans.empty());
+
+  Robots robots;
+  for (std::uint32_t id : {1u, 2u}) {
+    onboard::DdsBridgeOptions o;
+    o.robot_id = id;
+    o.domain_id = test::test_domain_id();
+    auto b = onboard::DdsBridge::create(o);
+    ASSERT_TRUE(b.ok()) << b.error().what;
+    robots.bridges.push_back(std::move(b.value()));
+  }
+  auto start_station = [&] {
+    return std::make_unique<test::ChildProcess>(std::vector<std::string>{
+        TEAMSCAN_GROUNDSTATION, "--config", config, "--session-dir", session, "--domain", test::test_domain_arg()});
+  };
+  auto wait_subscribed = [&] {
+    for (auto& b : robots.bridges) {
+      const auto deadline = std::chrono::steady_clock::now() + 15s;
+      while (b.scan_subscribers() < 1 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(10ms);
+      ASSERT_EQ(b.scan_subscribers(), 1u);
+    }
+    std::this_thread::sleep_for(200ms);  // pose reader matched too
+  };
+  {
+    auto gs = start_station();
+    wait_subscribed();
+    publish_survey(robots, first, session + "/poses.csv");
+    std::this_thread::sleep_for(1s);  // held scans released, periodic writes
+    gs->signal(SIGKILL);              // a crash: no orderly shutdown, held scans lost
+    ASSERT_TRUE(gs->wait(10s).has_value());
+  }
+  {
+    auto gs = start_station();
+    wait_subscribed();
+    publish_survey(robots, second, session + "/poses.csv", first.odom.size());
+    std::this_thread::sleep_for(500ms);
+    gs->signal(SIGTERM);
+    const auto st = gs->wait(60s);
+    ASSERT_TRUE(st.has_value());
+    EXPECT_TRUE(WIFEXITED(*st) && WEXITSTATUS(*st) == 0);
+  }
+  std::ifstream events(session + "/events.log");
+  std::string line;
+  std::size_t periodic = 0, rebuilt = 0;
+  while (std::getline(events, line)) {
+    if (line.find("fused model written (periodic)") != std::string::npos && line.find("8 models") != std::string::npos) ++periodic;
+    if (line.find("fusion: rebuilt from the session folder") != std::string::npos) ++rebuilt;
+  }
+  EXPECT_GT(periodic, 0u) << "no periodic write off the loop was logged";
+  EXPECT_EQ(rebuilt, 1u);
+
+  std::vector<std::string> methods{options.core.method};
+  methods.insert(methods.end(), options.compare_methods.begin(), options.compare_methods.end());
+  ASSERT_EQ(methods.size(), 8u);
+  for (const std::string& m : methods) {
+    const station::FusionOptions om = station::compared_options(options, m);
+    auto check = station::check_model_against_eval(session, om);
+    ASSERT_TRUE(check.ok()) << m << ": " << check.error().what;
+    EXPECT_EQ(check->compared, survey.points.size()) << m;
+    EXPECT_EQ(check->not_in_model, 0u) << m;
+    EXPECT_EQ(check->model_unknown, 0u) << m;
+    EXPECT_EQ(check->mismatches, 0u) << m << ": " << check->mismatches << " of " << check->compared << " decisions differ";
+    std::printf("[compared] %-10s %llu points, %llu decisions differ from `teamscan eval SESSION`\n", m.c_str(),
+                static_cast<unsigned long long>(check->compared), static_cast<unsigned long long>(check->mismatches));
+  }
+  if (std::getenv("GSLIVE_KEEP_SESSION") == nullptr) std::filesystem::remove_all(root);
+}
 
 }  // namespace
 }  // namespace teamscan

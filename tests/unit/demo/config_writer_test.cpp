@@ -58,6 +58,7 @@ TEST(DemoConfig, StationConfigParsesWithTheStationsParser) {
   in.session_root = "/tmp/demo-out";
   in.domain = 42;
   in.method = "visibility";
+  in.compare_methods = {"position", "best"};
   in.write_interval_s = 5.0;
   const std::string text = station_config(in);
   station::GroundStationConfig c;
@@ -66,6 +67,7 @@ TEST(DemoConfig, StationConfigParsesWithTheStationsParser) {
   EXPECT_EQ(c.session_root, "/tmp/demo-out");
   EXPECT_EQ(c.station.domain_id, 42u);
   EXPECT_EQ(c.fusion.method, "visibility");
+  EXPECT_EQ(c.fusion.compare_methods, (std::vector<std::string>{"position", "best"}));
   EXPECT_TRUE(c.fusion.enabled);
   EXPECT_TRUE(c.fusion.write_all_points);
   EXPECT_TRUE(c.fusion.latency_log);

@@ -8,6 +8,8 @@
 #include "common/point_flags.hpp"
 #include "groundstation/station/session_store.hpp"
 #include "tests/unit/demo/temp_dir.hpp"
+#include "groundstation/mapping/filter.hpp"
+#include "tools/demo/demo.hpp"
 #include "tools/demo/scoring.hpp"
 
 namespace teamscan::demo {
@@ -82,6 +84,39 @@ TEST(DemoScoring, SessionEvalCheckFailsOnWhatItCannotRead) {
   EXPECT_FALSE(no_session.identical);
   EXPECT_FALSE(no_session.error.empty());
   EXPECT_EQ(no_session.method, "best");
+  EXPECT_TRUE(no_session.primary);
+
+  // Every model the station wrote, its method first: none of them passes on an empty session.
+  write_file(dir.path() + "/groundstation.toml",
+             "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"best\"\ncompare_methods = [\"position\"]\n");
+  const std::vector<SessionEvalCheck> all =
+      check_station_models_against_session_eval(dir.path() + "/session", dir.path() + "/groundstation.toml", {}, {});
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_EQ(all[0].method, "best");
+  EXPECT_TRUE(all[0].primary);
+  EXPECT_EQ(all[1].method, "position");
+  EXPECT_FALSE(all[1].primary);
+  for (const SessionEvalCheck& c : all) EXPECT_FALSE(c.identical);
+  const std::vector<SessionEvalCheck> none =
+      check_station_models_against_session_eval(dir.path() + "/session", dir.path() + "/none.toml", {}, {});
+  ASSERT_EQ(none.size(), 1u);
+  EXPECT_FALSE(none[0].identical);
+}
+
+TEST(DemoOptions, StationCompareMethods) {
+  DemoOptions a;
+  a.station_method = "best";
+  std::vector<std::string> paper = mapping::known_methods();
+  EXPECT_EQ(station_compare_methods(a), paper);  // "paper": the paper's five, best is the station's own
+  a.station_method = "position";
+  std::vector<std::string> expected = mapping::known_methods();
+  std::erase(expected, std::string("position"));
+  expected.push_back("best");
+  EXPECT_EQ(station_compare_methods(a), expected);
+  a.station_compare = "none";
+  EXPECT_TRUE(station_compare_methods(a).empty());
+  a.station_compare = "tracked,,freespace";
+  EXPECT_EQ(station_compare_methods(a), (std::vector<std::string>{"tracked", "freespace"}));
 }
 
 TEST(DemoScoring, LatencyHistogramSummaries) {

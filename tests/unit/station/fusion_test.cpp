@@ -4,12 +4,14 @@
 // account for every point; the wire flags map to the data set's; the [fusion] config keys parse.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <set>
+#include <thread>
 #include <numeric>
 
 #include "common/dataset/pcd.hpp"
@@ -407,6 +409,252 @@ TEST(FusionConfig, BadValuesNameTheirKey) {
   EXPECT_EQ(e.message.rfind("fusion.write_all_points:", 0), 0u) << e.message;
   EXPECT_FALSE(parse_groundstation_config("[fusion]\nmethd = \"visibility\"\n", "t.toml", c, e));
   EXPECT_EQ(e.message.rfind("fusion.methd: unknown key", 0), 0u) << e.message;
+}
+
+TEST(FusionConfig, CompareMethodsAreKnownOtherThanThePrimaryAndListedOnce) {
+  GroundStationConfig c;
+  ConfigError e;
+  ASSERT_TRUE(parse_groundstation_config("[fusion]\nmethod = \"best\"\ncompare_methods = [\"position\", \"direction\"]\n"
+                                         "write_all_points = true\n", "t.toml", c, e))
+      << e.message;
+  ASSERT_EQ(c.fusion.compare_methods, (std::vector<std::string>{"position", "direction"}));
+  EXPECT_DOUBLE_EQ(c.fusion.write_slice_ms, 2.0);
+  FusionOptions o = fusion_options_from_config(c.fusion, c.kalman);
+  EXPECT_EQ(o.compare_methods, c.fusion.compare_methods);
+  GroundStationConfig sliced;
+  ASSERT_TRUE(parse_groundstation_config("[fusion]\nwrite_slice_ms = 0.5\n", "t.toml", sliced, e)) << e.message;
+  EXPECT_DOUBLE_EQ(fusion_options_from_config(sliced.fusion, sliced.kalman).write_slice_ms, 0.5);
+  const FusionOptions p = compared_options(o, "position");
+  EXPECT_EQ(p.core.method, "position");
+  EXPECT_EQ(p.kept_pcd, "fused.position.pcd");
+  EXPECT_EQ(p.all_points_pcd, "fused_all.position.pcd");
+  EXPECT_TRUE(p.compare_methods.empty());
+  EXPECT_EQ(compared_options(o, "best").all_points_pcd, "fused_all.pcd");
+  EXPECT_EQ(method_file_name("model", "tracked"), "model.tracked");
+  GroundStationConfig d;
+  EXPECT_TRUE(d.fusion.compare_methods.empty());  // default: none
+
+  const std::pair<const char*, const char*> bad[] = {
+      {"[fusion]\ncompare_methods = [\"magic\"]\n", "fusion.compare_methods: must list methods among"},
+      {"[fusion]\ncompare_methods = [\"best\"]\n", "fusion.compare_methods: \"best\" is fusion.method"},
+      {"[fusion]\ncompare_methods = [\"position\", \"position\"]\n", "fusion.compare_methods: \"position\" is listed twice"},
+      {"[fusion]\ncompare_methods = \"position\"\n", "fusion.compare_methods: must be an array of strings"},
+      {"[fusion]\ncompare_methods = [1]\n", "fusion.compare_methods: must be an array of strings"},
+      {"[fusion]\nwrite_slice_ms = -1\n", "fusion.write_slice_ms: must be in"},
+  };
+  for (const auto& [text, message] : bad) {
+    GroundStationConfig b;
+    EXPECT_FALSE(parse_groundstation_config(text, "t.toml", b, e)) << text;
+    EXPECT_EQ(e.message.rfind(message, 0), 0u) << e.message;
+  }
+  // The stage refuses them too (options built in code).
+  FusionOptions f;
+  f.compare_methods = {"magic"};
+  EXPECT_FALSE(FusionStage::create(f, "/tmp").ok());
+  f.compare_methods = {"best"};
+  EXPECT_FALSE(FusionStage::create(f, "/tmp").ok());
+  f.compare_methods = {"position", "position"};
+  EXPECT_FALSE(FusionStage::create(f, "/tmp").ok());
+}
+
+// The streamed model file has the bytes common/dataset's PCD writer gives the same rows.
+TEST(Fusion, StreamedModelFilesAreThePcdWritersBytes) {
+  const Dataset d = survey();
+  const std::string dir = temp_dir();
+  FusionOptions o;
+  o.core.method = "combined";
+  o.core.max_points_per_voxel = 3;  // some capped
+  o.all_points_pcd = "fused_all.pcd";
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  feed(**stage, d);
+  ASSERT_TRUE((*stage)->write_model().ok());
+  PcdCloud kept, every;
+  kept.fields = {"x", "y", "z", "robot", "scan", "beam"};
+  kept.columns.assign(6, {});
+  every.fields = {"x", "y", "z", "robot", "scan", "beam", "keep", "live_keep"};
+  every.columns.assign(8, {});
+  (*stage)->core().for_each_model_point([&](const fusion::ModelPoint& m, bool removed) {
+    const double row[8] = {m.p.x, m.p.y, m.p.z, double(m.robot), double(m.seq), double(m.beam), removed ? 0.0 : 1.0,
+                           m.removed_at_release ? 0.0 : 1.0};
+    for (std::size_t c = 0; c < 6 && !removed; ++c) kept.columns[c].push_back(row[c]);
+    for (std::size_t c = 0; c < 8; ++c) every.columns[c].push_back(row[c]);
+  });
+  ASSERT_GT(kept.columns[0].size(), 0u);
+  ASSERT_GT(every.columns[0].size(), kept.columns[0].size());
+  const std::vector<PcdField> layout = {{"x", 4, 'F', 1},     {"y", 4, 'F', 1},    {"z", 4, 'F', 1},
+                                        {"robot", 1, 'U', 1}, {"scan", 4, 'U', 1}, {"beam", 2, 'U', 1}};
+  std::vector<PcdField> layout_all = layout;
+  layout_all.push_back({"keep", 1, 'U', 1});
+  layout_all.push_back({"live_keep", 1, 'U', 1});
+  auto file = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(in), {});
+  };
+  auto want_kept = encode_pcd(kept, layout);
+  auto want_all = encode_pcd(every, layout_all);
+  ASSERT_TRUE(want_kept.ok());
+  ASSERT_TRUE(want_all.ok());
+  EXPECT_EQ(file(dir + "/fused.pcd"), *want_kept);
+  EXPECT_EQ(file(dir + "/fused_all.pcd"), *want_all);
+  std::filesystem::remove_all(dir);
+}
+
+// request_write(): the snapshot in the caller's loop, in slices over several poll_write() turns, the
+// files on the writer thread; requests while a write is in flight are counted and served by one write
+// after it; the files are those of a synchronous write of the same state; a failing write is counted
+// and reported, not thrown.
+// A snapshot taken in slices while new scans arrive holds every point stored before it started, and no
+// point twice.
+TEST(Fusion, ASnapshotInSlicesHoldsEveryPointStoredBeforeItStarted) {
+  const Dataset d = survey();
+  const std::int64_t split_ns = d.scans[d.scans.size() / 2].stamp_ns;
+  Dataset first = d, second = d;
+  std::erase_if(first.scans, [&](const ScanRecord& r) { return r.stamp_ns >= split_ns; });
+  std::erase_if(first.odom, [&](const TrajectorySample& t) { return t.stamp_ns >= split_ns; });
+  std::erase_if(second.scans, [&](const ScanRecord& r) { return r.stamp_ns < split_ns; });
+  std::erase_if(second.odom, [&](const TrajectorySample& t) { return t.stamp_ns < split_ns; });
+  const std::string dir = temp_dir();
+  FusionOptions o;
+  o.core.method = "best";
+  o.core.max_points_per_voxel = 100000;
+  o.all_points_pcd = "fused_all.pcd";
+  o.write_slice_ms = 0;
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  FusionStage& f = **stage;
+  feed(f, first);
+  const std::uint64_t stored_before = f.core().counters().stored_points;
+  f.request_write();
+  ASSERT_TRUE(f.write_in_flight());
+  feed(f, second);  // new points into voxels taken and not yet taken, and new voxels
+  ASSERT_GT(f.core().counters().stored_points, stored_before);
+  f.wait_for_write();
+  ASSERT_TRUE(f.poll_write());
+  ASSERT_TRUE(f.last_write().ok);
+  auto all = read_pcd(dir + "/fused_all.pcd");
+  ASSERT_TRUE(all.ok());
+  const int fr = all->field("robot"), fs = all->field("scan"), fb = all->field("beam");
+  std::set<std::tuple<int, std::uint32_t, int>> rows;
+  for (std::size_t i = 0; i < all->size(); ++i) {
+    auto col = [&](int c) { return all->columns[static_cast<std::size_t>(c)][i]; };
+    EXPECT_TRUE(rows.insert({static_cast<int>(col(fr)), static_cast<std::uint32_t>(col(fs)), static_cast<int>(col(fb))}).second);
+  }
+  std::size_t first_points = 0;
+  for (const LabelledPoint& p : d.points) {
+    if (std::none_of(first.scans.begin(), first.scans.end(), [&](const ScanRecord& r) { return r.robot == p.robot && r.scan == p.scan; }))
+      continue;
+    ++first_points;
+    EXPECT_EQ(rows.count({p.robot, p.scan, p.beam}), 1u) << "robot " << int(p.robot) << " scan " << p.scan;
+  }
+  EXPECT_EQ(first_points, stored_before);
+  EXPECT_LT(rows.size(), d.points.size());  // the voxels new since the start wait for the next write
+  std::filesystem::remove_all(dir);
+}
+
+// The shutdown write while a periodic write is still being taken: the periodic one is abandoned (no
+// file, no temporary left), the synchronous one written and counted.
+TEST(Fusion, TheShutdownWriteReplacesAPeriodicWriteInProgress) {
+  const Dataset d = survey();
+  const std::string dir = temp_dir();
+  FusionOptions o;
+  o.core.max_points_per_voxel = 100000;
+  o.all_points_pcd = "fused_all.pcd";
+  o.write_slice_ms = 0;
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  FusionStage& f = **stage;
+  feed(f, d);
+  f.request_write();
+  ASSERT_TRUE(f.write_in_flight());
+  ASSERT_TRUE(f.write_model().ok());
+  EXPECT_FALSE(f.write_in_flight());
+  EXPECT_EQ(f.counters().writes, 1u);
+  EXPECT_FALSE(f.last_write().on_writer_thread);
+  EXPECT_FALSE(f.poll_write());  // nothing else finished
+  auto all = read_pcd(dir + "/fused_all.pcd");
+  ASSERT_TRUE(all.ok());
+  EXPECT_EQ(all->size(), d.points.size());
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Fusion, WritesOffTheLoopAreCoalescedAndEqualASynchronousWrite) {
+  const Dataset d = survey();
+  const std::string dir = temp_dir(), sync_dir = temp_dir();
+  FusionOptions o;
+  o.core.method = "best";
+  o.core.max_points_per_voxel = 100000;
+  o.all_points_pcd = "fused_all.pcd";
+  o.compare_methods = {"position", "visibility"};
+  o.write_slice_ms = 0;  // one step (64 model voxels of one core) per turn
+  auto stage = FusionStage::create(o, dir);
+  auto sync_stage = FusionStage::create(o, sync_dir);
+  ASSERT_TRUE(stage.ok());
+  ASSERT_TRUE(sync_stage.ok());
+  std::vector<ModelWriteReport> reports;
+  (*stage)->set_write_callback([&](const ModelWriteReport& r) { reports.push_back(r); });
+  feed(**stage, d);
+  feed(**sync_stage, d);
+  FusionStage& f = **stage;
+  f.request_write();
+  ASSERT_TRUE(f.write_in_flight());  // the snapshot is still being taken
+  // Two requests while it runs: counted, one write follows.
+  f.request_write();
+  f.request_write();
+  EXPECT_EQ(f.counters().writes_coalesced, 2u);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while ((f.write_in_flight() || f.counters().writes < 2u) && std::chrono::steady_clock::now() < deadline) {
+    (void)f.poll_write();  // one turn of the loop
+    std::this_thread::sleep_for(std::chrono::microseconds(50));
+  }
+  (void)f.poll_write();
+  EXPECT_FALSE(f.write_in_flight());
+  EXPECT_EQ(f.counters().writes, 2u);
+  EXPECT_EQ(f.counters().write_failures, 0u);
+  ASSERT_EQ(reports.size(), 2u);
+  EXPECT_TRUE(reports.back().on_writer_thread);
+  const std::size_t voxels = f.core().model_voxels() + f.compared_core("position")->model_voxels() +
+                             f.compared_core("visibility")->model_voxels();
+  // Steps of 64 voxels, one per turn (a turn that finishes a core takes the next core's first step too).
+  EXPECT_GE(reports.back().snapshot_slices, voxels / 64 - 2);
+  EXPECT_LE(reports.back().snapshot_slices, (voxels + 63) / 64 + 3);
+  EXPECT_GE(reports.back().snapshot_span_s, reports.back().snapshot_s * 0.5);
+  EXPECT_EQ(reports.back().points, 3 * d.points.size());  // three cores, every point stored
+  EXPECT_EQ(reports.back().kept + reports.back().removed, d.points.size());
+  ASSERT_TRUE((*sync_stage)->write_model().ok());
+  EXPECT_FALSE((*sync_stage)->last_write().on_writer_thread);
+  auto file = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(in), {});
+  };
+  for (const char* name : {"fused.pcd", "fused_all.pcd", "fused.position.pcd", "fused_all.position.pcd",
+                           "fused.visibility.pcd", "fused_all.visibility.pcd"}) {
+    const auto a = file(dir + "/" + name);
+    EXPECT_FALSE(a.empty()) << name;
+    EXPECT_EQ(a, file(sync_dir + "/" + name)) << name;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/" + name + ".tmp")) << name;
+  }
+  // The shutdown write after async ones: synchronous, counted.
+  ASSERT_TRUE(f.write_model().ok());
+  EXPECT_EQ(reports.size(), f.counters().writes);
+  EXPECT_FALSE(reports.back().on_writer_thread);
+
+  // A failing write off the loop: counted and reported with its error.
+  auto bad = FusionStage::create(o, "/nonexistent/teamscan/station");
+  ASSERT_TRUE(bad.ok());
+  ModelWriteReport failed;
+  (*bad)->set_write_callback([&](const ModelWriteReport& r) { failed = r; });
+  (*bad)->request_write();
+  (*bad)->wait_for_write();
+  EXPECT_TRUE((*bad)->poll_write());
+  EXPECT_EQ((*bad)->counters().write_failures, 1u);
+  EXPECT_EQ((*bad)->counters().writes, 0u);
+  EXPECT_FALSE(failed.ok);
+  EXPECT_NE(std::string(failed.error.what).find("fused PCD"), std::string::npos) << failed.error.what;
+  std::filesystem::remove_all(dir);
+  std::filesystem::remove_all(sync_dir);
 }
 
 }  // namespace

@@ -1,18 +1,20 @@
 // A station restart: the session folder (scans.bin + poses.csv written by SessionStore) replayed through
 // the fusion core, then the rest of the survey live, decides every point as an uninterrupted run and as
 // `teamscan eval` of the session (read_session_dataset + the core in time order); a robot that goes silent
-// keeps its teammates' hits on it removed.
+// keeps its teammates' hits on it removed; every compared method's model equals eval with that method.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <tuple>
 
 #include "common/dataset/pcd.hpp"
 #include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/station/fusion.hpp"
+#include "groundstation/station/model_check.hpp"
 #include "groundstation/station/session_replay.hpp"
 #include "groundstation/station/session_store.hpp"
 #include "teamscan.h"
@@ -194,6 +196,70 @@ TEST(SessionReplay, ARestartedStationDecidesAsTheUninterruptedRunAndAsEvalOfTheS
     removed += eval[i];
   }
   EXPECT_GT(removed, 0u);
+  std::filesystem::remove_all(whole);
+  std::filesystem::remove_all(restarted);
+}
+
+// Every method side by side in one station (best primary, the others compared), killed halfway and
+// restarted on its session folder: each method's model file gives every point the decision `teamscan
+// eval` of the session gives it with that method (model_check, as the demo checks it), and the
+// decisions of the uninterrupted run.
+TEST(SessionReplay, EveryComparedMethodsModelEqualsEvalOfTheSessionAfterARestart) {
+  const Dataset d = survey();
+  const Feed f = make_feed(d);
+  const std::size_t half = f.samples.size() / 2;
+  FusionOptions o = options();
+  for (const char* m : {"frequency", "visibility", "position", "direction", "combined", "freespace", "tracked"})
+    o.compare_methods.push_back(m);
+  const std::string whole = temp_dir(), restarted = temp_dir();
+  {
+    auto s = SessionStore::open(whole);
+    ASSERT_TRUE(s.ok());
+    auto stage = FusionStage::create(o, whole);
+    ASSERT_TRUE(stage.ok());
+    run(f, 0, f.samples.size(), &*s, **stage);
+    (*stage)->flush();
+    ASSERT_TRUE((*stage)->write_model().ok());
+  }
+  {
+    auto s = SessionStore::open(restarted);
+    ASSERT_TRUE(s.ok());
+    {
+      auto first = FusionStage::create(o, restarted);
+      ASSERT_TRUE(first.ok());
+      run(f, 0, half, &*s, **first);
+      (*first)->request_write();  // a periodic write in flight when it dies: replaced by the final one
+    }
+    s->sync();
+    auto second = FusionStage::create(o, restarted);
+    ASSERT_TRUE(second.ok());
+    ASSERT_TRUE((*second)->replay_session(restarted).ok());
+    run(f, half > 200 ? half - 200 : 0, f.samples.size(), &*s, **second);
+    (*second)->flush();
+    ASSERT_TRUE((*second)->write_model().ok());
+    for (const std::string& m : o.compare_methods) {
+      const fusion::FusionCore* c = (*second)->compared_core(m);
+      ASSERT_NE(c, nullptr) << m;
+      EXPECT_EQ(c->counters().points, (*second)->core().counters().points) << m;  // the same input
+    }
+  }
+  std::vector<std::string> methods{o.core.method};
+  methods.insert(methods.end(), o.compare_methods.begin(), o.compare_methods.end());
+  std::set<std::vector<bool>> distinct;
+  for (const std::string& m : methods) {
+    const FusionOptions om = compared_options(o, m);
+    auto check = check_model_against_eval(restarted, om);
+    ASSERT_TRUE(check.ok()) << m << ": " << check.error().what;
+    EXPECT_EQ(check->compared, d.points.size()) << m;
+    EXPECT_EQ(check->not_in_model, 0u) << m;
+    EXPECT_EQ(check->model_unknown, 0u) << m;
+    EXPECT_EQ(check->mismatches, 0u) << m;
+    std::vector<bool> removed;
+    for (const PointDecision& p : check->points) removed.push_back(p.eval_removed);
+    distinct.insert(removed);
+    EXPECT_EQ(model_decisions(whole + "/" + om.all_points_pcd), model_decisions(restarted + "/" + om.all_points_pcd)) << m;
+  }
+  EXPECT_GE(distinct.size(), 4u);  // the methods really differ: each file is its own method's
   std::filesystem::remove_all(whole);
   std::filesystem::remove_all(restarted);
 }
