@@ -153,7 +153,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<FusionStage> fusion;
   std::vector<teamscan_msg_MapVoxel> map_voxels;
   if (cfg.fusion.enabled) {
-    auto created = FusionStage::create(fusion_options_from_config(cfg.fusion, cfg.kalman), store->dir());
+    auto created = FusionStage::create(fusion_options_from_config(cfg.fusion, cfg.kalman, cfg.registration), store->dir());
     if (!created) {
       log(kErr, created.error().what);
       return 1;

@@ -34,8 +34,8 @@ struct EvalArgs {
   std::optional<double> resolution_m;
   std::optional<double> half_angle_deg;
   std::uint64_t seed = 1;
-  bool registration = false;     // scan-to-map registration before the filters (docs/registration.md)
-  bool no_registration = false;  // odometry alone (the default until the live station registers too)
+  bool registration = false;     // scan-to-map registration in the fusion core (docs/registration.md)
+  bool no_registration = false;  // odometry alone (the default, as the station's [fusion] registration)
   std::string json_path;
   std::string out_dir;
   // Named interpretations of the paper (PAPER_NOTES.md), defaults as there.
@@ -271,6 +271,7 @@ int run_eval(const EvalArgs& a) {
   options.pose_noise.sigma_rad = a.pose_noise_deg * 3.14159265358979323846 / 180.0;
   options.pose_noise.correlation_s = a.pose_noise_correlation_s;
   options.pose_noise.seed = a.seed;
+  options.registration = a.registration && !a.no_registration;
 
   std::string markdown, json;
   std::vector<std::string> jsons;
@@ -295,17 +296,18 @@ int run_eval(const EvalArgs& a) {
       continue;
     }
     options.progress = [&](const std::string& stage) { std::fprintf(stderr, "teamscan eval: %s: %s\n", dir.c_str(), stage.c_str()); };
-    mapping::RegistrationReport registered;
-    if (a.registration && !a.no_registration) {
-      options.progress("registration (scan-to-map, docs/registration.md)");
-      registered = mapping::register_dataset(dataset.value(), options.tracker);
-    } else {
-      registered.have_truth = !dataset.value().truth.empty();
-      mapping::measure_errors(dataset.value(), registered.pose_m_before, registered.pose_deg_before, registered.point_m_before);
-      registered.consistency_before = mapping::revisit_consistency(dataset.value());
-    }
+    // An imported 2-D log (level lasers; not a session folder, whose robots carry no mount): the
+    // registration uses planar-scan features.
+    options.registration_options.surface.planar_scans =
+        std::filesystem::exists(dir + "/dataset.toml") && mapping::level_lasers(dataset.value());
     EvalReport report = mapping::evaluate(dataset.value(), options);
-    report.registration = registered;
+    // The pictures show the cloud the metrics were computed on: where the fusion core put every point.
+    if (options.registration)
+      for (std::size_t i = 0; i < report.placed.size() && i < dataset.value().points.size(); ++i) {
+        dataset.value().points[i].x = report.placed[i].x;
+        dataset.value().points[i].y = report.placed[i].y;
+        dataset.value().points[i].z = report.placed[i].z;
+      }
     const std::string command = reproduce_command(a, dir);
     const std::string md = mapping::report_markdown(report, command);
     std::fputs(md.c_str(), stdout);
@@ -363,8 +365,8 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
   app.add_option("--half-angle", a->half_angle_deg, "Direction-filter cone half-angle ha in degrees (paper: 5, 7)")
       ->check(CLI::Range(0.0, 60.0));
   app.add_flag("--registration", a->registration,
-               "Correct each robot's odometry drift by scan-to-map registration before the filters; reports pose and point "
-               "error before/after (docs/registration.md)");
+               "Correct each robot's odometry drift by scan-to-map registration in the fusion core (as the station with "
+               "[fusion] registration = true); reports pose and point error with odometry alone and registered (docs/registration.md)");
   app.add_flag("--no-registration", a->no_registration, "Odometry alone (the default)");
   app.add_option("--seed", a->seed, "RANSAC seed (the report is deterministic for a seed)")->capture_default_str();
   app.add_option("--json", a->json_path, "Write the JSON report to FILE");
