@@ -59,8 +59,11 @@ class PoseHistory {
 
   // The registration's correction of a robot's odometry (identity until set), from `from_stamp_ns` on:
   // the poses stamped at or after it (held or still to come) are corrected by it and their tracks
-  // folded again. A correction set again at the same stamp replaces the earlier one.
-  void set_map_from_odom(std::uint8_t robot, std::int64_t from_stamp_ns, const Pose2& map_from_odom);
+  // folded again. A correction set again at the same stamp replaces the earlier one. With
+  // `position_sigma_m` >= 0 it is also a measurement for the Kalman track: the track is registered
+  // (RobotTrack::registered, with the correction's σ) before the first pose stamped at or after it.
+  void set_map_from_odom(std::uint8_t robot, std::int64_t from_stamp_ns, const Pose2& map_from_odom,
+                         double position_sigma_m = -1.0, double heading_sigma_rad = 0.0);
   // The correction in force at `stamp_ns` (identity before the first).
   [[nodiscard]] Pose2 map_from_odom(std::uint8_t robot, std::int64_t stamp_ns) const;
   // Whether a robot has ever been corrected (identity is exact without one).
@@ -83,6 +86,8 @@ class PoseHistory {
   struct Correction {
     std::int64_t from_stamp_ns = 0;
     Pose2 map_from_odom;
+    double position_sigma_m = -1.0;  // < 0: a frame change only, the track is not registered
+    double heading_sigma_rad = 0.0;
   };
   struct Robot {
     std::vector<Entry> entries;  // stamp order
@@ -92,6 +97,9 @@ class PoseHistory {
   [[nodiscard]] static Pose2 correction_at(const Robot& r, std::int64_t stamp_ns);
   // Recomputes the map poses and tracks of the entries from index `from` on.
   void refold(Robot& r, std::size_t from, std::uint8_t robot) const;
+  // The track after entry k: entry k-1's (a new one for k = 0), registered by the corrections stamped
+  // in (stamp of k-1, stamp of k], updated with entry k's map pose.
+  [[nodiscard]] mapping::RobotTrack fold(const Robot& r, std::size_t k, std::uint8_t robot) const;
 
   PoseHistoryOptions options_;
   std::array<Robot, kMaxRobots + 1> robots_{};
