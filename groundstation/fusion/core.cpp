@@ -153,7 +153,6 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
   // The ready scans go in stamp order (robot, seq on a tie), whatever order they arrived in: the
   // registration's state, and with it every later scan's correction, follows the release order.
   releasing_.clear();
-  std::vector<bool> forced_flags;
   for (auto it = held_.begin(); it != held_.end();) {
     // Its own robot's poses must have passed it too (own pose), unless that robot is silent.
     const bool own_ok = poses_.known(it->robot) &&
@@ -161,23 +160,19 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
     const bool by_poses = own_ok && it->stamp_ns <= watermark;
     const bool forced = !by_poses && (all || now_ns - it->arrival_ns >= hold_ns);
     if (by_poses || forced) {
+      it->forced = forced;
       releasing_.push_back(std::move(*it));
-      forced_flags.push_back(forced);
       it = held_.erase(it);
     } else {
       ++it;
     }
   }
-  std::vector<std::size_t> order(releasing_.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    const HeldScan& x = releasing_[a];
-    const HeldScan& y = releasing_[b];
+  std::stable_sort(releasing_.begin(), releasing_.end(), [](const HeldScan& x, const HeldScan& y) {
     if (x.stamp_ns != y.stamp_ns) return x.stamp_ns < y.stamp_ns;
     if (x.robot != y.robot) return x.robot < y.robot;
     return x.seq < y.seq;
   });
-  for (std::size_t i : order) release(releasing_[i], forced_flags[i]);
+  for (HeldScan& s : releasing_) release(s, s.forced);
   releasing_.clear();
 }
 

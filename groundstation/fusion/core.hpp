@@ -11,6 +11,9 @@
 // knows have a pose stamped at or after the scan (so the team at its time is final whatever order the
 // poses came in; a robot silent for hold_s of arrival time no longer counts), or when it has waited
 // `hold_s` of arrival time; nothing is released in the first hold_s (the team is being discovered).
+// The scans ready at once are released in stamp order (robot, seq on a tie), whatever their arrival
+// order: the registration (optional) matches each released scan and corrects its robot's poses from
+// the scan's stamp on (PoseHistory), so its state must follow the same sequence live and offline.
 // The map is a sum over the released scans, so its state and every map part are the same live and
 // offline.
 //
@@ -166,6 +169,7 @@ class FusionCore {
     Vec3 origin_m;
     std::vector<mapping::MapPoint> points;
     std::vector<std::uint16_t> flags, beams;
+    bool forced = false;  // released by hold_s (set when it is released)
   };
   bool seen_before(std::uint8_t robot, std::uint32_t seq);
   [[nodiscard]] bool ready(const HeldScan& s) const;

@@ -273,6 +273,27 @@ TEST(PoseHistoryCorrection, AppliesByStampNotByArrival) {
     EXPECT_NEAR(a.map_from_robot.x_m, expected.x_m, 1e-12);
     EXPECT_NEAR(a.map_from_robot.y_m, expected.y_m, 1e-12);
   }
+  // With a σ, the correction is a measurement for the track: its drift restarts from that σ at the
+  // first pose stamped at or after the correction, whether that pose came before or after it.
+  fusion::PoseHistoryOptions drifting;
+  drifting.tracker.drift_m_per_m = 0.05;
+  fusion::PoseHistory early{drifting}, late{drifting}, none{drifting};
+  for (std::int64_t k = 0; k < 20; ++k) {
+    ASSERT_TRUE(early.add(pose(k)));
+    ASSERT_TRUE(none.add(pose(k)));
+  }
+  early.set_map_from_odom(1, 1'500'000'000, c, 0.004, 0.001);
+  none.set_map_from_odom(1, 1'500'000'000, c);
+  for (std::int64_t k = 0; k < 15; ++k) ASSERT_TRUE(late.add(pose(k)));
+  late.set_map_from_odom(1, 1'500'000'000, c, 0.004, 0.001);
+  for (std::int64_t k = 15; k < 20; ++k) ASSERT_TRUE(late.add(pose(k)));
+  const mapping::RobotEstimate e = early.team_at(1'900'000'000).robots.at(0), l = late.team_at(1'900'000'000).robots.at(0),
+                               n = none.team_at(1'900'000'000).robots.at(0);
+  EXPECT_EQ(e.drift_cov_m2(0, 0), l.drift_cov_m2(0, 0));
+  EXPECT_EQ(e.position_m.x, l.position_m.x);
+  EXPECT_LT(std::sqrt(e.drift_cov_m2(0, 0)), 0.018);  // 4 mm + 5 % of 0.25 m + 0.001 rad at 0.5 m
+  EXPECT_GT(std::sqrt(n.drift_cov_m2(0, 0)), 0.05 * 0.5 * 1.8);          // odometry alone: 5 % of 0.9 m
+  EXPECT_LT(e.drift_cov_m2(0, 0), 0.25 * n.drift_cov_m2(0, 0));
   EXPECT_EQ(before.map_from_odom(1, 999'999'999).x_m, 0.0);
   EXPECT_EQ(before.map_from_odom(1, 1'000'000'000).x_m, c.x_m);
   EXPECT_FALSE(before.corrected(2));
