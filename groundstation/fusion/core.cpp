@@ -7,6 +7,10 @@
 #include <cstdio>
 #include <cstring>
 
+#include "common/dataset/pcd.hpp"
+#include "common/point_flags.hpp"
+#include "groundstation/mapping/tracked_filter.hpp"
+
 namespace teamscan::fusion {
 
 namespace {
@@ -23,6 +27,11 @@ Result<std::unique_ptr<FusionCore>> FusionCore::create(const CoreOptions& option
   if (!(options.pose_keep_s > 0.0)) return Error{"fusion: pose_keep_s must be > 0"};
   if (options.max_points_per_voxel > 0 && !(options.model_resolution_m > 0.0))
     return Error{"fusion: model resolution must be > 0 (fusion.model_resolution_m)"};
+  if (options.registration) {
+    const registration::RegistrationOptions& r = options.registration_options;
+    if (!(r.window_s > 0.0) || !(r.match_every_s >= 0.0) || !(r.surface.voxel_m > 0.0))
+      return Error{"fusion: registration window_s and voxel_m must be > 0, match_every_s >= 0"};
+  }
   return std::unique_ptr<FusionCore>(new FusionCore(options, std::move(filter)));
 }
 
@@ -32,6 +41,7 @@ FusionCore::FusionCore(const CoreOptions& options, std::unique_ptr<mapping::Filt
       poses_{PoseHistoryOptions{options.tracker, options.pose_keep_s}},
       seq_windows_(kMaxRobots + 1) {
   if (options_.model_resolution_m > 0.0) inverse_model_resolution_ = 1.0 / options_.model_resolution_m;
+  if (options_.registration) registration_ = std::make_unique<registration::Registration>(options_.registration_options);
   bits_.reserve(kMaxBeams);
   removed_.reserve(kMaxBeams);
 }
@@ -137,6 +147,9 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
     if (now_ns - last_pose_arrival_ns_[r] >= hold_ns) continue;
     watermark = std::min(watermark, poses_.newest_stamp(r));
   }
+  // The ready scans go in stamp order (robot, seq on a tie), whatever order they arrived in: the
+  // registration's state, and with it every later scan's correction, follows the release order.
+  releasing_.clear();
   for (auto it = held_.begin(); it != held_.end();) {
     // Its own robot's poses must have passed it too (own pose), unless that robot is silent.
     const std::int64_t cutoff = poses_.cutoff(it->stamp_ns);  // the newest pose stamp that decides it
@@ -145,19 +158,74 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
     const bool by_poses = own_ok && cutoff <= watermark;
     const bool forced = !by_poses && (all || now_ns - it->arrival_ns >= hold_ns);
     if (by_poses || forced) {
-      release(*it, forced);
+      it->forced = forced;
+      releasing_.push_back(std::move(*it));
       it = held_.erase(it);
     } else {
       ++it;
     }
+  }
+  std::stable_sort(releasing_.begin(), releasing_.end(), [](const HeldScan& x, const HeldScan& y) {
+    if (x.stamp_ns != y.stamp_ns) return x.stamp_ns < y.stamp_ns;
+    if (x.robot != y.robot) return x.robot < y.robot;
+    return x.seq < y.seq;
+  });
+  for (HeldScan& s : releasing_) release(s, s.forced);
+  releasing_.clear();
+}
+
+void FusionCore::register_scan(const HeldScan& s) {
+  const PoseHistory::ScanPose own = poses_.scan_pose(s.robot, s.stamp_ns);
+  if (!own.found) return;  // no odometry of its own: nothing to correct
+  // Teammates' bodies at the scan's time (their corrected tracks): hits on them must not pull the match.
+  const mapping::TeamState team = poses_.team_at(s.stamp_ns);
+  std::vector<mapping::BodyBox> boxes;
+  const Pose2 correction = poses_.map_from_odom(s.robot, s.stamp_ns);
+  const Vec3 sensor = registration::corrected(correction, s.origin_m);
+  for (const mapping::RobotEstimate& e : team.robots) {
+    if (!e.valid || e.robot == s.robot) continue;
+    boxes.push_back(mapping::body_box(e, options_.methods.tracked));
+    boxes.back().sensor_m = sensor;
+  }
+  registration_points_.clear();
+  registration_usable_.clear();
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    const mapping::MapPoint& p = s.points[i];
+    registration_points_.push_back({p.x, p.y, p.z});
+    const std::uint16_t flags = i < s.flags.size() ? s.flags[i] : 0;
+    bool usable = (flags & (point_flags::kInvalid | point_flags::kDirectionFiltered)) == 0;
+    if (usable && !boxes.empty()) {
+      const Vec3 q = registration::corrected(correction, registration_points_.back());
+      const mapping::MapPoint mp{static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z)};
+      for (const mapping::BodyBox& b : boxes) {
+        if (mapping::box_contains(b, mp, 0.0)) {
+          usable = false;
+          break;
+        }
+      }
+    }
+    if (!usable) ++counters_.registration_masked_points;
+    registration_usable_.push_back(usable ? 1 : 0);
+  }
+  const registration::RobotCorrection& c =
+      registration_->add_scan(s.robot, s.stamp_ns, own.odom, registration_points_, registration_usable_);
+  const Pose2& now = c.map_from_odom;
+  if (now.x_m != correction.x_m || now.y_m != correction.y_m || now.theta_rad != correction.theta_rad) {
+    // The correction is also a measurement for the robot's Kalman track (its covariance, about the
+    // robot's position): the drift restarts from it.
+    const double position_sigma_m = std::sqrt(std::max(c.covariance(0, 0), c.covariance(1, 1)));
+    poses_.set_map_from_odom(s.robot, s.stamp_ns, now, position_sigma_m, std::sqrt(std::max(0.0, c.covariance(2, 2))));
+    ++counters_.registration_corrections;
   }
 }
 
 void FusionCore::release(HeldScan& s, bool forced) {
   ++counters_.scans_released;
   if (forced) ++counters_.scans_forced;
-  // The registration's correction (identity until set): points and origin into the corrected map frame.
-  const Pose2& correction = poses_.map_from_odom(s.robot);
+  // The registration first (it may correct this scan's robot from this scan's stamp on), then the
+  // correction in force at the scan's stamp (identity until set): points and origin into the map frame.
+  if (registration_) register_scan(s);
+  const Pose2 correction = poses_.map_from_odom(s.robot, s.stamp_ns);
   if (!is_identity(correction)) {
     for (mapping::MapPoint& p : s.points) {
       const Vec2 q = correction.apply(Vec2{p.x, p.y});

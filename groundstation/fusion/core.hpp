@@ -12,6 +12,9 @@
 // default: PoseHistory::cutoff) (so the team at its time is final whatever order the
 // poses came in; a robot silent for hold_s of arrival time no longer counts), or when it has waited
 // `hold_s` of arrival time; nothing is released in the first hold_s (the team is being discovered).
+// The scans ready at once are released in stamp order (robot, seq on a tie), whatever their arrival
+// order: the registration (optional) matches each released scan and corrects its robot's poses from
+// the scan's stamp on (PoseHistory), so its state must follow the same sequence live and offline.
 // The map is a sum over the released scans, so its state and every map part are the same live and
 // offline.
 //
@@ -33,6 +36,7 @@
 #include "groundstation/fusion/pose_history.hpp"
 #include "groundstation/mapping/filter.hpp"
 #include "groundstation/mapping/flat_key_map.hpp"
+#include "groundstation/registration/registration.hpp"
 
 namespace teamscan::fusion {
 
@@ -52,6 +56,13 @@ struct CoreOptions {
   // files keep every point. 0: no model store (`teamscan eval` keeps its own per-point bits).
   double model_resolution_m = 0.05;
   std::uint32_t max_points_per_voxel = 64;
+  // Scan-to-map registration (docs/registration.md), off by default (odometry alone): every released
+  // scan is matched against the team's map and its robot's correction map_from_odom is set in the
+  // pose history from the scan's stamp on, so this scan, the later ones, the team state the filters
+  // use and the model are corrected. Teammates' bodies are masked with the `tracked` filter's box
+  // (methods.tracked).
+  bool registration = false;
+  registration::RegistrationOptions registration_options{};
 };
 
 // One scan as the core takes it: map-frame points (before map_from_odom), their onboard flags
@@ -135,6 +146,8 @@ struct CoreCounters {
   std::uint64_t removed_at_release = 0;
   std::uint64_t stored_points = 0;
   std::uint64_t capped_points = 0;
+  std::uint64_t registration_masked_points = 0;  // kept out of the match (onboard-flagged, teammates' bodies)
+  std::uint64_t registration_corrections = 0;    // corrections set in the pose history
 };
 
 class FusionCore {
@@ -175,6 +188,8 @@ class FusionCore {
   [[nodiscard]] PoseHistory& poses() { return poses_; }
   [[nodiscard]] const PoseHistory& poses() const { return poses_; }
   [[nodiscard]] const mapping::Filter& filter() const { return *filter_; }
+  // The registration (nullptr when CoreOptions::registration is off).
+  [[nodiscard]] const registration::Registration* registration() const { return registration_.get(); }
   [[nodiscard]] const CoreCounters& counters() const { return counters_; }
   [[nodiscard]] const CoreOptions& options() const { return options_; }
   [[nodiscard]] std::size_t held_scans() const { return held_.size(); }
@@ -190,12 +205,14 @@ class FusionCore {
     Vec3 origin_m;
     std::vector<mapping::MapPoint> points;
     std::vector<std::uint16_t> flags, beams;
+    bool forced = false;  // released by hold_s (set when it is released)
   };
   bool seen_before(std::uint8_t robot, std::uint32_t seq);
   [[nodiscard]] bool ready(const HeldScan& s) const;
   void release_ready(std::int64_t now_arrival_ns, bool all);
   void release(HeldScan& s, bool forced);
   void store(const HeldScan& s);
+  void register_scan(const HeldScan& s);
 
   CoreOptions options_;
   std::unique_ptr<mapping::Filter> filter_;
@@ -217,8 +234,12 @@ class FusionCore {
   mapping::FlatKeyMap<std::uint32_t> voxel_index_;
   std::vector<std::vector<ModelPoint>> voxels_;
   double inverse_model_resolution_ = 20.0;
+  std::unique_ptr<registration::Registration> registration_;
   // Scratch of a release.
   std::vector<std::uint8_t> bits_, removed_;
+  std::vector<HeldScan> releasing_;
+  std::vector<Vec3> registration_points_;
+  std::vector<std::uint8_t> registration_usable_;
   CoreCounters counters_;
 };
 

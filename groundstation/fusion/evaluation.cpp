@@ -155,11 +155,27 @@ PreparedDataset prepare_dataset(const Dataset& dataset, const TrackerOptions& tr
 
 std::vector<std::uint8_t> decide_through_core(const Dataset& dataset, const std::string& method, const MethodOptions& options,
                                               const TrackerOptions& tracker, const PoseNoise& noise) {
+  CoreRunOptions run;
+  run.tracker = tracker;
+  run.noise = noise;
+  return run_through_core(dataset, method, options, run).removed;
+}
+
+bool level_lasers(const Dataset& dataset) {
+  bool level = !dataset.robots.empty();
+  for (const DatasetRobot& r : dataset.robots) level = level && r.mount_rpy_rad[0] == 0.0 && r.mount_rpy_rad[1] == 0.0;
+  return level;
+}
+
+CoreRun run_through_core(const Dataset& dataset, const std::string& method, const MethodOptions& options, const CoreRunOptions& run) {
+  const PoseNoise& noise = run.noise;
   fusion::CoreOptions co;
   co.method = method;
   co.methods = options;
-  co.tracker = tracker;
+  co.tracker = run.tracker;
   co.max_points_per_voxel = 0;  // the decisions are kept here, per point
+  co.registration = run.registration;
+  co.registration_options = run.registration_options;
   auto created = fusion::FusionCore::create(co);
   TEAMSCAN_EXPECTS(created.ok());
   fusion::FusionCore& core = *created.value();
@@ -195,11 +211,26 @@ std::vector<std::uint8_t> decide_through_core(const Dataset& dataset, const std:
     return std::tie(a.stamp_ns, a.kind, a.robot, a.scan) < std::tie(b.stamp_ns, b.kind, b.robot, b.scan);
   });
 
+  // Scan rows by (robot, scan) for the poses the core decided them with.
+  std::map<std::pair<std::uint8_t, std::uint32_t>, std::size_t> row_of;
+  for (std::size_t i = 0; i < dataset.scans.size(); ++i) row_of.emplace(std::make_pair(dataset.scans[i].robot, dataset.scans[i].scan), i);
+  CoreRun out;
+  out.placed.reserve(dataset.points.size());
+  for (const LabelledPoint& lp : dataset.points) out.placed.push_back({lp.x, lp.y, lp.z});
+  out.scan_poses.resize(dataset.scans.size());
+  out.scan_decided.assign(dataset.scans.size(), 0);
   std::vector<std::uint8_t> bits(dataset.points.size(), 0);
   core.set_release_callback([&](const fusion::FusedScan& f) {
+    if (auto row = row_of.find({f.robot, f.seq}); row != row_of.end()) {
+      out.scan_poses[row->second] = f.view->map_from_robot;
+      out.scan_decided[row->second] = 1;
+    }
     auto it = by_scan.find({f.robot, f.seq});
     if (it == by_scan.end()) return;
-    for (std::size_t j = 0; j < it->second.size() && j < f.bits.size(); ++j) bits[it->second[j]] = f.bits[j];
+    for (std::size_t j = 0; j < it->second.size() && j < f.bits.size(); ++j) {
+      bits[it->second[j]] = f.bits[j];
+      out.placed[it->second[j]] = f.view->points[j];
+    }
   });
   PoseErrorProcess pose_error(noise);
   std::vector<MapPoint> points;
@@ -244,12 +275,15 @@ std::vector<std::uint8_t> decide_through_core(const Dataset& dataset, const std:
     core.add_scan(in);
   }
   core.flush();
-  std::vector<MapPoint> all;
-  all.reserve(dataset.points.size());
-  for (const LabelledPoint& lp : dataset.points) all.push_back({lp.x, lp.y, lp.z});
-  std::vector<std::uint8_t> removed(dataset.points.size(), 0);
-  core.decide(all, bits, removed);
-  return removed;
+  // The decision now, for every point where the core put it.
+  out.removed.assign(dataset.points.size(), 0);
+  core.decide(out.placed, bits, out.removed);
+  if (const registration::Registration* reg = core.registration()) {
+    for (const DatasetRobot& r : dataset.robots)
+      if (const registration::RobotCorrection* c = reg->correction(r.id)) out.robots.push_back(*c);
+    out.masked_points = core.counters().registration_masked_points;
+  }
+  return out;
 }
 
 std::vector<std::uint8_t> run_offline(const PreparedDataset& prepared, Filter& filter) {
@@ -358,9 +392,37 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
     for (const LabelledPoint& p : dataset.points)
       if (!scans.count({p.robot, p.scan})) ++report.orphan_points;
   }
-  std::vector<MapPoint> cloud;
-  cloud.reserve(dataset.points.size());
-  for (const LabelledPoint& p : dataset.points) cloud.push_back({p.x, p.y, p.z});
+  // Every method through the fusion core first: with the registration on, the core places the points
+  // (the same for every method: the registration never reads a filter's decision), and the cloud the
+  // metrics are computed on is the placed one.
+  CoreRunOptions run;
+  run.tracker = options.tracker;
+  run.noise = options.pose_noise;
+  run.registration = options.registration;
+  run.registration_options = options.registration_options;
+  std::vector<std::vector<std::uint8_t>> removed_by_method;
+  RegistrationReport& g = report.registration;
+  g.enabled = options.registration;
+  g.have_truth = !dataset.truth.empty();
+  measure_errors(dataset, g.pose_m_before, g.pose_deg_before, g.point_m_before);
+  g.consistency_before = revisit_consistency(dataset);
+  for (const MethodSpec& m : options.methods) {
+    if (options.progress) options.progress(m.name + (options.registration ? " (fusion core, registration on)" : " (fusion core)"));
+    CoreRun r = run_through_core(dataset, m.method, m.options, run);
+    if (removed_by_method.empty()) {
+      measure_errors(dataset, g.pose_m_after, g.pose_deg_after, g.point_m_after, r.placed, r.scan_poses, r.scan_decided);
+      g.robots = std::move(r.robots);
+      g.masked_points = r.masked_points;
+      if (options.registration) g.consistency_after = revisit_consistency(dataset, r.placed);
+      report.placed = std::move(r.placed);
+    }
+    removed_by_method.push_back(std::move(r.removed));
+  }
+  if (report.placed.empty()) {
+    report.placed.reserve(dataset.points.size());
+    for (const LabelledPoint& p : dataset.points) report.placed.push_back({p.x, p.y, p.z});
+  }
+  const std::vector<MapPoint>& cloud = report.placed;
 
   if (options.progress) options.progress("table 1 (floor plane with and without the ghosts)");
   report.table1 = table1(dataset.points, cloud, options.ransac);
@@ -384,15 +446,15 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
     report.floor_bias_before_m = have_reference ? floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m) : std::numeric_limits<double>::quiet_NaN();
     report.floor_bias_ghost_free_m = have_reference ? floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m, ghost) : std::numeric_limits<double>::quiet_NaN();
   }
-  for (const MethodSpec& m : options.methods) {
-    if (options.progress) options.progress(m.name);
+  for (std::size_t k = 0; k < options.methods.size(); ++k) {
+    const MethodSpec& m = options.methods[k];
     std::unique_ptr<Filter> filter = make_filter(m.method, m.options);
     TEAMSCAN_EXPECTS(filter != nullptr);
     MethodResult r;
     r.name = m.name;
     r.method = m.method;
     r.params = filter->params();
-    r.removed = decide_through_core(dataset, m.method, m.options, options.tracker, options.pose_noise);
+    r.removed = std::move(removed_by_method[k]);
     r.removal = removal_metrics(dataset.points, r.removed);
     r.plane_after = fit_plane_ransac(cloud, options.ransac, r.removed);
     r.plane_error_improvement_pct = plane_error_improvement_pct(report.plane_before, r.plane_after);

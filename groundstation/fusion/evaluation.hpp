@@ -64,10 +64,34 @@ struct MethodSpec {
   MethodOptions options;
 };
 
-// Every point's decision (1 = removed, Dataset::points order) by the fusion core fed the data set's
-// odometry and scans in time order (a pose before a scan of the same stamp), with `method` and the
-// options in `core` (its method and model store are overridden: no store). With `noise` active, the
-// poses and scan origins the core sees carry the PoseNoise error.
+// How the fusion core is set up for a data set (beyond the method): the tracker, the pose noise, and
+// the scan-to-map registration (fusion/core.hpp CoreOptions::registration; off: odometry alone).
+struct CoreRunOptions {
+  TrackerOptions tracker;
+  PoseNoise noise;
+  bool registration = false;
+  registration::RegistrationOptions registration_options{};
+};
+
+// What the fusion core made of a data set.
+struct CoreRun {
+  std::vector<std::uint8_t> removed;       // per point, 1 = removed (Dataset::points order)
+  std::vector<MapPoint> placed;            // per point, where the core put it (registration applied)
+  std::vector<Pose2> scan_poses;           // per Dataset::scans row, the pose the core decided it with
+  std::vector<std::uint8_t> scan_decided;  // per Dataset::scans row, 1 = released by the core
+  std::vector<registration::RobotCorrection> robots;  // registration counters per robot (when on)
+  std::uint64_t masked_points = 0;         // kept out of the match
+};
+
+// The fusion core fed the data set's odometry and scans in time order (a pose before a scan of the
+// same stamp), with `method`; no model store (the decisions are kept per point). With `noise` active,
+// the poses and scan origins the core sees carry the PoseNoise error.
+[[nodiscard]] CoreRun run_through_core(const Dataset& dataset, const std::string& method, const MethodOptions& options,
+                                       const CoreRunOptions& run);
+// Whether every robot of a data set has a level 2-D laser (no roll, no pitch: an imported CARMEN log),
+// whose walls the registration sees edge-on (SurfaceOptions::planar_scans).
+[[nodiscard]] bool level_lasers(const Dataset& dataset);
+// Every point's decision (run_through_core(...).removed), odometry alone.
 [[nodiscard]] std::vector<std::uint8_t> decide_through_core(const Dataset& dataset, const std::string& method,
                                                              const MethodOptions& options, const TrackerOptions& tracker,
                                                              const PoseNoise& noise = {});
@@ -86,6 +110,9 @@ struct EvalOptions {
   PoseNoise pose_noise;  // issue 7: off by default
   // Called before each stage ("table 1", each method name) so long runs can show progress.
   std::function<void(const std::string&)> progress;
+  // Scan-to-map registration inside the fusion core (docs/registration.md); off: odometry alone.
+  bool registration = false;
+  registration::RegistrationOptions registration_options{};
 };
 
 struct MethodResult {
@@ -115,9 +142,12 @@ struct EvalReport {
   double floor_bias_before_m = 0;
   double floor_bias_ghost_free_m = 0;
   std::vector<MethodResult> methods;
-  // Pose and point error against the truth before/after registration (dataset_registration.hpp); the
-  // caller registers the data set before evaluate() and fills this in.
+  // Pose and point error against the truth with odometry alone and as the fusion core placed the
+  // scans (registration on), the registration's counters, revisit consistency.
   RegistrationReport registration;
+  // Every point where the core put it (registration applied; Dataset::points order): the cloud the
+  // metrics above were computed on.
+  std::vector<MapPoint> placed;
 };
 
 [[nodiscard]] EvalReport evaluate(const Dataset& dataset, const EvalOptions& options);

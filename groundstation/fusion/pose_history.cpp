@@ -11,7 +11,10 @@ PoseHistory::PoseHistory(PoseHistoryOptions options)
     : options_{options}, lag_ns_{static_cast<std::int64_t>(options.tracker.team_lag_s * 1e9)} {}
 
 void PoseHistory::clear() {
-  for (Robot& r : robots_) r.entries.clear();
+  for (Robot& r : robots_) {
+    r.entries.clear();
+    r.corrections.clear();
+  }
   duplicates_ = 0;
 }
 
@@ -26,8 +29,65 @@ std::int64_t PoseHistory::newest_stamp(std::uint8_t robot) const {
   return robots_[robot].entries.back().pose.stamp_ns;
 }
 
-void PoseHistory::set_map_from_odom(std::uint8_t robot, const Pose2& map_from_odom) {
-  if (robot >= 1 && robot <= kMaxRobots) robots_[robot].map_from_odom = map_from_odom;
+Pose2 PoseHistory::correction_at(const Robot& r, std::int64_t stamp_ns) {
+  auto after = std::upper_bound(r.corrections.begin(), r.corrections.end(), stamp_ns,
+                                [](std::int64_t t, const Correction& c) { return t < c.from_stamp_ns; });
+  if (after == r.corrections.begin()) return Pose2{};
+  return std::prev(after)->map_from_odom;
+}
+
+Pose2 PoseHistory::map_from_odom(std::uint8_t robot, std::int64_t stamp_ns) const {
+  if (robot == 0 || robot > kMaxRobots) return Pose2{};
+  return correction_at(robots_[robot], stamp_ns);
+}
+
+void PoseHistory::set_map_from_odom(std::uint8_t robot, std::int64_t from_stamp_ns, const Pose2& map_from_odom,
+                                    double position_sigma_m, double heading_sigma_rad) {
+  if (robot == 0 || robot > kMaxRobots || !std::isfinite(map_from_odom.x_m) || !std::isfinite(map_from_odom.y_m) ||
+      !std::isfinite(map_from_odom.theta_rad)) {
+    return;
+  }
+  Robot& r = robots_[robot];
+  auto at = std::lower_bound(r.corrections.begin(), r.corrections.end(), from_stamp_ns,
+                             [](const Correction& c, std::int64_t t) { return c.from_stamp_ns < t; });
+  const Correction c{from_stamp_ns, map_from_odom, std::isfinite(position_sigma_m) ? position_sigma_m : -1.0,
+                     std::isfinite(heading_sigma_rad) ? heading_sigma_rad : 0.0};
+  if (at != r.corrections.end() && at->from_stamp_ns == from_stamp_ns) {
+    *at = c;
+  } else {
+    r.corrections.insert(at, c);
+  }
+  // The poses stamped at or after it: corrected again, their tracks folded again.
+  auto first = std::lower_bound(r.entries.begin(), r.entries.end(), from_stamp_ns,
+                                [](const Entry& e, std::int64_t t) { return e.pose.stamp_ns < t; });
+  refold(r, static_cast<std::size_t>(first - r.entries.begin()), robot);
+}
+
+mapping::RobotTrack PoseHistory::fold(const Robot& r, std::size_t k, std::uint8_t robot) const {
+  const Entry& e = r.entries[k];
+  if (k == 0) {
+    mapping::RobotTrack t(robot, options_.tracker);
+    t.update(e.pose.stamp_ns, e.map_pose, e.pose.v_mps);
+    return t;
+  }
+  mapping::RobotTrack t = r.entries[k - 1].track;
+  const std::int64_t previous = r.entries[k - 1].pose.stamp_ns;
+  // The registrations between the two poses (normally none; the newest one counts).
+  auto after = std::upper_bound(r.corrections.begin(), r.corrections.end(), previous,
+                                [](std::int64_t t0, const Correction& c) { return t0 < c.from_stamp_ns; });
+  const Correction* registration = nullptr;
+  for (; after != r.corrections.end() && after->from_stamp_ns <= e.pose.stamp_ns; ++after)
+    if (after->position_sigma_m >= 0.0) registration = &*after;
+  if (registration != nullptr) t.registered(registration->position_sigma_m, registration->heading_sigma_rad);
+  t.update(e.pose.stamp_ns, e.map_pose, e.pose.v_mps);
+  return t;
+}
+
+void PoseHistory::refold(Robot& r, std::size_t from, std::uint8_t robot) const {
+  for (std::size_t k = from; k < r.entries.size(); ++k) {
+    r.entries[k].map_pose = correction_at(r, r.entries[k].pose.stamp_ns) * r.entries[k].pose.odom;
+    r.entries[k].track = fold(r, k, robot);
+  }
 }
 
 bool PoseHistory::add(const PoseInput& p) {
@@ -42,18 +102,13 @@ bool PoseHistory::add(const PoseInput& p) {
     ++duplicates_;
     return false;
   }
-  const Pose2 map_pose = r.map_from_odom * p.odom;
+  const Pose2 map_pose = correction_at(r, p.stamp_ns) * p.odom;
   // The track after this pose: the previous entry's track updated with it (a new track for the first).
   std::size_t i = static_cast<std::size_t>(at - r.entries.begin());
-  mapping::RobotTrack track = i == 0 ? mapping::RobotTrack(p.robot, options_.tracker) : r.entries[i - 1].track;
-  track.update(p.stamp_ns, map_pose, p.v_mps);
-  r.entries.insert(at, Entry{p, map_pose, track});
+  r.entries.insert(at, Entry{p, map_pose, mapping::RobotTrack(p.robot, options_.tracker)});
+  r.entries[i].track = fold(r, i, p.robot);
   // A pose older than the newest (a replayed history): the tracks after it are folded again.
-  for (std::size_t k = i + 1; k < r.entries.size(); ++k) {
-    mapping::RobotTrack t = r.entries[k - 1].track;
-    t.update(r.entries[k].pose.stamp_ns, r.entries[k].map_pose, r.entries[k].pose.v_mps);
-    r.entries[k].track = t;
-  }
+  for (std::size_t k = i + 1; k < r.entries.size(); ++k) r.entries[k].track = fold(r, k, p.robot);
   // Bounded: drop what lies more than keep_s behind the newest, in batches (amortised O(1) per pose).
   const std::int64_t keep_ns = static_cast<std::int64_t>(options_.keep_s * 1e9);
   const std::int64_t newest = r.entries.back().pose.stamp_ns;
@@ -61,6 +116,11 @@ bool PoseHistory::add(const PoseInput& p) {
     auto keep_from = std::lower_bound(r.entries.begin(), r.entries.end(), newest - keep_ns,
                                       [](const Entry& e, std::int64_t t) { return e.pose.stamp_ns < t; });
     r.entries.erase(r.entries.begin(), keep_from);
+    // Corrections: those before the oldest kept pose go, but the one in force at it.
+    const std::int64_t oldest = r.entries.front().pose.stamp_ns;
+    auto in_force = std::upper_bound(r.corrections.begin(), r.corrections.end(), oldest,
+                                     [](std::int64_t t, const Correction& c) { return t < c.from_stamp_ns; });
+    if (in_force != r.corrections.begin()) r.corrections.erase(r.corrections.begin(), std::prev(in_force));
   }
   return true;
 }
@@ -79,10 +139,18 @@ PoseHistory::ScanPose PoseHistory::scan_pose(std::uint8_t robot, std::int64_t st
   const Entry* e = at_or_before(r, cutoff(stamp_ns));
   if (e == nullptr) e = &r.entries.front();
   const double dt_s = static_cast<double>(stamp_ns - e->pose.stamp_ns) * 1e-9;
-  const Pose2& m = e->map_pose;
+  const Pose2& o = e->pose.odom;
   out.found = true;
-  out.map_from_robot = Pose2{m.x_m + e->pose.v_mps * std::cos(m.theta_rad) * dt_s,
-                             m.y_m + e->pose.v_mps * std::sin(m.theta_rad) * dt_s, m.theta_rad + e->pose.w_radps * dt_s};
+  out.odom = Pose2{o.x_m + e->pose.v_mps * std::cos(o.theta_rad) * dt_s, o.y_m + e->pose.v_mps * std::sin(o.theta_rad) * dt_s,
+                   o.theta_rad + e->pose.w_radps * dt_s};
+  if (r.corrections.empty()) {
+    const Pose2& m = e->map_pose;
+    out.map_from_robot = Pose2{m.x_m + e->pose.v_mps * std::cos(m.theta_rad) * dt_s,
+                               m.y_m + e->pose.v_mps * std::sin(m.theta_rad) * dt_s, m.theta_rad + e->pose.w_radps * dt_s};
+  } else {
+    // The correction in force at the scan's stamp (the one its points get), on the odometry moved on.
+    out.map_from_robot = correction_at(r, stamp_ns) * out.odom;
+  }
   return out;
 }
 

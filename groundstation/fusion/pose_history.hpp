@@ -7,7 +7,9 @@
 // before or after the scan (live, arrival order) or in time order (offline).
 //
 // Each robot's odometry is corrected into the map frame by its `map_from_odom` (x, y, yaw): identity
-// until the registration sets it. The corrected poses feed the tracker and the filters.
+// until the registration sets it. A correction holds from a stamp on (the stamp of the scan whose match
+// produced it), so a pose's correction is a function of its stamp, not of when it arrived: setting one
+// re-folds the poses stamped at or after it. The corrected poses feed the tracker and the filters.
 #pragma once
 
 #include <array>
@@ -50,15 +52,23 @@ class PoseHistory {
   struct ScanPose {
     bool found = false;
     Pose2 map_from_robot;
+    Pose2 odom;  // the same pose before map_from_odom (what the registration matches from)
   };
   [[nodiscard]] ScanPose scan_pose(std::uint8_t robot, std::int64_t stamp_ns) const;
   // Every robot with a pose at or before `stamp_ns`, its track predicted to `stamp_ns`, by robot id.
   [[nodiscard]] mapping::TeamState team_at(std::int64_t stamp_ns) const;
 
-  // The registration's correction of a robot's odometry (identity until set). Applies to poses
-  // added after the call.
-  void set_map_from_odom(std::uint8_t robot, const Pose2& map_from_odom);
-  [[nodiscard]] const Pose2& map_from_odom(std::uint8_t robot) const { return robots_[robot].map_from_odom; }
+  // The registration's correction of a robot's odometry (identity until set), from `from_stamp_ns` on:
+  // the poses stamped at or after it (held or still to come) are corrected by it and their tracks
+  // folded again. A correction set again at the same stamp replaces the earlier one. With
+  // `position_sigma_m` >= 0 it is also a measurement for the Kalman track: the track is registered
+  // (RobotTrack::registered, with the correction's σ) before the first pose stamped at or after it.
+  void set_map_from_odom(std::uint8_t robot, std::int64_t from_stamp_ns, const Pose2& map_from_odom,
+                         double position_sigma_m = -1.0, double heading_sigma_rad = 0.0);
+  // The correction in force at `stamp_ns` (identity before the first).
+  [[nodiscard]] Pose2 map_from_odom(std::uint8_t robot, std::int64_t stamp_ns) const;
+  // Whether a robot has ever been corrected (identity is exact without one).
+  [[nodiscard]] bool corrected(std::uint8_t robot) const { return robot <= kMaxRobots && !robots_[robot].corrections.empty(); }
 
   // The newest pose stamp that decides a scan stamped `stamp_ns`: stamp − tracker.team_lag_s. A scan's
   // pose and team are final once every robot has a pose stamped at or after it.
@@ -77,11 +87,23 @@ class PoseHistory {
     Pose2 map_pose;          // corrected into the map frame
     mapping::RobotTrack track;  // after this pose
   };
+  struct Correction {
+    std::int64_t from_stamp_ns = 0;
+    Pose2 map_from_odom;
+    double position_sigma_m = -1.0;  // < 0: a frame change only, the track is not registered
+    double heading_sigma_rad = 0.0;
+  };
   struct Robot {
     std::vector<Entry> entries;  // stamp order
-    Pose2 map_from_odom;
+    std::vector<Correction> corrections;  // from_stamp order
   };
   [[nodiscard]] const Entry* at_or_before(const Robot& r, std::int64_t stamp_ns) const;
+  [[nodiscard]] static Pose2 correction_at(const Robot& r, std::int64_t stamp_ns);
+  // Recomputes the map poses and tracks of the entries from index `from` on.
+  void refold(Robot& r, std::size_t from, std::uint8_t robot) const;
+  // The track after entry k: entry k-1's (a new one for k = 0), registered by the corrections stamped
+  // in (stamp of k-1, stamp of k], updated with entry k's map pose.
+  [[nodiscard]] mapping::RobotTrack fold(const Robot& r, std::size_t k, std::uint8_t robot) const;
 
   PoseHistoryOptions options_;
   std::int64_t lag_ns_ = 0;  // options_.tracker.team_lag_s

@@ -1,17 +1,16 @@
-// Offline registration of a data set (`teamscan eval`; docs/registration.md): every scan in time
-// order goes through groundstation/registration as the station would see it, its points are moved by
-// its robot's correction, and so are its pose, its origin and the robot's odometry samples (what the
-// tracker and every filter use). Ghost-flagged points (onboard direction filter) and points inside a
-// teammate's tracked body never pull the match. With truth (simulated data sets) it measures the pose
-// error (translation, rotation) and the point error before and after.
+// The registration's figures on a data set (`teamscan eval`; docs/registration.md): pose error per
+// scan (translation, rotation) and point error per non-ghost point against the simulator's truth, as
+// odometry alone placed them (the data set as it is) and as the fusion core placed them with the
+// registration on (groundstation/fusion: the one path, live and offline), and the revisit
+// consistency, which needs no truth.
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "common/dataset/dataset.hpp"
-#include "groundstation/mapping/beyond_options.hpp"
-#include "groundstation/mapping/tracker.hpp"
+#include "groundstation/mapping/voxel_map.hpp"
 #include "groundstation/registration/registration.hpp"
 
 namespace teamscan::mapping {
@@ -30,7 +29,9 @@ struct RevisitConsistency {
   double median_m = 0, p90_m = 0;
   std::uint64_t revisit_points = 0, points = 0;
 };
-[[nodiscard]] RevisitConsistency revisit_consistency(const Dataset& dataset, double min_age_s = 30.0, double radius_m = 0.5);
+// `placed`: one point per Dataset::points row where the map has it (empty: the data set's points).
+[[nodiscard]] RevisitConsistency revisit_consistency(const Dataset& dataset, std::span<const MapPoint> placed = {},
+                                                     double min_age_s = 30.0, double radius_m = 0.5);
 
 struct RegistrationReport {
   bool enabled = false;
@@ -42,16 +43,11 @@ struct RegistrationReport {
   RevisitConsistency consistency_before, consistency_after;                 // also without truth
 };
 
-struct DatasetRegistrationOptions {
-  registration::RegistrationOptions registration;
-  TrackedOptions body;  // teammates' bodies: points inside never pull the match
-};
-
-// Error statistics of a data set as it is (no registration): for `--no-registration` and "before".
-void measure_errors(const Dataset& dataset, ErrorStats& pose_m, ErrorStats& pose_deg, ErrorStats& point_m);
-
-// Registers `dataset` in place (points, scan poses and origins, odometry) and reports.
-[[nodiscard]] RegistrationReport register_dataset(Dataset& dataset, const TrackerOptions& tracker,
-                                                  const DatasetRegistrationOptions& options = {});
+// Error statistics against the truth. Empty `placed` / `scan_poses`: the data set as it is (odometry
+// alone); else one per Dataset::points row / Dataset::scans row as the fusion core placed them, with
+// `scan_decided` (one per scans row) naming the scans the core decided (the others are not counted).
+void measure_errors(const Dataset& dataset, ErrorStats& pose_m, ErrorStats& pose_deg, ErrorStats& point_m,
+                    std::span<const MapPoint> placed = {}, std::span<const Pose2> scan_poses = {},
+                    std::span<const std::uint8_t> scan_decided = {});
 
 }  // namespace teamscan::mapping

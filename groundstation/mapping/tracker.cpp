@@ -1,6 +1,7 @@
 // Constant-velocity Kalman filter per robot (see tracker.hpp for the choice of model).
 #include "groundstation/mapping/tracker.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Dense>
@@ -81,6 +82,14 @@ void RobotTrack::update(std::int64_t stamp_ns, const Pose2& pose, double v_mps) 
   }
 }
 
+void RobotTrack::registered(double position_sigma_m, double heading_sigma_rad) {
+  if (!initialised_ || !std::isfinite(position_sigma_m) || !std::isfinite(heading_sigma_rad)) return;
+  start_ = Pose2{x_(0), x_(1), heading_rad_};
+  slip_sigma_m_ = std::max(0.0, position_sigma_m);
+  drift_heading_sigma_rad_ = std::max(0.0, heading_sigma_rad);
+  drift_position_sigma_m_ = slip_sigma_m_;
+}
+
 RobotEstimate RobotTrack::predict(std::int64_t stamp_ns) const {
   RobotEstimate e;
   e.robot = robot_;
@@ -118,6 +127,11 @@ void TeamTracker::add_pose(std::uint8_t robot, std::int64_t stamp_ns, const Pose
   }
   tracks_.emplace_back(robot, options_);
   tracks_.back().update(stamp_ns, pose, v_mps);
+}
+
+void TeamTracker::registered(std::uint8_t robot, double position_sigma_m, double heading_sigma_rad) {
+  for (RobotTrack& t : tracks_)
+    if (t.robot() == robot) t.registered(position_sigma_m, heading_sigma_rad);
 }
 
 TeamState TeamTracker::predict(std::int64_t stamp_ns) const {

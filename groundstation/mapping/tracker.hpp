@@ -101,6 +101,12 @@ class RobotTrack {
   void update(std::int64_t stamp_ns, const Pose2& pose, double v_mps);
   // The estimate predicted to any time (also before the last update: the model is run backwards).
   [[nodiscard]] RobotEstimate predict(std::int64_t stamp_ns) const;
+  // A registration (a scan-to-map match, groundstation/registration): the robot's map position is
+  // known again to `position_sigma_m` and its heading to `heading_sigma_rad` (the correction's
+  // covariance). The dead-reckoning drift restarts from the last pose with these as its base, instead
+  // of growing since the first pose; the poses that follow arrive corrected (map_from_odom), and the
+  // filter takes them as before.
+  void registered(double position_sigma_m, double heading_sigma_rad);
 
   [[nodiscard]] bool initialised() const { return initialised_; }
   [[nodiscard]] const State& state() const { return x_; }
@@ -134,6 +140,8 @@ class TeamTracker {
 
   // Odometry pose of robot `robot` (1..kMaxRobots); poses of other ids are ignored and counted.
   void add_pose(std::uint8_t robot, std::int64_t stamp_ns, const Pose2& pose, double v_mps);
+  // RobotTrack::registered for one robot (no track yet: ignored).
+  void registered(std::uint8_t robot, double position_sigma_m, double heading_sigma_rad);
   // Every tracked robot predicted to `stamp_ns`; a robot is valid while its last pose is recent.
   [[nodiscard]] TeamState predict(std::int64_t stamp_ns) const;
   [[nodiscard]] const RobotTrack* track(std::uint8_t robot) const;

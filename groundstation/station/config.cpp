@@ -46,7 +46,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   double lease_s = to_seconds(c.station.team_liveliness_lease);
   double silence_s = to_seconds(c.station.silence_timeout);
   std::string source = c.team_source == TeamSourceKind::kKalman ? "kalman" : "last_pose";
-  r.top_level({"station", "dds", "team", "fusion", "ros2", "view", "validation"});
+  r.top_level({"station", "dds", "team", "fusion", "registration", "ros2", "view", "validation"});
 
   const toml::table* station = r.section("station", false);
   r.only(station, "station", {"session_root", "sync_interval_s", "status_interval_s"});
@@ -97,7 +97,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.only(fusion, "fusion", {"enabled", "method", "resolution_m", "half_angle_deg", "grid_origin_z_m", "frequency_k",
                             "position_sigma_m", "position_n", "direction_from_flags", "write_interval_s",
                             "write_all_points", "map_interval_s", "map_resolution_m", "latency_log", "hold_s", "team_lag_s",
-                            "model_resolution_m", "max_points_per_voxel", "compare_methods", "write_slice_ms"});
+                            "model_resolution_m", "max_points_per_voxel", "compare_methods", "write_slice_ms", "registration"});
   r.boolean(fusion, "fusion", "enabled", f.enabled);
   if (r.string(fusion, "fusion", "method", f.method, false) && f.method.empty())
     r.fail("fusion.method", "must not be empty", r.node(fusion, "method"));
@@ -121,6 +121,18 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   std::int64_t max_per_voxel = f.max_points_per_voxel;
   r.integer_in(fusion, "fusion", "max_points_per_voxel", max_per_voxel, 0, 1'000'000);
   f.max_points_per_voxel = static_cast<std::uint32_t>(max_per_voxel);
+  r.boolean(fusion, "fusion", "registration", f.registration);
+  const toml::table* reg = r.section("registration", false);
+  r.only(reg, "registration", {"enabled", "window_s", "match_every_s", "min_map_features"});
+  if (reg != nullptr) {
+    f.registration = true;
+    r.boolean(reg, "registration", "enabled", f.registration);
+  }
+  r.number_in(reg, "registration", "window_s", c.registration.window_s, 0.0, 60.0);
+  r.number_in(reg, "registration", "match_every_s", c.registration.match_every_s, 0.0, 60.0, true);
+  std::int64_t min_features = c.registration.min_map_features;
+  r.integer_in(reg, "registration", "min_map_features", min_features, 0, 1'000'000);
+  c.registration.min_map_features = static_cast<std::uint32_t>(min_features);
 
   Ros2Config& ros = c.ros2;
   double cloud_s = to_seconds(ros.map_interval);

@@ -59,6 +59,17 @@ struct FusionConfig {
   double team_lag_s = 0.0;
   double model_resolution_m = 0.05;
   std::uint32_t max_points_per_voxel = 64;
+  // Scan-to-map registration in the fusion core (docs/registration.md; `teamscan eval --registration`
+  // runs the same): on with `registration = true` here or with a [registration] section.
+  bool registration = false;
+};
+
+// [registration]: its presence turns the registration on (unless `enabled = false`); the keys tune it
+// (groundstation/registration RegistrationOptions, same defaults).
+struct RegistrationConfig {
+  double window_s = 3.0;             // a robot's recent points matched as one rigid piece
+  double match_every_s = 0.5;        // at most one match per robot this often
+  std::uint32_t min_map_features = 60;  // the first lap: no match before the reference has this many
 };
 
 // [ros2]: the fused map and the tracked robots on ROS 2 wire names (ros2_publisher.hpp, docs/ros2.md).
@@ -91,6 +102,7 @@ struct GroundStationConfig {
   TeamSourceKind team_source = TeamSourceKind::kKalman;
   KalmanConfig kalman;
   FusionConfig fusion;
+  RegistrationConfig registration;
   Ros2Config ros2;
   ViewConfig view;
 };

@@ -19,7 +19,7 @@
 
 namespace teamscan::station {
 
-FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConfig& k) {
+FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConfig& k, const RegistrationConfig& reg) {
   FusionOptions o;
   o.core.method = f.method;
   mapping::MethodOptions& m = o.core.methods;
@@ -40,6 +40,10 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   o.core.tracker.team_lag_s = f.team_lag_s;
   o.core.model_resolution_m = f.model_resolution_m;
   o.core.max_points_per_voxel = f.max_points_per_voxel;
+  o.core.registration = f.registration;
+  o.core.registration_options.window_s = reg.window_s;
+  o.core.registration_options.match_every_s = reg.match_every_s;
+  o.core.registration_options.min_map_features = reg.min_map_features;
   o.map_resolution_m = f.map_resolution_m;
   if (f.write_all_points) o.all_points_pcd = "fused_all.pcd";
   if (f.latency_log) o.latency_log_csv = "fused_latency.csv";
@@ -62,6 +66,10 @@ FusionOptions compared_options(const FusionOptions& o, const std::string& method
   c.kept_pcd = method_file_name(o.kept_pcd, method);
   if (!o.all_points_pcd.empty()) c.all_points_pcd = method_file_name(o.all_points_pcd, method);
   return c;
+}
+
+FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConfig& k) {
+  return fusion_options_from_config(f, k, RegistrationConfig{});
 }
 
 fusion::PoseInput pose_input(const PoseObservation& p) {

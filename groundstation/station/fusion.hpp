@@ -111,8 +111,12 @@ struct ModelWriteReport {
 
 struct FusionConfig;
 struct KalmanConfig;
-// The daemon's [fusion] and [team.kalman] config as FusionOptions (the tracker is the team source's).
+struct RegistrationConfig;
+// The daemon's [fusion], [team.kalman] and [registration] config as FusionOptions (the tracker is the
+// team source's; without `registration`: its defaults).
 [[nodiscard]] FusionOptions fusion_options_from_config(const FusionConfig& fusion, const KalmanConfig& kalman);
+[[nodiscard]] FusionOptions fusion_options_from_config(const FusionConfig& fusion, const KalmanConfig& kalman,
+                                                       const RegistrationConfig& registration);
 
 class FusionStage {
  public:

@@ -15,7 +15,15 @@ void KalmanTeamSource::add_pose(const PoseObservation& p) {
   if (p.robot_id == 0 || p.robot_id > kMaxRobots) return;
   // The wire carries the map-frame velocity; the tracker takes the forward speed.
   const double v_mps = forward_speed_mps(p.vx_mps, p.vy_mps, p.yaw_rad);
-  tracker_.add_pose(static_cast<std::uint8_t>(p.robot_id), p.stamp.ns(), Pose2{p.x_m, p.y_m, p.yaw_rad}, v_mps);
+  tracker_.add_pose(static_cast<std::uint8_t>(p.robot_id), p.stamp.ns(), map_from_odom_[p.robot_id] * Pose2{p.x_m, p.y_m, p.yaw_rad},
+                    v_mps);
+}
+
+void KalmanTeamSource::set_correction(std::uint32_t robot_id, double x_m, double y_m, double yaw_rad, double position_sigma_m,
+                                      double heading_sigma_rad) {
+  if (robot_id == 0 || robot_id > kMaxRobots || !std::isfinite(x_m) || !std::isfinite(y_m) || !std::isfinite(yaw_rad)) return;
+  map_from_odom_[robot_id] = Pose2{x_m, y_m, yaw_rad};
+  tracker_.registered(static_cast<std::uint8_t>(robot_id), position_sigma_m, heading_sigma_rad);
 }
 
 void KalmanTeamSource::set_lost(std::uint32_t robot_id, bool lost) {

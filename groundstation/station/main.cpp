@@ -2,6 +2,7 @@
 // session folder, marks robots that stop as lost, and publishes teamscan/team (issue 5). A systemd
 // Type=notify service: READY=1 once subscribed, WATCHDOG=1 from the loop, STOPPING=1 on SIGTERM.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -156,8 +157,9 @@ int main(int argc, char** argv) {
   // fusion stage never costs a received sample; the station counts the failure and goes on).
   std::unique_ptr<FusionStage> fusion;
   std::vector<teamscan_msg_MapVoxel> map_voxels;
+  std::array<std::uint64_t, kMaxRobots + 1> corrections_shared{};  // accepted matches given to the team source
   if (cfg.fusion.enabled) {
-    auto created = FusionStage::create(fusion_options_from_config(cfg.fusion, cfg.kalman), store->dir());
+    auto created = FusionStage::create(fusion_options_from_config(cfg.fusion, cfg.kalman, cfg.registration), store->dir());
     if (!created) {
       log(kErr, created.error().what);
       return 1;
@@ -178,8 +180,29 @@ int main(int argc, char** argv) {
       log(kInfo, text);
       store->log_event(now_realtime(), text);
     }
-    st.add_pose_hook([&](const PoseObservation& p) { fusion->add_pose(p); });
-    st.add_scan_hook([&](const StoredScan& s) { fusion->add_scan(s); });
+    // With the registration on, each robot's new correction goes to the team source, so teamscan/team
+    // carries the corrected poses (docs/registration.md).
+    auto share_corrections = [&] {
+      const registration::Registration* reg = fusion->core().registration();
+      if (reg == nullptr) return;
+      for (std::uint8_t id = 1; id <= kMaxRobots; ++id) {
+        const registration::RobotCorrection* c = reg->correction(id);
+        if (c == nullptr || c->accepted == corrections_shared[id]) continue;
+        corrections_shared[id] = c->accepted;
+        team->set_correction(id, c->map_from_odom.x_m, c->map_from_odom.y_m, c->map_from_odom.theta_rad,
+                             std::sqrt(std::max(c->covariance(0, 0), c->covariance(1, 1))),
+                             std::sqrt(std::max(0.0, c->covariance(2, 2))));
+      }
+    };
+    share_corrections();  // after the session replay
+    st.add_pose_hook([&](const PoseObservation& p) {
+      fusion->add_pose(p);
+      share_corrections();
+    });
+    st.add_scan_hook([&](const StoredScan& s) {
+      fusion->add_scan(s);
+      share_corrections();
+    });
     log(kInfo, "fusion: method " + cfg.fusion.method + ", model " + store->dir() + "/fused.pcd");
     for (const std::string& m : cfg.fusion.compare_methods)
       log(kInfo, "fusion: compared method " + m + ", model " + store->dir() + "/" + method_file_name("fused.pcd", m));

@@ -25,8 +25,11 @@ Result<ModelCheck> check_model_against_eval(const std::string& session, const Fu
   SessionReadStats stats;
   auto ds = read_session_dataset(session, stats);
   if (!ds) return ds.error();
-  const std::vector<std::uint8_t> eval =
-      mapping::decide_through_core(ds.value(), options.core.method, options.core.methods, options.core.tracker);
+  mapping::CoreRunOptions run;
+  run.tracker = options.core.tracker;
+  run.registration = options.core.registration;
+  run.registration_options = options.core.registration_options;
+  const std::vector<std::uint8_t> eval = mapping::run_through_core(ds.value(), options.core.method, options.core.methods, run).removed;
   ModelCheck out;
   out.model_points = c.size();
   out.points.reserve(ds->points.size());

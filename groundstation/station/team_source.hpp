@@ -57,6 +57,13 @@ class TeamSource {
   // Liveliness: a lost robot stays in the estimates (last known place, flagged) until it comes back.
   virtual void set_lost(std::uint32_t robot_id, bool lost) = 0;
   virtual void set_body(std::uint32_t robot_id, const RobotBody& body) = 0;
+  // The registration's correction of a robot's odometry (map_from_odom: x, y, yaw) with its position
+  // and heading σ, from the fusion core (docs/registration.md): the poses that follow are corrected by
+  // it. A source without a model of it ignores it (the last-pose stand-in).
+  virtual void set_correction(std::uint32_t robot_id, double x_m, double y_m, double yaw_rad, double position_sigma_m,
+                              double heading_sigma_rad) {
+    (void)robot_id, (void)x_m, (void)y_m, (void)yaw_rad, (void)position_sigma_m, (void)heading_sigma_rad;
+  }
   // Writes every known robot predicted to `at` into `out` (ordered by robot id); returns the count.
   [[nodiscard]] virtual std::size_t estimate(Time at, std::span<TeamMemberEstimate> out) const = 0;
 };

@@ -134,6 +134,30 @@ TEST(TrackerDrift, PositionSigmaGrowsWithTheDistanceDrivenAndIsAddedToTheKalmanC
   EXPECT_EQ(ea.position_m.x, eb.position_m.x);
 }
 
+// A registration (scan-to-map match) is a measurement of the position with its σ: the drift restarts
+// from it (its σ the base) and grows again from where the robot was registered.
+TEST(TrackerDrift, ARegistrationReplacesTheAccumulatedDriftWithItsSigma) {
+  TrackerOptions o;
+  o.drift_m_per_m = 0.01;
+  o.drift_heading_rad_per_m = 0.002;
+  TeamTracker t(o);
+  for (int i = 0; i <= 100; ++i) t.add_pose(3, i * kPosePeriodNs, {0.05 * i, 0.0, 0.0}, 0.5);  // 5 m
+  const RobotEstimate before = *t.predict(100 * kPosePeriodNs).find(3);
+  EXPECT_GT(std::sqrt(before.drift_cov_m2(0, 0)), 0.05);
+  t.registered(3, 0.01, 0.002);
+  t.registered(4, 0.01, 0.002);  // no track: ignored
+  const RobotEstimate at = *t.predict(100 * kPosePeriodNs).find(3);
+  EXPECT_NEAR(at.drift_cov_m2(0, 0), 0.01 * 0.01, 1e-12);
+  EXPECT_NEAR(at.heading_sigma_rad, 0.002, 1e-12);
+  EXPECT_LT(at.position_cov_m2(0, 0), before.position_cov_m2(0, 0));
+  EXPECT_EQ(at.position_m.x, before.position_m.x);  // uncertainty, not a move: corrected poses move it
+  // 1 m further: 0.01 m of slip, and the heading σ (0.002 + 0.002) times 1 m from the registration.
+  for (int i = 101; i <= 120; ++i) t.add_pose(3, i * kPosePeriodNs, {0.05 * i, 0.0, 0.0}, 0.5);
+  const RobotEstimate later = *t.predict(120 * kPosePeriodNs).find(3);
+  EXPECT_NEAR(std::sqrt(later.drift_cov_m2(0, 0)), 0.01 + 0.01 + 0.004 * 1.0, 1e-3);
+  EXPECT_LT(later.drift_cov_m2(0, 0), before.drift_cov_m2(0, 0));
+}
+
 TEST(TrackerDrift, TurningGrowsTheHeadingSigmaWhoseLeverIsTheDistanceFromTheStart) {
   TrackerOptions o;
   o.drift_m_per_m = 0.0;

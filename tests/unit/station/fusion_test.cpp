@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <set>
 #include <thread>
 #include <numeric>
@@ -28,12 +29,38 @@ namespace {
 std::int32_t mm(double m) { return static_cast<std::int32_t>(std::lround(m * 1000.0)); }
 
 // A survey already on the millimetre grid, so the stage sees exactly the data set's values.
-Dataset survey() {
+// `drift_robot`: that robot's odometry (poses, scan origins and points) drifts from the truth by a
+// growing (x, y, yaw) per second, about the room's centre, so the registration has something to correct.
+Dataset survey(double duration_s = 3.0, std::uint8_t drift_robot = 0) {
   bench::SurveyOptions o;
-  o.duration_s = 3.0;
+  o.duration_s = duration_s;
   o.room_m = 6.0;
   o.seed = 3;
   Dataset d = bench::synthetic_survey(o);
+  if (drift_robot != 0) {
+    auto drift = [](std::int64_t stamp_ns) {
+      const double t = static_cast<double>(stamp_ns) * 1e-9;
+      const Pose2 about{3.0, 3.0, 0.0};
+      return about * Pose2{0.012 * t, -0.008 * t, 0.0025 * t} * about.inverse();  // 1.2 cm/s, 0.8 cm/s, 0.14°/s
+    };
+    std::map<std::uint32_t, std::int64_t> stamp_of;
+    for (ScanRecord& r : d.scans) {
+      if (r.robot != drift_robot) continue;
+      stamp_of[r.scan] = r.stamp_ns;
+      const Pose2 m = drift(r.stamp_ns);
+      r.pose = m * r.pose;
+      const Vec2 o2 = m.apply({r.origin.x, r.origin.y});
+      r.origin = {o2.x, o2.y, r.origin.z};
+    }
+    for (LabelledPoint& p : d.points) {
+      if (p.robot != drift_robot) continue;
+      const Vec2 q = drift(stamp_of[p.scan]).apply({p.x, p.y});
+      p.x = static_cast<float>(q.x);
+      p.y = static_cast<float>(q.y);
+    }
+    for (TrajectorySample& s : d.odom)
+      if (s.robot == drift_robot) s.pose = drift(s.stamp_ns) * s.pose;
+  }
   for (LabelledPoint& p : d.points) {
     p.x = static_cast<float>(mm(p.x) * 1e-3);
     p.y = static_cast<float>(mm(p.y) * 1e-3);
@@ -225,6 +252,120 @@ INSTANTIATE_TEST_SUITE_P(AllMethods, FusionMethods,
                          ::testing::Values("frequency", "visibility", "position", "direction", "combined", "tracked",
                                            "freespace", "best"));
 
+// Registration on (CoreOptions::registration): robot 2's odometry drifts; the core corrects it from the
+// matches, and the station's model (poses late, arrival order) still decides every point as
+// `teamscan eval --registration` (the core fed in time order), bit for bit; the corrected poses are
+// closer to the truth than the odometry.
+TEST(FusionRegistration, ModelDecisionsEqualEvalWithRegistrationOn) {
+  const Dataset d = survey(12.0, 2);
+  mapping::CoreRunOptions run;
+  run.registration = true;
+  run.registration_options.window_s = 1.0;
+  run.registration_options.match_every_s = 0.3;
+  run.registration_options.min_map_features = 20;
+  for (const char* method : {"best", "position"}) {
+    const mapping::CoreRun eval = mapping::run_through_core(d, method, mapping::MethodOptions{}, run);
+    ASSERT_EQ(eval.robots.size(), 2u);
+    EXPECT_GT(eval.robots[1].accepted, 3u) << method;
+    // The drifting robot's scans: pose error as the core placed them against odometry alone.
+    double before = 0, after = 0;
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < d.scans.size(); ++i) {
+      const ScanRecord& r = d.scans[i];
+      if (r.robot != 2 || r.stamp_ns < 8'000'000'000 || !eval.scan_decided[i]) continue;
+      before += std::hypot(r.pose.x_m - r.true_pose.x_m, r.pose.y_m - r.true_pose.y_m);
+      after += std::hypot(eval.scan_poses[i].x_m - r.true_pose.x_m, eval.scan_poses[i].y_m - r.true_pose.y_m);
+      ++n;
+    }
+    ASSERT_GT(n, 0u);
+    EXPECT_LT(after, 0.5 * before) << method << ": mean error " << after / n << " m, odometry " << before / n << " m";
+    for (std::size_t pose_delay : {std::size_t{0}, std::size_t{3}}) {
+      const std::string dir = temp_dir();
+      FusionOptions o;
+      o.core.method = method;
+      o.core.max_points_per_voxel = 100000;
+      o.core.registration = true;
+      o.core.registration_options = run.registration_options;
+      o.all_points_pcd = "fused_all.pcd";
+      auto stage = FusionStage::create(o, dir);
+      ASSERT_TRUE(stage.ok());
+      feed(**stage, d, pose_delay);
+      EXPECT_GT((*stage)->core().counters().registration_corrections, 0u);
+      ASSERT_TRUE((*stage)->write_model().ok());
+      auto all = read_pcd(dir + "/fused_all.pcd");
+      ASSERT_TRUE(all.ok());
+      ASSERT_EQ(all->size(), d.points.size());
+      const int fr = all->field("robot"), fs = all->field("scan"), fb = all->field("beam"), fk = all->field("keep");
+      const int fx = all->field("x");
+      std::map<std::tuple<int, std::uint32_t, int>, std::pair<std::uint8_t, float>> decided;
+      for (std::size_t i = 0; i < all->size(); ++i) {
+        auto col = [&](int f) { return all->columns[static_cast<std::size_t>(f)][i]; };
+        decided[{static_cast<int>(col(fr)), static_cast<std::uint32_t>(col(fs)), static_cast<int>(col(fb))}] = {
+            col(fk) == 0.0 ? 1 : 0, static_cast<float>(col(fx))};
+      }
+      for (std::size_t i = 0; i < d.points.size(); ++i) {
+        const auto& [removed, x] = decided[{d.points[i].robot, d.points[i].scan, d.points[i].beam}];
+        ASSERT_EQ(removed, eval.removed[i]) << method << " point " << i << " pose_delay " << pose_delay;
+        ASSERT_EQ(x, eval.placed[i].x) << method << " point " << i << " pose_delay " << pose_delay;  // the same correction
+      }
+      std::filesystem::remove_all(dir);
+    }
+  }
+}
+
+// A correction holds from a stamp on, whatever was added before it: the poses stamped at or after it
+// are corrected (and their tracks folded again) whether they arrived before or after the correction.
+TEST(PoseHistoryCorrection, AppliesByStampNotByArrival) {
+  const Pose2 c{0.1, -0.05, 0.02};
+  auto pose = [](std::int64_t k) {
+    return fusion::PoseInput{1, k * 100'000'000, k * 100'000'000, Pose2{0.1 * k, 0.02 * k, 0.01 * k}, 0.5, 0.1};
+  };
+  fusion::PoseHistory before{fusion::PoseHistoryOptions{}}, after{fusion::PoseHistoryOptions{}};
+  for (std::int64_t k = 0; k < 20; ++k) ASSERT_TRUE(before.add(pose(k)));
+  before.set_map_from_odom(1, 1'000'000'000, c);  // after every pose arrived
+  for (std::int64_t k = 0; k < 10; ++k) ASSERT_TRUE(after.add(pose(k)));
+  after.set_map_from_odom(1, 1'000'000'000, c);  // before the later ones arrived
+  for (std::int64_t k = 10; k < 20; ++k) ASSERT_TRUE(after.add(pose(k)));
+  for (std::int64_t t : {std::int64_t{500'000'000}, std::int64_t{1'000'000'000}, std::int64_t{1'450'000'000}, std::int64_t{1'950'000'000}}) {
+    const auto a = before.scan_pose(1, t), b = after.scan_pose(1, t);
+    ASSERT_TRUE(a.found && b.found);
+    EXPECT_EQ(a.map_from_robot.x_m, b.map_from_robot.x_m);
+    EXPECT_EQ(a.map_from_robot.theta_rad, b.map_from_robot.theta_rad);
+    const mapping::TeamState ta = before.team_at(t), tb = after.team_at(t);
+    ASSERT_EQ(ta.robots.size(), 1u);
+    EXPECT_EQ(ta.robots[0].position_m.x, tb.robots[0].position_m.x);
+    EXPECT_EQ(ta.robots[0].position_m.y, tb.robots[0].position_m.y);
+    // Before the stamp: odometry; from it on: the correction on the odometry.
+    const Pose2 expected = t < 1'000'000'000 ? a.odom : c * a.odom;
+    EXPECT_NEAR(a.map_from_robot.x_m, expected.x_m, 1e-12);
+    EXPECT_NEAR(a.map_from_robot.y_m, expected.y_m, 1e-12);
+  }
+  // With a σ, the correction is a measurement for the track: its drift restarts from that σ at the
+  // first pose stamped at or after the correction, whether that pose came before or after it.
+  fusion::PoseHistoryOptions drifting;
+  drifting.tracker.drift_m_per_m = 0.05;
+  fusion::PoseHistory early{drifting}, late{drifting}, none{drifting};
+  for (std::int64_t k = 0; k < 20; ++k) {
+    ASSERT_TRUE(early.add(pose(k)));
+    ASSERT_TRUE(none.add(pose(k)));
+  }
+  early.set_map_from_odom(1, 1'500'000'000, c, 0.004, 0.001);
+  none.set_map_from_odom(1, 1'500'000'000, c);
+  for (std::int64_t k = 0; k < 15; ++k) ASSERT_TRUE(late.add(pose(k)));
+  late.set_map_from_odom(1, 1'500'000'000, c, 0.004, 0.001);
+  for (std::int64_t k = 15; k < 20; ++k) ASSERT_TRUE(late.add(pose(k)));
+  const mapping::RobotEstimate e = early.team_at(1'900'000'000).robots.at(0), l = late.team_at(1'900'000'000).robots.at(0),
+                               n = none.team_at(1'900'000'000).robots.at(0);
+  EXPECT_EQ(e.drift_cov_m2(0, 0), l.drift_cov_m2(0, 0));
+  EXPECT_EQ(e.position_m.x, l.position_m.x);
+  EXPECT_LT(std::sqrt(e.drift_cov_m2(0, 0)), 0.018);  // 4 mm + 5 % of 0.25 m + 0.001 rad at 0.5 m
+  EXPECT_GT(std::sqrt(n.drift_cov_m2(0, 0)), 0.05 * 0.5 * 1.8);          // odometry alone: 5 % of 0.9 m
+  EXPECT_LT(e.drift_cov_m2(0, 0), 0.25 * n.drift_cov_m2(0, 0));
+  EXPECT_EQ(before.map_from_odom(1, 999'999'999).x_m, 0.0);
+  EXPECT_EQ(before.map_from_odom(1, 1'000'000'000).x_m, c.x_m);
+  EXPECT_FALSE(before.corrected(2));
+}
+
 TEST(Fusion, MapVoxelsAccountForEveryPointAndFlagFullyRemovedVoxels) {
   const Dataset d = survey();
   const std::string dir = temp_dir();
@@ -396,6 +537,28 @@ TEST(FusionConfig, DefaultsAreBestWithThePapersCombinedParameters) {
   EXPECT_NEAR(o.core.methods.combined_half_angle_rad, 7.0 * M_PI / 180.0, 1e-12);
   EXPECT_EQ(o.core.max_points_per_voxel, 64u);
   EXPECT_TRUE(o.all_points_pcd.empty());
+}
+
+TEST(FusionConfig, RegistrationIsOffByDefaultAndOnByKeyOrSection) {
+  GroundStationConfig c;
+  EXPECT_FALSE(fusion_options_from_config(c.fusion, c.kalman, c.registration).core.registration);
+  ConfigError e;
+  ASSERT_TRUE(parse_groundstation_config("[fusion]\nregistration = true\n", "t.toml", c, e)) << e.message;
+  EXPECT_TRUE(fusion_options_from_config(c.fusion, c.kalman, c.registration).core.registration);
+  GroundStationConfig s;
+  ASSERT_TRUE(parse_groundstation_config("[registration]\nwindow_s = 2.0\nmatch_every_s = 0.25\nmin_map_features = 40\n", "t.toml", s, e))
+      << e.message;
+  const FusionOptions o = fusion_options_from_config(s.fusion, s.kalman, s.registration);
+  EXPECT_TRUE(o.core.registration);
+  EXPECT_DOUBLE_EQ(o.core.registration_options.window_s, 2.0);
+  EXPECT_DOUBLE_EQ(o.core.registration_options.match_every_s, 0.25);
+  EXPECT_EQ(o.core.registration_options.min_map_features, 40u);
+  GroundStationConfig off;
+  ASSERT_TRUE(parse_groundstation_config("[registration]\nenabled = false\n", "t.toml", off, e)) << e.message;
+  EXPECT_FALSE(off.fusion.registration);
+  EXPECT_FALSE(parse_groundstation_config("[registration]\nwindow_s = 0\n", "t.toml", off, e));
+  EXPECT_EQ(e.message.rfind("registration.window_s:", 0), 0u) << e.message;
+  EXPECT_FALSE(parse_groundstation_config("[registration]\nmagic = 1\n", "t.toml", off, e));
 }
 
 TEST(FusionConfig, BadValuesNameTheirKey) {

@@ -2,6 +2,7 @@
 // forward speed from the map-frame velocity, orders robots by id and merges liveliness into `lost`.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 
 #include "groundstation/station/kalman_team_source.hpp"
@@ -55,6 +56,29 @@ TEST(KalmanTeamSource, OrderedByIdAndLostFromLivelinessOrAge) {
   EXPECT_TRUE(out[1].lost);
   ASSERT_EQ(k.estimate(Time::from_seconds(12.0), out), 2u);  // 2 s without a pose
   EXPECT_TRUE(out[0].lost);
+}
+
+// The registration's correction goes into teamscan/team: the poses after it are corrected before the
+// tracker, and the track's drift restarts from the correction's σ.
+TEST(KalmanTeamSource, PosesAfterACorrectionArePublishedCorrected) {
+  mapping::TrackerOptions o;
+  o.drift_m_per_m = 0.02;
+  KalmanTeamSource k(o);
+  for (int i = 0; i <= 20; ++i) k.add_pose(pose(3, 10.0 + 0.1 * i, 0.1 * i, 0.0, 0.0, 1.0, 0.0));
+  std::array<TeamMemberEstimate, kMaxRobots> out{};
+  ASSERT_EQ(k.estimate(Time::from_seconds(12.0), out), 1u);
+  const double cov_before = out[0].cov_xx_m2;
+  // Odometry says (2, 0); the map says the odometry frame sits 0.3 m further in y and turned 0.05 rad.
+  k.set_correction(3, 0.0, 0.3, 0.05, 0.01, 0.001);
+  ASSERT_EQ(k.estimate(Time::from_seconds(12.0), out), 1u);
+  EXPECT_LT(out[0].cov_xx_m2, cov_before);  // the drift restarts from the correction's σ
+  for (int i = 21; i <= 60; ++i) k.add_pose(pose(3, 10.0 + 0.1 * i, 0.1 * i, 0.0, 0.0, 1.0, 0.0));
+  ASSERT_EQ(k.estimate(Time::from_seconds(16.0), out), 1u);
+  const Pose2 expected = Pose2{0.0, 0.3, 0.05} * Pose2{6.0, 0.0, 0.0};
+  EXPECT_NEAR(out[0].x_m, expected.x_m, 0.02);
+  EXPECT_NEAR(out[0].y_m, expected.y_m, 0.02);
+  k.set_correction(0, 1, 1, 1, 1, 1);  // bad ids are ignored
+  k.set_correction(kMaxRobots + 1, 1, 1, 1, 1, 1);
 }
 
 }  // namespace
