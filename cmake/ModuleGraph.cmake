@@ -26,7 +26,7 @@ set(TEAMSCAN_ALLOWED_DEPS
   "groundstation/station:common common/dataset idl dds dds/security dds/ros2 groundstation/mapping groundstation/fusion groundstation/registration groundstation/view"
   "tools/render:common common/dataset"
   "tools/pki:common dds/security"
-  "tools/demo:*"
+  "tools/demo:common common/dataset sim groundstation/mapping groundstation/fusion groundstation/station tools/render tools/pki"
 )
 
 function(_teamscan_module_of target out)

@@ -58,6 +58,12 @@ function(add_unit_test name)
     LABELS "${ARG_LABELS}"
     TIMEOUT ${ARG_TIMEOUT}
     ENVIRONMENT "CYCLONEDDS_URI=${TEAMSCAN_DDS_LOOPBACK_URI};TEAMSCAN_SOURCE_DIR=${TEAMSCAN_SOURCE_DIR};TEAMSCAN_BINARY_DIR=${CMAKE_BINARY_DIR}")
+  # An e2e test runs the whole live system in real time (emulated devices paced at their baud rates,
+  # the daemons stamping scans on arrival): it gets the machine to itself, not a core shared with a
+  # CPU-bound test, so that its timing checks measure the software and not ctest's scheduling.
+  if("e2e" IN_LIST ARG_LABELS)
+    set_tests_properties(${name} PROPERTIES RUN_SERIAL TRUE)
+  endif()
 endfunction()
 
 # add_fuzz_target(NAME SOURCE fuzz_x.cpp DEPS libs CORPUS dir)

@@ -25,6 +25,8 @@ Result<std::unique_ptr<FusionCore>> FusionCore::create(const CoreOptions& option
   std::unique_ptr<mapping::Filter> filter = mapping::make_filter(options.method, options.methods);
   if (!filter) return Error{"fusion: unknown filter method (fusion.method)"};
   if (!(options.hold_s >= 0.0)) return Error{"fusion: hold_s must be >= 0"};
+  if (!(options.tracker.team_lag_s >= 0.0 && options.tracker.team_lag_s <= 10.0))
+    return Error{"fusion: team_lag_s must be in [0, 10] s"};
   if (!(options.pose_keep_s > 0.0)) return Error{"fusion: pose_keep_s must be > 0"};
   if (options.max_points_per_voxel > 0 && !(options.model_resolution_m > 0.0))
     return Error{"fusion: model resolution must be > 0 (fusion.model_resolution_m)"};
@@ -144,9 +146,10 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
   }
   for (auto it = held_.begin(); it != held_.end();) {
     // Its own robot's poses must have passed it too (own pose), unless that robot is silent.
+    const std::int64_t cutoff = poses_.cutoff(it->stamp_ns);  // the newest pose stamp that decides it
     const bool own_ok = poses_.known(it->robot) &&
-                        (poses_.newest_stamp(it->robot) >= it->stamp_ns || now_ns - last_pose_arrival_ns_[it->robot] >= hold_ns);
-    const bool by_poses = own_ok && it->stamp_ns <= watermark;
+                        (poses_.newest_stamp(it->robot) >= cutoff || now_ns - last_pose_arrival_ns_[it->robot] >= hold_ns);
+    const bool by_poses = own_ok && cutoff <= watermark;
     const bool forced = !by_poses && (all || now_ns - it->arrival_ns >= hold_ns);
     if (by_poses || forced) {
       release(*it, forced);

@@ -8,7 +8,8 @@
 // A point's decision = its point part (decided when its scan is released, from the scan's pose and the
 // team at the scan's time) combined with its map part, read from the map whenever the decision is
 // asked for (mapping::Filter::decide). A scan is released when its own robot and every robot the core
-// knows have a pose stamped at or after the scan (so the team at its time is final whatever order the
+// knows have a pose stamped at or after the scan less the decision lag (tracker.team_lag_s, 0 by
+// default: PoseHistory::cutoff) (so the team at its time is final whatever order the
 // poses came in; a robot silent for hold_s of arrival time no longer counts), or when it has waited
 // `hold_s` of arrival time; nothing is released in the first hold_s (the team is being discovered).
 // The map is a sum over the released scans, so its state and every map part are the same live and

@@ -7,7 +7,8 @@
 
 namespace teamscan::fusion {
 
-PoseHistory::PoseHistory(PoseHistoryOptions options) : options_{options} {}
+PoseHistory::PoseHistory(PoseHistoryOptions options)
+    : options_{options}, lag_ns_{static_cast<std::int64_t>(options.tracker.team_lag_s * 1e9)} {}
 
 void PoseHistory::clear() {
   for (Robot& r : robots_) r.entries.clear();
@@ -75,7 +76,7 @@ PoseHistory::ScanPose PoseHistory::scan_pose(std::uint8_t robot, std::int64_t st
   ScanPose out;
   if (robot == 0 || robot > kMaxRobots || robots_[robot].entries.empty()) return out;
   const Robot& r = robots_[robot];
-  const Entry* e = at_or_before(r, stamp_ns);
+  const Entry* e = at_or_before(r, cutoff(stamp_ns));
   if (e == nullptr) e = &r.entries.front();
   const double dt_s = static_cast<double>(stamp_ns - e->pose.stamp_ns) * 1e-9;
   const Pose2& m = e->map_pose;
@@ -91,7 +92,7 @@ mapping::TeamState PoseHistory::team_at(std::int64_t stamp_ns) const {
   for (std::size_t id = 1; id <= kMaxRobots; ++id) {
     const Robot& r = robots_[id];
     if (r.entries.empty()) continue;
-    const Entry* e = at_or_before(r, stamp_ns);
+    const Entry* e = at_or_before(r, cutoff(stamp_ns));
     if (e == nullptr) continue;  // not tracked yet at that time
     team.robots.push_back(e->track.predict(stamp_ns));
   }

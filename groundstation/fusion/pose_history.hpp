@@ -1,9 +1,10 @@
 // The one place that decides a scan's pose and the team's state at a time (DESIGN.md "groundstation/
 // fusion"): every robot's odometry poses in stamp order, each with the Kalman track as it stood right
-// after that pose. A scan's own pose is its robot's newest pose at or before the scan's stamp, moved on
-// with the pose's velocity; the team at a time t is every robot's track after its newest pose at or
-// before t, predicted to t. Both are functions of the poses stamped ≤ t only, so they come out the same
-// whether the poses arrived before or after the scan (live, arrival order) or in time order (offline).
+// after that pose. A scan's own pose is its robot's newest pose at or before the scan's stamp less the
+// decision lag (TrackerOptions::team_lag_s, 0 by default), moved on with the pose's velocity; the team at
+// a time t is every robot's track after its newest pose at or before t − lag, predicted to t. Both are
+// functions of the poses stamped ≤ t − lag only, so they come out the same whether the poses arrived
+// before or after the scan (live, arrival order) or in time order (offline).
 //
 // Each robot's odometry is corrected into the map frame by its `map_from_odom` (x, y, yaw): identity
 // until the registration sets it. The corrected poses feed the tracker and the filters.
@@ -59,6 +60,9 @@ class PoseHistory {
   void set_map_from_odom(std::uint8_t robot, const Pose2& map_from_odom);
   [[nodiscard]] const Pose2& map_from_odom(std::uint8_t robot) const { return robots_[robot].map_from_odom; }
 
+  // The newest pose stamp that decides a scan stamped `stamp_ns`: stamp − tracker.team_lag_s. A scan's
+  // pose and team are final once every robot has a pose stamped at or after it.
+  [[nodiscard]] std::int64_t cutoff(std::int64_t stamp_ns) const { return stamp_ns - lag_ns_; }
   // Newest pose stamp of a robot (INT64_MIN: none) and whether it has any.
   [[nodiscard]] std::int64_t newest_stamp(std::uint8_t robot) const;
   [[nodiscard]] bool known(std::uint8_t robot) const { return robot <= kMaxRobots && !robots_[robot].entries.empty(); }
@@ -80,6 +84,7 @@ class PoseHistory {
   [[nodiscard]] const Entry* at_or_before(const Robot& r, std::int64_t stamp_ns) const;
 
   PoseHistoryOptions options_;
+  std::int64_t lag_ns_ = 0;  // options_.tracker.team_lag_s
   std::array<Robot, kMaxRobots + 1> robots_{};
   std::uint64_t duplicates_ = 0;
 };

@@ -27,6 +27,12 @@ struct TrackerOptions {
   double velocity_noise_mps = 0.05;
   // Use (v cos θ, v sin θ) from the pose message as a velocity measurement.
   bool use_velocity = true;
+  // Decision lag (fusion core, fusion/pose_history.hpp): the team and a scan's own pose at time t are
+  // predicted to t from the poses stamped at or before t − team_lag_s. 0: from the newest pose at or
+  // before t, exact, but a scan then waits for every robot's next pose (up to one pose period, 100 ms
+  // at the Pioneer's SIP rate). A lag of one pose period plus the network's delay (0.15 s) lets a scan
+  // be decided on arrival, with teammates predicted up to lag + one period ahead. Live and offline alike.
+  double team_lag_s = 0.0;
   // Initial velocity uncertainty when the first pose of a robot arrives (m/s).
   double initial_velocity_sigma_mps = 1.0;
   // A track older than this (no measurement) is reported lost on teamscan/team (DDS liveliness does the

@@ -49,6 +49,8 @@ struct FusionConfig {
   // The fusion core (groundstation/fusion/core.hpp): how long a scan waits for every robot's poses to
   // pass its stamp, and the model store (points kept per voxel of model_resolution_m).
   double hold_s = 1.0;
+  // The decision lag (mapping::TrackerOptions::team_lag_s): 0 = the exact team at each scan's stamp.
+  double team_lag_s = 0.0;
   double model_resolution_m = 0.05;
   std::uint32_t max_points_per_voxel = 64;
 };

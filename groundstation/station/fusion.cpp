@@ -37,6 +37,7 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   m.combined_grid_origin_z_m = f.grid_origin_z_m;
   o.core.tracker = tracker_options(k);
   o.core.hold_s = f.hold_s;
+  o.core.tracker.team_lag_s = f.team_lag_s;
   o.core.model_resolution_m = f.model_resolution_m;
   o.core.max_points_per_voxel = f.max_points_per_voxel;
   o.map_resolution_m = f.map_resolution_m;

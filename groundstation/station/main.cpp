@@ -18,6 +18,7 @@
 #include "dds/security/credentials.hpp"
 #include "dds/security/openssl_util.hpp"
 #include "groundstation/station/config.hpp"
+#include "groundstation/station/disk_sync.hpp"
 #include "groundstation/station/ros2_publisher.hpp"
 #include "groundstation/station/session_store.hpp"
 #include "groundstation/station/station.hpp"
@@ -246,9 +247,16 @@ int main(int argc, char** argv) {
   dds::notify_status(("receiving; session " + store->dir()).c_str());
   log(kInfo, "ready" + std::string(wd.count() > 0 ? ", watchdog on" : ""));
 
+  // The session files reach the disk every sync_interval from a thread of their own (disk_sync.hpp):
+  // a slow fdatasync never holds the receive loop.
+  auto disk_sync = DiskSync::start(store->file_descriptors(), cfg.sync_interval);
+  if (!disk_sync) {
+    log(kErr, disk_sync.error().what);
+    return 1;
+  }
+
   Time now = now_monotonic();
   Time next_ping = now;
-  Time next_sync = now + cfg.sync_interval;
   Time next_status = now + cfg.status_interval;
   Time next_write = now + cfg.fusion.write_interval;
   Time next_map = now + cfg.fusion.map_interval;
@@ -272,10 +280,6 @@ int main(int argc, char** argv) {
     if (ping_period.count() > 0 && now >= next_ping) {
       dds::notify_watchdog();
       next_ping = now + ping_period;
-    }
-    if (now >= next_sync) {
-      store->sync();
-      next_sync = now + cfg.sync_interval;
     }
     if (fusion) fusion->tick(now_realtime().ns());
     // The periodic model write, from the core's memory, in this loop (its time: events.log).
@@ -360,6 +364,16 @@ int main(int argc, char** argv) {
   (void)st.write_validation();
   store->log_event(now_realtime(), "station stopping: " + st.status_line());
   station.value().reset();  // leave DDS before closing the files
+  disk_sync.value()->stop();
+  {
+    const DiskSyncFigures f = disk_sync.value()->figures();
+    char text[160];
+    std::snprintf(text, sizeof text, "disk sync: %llu rounds off the loop, %llu failed fdatasync, slowest %.1f ms",
+                  static_cast<unsigned long long>(f.syncs), static_cast<unsigned long long>(f.failures),
+                  static_cast<double>(f.longest_ns) * 1e-6);
+    store->log_event(now_realtime(), text);
+    if (f.failures > 0) log(kErr, text);
+  }
   store->sync();  // the session is complete on disk before the final model write
   if (fusion) {
     fusion->flush();  // every held scan decided with what arrived

@@ -7,11 +7,13 @@
 //   session-.../rejected.csv             every sample refused at the edge: topic, raw header, reason, value
 //                                        (the sample itself is in scans.bin / poses.csv / status.csv, marked)
 // A write(2) hands the bytes to the kernel, so a crash or kill of this process (or of a fusion stage in
-// it) loses nothing already received; sync() (periodically and on stop) makes them durable on disk.
+// it) loses nothing already received; sync() (on stop; DiskSync periodically, off the receive loop)
+// makes them durable on disk.
 #pragma once
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "common/result.hpp"
 #include "common/time.hpp"
@@ -62,6 +64,10 @@ class SessionStore {
   void log_event(Time realtime, const std::string& text);
   // fdatasync every file.
   void sync();
+  // The open files' descriptors (for DiskSync, which flushes them off the receive loop).
+  [[nodiscard]] std::vector<int> file_descriptors() const {
+    return {scans_fd_, poses_fd_, status_fd_, events_fd_, rejected_fd_};
+  }
   // Current sizes of scans.bin and poses.csv (fstat): after sync(), a prefix that is on disk, which a
   // separate reader (ModelWriter) can read back while the loop goes on appending.
   [[nodiscard]] std::uint64_t scans_file_bytes() const;

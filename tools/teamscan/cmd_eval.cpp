@@ -60,6 +60,8 @@ struct EvalArgs {
   double drift_m_per_m = mapping::TrackerOptions{}.drift_m_per_m;
   double drift_deg_per_m = mapping::TrackerOptions{}.drift_heading_rad_per_m * 180.0 / 3.14159265358979323846;
   double drift_deg_per_deg = mapping::TrackerOptions{}.drift_heading_rad_per_rad;
+  // The fusion core's decision lag (TrackerOptions::team_lag_s; the station's fusion.team_lag_s).
+  double team_lag_s = mapping::TrackerOptions{}.team_lag_s;
   // Issue 7 (docs/beyond.md): localisation noise on what the filters see, and the new methods' knobs.
   double pose_noise_m = 0.0;
   double pose_noise_deg = 0.0;
@@ -114,6 +116,7 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.drift_m_per_m != d.drift_m_per_m) o << " --tracker-drift-m-per-m " << number(a.drift_m_per_m);
   if (a.drift_deg_per_m != d.drift_deg_per_m) o << " --tracker-drift-deg-per-m " << number(a.drift_deg_per_m);
   if (a.drift_deg_per_deg != d.drift_deg_per_deg) o << " --tracker-drift-deg-per-deg " << number(a.drift_deg_per_deg);
+  if (a.team_lag_s != d.team_lag_s) o << " --team-lag " << number(a.team_lag_s);
   if (a.pose_noise_m != d.pose_noise_m) o << " --pose-noise-m " << number(a.pose_noise_m);
   if (a.pose_noise_deg != d.pose_noise_deg) o << " --pose-noise-deg " << number(a.pose_noise_deg);
   if (a.pose_noise_correlation_s != d.pose_noise_correlation_s) o << " --pose-noise-correlation " << number(a.pose_noise_correlation_s);
@@ -267,6 +270,7 @@ int run_eval(const EvalArgs& a) {
   options.tracker.drift_m_per_m = a.drift_m_per_m;
   options.tracker.drift_heading_rad_per_m = a.drift_deg_per_m * 3.14159265358979323846 / 180.0;
   options.tracker.drift_heading_rad_per_rad = a.drift_deg_per_deg;
+  options.tracker.team_lag_s = a.team_lag_s;
   options.pose_noise.sigma_m = a.pose_noise_m;
   options.pose_noise.sigma_rad = a.pose_noise_deg * 3.14159265358979323846 / 180.0;
   options.pose_noise.correlation_s = a.pose_noise_correlation_s;
@@ -410,6 +414,10 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--tracker-drift-deg-per-deg", a->drift_deg_per_deg, "Tracker odometry drift: heading sigma per degree turned")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--team-lag", a->team_lag_s,
+                 "Fusion core decision lag (s): the team at a scan's stamp t is predicted from poses stamped <= t - lag "
+                 "(the station's fusion.team_lag_s; 0: exact)")
+      ->check(CLI::Range(0.0, 10.0))->capture_default_str();
   app.add_option("--pose-noise-m", a->pose_noise_m,
                  "Localisation noise added to the poses the filters see: sigma per axis (m; issue 7, docs/beyond.md)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();

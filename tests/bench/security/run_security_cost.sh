@@ -6,9 +6,11 @@
 # feeder's match time, scans written, the station's scan -> fused map p50/p99/max (its events.log, all
 # scans), the station's CPU over the feed (utime+stime from /proc, before its final model write), the
 # feeder's CPU per robot (one process per robot: the DDS publishing cost of one robot), the slowest
-# robot's match time, and the bytes on lo.
+# robot's match time, and the bytes on lo, and the steady-state scan -> fused map p50/p99 (after the
+# feed's first 2 s) from the station's fused_latency.csv. The station decides with the decision lag
+# TEAM_LAG (fusion.team_lag_s, default 0.15 s; docs/groundstation.md).
 #
-# usage: tests/bench/security/run_security_cost.sh [BUILD_DIR] [N] [RATE_HZ] [SECONDS]   (default build/dev 32 75 10)
+# usage: [TEAM_LAG=S] tests/bench/security/run_security_cost.sh [BUILD_DIR] [N] [RATE_HZ] [SECONDS]   (default build/dev 32 75 10)
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
 build="$(cd "${1:-$here/../../../build/dev}" && pwd)"
@@ -30,9 +32,22 @@ domain_id = $domain
 [fusion]
 enabled = true
 write_interval_s = 0
+latency_log = true
+team_lag_s = ${TEAM_LAG:-0.15}
+[view]
+listen = ""
 TOML
-echo "# $(date -u +%FT%TZ) $n robots x $rate Hz x $seconds s, 181-point scans, build $build, load $(cut -d' ' -f1-3 /proc/loadavg)"
-printf '%-7s %8s %8s %9s %9s %9s %10s %12s %8s\n' mode match_s scans p50_ms p99_ms max_ms gs_cpu_s feed_cpu/rb_s lo_MB
+# Steady state: scan -> fused map of the scans stamped after the first 2 s of the feed (fused_latency.csv:
+# robot,seq,stamp_ns,received_ns,fused_ns), as p50/p99 (count). The histogram columns before it count
+# every scan, the fusion core's start-up hold (its first hold_s) included.
+steady() {
+  [ -s "$1" ] || { echo "-"; return; }
+  awk -F, 'NR == FNR { if (first == "" || $3 < first) first = $3; next }
+           $3 >= first + 2e9 { print ($5 - $3) / 1e6 }' "$1" "$1" | sort -g |
+    awk '{ v[NR] = $1 } END { if (NR == 0) { print "-"; exit } i50 = int(0.5 * NR); if (i50 < 1) i50 = 1; i99 = int(0.99 * NR); if (i99 < 1) i99 = 1; printf "%.1f/%.1f(%d)", v[i50], v[i99], NR }'
+}
+echo "# $(date -u +%FT%TZ) $n robots x $rate Hz x $seconds s, team_lag_s ${TEAM_LAG:-0.15}, 181-point scans, build $build, load $(cut -d' ' -f1-3 /proc/loadavg)"
+printf '%-7s %8s %8s %9s %9s %9s %10s %12s %8s %22s\n' mode match_s scans p50_ms p99_ms max_ms gs_cpu_s feed_cpu/rb_s lo_MB "steady_p50/p99_ms(n)"
 for mode in plain secure; do
   pki_station=(); pki_feed=()
   if [ "$mode" = secure ]; then pki_station=(--pki-dir "$work/site/station"); pki_feed=(--pki "$work/site"); fi
@@ -60,6 +75,7 @@ for mode in plain secure; do
     "$(echo "$lat" | sed -n 's/.*max \([0-9.]*\) ms.*/\1/p')" \
     "$(awk -v t="$(cat "$work/station-cpu-$mode")" -v h="$tck" 'BEGIN { print t / h }')" \
     "$(cat "$work"/feed-$mode-*.log | sed -n 's/.*cpu \([0-9.]*\) s.*/\1/p' | awk -v n="$n" '{ t += $1 } END { print t / n }')" \
-    "$(awk '{ print $1 / 1e6 }' "$work/lo-$mode")"
+    "$(awk '{ print $1 / 1e6 }' "$work/lo-$mode")" \
+    "$(steady "$work/session-$mode/fused_latency.csv")"
 done
 echo "outputs in $work (feed-MODE-ID.log, station-MODE.log, session-MODE/)"

@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cinttypes>
+#include <climits>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -65,6 +66,7 @@ struct Options {
   // Station under test (optional).
   std::string station;
   std::string station_config;   // extra TOML appended to the generated config
+  double warmup_s = 2.0;        // the steady-state figures skip scans stamped in the feed's first seconds
   std::string session_dir;      // default: a fresh /tmp folder
   std::string method = "best";
   double write_interval_s = 0;  // periodic fused-model writes (0: none)
@@ -188,7 +190,8 @@ int main(int argc, char** argv) {
   app.add_option("--dataset", o.dataset, "recorded data set folder (teamscan sim output) instead of the synthetic survey");
   app.add_option("--cell", o.cell_m, "distance between the robots' cells, metres");
   app.add_option("--station", o.station, "start this teamscan-groundstation and measure it");
-  app.add_option("--station-config", o.station_config, "TOML file appended to the generated station config");
+  app.add_option("--warmup", o.warmup_s, "seconds of feed (wall) left out of the steady-state latency")->check(CLI::Range(0.0, 1e6));
+  app.add_option("--station-config", o.station_config, "TOML file appended to the generated station config (after its [fusion] keys; without a [view] table the view is off)");
   app.add_option("--session-dir", o.session_dir, "the station's session folder (default: a new /tmp folder)");
   app.add_option("--method", o.method, "the station's fusion.method");
   app.add_option("--write-interval", o.write_interval_s, "the station's fusion.write_interval_s (0: no periodic writes)");
@@ -249,7 +252,11 @@ int main(int argc, char** argv) {
       std::ofstream cfg(cfg_path);
       cfg << "[station]\nstatus_interval_s = 1.0\n[dds]\ndomain_id = " << domain << "\n[fusion]\nmethod = \"" << o.method
           << "\"\nwrite_interval_s = " << o.write_interval_s << "\nlatency_log = true\n";
-      if (!o.station_config.empty()) cfg << slurp(o.station_config);
+      const std::string extra = o.station_config.empty() ? std::string{} : slurp(o.station_config);
+      cfg << extra;
+      // The browser view off unless the extra config sets it (its default port would collide with any
+      // other station on the host).
+      if (extra.find("[view]") == std::string::npos) cfg << "[view]\nlisten = \"\"\n";
     }
     station_pid = ::fork();
     if (station_pid == 0) {
@@ -496,15 +503,33 @@ int main(int argc, char** argv) {
   }, stats, err);
   std::vector<double> lat_ms;
   std::vector<std::pair<std::int64_t, double>> fused_at;  // (fused_ns, latency ms)
+  // Steady state (scans stamped after the first --warmup seconds of the feed; the fusion core releases
+  // nothing in its first hold_s): scan -> fused map, split into scan -> taken from DDS (transport and the
+  // station's queue) and taken -> fused (held for the team state, then fused).
+  std::vector<double> steady_ms, steady_taken_ms, steady_held_ms;
   {
     std::ifstream in(session + "/fused_latency.csv");
     std::string line;
+    struct Row {
+      long long stamp, recv, fused;
+    };
+    std::vector<Row> rows;
+    long long first_stamp = LLONG_MAX;
     while (std::getline(in, line)) {
       unsigned robot = 0, seq = 0;
       long long stamp = 0, recv = 0, fused = 0;
       if (std::sscanf(line.c_str(), "%u,%u,%lld,%lld,%lld", &robot, &seq, &stamp, &recv, &fused) != 5) continue;
       lat_ms.push_back(static_cast<double>(fused - stamp) * 1e-6);
       fused_at.emplace_back(fused, lat_ms.back());
+      rows.push_back({stamp, recv, fused});
+      first_stamp = std::min(first_stamp, stamp);
+    }
+    const long long steady_from = first_stamp + static_cast<long long>(o.warmup_s * 1e9);
+    for (const Row& r : rows) {
+      if (r.stamp < steady_from) continue;
+      steady_ms.push_back(static_cast<double>(r.fused - r.stamp) * 1e-6);
+      steady_taken_ms.push_back(static_cast<double>(r.recv - r.stamp) * 1e-6);
+      steady_held_ms.push_back(static_cast<double>(r.fused - r.recv) * 1e-6);
     }
   }
   const std::uint64_t lost = published > stored.size() ? published - stored.size() : 0;
@@ -513,6 +538,11 @@ int main(int argc, char** argv) {
               stored.size(), refused, lat_ms.size(), lost, quantile(lat_ms, 0.5), quantile(lat_ms, 0.99),
               lat_ms.empty() ? 0.0 : *std::max_element(lat_ms.begin(), lat_ms.end()), cpu1 - cpu0, measured_wall_s,
               100.0 * (cpu1 - cpu0) / measured_wall_s);
+  std::printf("steady (stamped after the first %.1f s): %zu scans; scan -> fused map p50 %.1f ms, p99 %.1f ms, max %.1f ms; "
+              "of which scan -> taken p50 %.1f / p99 %.1f ms, taken -> fused p50 %.1f / p99 %.1f ms\n",
+              o.warmup_s, steady_ms.size(), quantile(steady_ms, 0.5), quantile(steady_ms, 0.99),
+              steady_ms.empty() ? 0.0 : *std::max_element(steady_ms.begin(), steady_ms.end()), quantile(steady_taken_ms, 0.5),
+              quantile(steady_taken_ms, 0.99), quantile(steady_held_ms, 0.5), quantile(steady_held_ms, 0.99));
   if (!rss.empty()) {
     std::printf("station RSS (MiB) at robot time:");
     const std::size_t n = rss.size();

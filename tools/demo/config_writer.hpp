@@ -1,0 +1,31 @@
+// The configs `teamscan demo` writes for its processes: one teamscan-onboard config per simulated robot
+// (its pty devices, mount, variant and registration from the scenario) and the ground station's.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "common/pose.hpp"
+#include "sim/scenario.hpp"
+
+namespace teamscan::demo {
+
+struct OnboardConfigInput {
+  std::string arcos_device, lms_device;   // the pty symlinks of the robot's emulated devices
+  Pose2 registration;                      // map_from_odom: where the robot starts in the map frame
+  int domain = 0;                          // DDS domain
+  std::optional<double> max_hold_s;        // [odometry] max_hold_s (unset: the daemon's default)
+};
+[[nodiscard]] std::string onboard_config(const sim::RobotSpec& spec, const OnboardConfigInput& in);
+
+struct StationConfigInput {
+  std::string session_root;
+  int domain = 0;
+  std::string method = "best";             // [fusion] method
+  double write_interval_s = 0.0;           // [fusion] write_interval_s (0: once, at shutdown)
+  bool ros2 = true;                        // [ros2] enabled (docs/ros2.md)
+  std::optional<int> view_port;            // [view] listen on 127.0.0.1:PORT (unset: no view)
+};
+[[nodiscard]] std::string station_config(const StationConfigInput& in);
+
+}  // namespace teamscan::demo

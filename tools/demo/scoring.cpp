@@ -1,0 +1,356 @@
+// Scoring of a demo run from the ground station's session (scoring.hpp).
+#include "tools/demo/scoring.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <set>
+#include <unordered_map>
+
+#include "common/dataset/pcd.hpp"
+#include "common/laser_geometry.hpp"
+#include "common/point_flags.hpp"
+#include "common/pose.hpp"
+#include "groundstation/station/config.hpp"
+#include "groundstation/station/model_check.hpp"
+
+namespace teamscan::demo {
+namespace {
+
+Pose2 interpolate_pose(const std::vector<TrajectorySample>& s, std::int64_t t) {
+  if (s.empty()) return {};
+  auto it = std::lower_bound(s.begin(), s.end(), t, [](const TrajectorySample& a, std::int64_t v) { return a.stamp_ns < v; });
+  if (it == s.begin()) return s.front().pose;
+  if (it == s.end()) return s.back().pose;
+  const TrajectorySample& b = *it;
+  const TrajectorySample& a = *std::prev(it);
+  const double f = static_cast<double>(t - a.stamp_ns) / static_cast<double>(std::max<std::int64_t>(1, b.stamp_ns - a.stamp_ns));
+  return interpolate(a.pose, b.pose, f);
+}
+
+}  // namespace
+
+LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live,
+                               const std::vector<std::vector<sim::LiveScanTruth>>& truths, const sim::Scenario& scenario,
+                               const Dataset& offline, double duration_s) {
+  LiveDataset L;
+  Dataset& ds = L.ds;
+  ds.scenario = offline.scenario;
+  ds.seed = offline.seed;
+  ds.duration_s = duration_s;
+  std::copy(std::begin(offline.room_m), std::end(offline.room_m), std::begin(ds.room_m));
+  std::map<std::uint8_t, std::size_t> live_index;  // robot id -> LiveTeam index
+  for (std::size_t i = 0; i < live.robot_count(); ++i) live_index[live.spec(i).id] = i;
+  for (const DatasetRobot& r : offline.robots)
+    if (live_index.count(r.id)) ds.robots.push_back(r);
+  auto to_sim_ns = [&](std::int64_t realtime_ns) {
+    return scenario.start_time_ns + static_cast<std::int64_t>(std::llround(live.world_time_of(realtime_ns) * 1e9));
+  };
+  const std::int64_t end_ns = scenario.start_time_ns + static_cast<std::int64_t>(duration_s * 1e9);
+
+  // Odometry as the robots published it (poses.csv), truth from the tracks at the same instants.
+  Result<std::vector<PoseRow>> poses = read_poses_csv(session + "/poses.csv");
+  if (!poses) L.session_error = std::string("poses.csv: ") + poses.error().what;
+  for (const PoseRow& p : poses ? poses.value() : std::vector<PoseRow>{}) {
+    const auto id = static_cast<std::uint8_t>(p.robot_id);
+    if (!live_index.count(id)) continue;
+    const std::int64_t t = to_sim_ns(p.stamp_ns);
+    if (t < scenario.start_time_ns || t > end_ns + 200'000'000) continue;
+    TrajectorySample o;
+    o.robot = id;
+    o.stamp_ns = t;
+    o.pose = {p.x_mm * 1e-3, p.y_mm * 1e-3, p.yaw_urad * 1e-6};
+    // The tracker is fed the forward speed, as the station's (common/pose.hpp).
+    o.v_mps = forward_speed_mps(p.vx_mmps * 1e-3, p.vy_mmps * 1e-3, o.pose.theta_rad);
+    o.w_radps = p.yaw_rate_mradps * 1e-3;
+    ds.odom.push_back(o);
+    // The live world's truth: a robot whose client went silent stood still (sim/live.hpp true_motion).
+    const sim::LiveTruth truth = live.true_motion(live_index[id], static_cast<double>(t - scenario.start_time_ns) * 1e-9);
+    ds.truth.push_back({id, t, truth.pose, truth.v_mps, truth.w_radps});
+  }
+  auto by_time = [](const TrajectorySample& a, const TrajectorySample& b) {
+    return a.robot != b.robot ? a.robot < b.robot : a.stamp_ns < b.stamp_ns;
+  };
+  std::sort(ds.odom.begin(), ds.odom.end(), by_time);
+  std::sort(ds.truth.begin(), ds.truth.end(), by_time);
+  std::map<std::uint8_t, std::vector<TrajectorySample>> odom_of;
+  for (const TrajectorySample& s : ds.odom) odom_of[s.robot].push_back(s);
+
+  std::map<std::uint8_t, RobotDelivery> del;
+  std::map<std::uint8_t, std::vector<std::uint32_t>> seqs;
+  std::map<std::uint8_t, std::uint32_t> next_scan;
+  std::map<std::uint8_t, std::set<std::uint32_t>> seen;
+  std::string err;
+  station::read_scan_file(session + "/scans.bin", [&](const station::StoredScan& s) {
+    const auto id = static_cast<std::uint8_t>(s.robot_id);
+    if (!live_index.count(id)) return;
+    RobotDelivery& d = del[id];
+    d.id = id;
+    ++d.stored;
+    seqs[id].push_back(s.seq);
+    // A restarted ground station gets the robots' history again (DDS transient-local, depth 300): a scan
+    // already stored is stored twice; the data set keeps the first.
+    if (!seen[id].insert(s.seq).second) return;
+    if (s.rejected != 0) {  // refused at the edge (docs/validation.md): stored, never fused
+      ++d.refused;
+      return;
+    }
+    const std::int64_t t = to_sim_ns(s.stamp_ns);
+    if (t < scenario.start_time_ns || t > end_ns) return;  // bring-up (robots standing) or after the end
+    // Latency in the run window only: bring-up (the station matching the robots' writers gets their
+    // history) and the ordered shutdown are not the steady state.
+    L.latency_ms.push_back(static_cast<double>(s.recv_realtime_ns - s.stamp_ns) * 1e-6);
+    ++d.in_window;
+    const sim::LiveScanTruth* truth = sim::match_truth(truths[live_index[id]], s.stamp_ns, 6'000'000);
+    if (!truth) {
+      ++d.truth_unmatched;
+      return;
+    }
+    ++d.truth_matched;
+    ScanRecord rec;
+    rec.robot = id;
+    rec.scan = next_scan[id]++;
+    rec.stamp_ns = t;
+    rec.beams = static_cast<std::uint16_t>(truth->beams.size());
+    rec.origin = {s.origin_x_mm * 1e-3, s.origin_y_mm * 1e-3, s.origin_z_mm * 1e-3};
+    rec.pose = interpolate_pose(odom_of[id], t);
+    rec.true_pose = live.true_motion(live_index[id], static_cast<double>(t - scenario.start_time_ns) * 1e-9).pose;
+    for (std::uint16_t k = 0; k < s.count; ++k) {
+      const station::StoredPoint& p = s.points[k];
+      if (p.flags & kPointUnplaced) continue;  // no 3-D point (as the simulator's data set)
+      if (p.beam >= truth->beams.size()) continue;
+      const sim::LiveBeamTruth& b = truth->beams[p.beam];
+      LabelledPoint lp;
+      lp.x = static_cast<float>(p.x_mm * 1e-3);
+      lp.y = static_cast<float>(p.y_mm * 1e-3);
+      lp.z = static_cast<float>(p.z_mm * 1e-3);
+      lp.robot = id;
+      lp.scan = rec.scan;
+      lp.beam = p.beam;
+      lp.label = b.label;
+      lp.hit_robot = b.hit_robot;
+      lp.flags = dataset_flags_from_wire(p.flags);
+      lp.tx = b.tx;
+      lp.ty = b.ty;
+      lp.tz = b.tz;
+      ds.points.push_back(lp);
+      L.point_seq.push_back(s.seq);
+      if (b.label != PointClass::none) {
+        const double ex = lp.x - b.tx, ey = lp.y - b.ty, ez = lp.z - b.tz;
+        L.point_error_mm.push_back(1e3 * std::sqrt(ex * ex + ey * ey + ez * ez));
+      }
+      ++rec.points;
+    }
+    ds.scans.push_back(rec);
+  }, L.decode, err);
+
+  // The last scans_published each robot reported (status.csv, by column name).
+  std::map<std::uint8_t, std::uint32_t> last_pub;
+  Result<std::vector<StatusRow>> status = read_status_csv(session + "/status.csv");
+  if (!status && L.session_error.empty()) L.session_error = std::string("status.csv: ") + status.error().what;
+  for (const StatusRow& s : status ? status.value() : std::vector<StatusRow>{})
+    last_pub[static_cast<std::uint8_t>(s.robot_id)] = s.scans_published;
+  for (std::size_t i = 0; i < live.robot_count(); ++i) {
+    const std::uint8_t id = live.spec(i).id;
+    RobotDelivery d = del[id];
+    d.id = id;
+    std::vector<std::uint32_t>& q = seqs[id];
+    std::sort(q.begin(), q.end());
+    const std::size_t unique = static_cast<std::size_t>(std::unique(q.begin(), q.end()) - q.begin());
+    d.duplicates = q.size() - unique;
+    q.resize(unique);
+    if (!q.empty()) {
+      d.seq_first = q.front();
+      d.seq_last = q.back();
+      d.gaps = (static_cast<std::uint64_t>(q.back()) - q.front() + 1) - q.size();
+    }
+    d.last_status_published = last_pub[id];
+    d.measured = live.scans_measured(i);
+    for (const sim::LiveScanTruth& t : truths[i]) {
+      const std::int64_t ts = to_sim_ns(t.sweep_end_realtime_ns);
+      if (ts < scenario.start_time_ns || ts > end_ns) continue;
+      for (const sim::LiveBeamTruth& b : t.beams) d.truth_ghost_beams += b.label == PointClass::robot ? 1 : 0;
+    }
+    L.delivery.push_back(d);
+  }
+  return L;
+}
+
+std::vector<LatencySummary> read_latency_csv(const std::string& path) {
+  std::vector<LatencySummary> out;
+  std::ifstream in(path);
+  for (std::string line; std::getline(in, line);) {
+    const auto comma = line.find(',');
+    if (comma == std::string::npos) continue;
+    const std::string key = line.substr(0, comma);
+    char* end = nullptr;
+    const std::string value = line.substr(comma + 1);
+    const double v = std::strtod(value.c_str(), &end);
+    if (end == value.c_str()) continue;
+    if (key == "count") {
+      out.emplace_back();
+      out.back().present = true;
+      out.back().count = v;
+    }
+    if (out.empty()) continue;
+    if (key == "p50") out.back().p50_ms = v;
+    if (key == "p90") out.back().p90_ms = v;
+    if (key == "p99") out.back().p99_ms = v;
+    if (key == "max") out.back().max_ms = v;
+  }
+  return out;
+}
+
+std::vector<double> read_fused_latency_log(const std::string& path, std::int64_t from_ns, std::int64_t to_ns) {
+  std::vector<double> out;
+  Result<CsvTable> table = CsvTable::read(path);
+  if (!table) return out;
+  const CsvTable& t = table.value();
+  const auto stamp = t.column("stamp_ns"), fused = t.column("fused_ns");
+  if (!stamp || !fused) return out;
+  for (std::size_t r = 0; r < t.rows(); ++r) {
+    const auto s = t.integer(r, *stamp), f = t.integer(r, *fused);
+    if (!s || !f || *s < from_ns || *s > to_ns) continue;
+    out.push_back(static_cast<double>(*f - *s) * 1e-6);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+double sorted_pct(const std::vector<double>& v, double q) {
+  return v.empty() ? 0.0 : v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
+}
+
+StationScore score_station_model(const std::string& fused_all_pcd, const std::vector<LabelledPoint>& points,
+                                 const std::vector<std::uint32_t>& point_seq) {
+  StationScore ss;
+  auto cloud = read_pcd(fused_all_pcd);
+  if (!cloud) {
+    ss.error = cloud.error().what;
+    return ss;
+  }
+  const PcdCloud& c = cloud.value();
+  const int fr = c.field("robot"), fsq = c.field("scan"), fb = c.field("beam"), fk = c.field("keep"), fl = c.field("live_keep");
+  if (fr < 0 || fsq < 0 || fb < 0 || fk < 0) {
+    ss.error = "fused_all.pcd lacks robot/scan/beam/keep";
+    return ss;
+  }
+  auto key = [](double robot, double seq, double beam) {
+    return station::point_key(static_cast<std::uint32_t>(robot), static_cast<std::uint32_t>(seq), static_cast<std::uint32_t>(beam));
+  };
+  std::unordered_map<std::uint64_t, std::uint8_t> flags;  // bit 0: keep, bit 1: live_keep
+  flags.reserve(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const auto fi = [&](int f) { return c.columns[static_cast<std::size_t>(f)][i]; };
+    flags[key(fi(fr), fi(fsq), fi(fb))] =
+        static_cast<std::uint8_t>((fi(fk) != 0 ? 1 : 0) | (fl < 0 || fi(fl) != 0 ? 2 : 0));
+  }
+  ss.model_points = c.size();
+  std::vector<LabelledPoint> pts;
+  std::vector<std::uint8_t> rm_model, rm_live;
+  ss.removed.assign(points.size(), 0);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const LabelledPoint& p = points[i];
+    const auto it = flags.find(key(p.robot, point_seq[i], p.beam));
+    if (it == flags.end()) {
+      ++ss.unmatched;
+      continue;
+    }
+    ++ss.matched;
+    pts.push_back(p);
+    rm_model.push_back((it->second & 1) ? 0 : 1);
+    rm_live.push_back((it->second & 2) ? 0 : 1);
+    ss.removed[i] = rm_model.back();
+  }
+  ss.model = mapping::removal_metrics(pts, rm_model);
+  ss.live = mapping::removal_metrics(pts, rm_live);
+  ss.present = ss.matched > 0;
+  return ss;
+}
+
+SessionEvalCheck check_station_against_session_eval(const std::string& session, const std::string& station_config,
+                                                    const std::vector<LabelledPoint>& points,
+                                                    const std::vector<std::uint32_t>& point_seq) {
+  SessionEvalCheck sc;
+  station::GroundStationConfig gcfg;
+  station::ConfigError gerr;
+  if (!station::load_groundstation_config(station_config, gcfg, gerr)) {
+    sc.error = "cannot read the station config (" + gerr.message + ")";
+    return sc;
+  }
+  sc.method = gcfg.fusion.method;
+  auto check = station::check_model_against_eval(session, station::fusion_options_from_config(gcfg.fusion, gcfg.kalman));
+  if (!check) {
+    sc.error = check.error().what;
+    return sc;
+  }
+  const station::ModelCheck& mc = check.value();
+  std::unordered_map<std::uint64_t, std::size_t> labelled;  // identity -> points index
+  labelled.reserve(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) labelled[station::point_key(points[i].robot, point_seq[i], points[i].beam)] = i;
+  std::vector<LabelledPoint> pts;
+  std::vector<std::uint8_t> rm_model, rm_eval, rm_live;
+  for (const station::PointDecision& d : mc.points) {
+    if (!d.in_model) continue;
+    auto it = labelled.find(station::point_key(d.robot, d.seq, d.beam));
+    if (it == labelled.end()) continue;  // bring-up or after the run window: no label
+    pts.push_back(points[it->second]);
+    rm_model.push_back(d.model_removed ? 1 : 0);
+    rm_eval.push_back(d.eval_removed ? 1 : 0);
+    rm_live.push_back(d.live_removed ? 1 : 0);
+  }
+  sc.compared = mc.compared;
+  sc.not_in_model = mc.not_in_model;
+  sc.mismatches = mc.mismatches;
+  sc.labelled = pts.size();
+  sc.station = mapping::removal_metrics(pts, rm_model);
+  sc.eval = mapping::removal_metrics(pts, rm_eval);
+  sc.live = mapping::removal_metrics(pts, rm_live);
+  sc.identical = mc.mismatches == 0 && mc.compared > 0;
+  return sc;
+}
+
+UnplugReport unplug_report(const std::vector<StatusRow>& status, std::uint32_t robot_id) {
+  UnplugReport r;
+  for (const StatusRow& s : status) {
+    if (s.robot_id != robot_id) continue;
+    if (r.lms_states.empty() || r.lms_states.back() != s.lms_state) r.lms_states.push_back(s.lms_state);
+    r.lms_reopens = std::max(r.lms_reopens, s.lms_reopens);
+  }
+  return r;
+}
+
+KillReport kill_report(const std::string& session, std::uint32_t robot_id, std::int64_t kill_realtime_ns) {
+  KillReport k;
+  std::ifstream ev(session + "/events.log");
+  const std::string needle = "robot " + std::to_string(robot_id) + " LOST";
+  for (std::string line; std::getline(ev, line);) {
+    if (line.find(needle) == std::string::npos) continue;
+    char* end = nullptr;
+    const long long t = std::strtoll(line.c_str(), &end, 10);
+    if (end == line.c_str()) continue;
+    if (t >= kill_realtime_ns) {
+      k.lost_after_s = static_cast<double>(t - kill_realtime_ns) * 1e-9;
+      break;
+    }
+  }
+  // The other robots' scans from 1 s after the kill: points flagged team-stale, and points filtered.
+  station::ScanDecodeStats st;
+  std::string err;
+  station::read_scan_file(session + "/scans.bin", [&](const station::StoredScan& sc) {
+    if (sc.robot_id == robot_id) return;
+    const bool after = sc.stamp_ns >= kill_realtime_ns + 1'000'000'000;
+    if (after) ++k.others_scans_after;
+    for (std::uint16_t i = 0; i < sc.count; ++i) {
+      const std::uint16_t fl = sc.points[i].flags;
+      if (fl & kPointTeamStale) ++(after ? k.team_stale_after : k.team_stale_before);
+      if (after && (fl & kPointDirectionFiltered)) ++k.direction_filtered_after;
+    }
+  }, st, err);
+  return k;
+}
+
+}  // namespace teamscan::demo

@@ -1,0 +1,110 @@
+// Scoring of a `teamscan demo` run: the ground station's session turned into a labelled data set on the
+// simulator's time base (with delivery counts per robot), the station's own fused model scored against
+// the truth, the station's latency files, and the fault analyses read from the session.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/dataset/dataset.hpp"
+#include "groundstation/mapping/metrics.hpp"
+#include "groundstation/station/scan_record.hpp"
+#include "sim/live.hpp"
+#include "sim/scenario.hpp"
+#include "sim/simulator.hpp"
+#include "tools/demo/session_csv.hpp"
+
+namespace teamscan::demo {
+
+// What the ground station stored of one robot.
+struct RobotDelivery {
+  std::uint8_t id = 0;
+  std::uint64_t stored = 0, duplicates = 0, gaps = 0;  // gaps: seq numbers missing between first and last
+  std::uint32_t seq_first = 0, seq_last = 0;
+  std::uint32_t last_status_published = 0;  // scans_published in the robot's last status
+  std::uint64_t refused = 0;  // stored scans the station refused at the edge (docs/validation.md): never fused
+  std::uint64_t in_window = 0, truth_matched = 0, truth_unmatched = 0;
+  std::uint64_t measured = 0;  // scans the emulated LMS sent
+  std::uint64_t truth_ghost_beams = 0;  // beams cast on a teammate within the run window
+};
+
+// Live session -> labelled data set on the simulator's time base (scenario start + world time).
+struct LiveDataset {
+  Dataset ds;
+  std::vector<RobotDelivery> delivery;
+  station::ScanDecodeStats decode;
+  std::string session_error;       // a session file that could not be read as expected
+  std::vector<double> latency_ms;  // scan stamp (sweep end) -> stored by the station, per stored scan
+  std::vector<std::uint32_t> point_seq;  // per ds.points: the robot's scan sequence number (the station's `scan`)
+  std::vector<double> point_error_mm;    // per point with a true hit: |measured − true hit point|
+};
+
+[[nodiscard]] LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live,
+                                             const std::vector<std::vector<sim::LiveScanTruth>>& truths,
+                                             const sim::Scenario& scenario, const Dataset& offline,
+                                             double duration_s);
+
+// The station's latency.csv (groundstation/station/latency_histogram.hpp): the two histograms' summary
+// lines, in file order scan -> stored, then scan -> fused map.
+struct LatencySummary {
+  bool present = false;
+  double count = 0, p50_ms = 0, p90_ms = 0, p99_ms = 0, max_ms = 0;
+};
+[[nodiscard]] std::vector<LatencySummary> read_latency_csv(const std::string& path);
+
+// The station's fused_latency.csv (fusion.latency_log): scan -> fused map per scan, ms, sorted, for the
+// scans stamped in [from_ns, to_ns] (CLOCK_REALTIME).
+[[nodiscard]] std::vector<double> read_fused_latency_log(const std::string& path, std::int64_t from_ns,
+                                                         std::int64_t to_ns);
+
+// The value at quantile q (0..1) of a sorted vector; 0 when empty.
+[[nodiscard]] double sorted_pct(const std::vector<double>& v, double q);
+
+// The ground station's own fused model scored against the truth: fused_all.pcd carries per point the
+// robot, its scan sequence number, the beam, `keep` (the station's last model write) and `live_keep`
+// (the live decision at arrival).
+struct StationScore {
+  bool present = false;
+  std::string error;
+  std::uint64_t model_points = 0, matched = 0, unmatched = 0;
+  mapping::RemovalMetrics model, live;
+  std::vector<std::uint8_t> removed;  // per LiveDataset point (1 = the station's model removed it)
+};
+[[nodiscard]] StationScore score_station_model(const std::string& fused_all_pcd, const std::vector<LabelledPoint>& points,
+                                               const std::vector<std::uint32_t>& point_seq);
+
+// The station's model against `teamscan eval` of its own session (station/model_check.hpp: the fusion
+// core fed the session read back, in time order, with the options of the station's config): every
+// point's decision compared, and the labelled points scored three ways (the model, eval, the decisions
+// at release).
+struct SessionEvalCheck {
+  std::string error;   // the station config or the session could not be read; nothing compared
+  std::string method;  // the station's [fusion] method
+  std::uint64_t compared = 0, not_in_model = 0, mismatches = 0;
+  std::size_t labelled = 0;  // model points with a truth label (`points`)
+  mapping::RemovalMetrics station, eval, live;
+  bool identical = false;  // no mismatch and something compared
+};
+[[nodiscard]] SessionEvalCheck check_station_against_session_eval(const std::string& session, const std::string& station_config,
+                                                                  const std::vector<LabelledPoint>& points,
+                                                                  const std::vector<std::uint32_t>& point_seq);
+
+// Fault `--unplug-robot`: the robot's lms_state sequence as the station stored it (consecutive
+// duplicates merged) and its highest lms_reopens, from status.csv.
+struct UnplugReport {
+  std::vector<unsigned> lms_states;
+  std::uint32_t lms_reopens = 0;
+};
+[[nodiscard]] UnplugReport unplug_report(const std::vector<StatusRow>& status, std::uint32_t robot_id);
+
+// Fault `--kill-robot`: when the station marked the robot lost (events.log), and the other robots'
+// points from 1 s after the kill (scans.bin).
+struct KillReport {
+  double lost_after_s = -1;  // -1: never marked lost after the kill
+  std::uint64_t others_scans_after = 0;
+  std::uint64_t team_stale_before = 0, team_stale_after = 0, direction_filtered_after = 0;
+};
+[[nodiscard]] KillReport kill_report(const std::string& session, std::uint32_t robot_id, std::int64_t kill_realtime_ns);
+
+}  // namespace teamscan::demo
