@@ -48,7 +48,9 @@ void RobotTrack::follow_last_command(double dt_s, State& x, Covariance& p) const
 }
 
 double RobotTrack::command_horizon_s() const {
-  return pose_interval_s_ > 0.0 ? std::min(options_.lost_after_s, 2.0 * pose_interval_s_) : options_.lost_after_s;
+  // With the decision lag a robot that reports on time is predicted up to lag + one interval ahead.
+  const double overdue_s = pose_interval_s_ > 0.0 ? std::min(options_.lost_after_s, 2.0 * pose_interval_s_) : options_.lost_after_s;
+  return options_.team_lag_s + overdue_s;
 }
 
 void RobotTrack::update(std::int64_t stamp_ns, const Pose2& pose, double v_mps) {

@@ -45,8 +45,8 @@ struct TrackerOptions {
   // While it coasts, the firmware executes the last command: speed and yaw rate stay what the last
   // poses showed. The process noise above stands for a live client changing its commands; it applies
   // until the robot's next pose is overdue (two pose intervals after the last pose: the next one was
-  // due after one, and a whole further interval has passed without it; at most lost_after_s), and not
-  // after: a silent client changes nothing. From then on the estimate follows the last command's arc
+  // due after one, and a whole further interval has passed without it; at most lost_after_s; plus
+  // team_lag_s, by which decisions look back), and not after: a silent client changes nothing. From then on the estimate follows the last command's arc
   // (constant speed and yaw rate), the velocity uncertainty reached still spreading the position.
   double coast_s = 2.0;
   // Odometry drift (issue 7, docs/beyond.md "Drift"). The Kalman filter smooths the poses a robot

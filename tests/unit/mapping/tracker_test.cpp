@@ -100,6 +100,14 @@ TEST(Tracker, ASilentRobotCoastsOnItsLastCommandsArcAndGainsNoProcessNoiseOnceIt
   }
   EXPECT_NEAR(tracker.track(2)->yaw_rate_radps(), w, 1e-9);
   EXPECT_NEAR(tracker.track(2)->command_horizon_s(), 2 * 0.1, 1e-9);  // the next pose due, plus one interval
+  {
+    // With a decision lag, a robot that reports on time is predicted lag + one interval ahead.
+    TrackerOptions lagged = o;
+    lagged.team_lag_s = 0.15;
+    TeamTracker t(lagged);
+    for (int i = 0; i <= 2; ++i) t.add_pose(2, i * kPosePeriodNs, {0.1 * i, 0.0, 0.0}, 1.0);
+    EXPECT_NEAR(t.track(2)->command_horizon_s(), 0.15 + 2 * 0.1, 1e-9);
+  }
   const std::int64_t last = 50 * kPosePeriodNs;
   // Within the horizon: the constant-velocity Kalman prediction, unchanged (the normal case).
   const RobotEstimate soon = tracker.predict(last + 50'000'000).robots.at(0);
