@@ -26,6 +26,33 @@ void RobotTrack::propagate(double dt_s, State& x, Covariance& p) const {
   p = f * p * f.transpose() + qm;
 }
 
+void RobotTrack::follow_last_command(double dt_s, State& x, Covariance& p) const {
+  // Position moves by ∫₀ᵗ R(ω s) v ds = A·v, velocity turns by R(ω t): linear in the state, so the
+  // covariance is carried exactly (F P Fᵀ) and nothing is added to it.
+  const double w = yaw_rate_radps_, a = w * dt_s;
+  const double c = std::cos(a), s = std::sin(a);
+  // A = [[S, -C], [C, S]] with S = sin(ωt)/ω, C = (1 − cos(ωt))/ω (→ t and ω t²/2 as ω → 0).
+  const double big_s = std::abs(a) < 1e-9 ? dt_s : s / w;
+  const double big_c = std::abs(a) < 1e-9 ? 0.5 * w * dt_s * dt_s : (1.0 - c) / w;
+  Covariance f = Covariance::Identity();
+  f(0, 2) = big_s;
+  f(0, 3) = -big_c;
+  f(1, 2) = big_c;
+  f(1, 3) = big_s;
+  f(2, 2) = c;
+  f(2, 3) = -s;
+  f(3, 2) = s;
+  f(3, 3) = c;
+  x = f * x;
+  p = f * p * f.transpose();
+}
+
+double RobotTrack::command_horizon_s() const {
+  // With the decision lag a robot that reports on time is predicted up to lag + one interval ahead.
+  const double overdue_s = pose_interval_s_ > 0.0 ? std::min(options_.lost_after_s, 2.0 * pose_interval_s_) : options_.lost_after_s;
+  return options_.team_lag_s + overdue_s;
+}
+
 void RobotTrack::update(std::int64_t stamp_ns, const Pose2& pose, double v_mps) {
   const double vx = v_mps * std::cos(pose.theta_rad), vy = v_mps * std::sin(pose.theta_rad);
   const double previous_heading = heading_rad_;
@@ -43,9 +70,14 @@ void RobotTrack::update(std::int64_t stamp_ns, const Pose2& pose, double v_mps) 
     return;
   }
   const double dt_s = static_cast<double>(stamp_ns - stamp_ns_) * 1e-9;
+  const double turned_rad = std::remainder(pose.theta_rad - previous_heading, 2.0 * 3.14159265358979323846);
+  if (dt_s > 0.0) {
+    pose_interval_s_ = dt_s;
+    yaw_rate_radps_ = turned_rad / dt_s;
+  }
   // Dead-reckoning drift (TrackerOptions::drift_*): linear growth with distance and turn.
   const double ds = std::abs(v_mps) * std::max(0.0, dt_s);
-  const double dtheta = std::abs(std::remainder(pose.theta_rad - previous_heading, 2.0 * 3.14159265358979323846));
+  const double dtheta = std::abs(turned_rad);
   drift_heading_sigma_rad_ += options_.drift_heading_rad_per_m * ds + options_.drift_heading_rad_per_rad * dtheta;
   distance_m_ += ds;
   // A heading error δθ accumulated so far turns the dead-reckoned path about where the robot started:
@@ -99,8 +131,13 @@ RobotEstimate RobotTrack::predict(std::int64_t stamp_ns) const {
   State x = x_;
   Covariance p = p_;
   const double dt_s = static_cast<double>(stamp_ns - stamp_ns_) * 1e-9;
-  // Forwards: at most coast_s (a silent robot stops, TrackerOptions::coast_s); backwards as asked.
-  propagate(std::min(dt_s, options_.coast_s), x, p);
+  // Forwards: at most coast_s (a silent robot stops, TrackerOptions::coast_s), with the process noise
+  // up to the command horizon and on the last command's arc after it; backwards as asked.
+  const double forward_s = std::min(dt_s, options_.coast_s);
+  const double noisy_s = std::min(forward_s, command_horizon_s());
+  propagate(noisy_s, x, p);
+  const double silent_s = std::max(0.0, forward_s - noisy_s);
+  if (silent_s > 0.0) follow_last_command(silent_s, x, p);
   e.lost = std::abs(dt_s) > options_.lost_after_s;
   e.valid = dt_s >= -options_.lost_after_s;
   if (dt_s > options_.coast_s) x.tail<2>().setZero();  // stopped
@@ -108,7 +145,7 @@ RobotEstimate RobotTrack::predict(std::int64_t stamp_ns) const {
   e.velocity_mps = {x(2), x(3)};
   e.drift_cov_m2 = Eigen::Matrix2d::Identity() * (drift_position_sigma_m_ * drift_position_sigma_m_);
   e.position_cov_m2 = p.topLeftCorner<2, 2>() + e.drift_cov_m2;
-  e.heading_rad = heading_rad_;
+  e.heading_rad = heading_rad_ + yaw_rate_radps_ * silent_s;
   e.heading_sigma_rad = drift_heading_sigma_rad_;
   e.distance_m = distance_m_;
   return e;

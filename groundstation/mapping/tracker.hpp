@@ -39,9 +39,15 @@ struct TrackerOptions {
   // same live); the filters keep using it (`coast_s`).
   double lost_after_s = 1.0;
   // A robot that goes silent (daemon killed, link down) is still there: its Pioneer drives on for at
-  // most the firmware's watchdog time (2 s, PROTOCOLS.md §1.6) and then stops. The prediction runs the
-  // constant-velocity model at most this far past the last pose and then holds the robot there with the
-  // uncertainty it has reached; it stays valid for the filters, so teammates' hits on it are removed.
+  // most the firmware's watchdog time (2 s, PROTOCOLS.md §1.6) and then stops. The prediction runs at
+  // most this far past the last pose and then holds the robot there with the uncertainty it has
+  // reached; it stays valid for the filters, so teammates' hits on it are removed.
+  // While it coasts, the firmware executes the last command: speed and yaw rate stay what the last
+  // poses showed. The process noise above stands for a live client changing its commands; it applies
+  // until the robot's next pose is overdue (two pose intervals after the last pose: the next one was
+  // due after one, and a whole further interval has passed without it; at most lost_after_s; plus
+  // team_lag_s, by which decisions look back), and not after: a silent client changes nothing. From then on the estimate follows the last command's arc
+  // (constant speed and yaw rate), the velocity uncertainty reached still spreading the position.
   double coast_s = 2.0;
   // Odometry drift (issue 7, docs/beyond.md "Drift"). The Kalman filter smooths the poses a robot
   // reports, but those poses are dead reckoning from the robot's registration: their error against the
@@ -109,6 +115,10 @@ class RobotTrack {
   void registered(double position_sigma_m, double heading_sigma_rad);
 
   [[nodiscard]] bool initialised() const { return initialised_; }
+  // Yaw rate between the last two poses (rad/s; 0 after the first pose).
+  [[nodiscard]] double yaw_rate_radps() const { return yaw_rate_radps_; }
+  // How long after the last pose the process noise applies (TrackerOptions::coast_s).
+  [[nodiscard]] double command_horizon_s() const;
   [[nodiscard]] const State& state() const { return x_; }
   [[nodiscard]] const Covariance& covariance() const { return p_; }
   [[nodiscard]] std::int64_t stamp_ns() const { return stamp_ns_; }
@@ -118,12 +128,16 @@ class RobotTrack {
 
  private:
   void propagate(double dt_s, State& x, Covariance& p) const;
+  // The firmware's last command for dt_s: the velocity turns at the yaw rate, no process noise.
+  void follow_last_command(double dt_s, State& x, Covariance& p) const;
 
   std::uint8_t robot_;
   TrackerOptions options_;
   bool initialised_ = false;
   std::int64_t stamp_ns_ = 0;
+  double pose_interval_s_ = 0;  // between the last two poses (0 after the first)
   double heading_rad_ = 0;
+  double yaw_rate_radps_ = 0;
   // Dead-reckoning drift accumulated since the first pose (TrackerOptions::drift_*).
   double distance_m_ = 0;
   Pose2 start_;

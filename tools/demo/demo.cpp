@@ -326,7 +326,7 @@ int run_demo(const DemoOptions& a) {
     }
     for (std::size_t ci = 0; ci < children.size(); ++ci) {
       Child& c = children[ci];
-      if (ci == killed_child && ci != 0) continue;
+      if ((ci == killed_child && ci != 0) || (ci == 0 && station_fault == Fault::active)) continue;  // killed by a fault
       reap(c, false);
       if (c.exited && !child_died) {
         child_died = true;

@@ -86,6 +86,51 @@ TEST(Tracker, UncertaintyGrowsWithPredictionTimeAndASilentRobotStopsWhereItCoast
   EXPECT_FALSE(tracker.predict(-2'000'000'000).robots.at(0).valid);
 }
 
+TEST(Tracker, ASilentRobotCoastsOnItsLastCommandsArcAndGainsNoProcessNoiseOnceItsPoseIsOverdue) {
+  // A Pioneer turning at 0.35 rad/s (lap2's oval ends) goes silent: its firmware executes the last
+  // command (speed and yaw rate) until the watchdog stops it coast_s later (PROTOCOLS.md §1.6).
+  TrackerOptions o;
+  o.coast_s = 2.0;
+  TeamTracker tracker(o);
+  const double v = 0.3, w = 0.35, r = v / w;
+  auto on_circle = [&](double t) { return Vec2{r * std::sin(w * t), r - r * std::cos(w * t)}; };
+  for (int i = 0; i <= 50; ++i) {
+    const double t = 0.1 * i;
+    tracker.add_pose(2, i * kPosePeriodNs, {on_circle(t).x, on_circle(t).y, w * t}, v);
+  }
+  EXPECT_NEAR(tracker.track(2)->yaw_rate_radps(), w, 1e-9);
+  EXPECT_NEAR(tracker.track(2)->command_horizon_s(), 2 * 0.1, 1e-9);  // the next pose due, plus one interval
+  {
+    // With a decision lag, a robot that reports on time is predicted lag + one interval ahead.
+    TrackerOptions lagged = o;
+    lagged.team_lag_s = 0.15;
+    TeamTracker t(lagged);
+    for (int i = 0; i <= 2; ++i) t.add_pose(2, i * kPosePeriodNs, {0.1 * i, 0.0, 0.0}, 1.0);
+    EXPECT_NEAR(t.track(2)->command_horizon_s(), 0.15 + 2 * 0.1, 1e-9);
+  }
+  const std::int64_t last = 50 * kPosePeriodNs;
+  // Within the horizon: the constant-velocity Kalman prediction, unchanged (the normal case).
+  const RobotEstimate soon = tracker.predict(last + 50'000'000).robots.at(0);
+  EXPECT_DOUBLE_EQ(soon.heading_rad, w * 5.0);
+  // Stopped: on the arc (a straight coast would be v·ω·t²/2 = 0.21 m off), turned with it, and held.
+  const RobotEstimate stopped = tracker.predict(last + 2'000'000'000).robots.at(0);
+  const RobotEstimate later = tracker.predict(last + 30'000'000'000).robots.at(0);
+  const Vec2 truth = on_circle(5.0 + 2.0);
+  EXPECT_LT(std::hypot(stopped.position_m.x - truth.x, stopped.position_m.y - truth.y), 0.05);
+  EXPECT_NEAR(stopped.heading_rad, w * 5.0 + w * (2.0 - 0.2), 1e-9);
+  EXPECT_DOUBLE_EQ(later.position_m.x, stopped.position_m.x);
+  EXPECT_DOUBLE_EQ(later.heading_rad, stopped.heading_rad);
+  // The process noise (a live client changing its commands) stops at the horizon: the position σ at
+  // the stop is below what the white acceleration noise alone adds over the whole coast (σ_a·√(t³/3),
+  // 0.82 m: a 3σ box 5 m wide around a robot that can move 1.4 m in 2 s at a P3-AT's top speed).
+  const double q_only_sigma_m = o.accel_noise_mps2 * std::sqrt(o.coast_s * o.coast_s * o.coast_s / 3.0);
+  EXPECT_LT(std::sqrt(stopped.position_cov_m2(0, 0)), q_only_sigma_m);
+  EXPECT_LT(std::sqrt(stopped.position_cov_m2(1, 1)), q_only_sigma_m);
+  // ... but the velocity uncertainty it had still spreads the position while it coasts.
+  const RobotEstimate at_horizon = tracker.predict(last + 200'000'000).robots.at(0);
+  EXPECT_GT(stopped.position_cov_m2(0, 0), 4.0 * at_horizon.position_cov_m2(0, 0));
+}
+
 TEST(Tracker, RejectsBadIdsAndNonFinitePoses) {
   TeamTracker tracker;
   tracker.add_pose(0, 0, {0, 0, 0}, 0);

@@ -266,7 +266,9 @@ TEST(SessionReplay, EveryComparedMethodsModelEqualsEvalOfTheSessionAfterARestart
 
 TEST(SessionReplay, ASilentRobotStaysWhereItWasLastSeenAndItsHitsAreStillRemoved) {
   // Robot 2 stands at (2, 0) and goes silent after its poses of the first second; robot 1 keeps
-  // scanning it for 10 s (a point on its body, one on the wall behind).
+  // scanning it for 10 s (a point on its body, one on a box 2 m beyond its centre, one on the wall).
+  // The box is out of a silent standing Pioneer's reach: 1.7 m beyond its front in its 2 s coast would
+  // need 0.85 m/s, above a P3-AT's top speed of 0.7 m/s (TrackerOptions::coast_s).
   FusionOptions o;
   o.core.method = "tracked";
   o.core.max_points_per_voxel = 1000;
@@ -297,6 +299,7 @@ TEST(SessionReplay, ASilentRobotStaysWhereItWasLastSeenAndItsHitsAreStillRemoved
     s.origin_z_mm = 300;
     s.points[s.count++] = StoredPoint{1750, 0, 150, 0, 0};  // robot 2's front face
     s.points[s.count++] = StoredPoint{5000, 0, 300, 1, 0};  // the wall
+    s.points[s.count++] = StoredPoint{4000, 0, 300, 2, 0};  // the box
     (*stage)->add_scan(s);
   }
   (*stage)->flush();
@@ -305,6 +308,7 @@ TEST(SessionReplay, ASilentRobotStaysWhereItWasLastSeenAndItsHitsAreStillRemoved
   for (std::uint32_t q = 1; q <= seq; ++q) {
     EXPECT_EQ((m.at({1, q, 0})), 1) << "body hit of scan " << q << " kept";
     EXPECT_EQ((m.at({1, q, 1})), 0) << "wall of scan " << q << " removed";
+    EXPECT_EQ((m.at({1, q, 2})), 0) << "box of scan " << q << " removed";
   }
   std::filesystem::remove_all(dir);
 }
