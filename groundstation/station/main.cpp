@@ -195,11 +195,13 @@ int main(int argc, char** argv) {
       }
     };
     share_corrections();  // after the session replay
-    st.add_pose_hook([&](const PoseObservation& p) {
+    // The hooks outlive this block: they hold their own copy of share_corrections (its references are
+    // to this function's variables).
+    st.add_pose_hook([&fusion, share_corrections](const PoseObservation& p) {
       fusion->add_pose(p);
       share_corrections();
     });
-    st.add_scan_hook([&](const StoredScan& s) {
+    st.add_scan_hook([&fusion, share_corrections](const StoredScan& s) {
       fusion->add_scan(s);
       share_corrections();
     });
