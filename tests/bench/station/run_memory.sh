@@ -10,7 +10,7 @@
 # more core and model store each). A guard stops the feed if the station's RSS passes RSS_GUARD_MIB (a shared
 # host must not run out of memory), MAX_WALL_S bounds each run. Figures, not a test.
 #
-# usage: [WARP=3] [ROBOTS=8] [METHOD=best] [COMPARE=] [RSS_GUARD_MIB=4096] [MAX_WALL_S=1500] [STATION_CPU=1] [FEEDER_CPU=0]
+# usage: [WARP=3] [ROBOTS=8] [TEAM_LAG=0.15] [METHOD=best] [COMPARE=] [RSS_GUARD_MIB=4096] [MAX_WALL_S=1500] [STATION_CPU=1] [FEEDER_CPU=0]
 #        [DDS_CONFIG=file] tests/bench/station/run_memory.sh [BUILD_DIR] [ROBOT_SECONDS]     default 3600
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -23,10 +23,14 @@ station="$build/groundstation/station/teamscan-groundstation"
 warp="${WARP:-3}"
 robots="${ROBOTS:-8}"
 write_s=$(awk -v w="$warp" 'BEGIN { printf "%.3f", 60.0 / w }')  # one write per 60 s of robot time
+# The decision lag (fusion.team_lag_s, TEAM_LAG, default 0.15 s): without it every scan waits up to a pose
+# period for the team state, and that wait, not the writes, would set the p99 compared below.
+lag_toml="$(mktemp /tmp/teamscan-memory.XXXXXX.toml)"
+printf 'team_lag_s = %s\n' "${TEAM_LAG:-0.15}" > "$lag_toml"
 common=(-n "$robots" --duration "$seconds" --warp "$warp" --dds-config "${DDS_CONFIG:-$root/deploy/cyclonedds-lo.xml}"
         --station "$station" --station-cpu "${STATION_CPU:-1}" --method "${METHOD:-best}"
         --rss-guard-mib "${RSS_GUARD_MIB:-4096}" --max-wall "${MAX_WALL_S:-1500}" --stop-timeout 30
-        --compare-methods "${COMPARE:-}")
+        --compare-methods "${COMPARE:-}" --station-config "$lag_toml")
 out="$(mktemp -d /tmp/teamscan-run-memory-XXXXXX)"
 # The "station: ..." line's scan -> fused map p99 (ms) of a run's output.
 p99_of() { sed -n 's/^station: .* p99 \([0-9.]*\) ms,.*/\1/p' "$1" | head -n 1; }
