@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <memory>
 #include <map>
 
 #include "groundstation/station/fusion.hpp"
@@ -112,19 +113,25 @@ BENCHMARK(BM_LiveScansCompared)->Unit(benchmark::kMillisecond);
 
 // One fused-model write after the whole survey, from the core's memory: every stored point decided
 // against the map + two PCDs (kept, all with keep).
-void BM_WriteModel(benchmark::State& state) {
-  const std::string dir = std::filesystem::temp_directory_path() / "teamscan-station-fusion-bench";
+// A stage in `dir` (created) that has fused the whole survey, writing fused.pcd and fused_all.pcd.
+std::unique_ptr<FusionStage> fed_stage(const std::string& dir) {
   std::filesystem::create_directories(dir);
   FusionOptions o;
   o.all_points_pcd = "fused_all.pcd";
   auto stage = FusionStage::create(o, dir);
   run_feed(**stage, feed());
   (*stage)->flush();
+  return std::move(stage.value());
+}
+
+void BM_WriteModel(benchmark::State& state) {
+  const std::string dir = std::filesystem::temp_directory_path() / "teamscan-station-fusion-bench";
+  const std::unique_ptr<FusionStage> stage = fed_stage(dir);
   for (auto _ : state) {
-    if (!(*stage)->write_model().ok()) state.SkipWithError("write failed");
+    if (!stage->write_model().ok()) state.SkipWithError("write failed");
   }
-  state.counters["points"] = static_cast<double>((*stage)->counters().points);
-  state.counters["scans"] = static_cast<double>((*stage)->counters().scans);
+  state.counters["points"] = static_cast<double>(stage->counters().points);
+  state.counters["scans"] = static_cast<double>(stage->counters().scans);
   std::filesystem::remove_all(dir);
 }
 BENCHMARK(BM_WriteModel)->Unit(benchmark::kMillisecond);
@@ -135,18 +142,13 @@ BENCHMARK(BM_WriteModel)->Unit(benchmark::kMillisecond);
 // fusion.write_slice_ms), the writer thread's time (writer_thread_ms).
 void BM_RequestWrite(benchmark::State& state) {
   const std::string dir = std::filesystem::temp_directory_path() / "teamscan-station-fusion-bench-async";
-  std::filesystem::create_directories(dir);
-  FusionOptions o;
-  o.all_points_pcd = "fused_all.pcd";
-  auto stage = FusionStage::create(o, dir);
-  run_feed(**stage, feed());
-  (*stage)->flush();
+  const std::unique_ptr<FusionStage> stage = fed_stage(dir);
   double loop_s = 0, slice_max_s = 0, thread_s = 0, slices = 0;
   for (auto _ : state) {
-    (*stage)->request_write();
-    while ((*stage)->write_in_flight()) (void)(*stage)->poll_write();
-    (void)(*stage)->poll_write();
-    const ModelWriteReport& w = (*stage)->last_write();
+    stage->request_write();
+    while (stage->write_in_flight()) (void)stage->poll_write();
+    (void)stage->poll_write();
+    const ModelWriteReport& w = stage->last_write();
     if (!w.ok) state.SkipWithError("write failed");
     loop_s += w.snapshot_s;
     slice_max_s = std::max(slice_max_s, w.snapshot_slice_max_s);
@@ -154,7 +156,7 @@ void BM_RequestWrite(benchmark::State& state) {
     slices += w.snapshot_slices;
   }
   const double n = state.iterations() ? static_cast<double>(state.iterations()) : 1.0;
-  state.counters["points"] = static_cast<double>((*stage)->counters().points);
+  state.counters["points"] = static_cast<double>(stage->counters().points);
   state.counters["loop_ms"] = 1e3 * loop_s / n;
   state.counters["longest_slice_ms"] = 1e3 * slice_max_s;
   state.counters["slices"] = slices / n;
