@@ -87,6 +87,18 @@ struct Robots {
   std::vector<onboard::DdsBridge> bridges;
 };
 
+// Robots 1 and 2's DDS bridges on the test's domain (as their daemons would publish).
+void start_robots(Robots& robots) {
+  for (std::uint32_t id : {1u, 2u}) {
+    onboard::DdsBridgeOptions o;
+    o.robot_id = id;
+    o.domain_id = test::test_domain_id();
+    auto b = onboard::DdsBridge::create(o);
+    ASSERT_TRUE(b.ok()) << b.error().what;
+    robots.bridges.push_back(std::move(b.value()));
+  }
+}
+
 // Publishes the survey in time order: each robot's odometry pose at the stamp, then its scan. Pose seqs
 // and the rows awaited in poses.csv count on from `poses_before` (a survey published in parts).
 void publish_survey(Robots& robots, const Dataset& d, const std::string& poses_csv, std::size_t poses_before = 0) {
@@ -206,14 +218,8 @@ TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
 
   MapViewer viewer;
   Robots robots;
-  for (std::uint32_t id : {1u, 2u}) {
-    onboard::DdsBridgeOptions o;
-    o.robot_id = id;
-    o.domain_id = test::test_domain_id();
-    auto b = onboard::DdsBridge::create(o);
-    ASSERT_TRUE(b.ok()) << b.error().what;
-    robots.bridges.push_back(std::move(b.value()));
-  }
+  start_robots(robots);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
   test::ChildProcess gs({TEAMSCAN_GROUNDSTATION, "--config", config, "--session-dir", session, "--domain",
                          test::test_domain_arg()});
   for (auto& b : robots.bridges) {
@@ -361,14 +367,8 @@ TEST(LiveFusionCompared, EveryMethodsModelEqualsEvalOfTheSessionAcrossARestart) 
   ASSERT_FALSE(second.scans.empty());
 
   Robots robots;
-  for (std::uint32_t id : {1u, 2u}) {
-    onboard::DdsBridgeOptions o;
-    o.robot_id = id;
-    o.domain_id = test::test_domain_id();
-    auto b = onboard::DdsBridge::create(o);
-    ASSERT_TRUE(b.ok()) << b.error().what;
-    robots.bridges.push_back(std::move(b.value()));
-  }
+  start_robots(robots);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
   auto start_station = [&] {
     return std::make_unique<test::ChildProcess>(std::vector<std::string>{
         TEAMSCAN_GROUNDSTATION, "--config", config, "--session-dir", session, "--domain", test::test_domain_arg()});
