@@ -39,8 +39,8 @@ FusionCore::FusionCore(const CoreOptions& options, std::unique_ptr<mapping::Filt
     : options_{options},
       filter_{std::move(filter)},
       poses_{PoseHistoryOptions{options.tracker, options.pose_keep_s}},
-      seq_windows_(kMaxRobots + 1) {
-  if (options_.model_resolution_m > 0.0) inverse_model_resolution_ = 1.0 / options_.model_resolution_m;
+      seq_windows_(kMaxRobots + 1),
+      model_{options.model_resolution_m, options.max_points_per_voxel} {
   if (options_.registration) registration_ = std::make_unique<registration::Registration>(options_.registration_options);
   bits_.reserve(kMaxBeams);
   removed_.reserve(kMaxBeams);
@@ -273,77 +273,55 @@ void FusionCore::release(HeldScan& s, bool forced) {
 }
 
 void FusionCore::store(const HeldScan& s) {
-  auto index = [&](float v) {
-    const double k = std::floor(static_cast<double>(v) * inverse_model_resolution_);
-    return static_cast<std::int32_t>(std::clamp(k, -double(mapping::VoxelMap::kIndexLimit), double(mapping::VoxelMap::kIndexLimit - 1)));
-  };
   for (std::size_t i = 0; i < s.points.size(); ++i) {
-    const mapping::MapPoint& p = s.points[i];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
-    const std::uint64_t key = mapping::VoxelMap::pack({index(p.x), index(p.y), index(p.z)});
-    bool inserted = false;
-    std::uint32_t& slot = voxel_index_.get_or_insert(key, 0, &inserted);
-    if (inserted) {
-      slot = static_cast<std::uint32_t>(voxels_.size());
-      voxels_.emplace_back();
-    }
-    std::vector<ModelPoint>& v = voxels_[slot];
-    if (v.size() >= options_.max_points_per_voxel) {
-      ++counters_.capped_points;
-      continue;
-    }
     ModelPoint m;
-    m.p = p;
+    m.p = s.points[i];
     m.seq = s.seq;
     m.beam = i < s.beams.size() ? s.beams[i] : static_cast<std::uint16_t>(i);
-    m.robot = s.robot;
+    m.robot = s.robot & 0x7Fu;
     m.bits = bits_[i];
-    m.removed_at_release = removed_[i];
-    v.push_back(m);
-    ++counters_.stored_points;
+    m.removed_at_release = removed_[i] != 0 ? 1 : 0;
+    if (model_.add(m)) ++counters_.stored_points;
   }
+  counters_.capped_points = model_.capped_points();
 }
 
-std::size_t FusionCore::model_memory_bytes() const {
-  std::size_t n = voxel_index_.memory_bytes() + voxels_.capacity() * sizeof(std::vector<ModelPoint>);
-  for (const auto& v : voxels_) n += v.capacity() * sizeof(ModelPoint);
-  return n;
+// One voxel's points and their decisions now, through the caller's scratch.
+void FusionCore::decide_voxel(std::size_t k, std::vector<ModelPoint>& points, std::vector<mapping::MapPoint>& pts,
+                              std::vector<std::uint8_t>& bits, std::vector<std::uint8_t>& removed) const {
+  points.clear();
+  pts.clear();
+  bits.clear();
+  model_.for_each_in_voxel(k, [&](const ModelPoint& m) {
+    points.push_back(m);
+    pts.push_back(m.p);
+    bits.push_back(m.bits);
+  });
+  removed.assign(points.size(), 0);
+  filter_->decide(pts, bits, removed);
 }
 
 void FusionCore::for_each_model_point(const std::function<void(const ModelPoint&, bool removed)>& f) const {
+  std::vector<ModelPoint> points;
   std::vector<mapping::MapPoint> pts;
   std::vector<std::uint8_t> bits, removed;
-  for (const std::vector<ModelPoint>& v : voxels_) {
-    pts.clear();
-    bits.clear();
-    for (const ModelPoint& m : v) {
-      pts.push_back(m.p);
-      bits.push_back(m.bits);
-    }
-    removed.assign(v.size(), 0);
-    filter_->decide(pts, bits, removed);
-    for (std::size_t i = 0; i < v.size(); ++i) f(v[i], removed[i] != 0);
+  for (std::size_t k = 0; k < model_.voxels(); ++k) {
+    decide_voxel(k, points, pts, bits, removed);
+    for (std::size_t i = 0; i < points.size(); ++i) f(points[i], removed[i] != 0);
   }
 }
 
 std::size_t FusionCore::snapshot_model_part(ModelSnapshot& out, std::size_t from, std::size_t count) const {
-  const std::size_t to = std::min(voxels_.size(), from + std::min(count, voxels_.size()));
+  const std::size_t voxels = model_.voxels();
+  const std::size_t to = std::min(voxels, from + std::min(count, voxels));
+  std::vector<ModelPoint> points;
   std::vector<mapping::MapPoint> pts;
-  std::vector<std::uint8_t> bits;
+  std::vector<std::uint8_t> bits, removed;
   for (std::size_t k = from; k < to; ++k) {
-    const std::vector<ModelPoint>& v = voxels_[k];
-    pts.clear();
-    bits.clear();
-    for (const ModelPoint& m : v) {
-      pts.push_back(m.p);
-      bits.push_back(m.bits);
-    }
-    const std::size_t at = out.removed.size();
-    out.removed.resize(at + v.size(), 0);
-    const std::span<std::uint8_t> removed = std::span<std::uint8_t>(out.removed).subspan(at);
-    filter_->decide(pts, bits, removed);
+    decide_voxel(k, points, pts, bits, removed);
     for (std::uint8_t r : removed) out.kept += r == 0 ? 1 : 0;
-    out.points.insert(out.points.end(), v.begin(), v.end());
+    out.points.insert(out.points.end(), points.begin(), points.end());
+    out.removed.insert(out.removed.end(), removed.begin(), removed.end());
   }
   return std::max(from, to);
 }
@@ -351,7 +329,7 @@ std::size_t FusionCore::snapshot_model_part(ModelSnapshot& out, std::size_t from
 Result<ModelFigures> FusionCore::write_model(const std::string& kept_path, const std::string& all_path) const {
   ModelFileWriter w(kept_path, all_path);
   ModelSnapshot part;
-  for (std::size_t next = 0; next < voxels_.size();) {
+  for (std::size_t next = 0; next < model_.voxels();) {
     part.points.clear();
     part.removed.clear();
     part.kept = 0;

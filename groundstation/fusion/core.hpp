@@ -33,6 +33,7 @@
 
 #include "common/capacities.hpp"
 #include "common/result.hpp"
+#include "groundstation/fusion/model_store.hpp"
 #include "groundstation/fusion/pose_history.hpp"
 #include "groundstation/mapping/filter.hpp"
 #include "groundstation/mapping/flat_key_map.hpp"
@@ -51,11 +52,13 @@ struct CoreOptions {
   double hold_s = 1.0;
   // Poses kept per robot behind its newest (PoseHistoryOptions::keep_s).
   double pose_keep_s = 30.0;
-  // The model store: points kept per voxel of this edge. Beyond the cap a voxel's further points are
-  // counted (`capped_points`) and not stored: the model is bounded by the mapped space; the session
-  // files keep every point. 0: no model store (`teamscan eval` keeps its own per-point bits).
+  // The model store (model_store.hpp): points kept per voxel of this edge. Beyond the cap a voxel's
+  // further points are counted (`capped_points`) and not stored: the model is bounded by the mapped
+  // space; the session files keep every point. 8 per 5 cm voxel = 3 200 points per m² of surface, 20
+  // bytes a point: ~170 bytes a surface voxel, ~70 MiB for a 10 m × 10 m room mapped by eight robots
+  // (docs/groundstation.md "Memory"). 0: no model store (`teamscan eval` keeps its own per-point bits).
   double model_resolution_m = 0.05;
-  std::uint32_t max_points_per_voxel = 64;
+  std::uint32_t max_points_per_voxel = 8;
   // Scan-to-map registration (docs/registration.md), off by default (odometry alone): every released
   // scan is matched against the team's map and its robot's correction map_from_odom is set in the
   // pose history from the scan's stamp on, so this scan, the later ones, the team state the filters
@@ -89,16 +92,6 @@ struct FusedScan {
   std::span<const std::uint16_t> beams;
   std::span<const std::uint8_t> bits;         // the point part per point
   std::span<const std::uint8_t> removed;      // the decision at release (map so far)
-};
-
-// A point of the model store.
-struct ModelPoint {
-  mapping::MapPoint p;
-  std::uint32_t seq = 0;
-  std::uint16_t beam = 0;
-  std::uint8_t robot = 0;
-  std::uint8_t bits = 0;
-  std::uint8_t removed_at_release = 0;
 };
 
 // Model rows with their decisions (FusionCore::snapshot_model_part): a copy, so it can be written on
@@ -193,8 +186,10 @@ class FusionCore {
   [[nodiscard]] const CoreCounters& counters() const { return counters_; }
   [[nodiscard]] const CoreOptions& options() const { return options_; }
   [[nodiscard]] std::size_t held_scans() const { return held_.size(); }
-  [[nodiscard]] std::size_t model_voxels() const { return voxel_index_.size(); }
-  [[nodiscard]] std::size_t model_memory_bytes() const;
+  [[nodiscard]] std::size_t model_voxels() const { return model_.voxels(); }
+  [[nodiscard]] std::size_t model_memory_bytes() const { return model_.memory_bytes(); }
+  // The filter's map state (voxel counts, free-space grid), bytes.
+  [[nodiscard]] std::size_t map_memory_bytes() const { return filter_->memory_bytes(); }
 
  private:
   FusionCore(const CoreOptions& options, std::unique_ptr<mapping::Filter> filter);
@@ -212,6 +207,8 @@ class FusionCore {
   void release_ready(std::int64_t now_arrival_ns, bool all);
   void release(HeldScan& s, bool forced);
   void store(const HeldScan& s);
+  void decide_voxel(std::size_t k, std::vector<ModelPoint>& points, std::vector<mapping::MapPoint>& pts,
+                    std::vector<std::uint8_t>& bits, std::vector<std::uint8_t>& removed) const;
   void register_scan(const HeldScan& s);
 
   CoreOptions options_;
@@ -230,10 +227,7 @@ class FusionCore {
     std::array<std::uint64_t, kSeqWindow / 64> seen{};
   };
   std::vector<SeqWindow> seq_windows_;
-  // Model store: voxel (packed key at model_resolution_m) -> index in voxels_.
-  mapping::FlatKeyMap<std::uint32_t> voxel_index_;
-  std::vector<std::vector<ModelPoint>> voxels_;
-  double inverse_model_resolution_ = 20.0;
+  ModelStore model_;
   std::unique_ptr<registration::Registration> registration_;
   // Scratch of a release.
   std::vector<std::uint8_t> bits_, removed_;

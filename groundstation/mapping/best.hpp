@@ -30,6 +30,7 @@ class BestFilter final : public Filter {
   void decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
               std::span<std::uint8_t> removed) const override;
   void reset() override { freespace_.reset(); }
+  [[nodiscard]] std::size_t memory_bytes() const override { return freespace_.memory_bytes(); }
 
  private:
   TrackedFilter core_;   // box without the drift band

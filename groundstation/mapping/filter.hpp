@@ -59,6 +59,8 @@ class Filter {
                       std::span<std::uint8_t> removed) const = 0;
   // Forgets all state (a new survey).
   virtual void reset() = 0;
+  // Heap bytes of the map state (0 for the robot-based filters, which keep none).
+  [[nodiscard]] virtual std::size_t memory_bytes() const { return 0; }
 
   // Convenience for one scan at a time (tests, benchmarks): observe() = point_bits() + insert();
   // classify() = point_bits() + decide() against the map so far. Live: classify after observe of the
@@ -128,6 +130,7 @@ class FrequencyFilter final : public Filter {
   void decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
               std::span<std::uint8_t> removed) const override;
   void reset() override { map_.clear(); }
+  [[nodiscard]] std::size_t memory_bytes() const override { return map_.memory_bytes(); }
   [[nodiscard]] const VoxelMap& map() const { return map_; }
   [[nodiscard]] double threshold() const { return map_.mean_count() - options_.k * map_.stddev_count(); }
 
@@ -149,6 +152,7 @@ class VisibilityFilter final : public Filter {
   void decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
               std::span<std::uint8_t> removed) const override;
   void reset() override { map_.clear(); }
+  [[nodiscard]] std::size_t memory_bytes() const override { return map_.memory_bytes(); }
   [[nodiscard]] const VoxelMap& map() const { return map_; }
 
  private:
@@ -209,6 +213,7 @@ class SequentialFilter final : public Filter {
     first_->reset();
     second_->reset();
   }
+  [[nodiscard]] std::size_t memory_bytes() const override { return first_->memory_bytes() + second_->memory_bytes(); }
 
  private:
   // The scan reduced to the points `first` keeps; `kept_index` maps back to the scan's indices.

@@ -11,7 +11,7 @@
 namespace teamscan::mapping {
 
 namespace {
-constexpr std::uint32_t kSaturate = std::numeric_limits<std::uint32_t>::max();
+constexpr std::uint16_t kSaturate = std::numeric_limits<std::uint16_t>::max();
 bool in_range(VoxelKey k) {
   return k.x > -VoxelMap::kIndexLimit && k.x < VoxelMap::kIndexLimit && k.y > -VoxelMap::kIndexLimit &&
          k.y < VoxelMap::kIndexLimit && k.z > -VoxelMap::kIndexLimit && k.z < VoxelMap::kIndexLimit;

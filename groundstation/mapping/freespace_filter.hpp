@@ -16,10 +16,12 @@
 
 namespace teamscan::mapping {
 
-// One voxel's evidence: points that fell in it, rays that crossed it (both saturate).
+// One voxel's evidence: points that fell in it, rays that crossed it (both saturate at 65535: a
+// voxel hit more than 65535 / free_per_hit times is solid whatever crossed it; 4 bytes a voxel keeps the
+// dense blocks, the station's largest state, at half the size of 32-bit counts).
 struct FreeCell {
-  std::uint32_t hits = 0;
-  std::uint32_t free = 0;
+  std::uint16_t hits = 0;
+  std::uint16_t free = 0;
 };
 
 class FreespaceGrid {
@@ -93,6 +95,7 @@ class FreespaceFilter final : public Filter {
   void decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
               std::span<std::uint8_t> removed) const override;
   void reset() override { grid_.clear(); }
+  [[nodiscard]] std::size_t memory_bytes() const override { return grid_.memory_bytes(); }
   [[nodiscard]] const FreespaceGrid& grid() const { return grid_; }
 
  private:

@@ -17,15 +17,17 @@ std::int32_t to_index(double v, double inverse_resolution) {
 }
 }  // namespace
 
+VoxelKey voxel_key(const MapPoint& p, double inverse_resolution, double origin_z_m) {
+  return {to_index(p.x, inverse_resolution), to_index(p.y, inverse_resolution),
+          to_index(static_cast<double>(p.z) - origin_z_m, inverse_resolution)};
+}
+
 VoxelMap::VoxelMap(double resolution_m, double origin_z_m)
     : resolution_m_{resolution_m}, origin_z_m_{origin_z_m}, inverse_resolution_{1.0 / resolution_m} {
   TEAMSCAN_EXPECTS(resolution_m > 0.0);
 }
 
-VoxelKey VoxelMap::key_of(const MapPoint& p) const {
-  return {to_index(p.x, inverse_resolution_), to_index(p.y, inverse_resolution_),
-          to_index(static_cast<double>(p.z) - origin_z_m_, inverse_resolution_)};
-}
+VoxelKey VoxelMap::key_of(const MapPoint& p) const { return voxel_key(p, inverse_resolution_, origin_z_m_); }
 
 bool VoxelMap::in_range(VoxelKey k) {
   auto ok = [](std::int32_t v) { return v >= -kIndexLimit && v < kIndexLimit; };

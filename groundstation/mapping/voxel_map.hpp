@@ -23,6 +23,10 @@ struct VoxelKey {
   friend constexpr bool operator==(VoxelKey, VoxelKey) = default;
 };
 
+// The voxel of `p` on a grid of edge 1 / inverse_resolution, z counted from origin_z_m (NaN and huge
+// values land beyond the index range: VoxelMap::in_range rejects them).
+[[nodiscard]] VoxelKey voxel_key(const MapPoint& p, double inverse_resolution, double origin_z_m = 0.0);
+
 class VoxelMap {
  public:
   // Each index is packed into 21 bits, so the map spans ±2^20 voxels per axis (±52 km at 0.05 m).
@@ -67,9 +71,10 @@ class VoxelMap {
 
   [[nodiscard]] static std::uint64_t pack(VoxelKey k);
   [[nodiscard]] static VoxelKey unpack(std::uint64_t packed);
+  // Within ±kIndexLimit on every axis (what pack() can hold).
+  [[nodiscard]] static bool in_range(VoxelKey k);
 
  private:
-  [[nodiscard]] static bool in_range(VoxelKey k);
 
   double resolution_m_;
   double origin_z_m_;

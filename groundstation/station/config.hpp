@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "common/result.hpp"
+#include "groundstation/fusion/core.hpp"
 #include "groundstation/mapping/tracker.hpp"
 #include "groundstation/station/station.hpp"
 #include "groundstation/station/team_source.hpp"
@@ -54,11 +55,11 @@ struct FusionConfig {
   double map_resolution_m = 0.1;
   // The fusion core (groundstation/fusion/core.hpp): how long a scan waits for every robot's poses to
   // pass its stamp, and the model store (points kept per voxel of model_resolution_m).
-  double hold_s = 1.0;
+  double hold_s = fusion::CoreOptions{}.hold_s;
   // The decision lag (mapping::TrackerOptions::team_lag_s): 0 = the exact team at each scan's stamp.
   double team_lag_s = 0.0;
-  double model_resolution_m = 0.05;
-  std::uint32_t max_points_per_voxel = 64;
+  double model_resolution_m = fusion::CoreOptions{}.model_resolution_m;
+  std::uint32_t max_points_per_voxel = fusion::CoreOptions{}.max_points_per_voxel;
   // Scan-to-map registration in the fusion core (docs/registration.md; `teamscan eval --registration`
   // runs the same): on with `registration = true` here or with a [registration] section.
   bool registration = false;

@@ -138,9 +138,7 @@ FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, 
     : options_{options},
       session_dir_{std::move(session_dir)},
       models_{std::move(models)},
-      map_all_{options.map_resolution_m},
-      map_kept_{options.map_resolution_m},
-      map_touched_{options.map_resolution_m} {
+      map_{options.map_resolution_m} {
   if (!options_.latency_log_csv.empty()) {
     latency_log_ = std::fopen((session_dir_ + "/" + options_.latency_log_csv).c_str(), "a");
     if (latency_log_ != nullptr && std::ftell(latency_log_) == 0) std::fputs("robot,seq,stamp_ns,received_ns,fused_ns\n", latency_log_);
@@ -172,6 +170,12 @@ const fusion::FusionCore* FusionStage::compared_core(const std::string& method) 
 std::size_t FusionStage::model_memory_bytes() const {
   std::size_t n = 0;
   for (const auto& m : models_) n += m->core->model_memory_bytes();
+  return n;
+}
+
+std::size_t FusionStage::filter_memory_bytes() const {
+  std::size_t n = 0;
+  for (const auto& m : models_) n += m->core->map_memory_bytes();
   return n;
 }
 
@@ -217,13 +221,8 @@ void FusionStage::on_release(const fusion::FusedScan& f) {
   const std::span<const mapping::MapPoint> points = f.view->points;
   counters_.points += points.size();
   for (std::size_t i = 0; i < points.size(); ++i) {
-    map_all_.insert(points[i]);
-    map_touched_.insert(points[i]);
-    if (f.removed[i]) {
-      ++counters_.live_removed;
-    } else {
-      map_kept_.insert(points[i]);
-    }
+    map_.add(points[i], f.removed[i] != 0);
+    if (f.removed[i]) ++counters_.live_removed;
   }
   if (replaying_) return;
   // The scan is now decided and in the fused map: its latency from the end of its sweep. Both stamps
@@ -512,36 +511,6 @@ Status FusionStage::write_latency() const {
 
 std::uint32_t FusionStage::map_resolution_mm() const {
   return static_cast<std::uint32_t>(std::lround(options_.map_resolution_m * 1000.0));
-}
-
-void FusionStage::map_voxels_changed(std::vector<teamscan_msg_MapVoxel>& out) {
-  out.clear();
-  const double r = map_all_.resolution_m();
-  map_touched_.for_each_voxel([&](mapping::VoxelKey k, std::uint32_t) {
-    teamscan_msg_MapVoxel v{};
-    v.x_mm = static_cast<std::int32_t>(std::lround((k.x + 0.5) * r * 1000.0));
-    v.y_mm = static_cast<std::int32_t>(std::lround((k.y + 0.5) * r * 1000.0));
-    v.z_mm = static_cast<std::int32_t>(std::lround((k.z + 0.5) * r * 1000.0));
-    v.hits = static_cast<std::uint16_t>(std::min<std::uint32_t>(map_all_.count(k), 0xFFFFu));
-    v.flags = map_kept_.count(k) == 0 ? 1 : 0;
-    out.push_back(v);
-  });
-  map_touched_.clear();
-}
-
-void FusionStage::map_voxels(std::vector<teamscan_msg_MapVoxel>& out) const {
-  out.clear();
-  out.reserve(map_all_.occupied_voxels());
-  const double r = map_all_.resolution_m();
-  map_all_.for_each_voxel([&](mapping::VoxelKey k, std::uint32_t hits) {
-    teamscan_msg_MapVoxel v{};
-    v.x_mm = static_cast<std::int32_t>(std::lround((k.x + 0.5) * r * 1000.0));
-    v.y_mm = static_cast<std::int32_t>(std::lround((k.y + 0.5) * r * 1000.0));
-    v.z_mm = static_cast<std::int32_t>(std::lround((k.z + 0.5) * r * 1000.0));
-    v.hits = static_cast<std::uint16_t>(std::min<std::uint32_t>(hits, 0xFFFFu));
-    v.flags = map_kept_.count(k) == 0 ? 1 : 0;
-    out.push_back(v);
-  });
 }
 
 }  // namespace teamscan::station

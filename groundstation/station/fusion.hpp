@@ -32,6 +32,7 @@
 #include "groundstation/fusion/core.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
 #include "groundstation/station/latency_histogram.hpp"
+#include "groundstation/station/live_map.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "groundstation/station/team_source.hpp"
 
@@ -163,12 +164,13 @@ class FusionStage {
 
   // The occupied voxels of the live map as teamscan/map voxels (flags 1: every point in the voxel
   // was removed at release).
-  void map_voxels(std::vector<teamscan_msg_MapVoxel>& out) const;
+  void map_voxels(std::vector<teamscan_msg_MapVoxel>& out) const { map_.voxels(out); }
   // Only the voxels that changed (new points) since the last call or clear_map_changes(), with their
   // whole counts and flags (a viewer replaces its voxel), then forgets them.
-  void map_voxels_changed(std::vector<teamscan_msg_MapVoxel>& out);
-  void clear_map_changes() { map_touched_.clear(); }
-  [[nodiscard]] std::uint32_t map_total_voxels() const { return static_cast<std::uint32_t>(map_all_.occupied_voxels()); }
+  void map_voxels_changed(std::vector<teamscan_msg_MapVoxel>& out) { map_.changed_voxels(out); }
+  void clear_map_changes() { map_.forget_changes(); }
+  [[nodiscard]] std::uint32_t map_total_voxels() const { return static_cast<std::uint32_t>(map_.occupied_voxels()); }
+  [[nodiscard]] const LiveMap& live_map() const { return map_; }
   [[nodiscard]] std::uint32_t map_resolution_mm() const;
 
   [[nodiscard]] const fusion::FusionCore& core() const { return *models_.front()->core; }
@@ -177,6 +179,8 @@ class FusionStage {
   [[nodiscard]] const fusion::FusionCore* compared_core(const std::string& method) const;
   // Every core's model store (the primary's and the compared methods'), bytes.
   [[nodiscard]] std::size_t model_memory_bytes() const;
+  // Every core's filter map state (voxel counts, free-space grids), bytes.
+  [[nodiscard]] std::size_t filter_memory_bytes() const;
   [[nodiscard]] const FusionCounters& counters() const { return counters_; }
   [[nodiscard]] const FusionOptions& options() const { return options_; }
 
@@ -212,9 +216,7 @@ class FusionStage {
   FusionOptions options_;
   std::string session_dir_;
   std::vector<std::unique_ptr<Model>> models_;
-  mapping::VoxelMap map_all_;
-  mapping::VoxelMap map_kept_;
-  mapping::VoxelMap map_touched_;  // voxels with new points since the last teamscan/map publication
+  LiveMap map_;
   ScanBuffers scratch_;
   LatencyHistogram fused_latency_;
   LatencyHistogram stored_latency_;

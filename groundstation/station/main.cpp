@@ -219,12 +219,12 @@ int main(int argc, char** argv) {
     } else {
       const fusion::CoreCounters& c = fusion->core().counters();
       const FusionCounters& fc = fusion->counters();
-      char text[640];
+      char text[768];
       std::snprintf(text, sizeof text,
                     "fused model written (%s): %llu kept, %llu removed, %llu scans; snapshot %.3f s in the loop (%u slices, longest "
                     "%.1f ms, over %.2f s), write %.2f s %s "
                     "(%zu models, %llu points; %llu requests coalesced); model store %llu points in %zu voxels (%llu beyond the "
-                    "per-voxel cap), %.1f MiB (all models %.1f MiB); %llu scans released by hold_s",
+                    "per-voxel cap), %.1f MiB (all models %.1f MiB); filter maps %.1f MiB, live map %.1f MiB; %llu scans released by hold_s",
                     w.on_writer_thread ? "periodic" : "shutdown", static_cast<unsigned long long>(w.kept), static_cast<unsigned long long>(w.removed),
                     static_cast<unsigned long long>(fc.scans), w.snapshot_s, w.snapshot_slices,
                     w.snapshot_slice_max_s * 1e3, w.snapshot_span_s, w.write_s,
@@ -234,6 +234,8 @@ int main(int argc, char** argv) {
                     static_cast<unsigned long long>(c.capped_points),
                     static_cast<double>(fusion->core().model_memory_bytes()) / (1024.0 * 1024.0),
                     static_cast<double>(fusion->model_memory_bytes()) / (1024.0 * 1024.0),
+                    static_cast<double>(fusion->filter_memory_bytes()) / (1024.0 * 1024.0),
+                    static_cast<double>(fusion->live_map().memory_bytes()) / (1024.0 * 1024.0),
                     static_cast<unsigned long long>(c.scans_forced));
       store->log_event(now_realtime(), text);
     }

@@ -210,7 +210,7 @@ TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
     std::ofstream c(config);
     c << "[team.kalman]\nlost_after_s = 60.0\n"
       << "[fusion]\nmethod = \"" << method << "\"\nwrite_interval_s = 0.0\nwrite_all_points = true\n"
-      << "map_interval_s = 0.5\n";
+      << "map_interval_s = 0.5\nmax_points_per_voxel = 100000\n";  // every point in the model, compared below
   }
   const std::int64_t base_ns = now_realtime().ns() - 4'000'000'000;
   const Dataset survey = make_survey(base_ns);
@@ -346,6 +346,7 @@ TEST(LiveFusionCompared, EveryMethodsModelEqualsEvalOfTheSessionAcrossARestart) 
     c << "[team.kalman]\nlost_after_s = 60.0\n"
       << "[fusion]\nmethod = \"best\"\ncompare_methods = [\"frequency\", \"visibility\", \"position\", \"direction\", "
          "\"combined\", \"freespace\", \"tracked\"]\nwrite_interval_s = 0.2\nwrite_all_points = true\n"
+         "max_points_per_voxel = 100000\n"  // every point in the model: all of them are compared
       << "[view]\nlisten = \"\"\n";
   }
   station::GroundStationConfig cfg;

@@ -535,7 +535,7 @@ TEST(FusionConfig, DefaultsAreBestWithThePapersCombinedParameters) {
   EXPECT_EQ(o.core.method, "best");  // docs/beyond.md: the recommended default
   EXPECT_DOUBLE_EQ(o.core.methods.combined_resolution_m, 0.1);
   EXPECT_NEAR(o.core.methods.combined_half_angle_rad, 7.0 * M_PI / 180.0, 1e-12);
-  EXPECT_EQ(o.core.max_points_per_voxel, 64u);
+  EXPECT_EQ(o.core.max_points_per_voxel, 8u);
   EXPECT_TRUE(o.all_points_pcd.empty());
 }
 

@@ -1,0 +1,84 @@
+// The fused model's points, bounded by the mapped space (DESIGN.md "groundstation/fusion", issue 11):
+// at most `max_points_per_voxel` points per voxel of `resolution_m`, each with its identity (robot, seq,
+// beam) and its decision's point part. Beyond the cap a voxel's points are counted, not stored (the
+// session files keep every point). Storage is a paged arena of small chunks: no per-voxel allocation,
+// no reallocation that copies or doubles the store while the receive loop runs, and the bytes a point
+// costs are the record's plus at most one chunk's slack per voxel.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "groundstation/mapping/flat_key_map.hpp"
+#include "groundstation/mapping/voxel_map.hpp"
+
+namespace teamscan::fusion {
+
+// A point of the model store: 20 bytes.
+struct ModelPoint {
+  mapping::MapPoint p;
+  std::uint32_t seq = 0;
+  std::uint16_t beam = 0;
+  std::uint8_t bits = 0;                    // the point part of its decision (mapping::Filter::point_bits)
+  std::uint8_t robot : 7 = 0;               // 1..kMaxRobots
+  std::uint8_t removed_at_release : 1 = 0;  // the decision when its scan was released
+};
+static_assert(sizeof(ModelPoint) == 20, "the model store's memory bound counts 20 bytes a point");
+
+class ModelStore {
+ public:
+  // max_points_per_voxel 0: nothing is stored.
+  ModelStore(double resolution_m, std::uint32_t max_points_per_voxel);
+
+  // Stores `m` in its voxel; false when the voxel already holds max_points_per_voxel (counted) or the
+  // point is not finite.
+  bool add(const ModelPoint& m);
+
+  [[nodiscard]] std::size_t voxels() const { return slots_.size(); }
+  [[nodiscard]] std::uint64_t points() const { return points_; }
+  [[nodiscard]] std::uint64_t capped_points() const { return capped_; }
+  [[nodiscard]] std::size_t memory_bytes() const;
+
+  // The points of voxel `k` (0 <= k < voxels(), in the order the voxels were first hit; a voxel keeps
+  // its index for good) in the order they were stored: f(const ModelPoint&).
+  template <class F>
+  void for_each_in_voxel(std::size_t k, F&& f) const {
+    const Slot& s = slots_[k];
+    std::uint32_t left = s.count;
+    for (std::uint32_t c = s.first; left > 0; c = chunk(c).next) {
+      const Chunk& ch = chunk(c);
+      const std::uint32_t n = left < kChunkPoints ? left : kChunkPoints;
+      for (std::uint32_t i = 0; i < n; ++i) f(ch.points[i]);
+      left -= n;
+    }
+  }
+  [[nodiscard]] std::uint32_t voxel_points(std::size_t k) const { return slots_[k].count; }
+
+ private:
+  static constexpr std::uint32_t kChunkPoints = 4;
+  static constexpr std::uint32_t kChunksPerPage = 4096;
+  static constexpr std::uint32_t kNoChunk = ~std::uint32_t{0};
+  struct Chunk {
+    ModelPoint points[kChunkPoints];
+    std::uint32_t next = kNoChunk;
+  };
+  struct Slot {
+    std::uint32_t first = kNoChunk, last = kNoChunk;
+    std::uint32_t count = 0;
+  };
+  [[nodiscard]] const Chunk& chunk(std::uint32_t c) const { return pages_[c / kChunksPerPage][c % kChunksPerPage]; }
+  [[nodiscard]] Chunk& chunk(std::uint32_t c) { return pages_[c / kChunksPerPage][c % kChunksPerPage]; }
+  std::uint32_t new_chunk();
+
+  double inverse_resolution_;
+  std::uint32_t cap_;
+  mapping::FlatKeyMap<std::uint32_t> index_;  // packed voxel key -> index in slots_
+  std::vector<Slot> slots_;
+  std::vector<std::unique_ptr<Chunk[]>> pages_;
+  std::uint32_t chunks_ = 0;
+  std::uint64_t points_ = 0, capped_ = 0;
+};
+
+}  // namespace teamscan::fusion

@@ -1,0 +1,60 @@
+// LiveMap: the station's published map in one table (live_map.hpp).
+#include "groundstation/station/live_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace teamscan::station {
+
+LiveMap::LiveMap(double resolution_m) : resolution_m_{resolution_m}, inverse_resolution_{1.0 / resolution_m} {}
+
+void LiveMap::add(const mapping::MapPoint& p, bool removed) {
+  const mapping::VoxelKey k = mapping::voxel_key(p, inverse_resolution_);
+  if (!mapping::VoxelMap::in_range(k)) {
+    ++rejected_;
+    return;
+  }
+  const std::uint64_t key = mapping::VoxelMap::pack(k);
+  Cell& c = cells_.get_or_insert(key, Cell{});
+  if (c.hits < UINT32_MAX) ++c.hits;
+  if (!removed && c.kept < UINT16_MAX) ++c.kept;
+  if (c.changed == 0) {
+    c.changed = 1;
+    changed_.push_back(key);
+  }
+}
+
+teamscan_msg_MapVoxel LiveMap::message(std::uint64_t key, const Cell& c) const {
+  const mapping::VoxelKey k = mapping::VoxelMap::unpack(key);
+  teamscan_msg_MapVoxel v{};
+  v.x_mm = static_cast<std::int32_t>(std::lround((k.x + 0.5) * resolution_m_ * 1000.0));
+  v.y_mm = static_cast<std::int32_t>(std::lround((k.y + 0.5) * resolution_m_ * 1000.0));
+  v.z_mm = static_cast<std::int32_t>(std::lround((k.z + 0.5) * resolution_m_ * 1000.0));
+  v.hits = static_cast<std::uint16_t>(std::min<std::uint32_t>(c.hits, 0xFFFFu));
+  v.flags = c.kept == 0 ? 1 : 0;
+  return v;
+}
+
+void LiveMap::voxels(std::vector<teamscan_msg_MapVoxel>& out) const {
+  out.clear();
+  out.reserve(cells_.size());
+  cells_.for_each([&](std::uint64_t key, const Cell& c) { out.push_back(message(key, c)); });
+}
+
+void LiveMap::changed_voxels(std::vector<teamscan_msg_MapVoxel>& out) {
+  out.clear();
+  out.reserve(changed_.size());
+  for (std::uint64_t key : changed_) {
+    Cell& c = cells_.get_or_insert(key, Cell{});
+    out.push_back(message(key, c));
+    c.changed = 0;
+  }
+  changed_.clear();
+}
+
+void LiveMap::forget_changes() {
+  for (std::uint64_t key : changed_) cells_.get_or_insert(key, Cell{}).changed = 0;
+  changed_.clear();
+}
+
+}  // namespace teamscan::station
