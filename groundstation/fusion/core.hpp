@@ -54,9 +54,9 @@ struct CoreOptions {
   double pose_keep_s = 30.0;
   // The model store (model_store.hpp): points kept per voxel of this edge. Beyond the cap a voxel's
   // further points are counted (`capped_points`) and not stored: the model is bounded by the mapped
-  // space; the session files keep every point. 8 per 5 cm voxel = 3 200 points per m² of surface, 20
-  // bytes a point: ~170 bytes a surface voxel, ~70 MiB for a 10 m × 10 m room mapped by eight robots
-  // (docs/groundstation.md "Memory"). 0: no model store (`teamscan eval` keeps its own per-point bits).
+  // space; the session files keep every point. 8 per 5 cm voxel = 3 200 points per m² of surface,
+  // ~200 bytes a full voxel (docs/groundstation.md "Memory"). 0: no model store (`teamscan eval` keeps
+  // its own per-point bits).
   double model_resolution_m = 0.05;
   std::uint32_t max_points_per_voxel = 8;
   // Scan-to-map registration (docs/registration.md), off by default (odometry alone): every released
