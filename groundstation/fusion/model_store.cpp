@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <new>
 
 namespace teamscan::fusion {
 
@@ -10,7 +11,11 @@ ModelStore::ModelStore(double resolution_m, std::uint32_t max_points_per_voxel)
     : inverse_resolution_{resolution_m > 0.0 ? 1.0 / resolution_m : 20.0}, cap_{max_points_per_voxel} {}
 
 std::uint32_t ModelStore::new_chunk() {
-  if (chunks_ % kChunksPerPage == 0) pages_.push_back(std::make_unique<Chunk[]>(kChunksPerPage));
+  if (chunks_ % kChunksPerPage == 0) {
+    auto* page = static_cast<Chunk*>(std::malloc(kChunksPerPage * sizeof(Chunk)));
+    if (page == nullptr) throw std::bad_alloc();
+    pages_.emplace_back(page);
+  }
   return chunks_++;
 }
 

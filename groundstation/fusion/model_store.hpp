@@ -8,7 +8,9 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <memory>
+#include <type_traits>
 #include <vector>
 
 #include "groundstation/mapping/flat_key_map.hpp"
@@ -26,6 +28,7 @@ struct ModelPoint {
   std::uint8_t removed_at_release : 1 = 0;  // the decision when its scan was released
 };
 static_assert(sizeof(ModelPoint) == 20, "the model store's memory bound counts 20 bytes a point");
+static_assert(std::is_trivially_copyable_v<ModelPoint>, "model points are copied into malloc'd pages");
 
 class ModelStore {
  public:
@@ -62,7 +65,12 @@ class ModelStore {
   static constexpr std::uint32_t kNoChunk = ~std::uint32_t{0};
   struct Chunk {
     ModelPoint points[kChunkPoints];
-    std::uint32_t next = kNoChunk;
+    std::uint32_t next;  // set when the voxel takes its next chunk (read only up to the voxel's count)
+  };
+  // Pages are malloc'd, not value-initialised: a chunk is written before it is read, and a page's
+  // memory is touched only as its chunks are taken.
+  struct FreePage {
+    void operator()(Chunk* p) const { std::free(p); }
   };
   struct Slot {
     std::uint32_t first = kNoChunk, last = kNoChunk;
@@ -76,7 +84,7 @@ class ModelStore {
   std::uint32_t cap_;
   mapping::FlatKeyMap<std::uint32_t> index_;  // packed voxel key -> index in slots_
   std::vector<Slot> slots_;
-  std::vector<std::unique_ptr<Chunk[]>> pages_;
+  std::vector<std::unique_ptr<Chunk[], FreePage>> pages_;
   std::uint32_t chunks_ = 0;
   std::uint64_t points_ = 0, capped_ = 0;
 };

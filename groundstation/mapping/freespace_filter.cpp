@@ -5,10 +5,14 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <new>
+#include <type_traits>
 
 #include "common/result.hpp"
 
 namespace teamscan::mapping {
+
+static_assert(std::is_trivially_copyable_v<FreeCell> && sizeof(FreeCell) == 4, "calloc'd blocks are empty cells");
 
 namespace {
 constexpr std::uint16_t kSaturate = std::numeric_limits<std::uint16_t>::max();
@@ -29,7 +33,8 @@ VoxelKey FreespaceGrid::key_of(double x, double y, double z) const {
 
 void FreespaceGrid::clear() {
   block_index_.clear();
-  blocks_.clear();
+  pages_.clear();
+  blocks_ = 0;
   cached_block_key_ = ~std::uint64_t{0};
   cached_block_ = nullptr;
   cached_bx_ = cached_by_ = cached_bz_ = INT32_MIN;
@@ -40,7 +45,7 @@ void FreespaceGrid::clear() {
 FreeCell FreespaceGrid::cell(VoxelKey key) const {
   if (!in_range(key)) return {};
   const std::uint32_t* b = block_index_.find(block_key(key));
-  return b ? blocks_[*b][offset_in_block(key)] : FreeCell{};
+  return b ? block(*b)[offset_in_block(key)] : FreeCell{};
 }
 
 FreeCell FreespaceGrid::cell(VoxelKey key, Lookup& lookup) const {
@@ -51,7 +56,7 @@ FreeCell FreespaceGrid::cell(VoxelKey key, Lookup& lookup) const {
     lookup.block_key = bk;
     lookup.block = b ? static_cast<std::int64_t>(*b) : -1;
   }
-  return lookup.block >= 0 ? blocks_[static_cast<std::size_t>(lookup.block)][offset_in_block(key)] : FreeCell{};
+  return lookup.block >= 0 ? block(static_cast<std::uint32_t>(lookup.block))[offset_in_block(key)] : FreeCell{};
 }
 
 FreeCell& FreespaceGrid::touch(VoxelKey k) {
@@ -61,12 +66,16 @@ FreeCell& FreespaceGrid::touch(VoxelKey k) {
     bool inserted = false;
     std::uint32_t& index = block_index_.get_or_insert(bk, 0, &inserted);
     if (inserted) {
-      index = static_cast<std::uint32_t>(blocks_.size());
-      blocks_.emplace_back();
-      blocks_.back().fill(FreeCell{});
+      if (blocks_ % kBlocksPerPage == 0) {
+        // FreeCell is all zero bytes when empty: calloc's pages are the blocks' initial state.
+        auto* page = static_cast<Block*>(std::calloc(kBlocksPerPage, sizeof(Block)));
+        if (page == nullptr) throw std::bad_alloc();
+        pages_.emplace_back(page);
+      }
+      index = blocks_++;
     }
     cached_block_key_ = bk;
-    cached_block_ = &blocks_[index];  // blocks_ may have moved: refresh on every miss
+    cached_block_ = &block(index);
     cached_bx_ = bx;
     cached_by_ = by;
     cached_bz_ = bz;

@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <cstdlib>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -54,7 +56,7 @@ class FreespaceGrid {
   [[nodiscard]] std::size_t voxels() const { return voxels_; }
   [[nodiscard]] std::uint64_t traversed() const { return traversed_; }
   [[nodiscard]] std::size_t memory_bytes() const {
-    return block_index_.memory_bytes() + blocks_.capacity() * sizeof(Block);
+    return block_index_.memory_bytes() + pages_.capacity() * sizeof(pages_[0]) + pages_.size() * kBlocksPerPage * sizeof(Block);
   }
   void clear();
 
@@ -71,11 +73,19 @@ class FreespaceGrid {
     return VoxelMap::pack({k.x >> kBlockBits, k.y >> kBlockBits, k.z >> kBlockBits});
   }
   FreeCell& touch(VoxelKey k);  // creates the block if needed
+  // Blocks live in pages of kBlocksPerPage, zeroed by calloc (fresh pages from the kernel, not memset):
+  // a new block never moves the others (no copy of the grid as it grows, pointers into it stay valid).
+  static constexpr std::size_t kBlocksPerPage = 64;  // 1 MiB
+  struct FreePage {
+    void operator()(Block* p) const { std::free(p); }
+  };
+  [[nodiscard]] Block& block(std::uint32_t i) const { return pages_[i / kBlocksPerPage][i % kBlocksPerPage]; }
 
   FreespaceOptions options_;
   double inverse_resolution_;
-  FlatKeyMap<std::uint32_t> block_index_;  // block key -> index in blocks_
-  std::vector<Block> blocks_;
+  FlatKeyMap<std::uint32_t> block_index_;  // block key -> block index (block())
+  std::vector<std::unique_ptr<Block[], FreePage>> pages_;
+  std::uint32_t blocks_ = 0;
   std::uint64_t cached_block_key_ = ~std::uint64_t{0};
   Block* cached_block_ = nullptr;
   // The cached block's coordinates (voxel key >> kBlockBits): a ray's next voxel is compared with

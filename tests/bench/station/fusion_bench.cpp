@@ -89,6 +89,7 @@ void BM_LiveScans(benchmark::State& state, const char* method, double resolution
       benchmark::Counter(static_cast<double>(f.scans.size() * state.iterations()), benchmark::Counter::kIsRate);
   state.counters["points_per_s"] = benchmark::Counter(static_cast<double>(points), benchmark::Counter::kIsRate);
 }
+BENCHMARK_CAPTURE(BM_LiveScans, best, "best", 0.1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, combined_0_1m, "combined", 0.1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, visibility_0_05m, "visibility", 0.05)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, frequency_0_05m, "frequency", 0.05)->Unit(benchmark::kMillisecond);
