@@ -389,11 +389,14 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
     }
     cores.push_back(std::move(core.value()));
   }
-  cores.front()->set_release_callback([&](const fusion::FusedScan& f) {
-    out.scan_pose[{f.robot, f.seq}] = f.view->map_from_robot;
-    for (std::size_t i = 0; i < f.view->points.size() && i < f.beams.size(); ++i)
-      out.placed[station::point_key(f.robot, f.seq, f.beams[i])] = f.view->points[i];
-  });
+  // With the registration on, where the primary core put every scan and point (off: where the robots did).
+  if (options.core.registration) {
+    cores.front()->set_release_callback([&](const fusion::FusedScan& f) {
+      out.scan_pose[{f.robot, f.seq}] = f.view->map_from_robot;
+      for (std::size_t i = 0; i < f.view->points.size() && i < f.beams.size(); ++i)
+        out.placed[station::point_key(f.robot, f.seq, f.beams[i])] = f.view->points[i];
+    });
+  }
   // Every sample in arrival order with its receive time, as the station took them (its restart replay).
   station::SessionReadStats stats;
   station::ScanBuffers buffers;
@@ -509,9 +512,10 @@ LiveRegistrationScore score_live_registration(const std::string& session, const 
     ScanRecord r = s;
     r.true_pose = live.ds.scans[it->second].true_pose;
     measured.scans.push_back(r);
+    // Registration off: corrected = odometry; on: the scans the core released (all, after its flush).
     auto p = replay.scan_pose.find({s.robot, s.scan});
     corrected_poses.push_back(p != replay.scan_pose.end() ? p->second : r.pose);
-    decided.push_back(p != replay.scan_pose.end() ? 1 : 0);
+    decided.push_back(!out.enabled || p != replay.scan_pose.end() ? 1 : 0);
   }
   std::vector<mapping::MapPoint> corrected_points;
   for (const LabelledPoint& p : sd.points) {

@@ -118,7 +118,8 @@ struct ReplayModelCheck {
   double placed_differ_max_m = 0;
   bool identical = false;  // something compared, every row in both, nothing differs
 };
-// The primary core's output of the replay, for the registration's figures.
+// The replay's checks and, with the registration on, the primary core's placement for the
+// registration's figures (off: empty, the robots' own poses and points stand).
 struct SessionReplay {
   std::string error;  // the config or the session could not be read; nothing compared
   std::vector<ReplayModelCheck> models;

@@ -263,9 +263,9 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
     EXPECT_EQ(m.placed_differ, 0u);
     EXPECT_TRUE(m.identical) << m.method;
   }
-  // Every scan was released with its pose, every point placed (registration off: where the robot put it).
-  EXPECT_EQ(same.scan_pose.size(), 2u * 61u);
-  EXPECT_EQ(same.placed.size(), 2u * 61u * 20u);
+  // Registration off: no placement kept (the robots' own poses and points stand), no counters.
+  EXPECT_TRUE(same.scan_pose.empty());
+  EXPECT_TRUE(same.placed.empty());
   EXPECT_TRUE(same.robots.empty());
 
   // The station's model with one decision flipped and one point moved by 5 cm.
@@ -286,6 +286,36 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
   EXPECT_NEAR(changed.models[0].placed_differ_max_m, 0.05, 1e-3);
   EXPECT_FALSE(changed.models[0].identical);
   EXPECT_TRUE(changed.models[1].identical);  // the compared model's file is untouched
+
+  // With the registration on: the station's model (rewritten by its fusion stage) is again identical, and
+  // the primary core's placement of every scan and point is kept, with the registration's counters.
+  const std::string reg_cfg = dir.path() + "/groundstation-registration.toml";
+  write_file(reg_cfg, "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"position\"\nwrite_all_points = true\n"
+                      "[registration]\nenabled = true\n[view]\nlisten = \"\"\n");
+  {
+    station::GroundStationConfig g;
+    station::ConfigError e;
+    ASSERT_TRUE(station::load_groundstation_config(reg_cfg, g, e)) << e.message;
+    ASSERT_TRUE(g.fusion.registration);
+    auto stage = station::FusionStage::create(station::fusion_options_from_config(g.fusion, g.kalman, g.registration), session);
+    ASSERT_TRUE(stage.ok());
+    ASSERT_TRUE(stage.value()->replay_session(session).ok());
+    stage.value()->flush();
+    ASSERT_TRUE(stage.value()->write_model().ok());
+  }
+  const SessionReplay registered = replay_station_session(session, reg_cfg, dir.path() + "/replay-registered");
+  ASSERT_TRUE(registered.error.empty()) << registered.error;
+  ASSERT_EQ(registered.models.size(), 1u);
+  EXPECT_TRUE(registered.models[0].identical);
+  EXPECT_EQ(registered.scan_pose.size(), 2u * 61u);
+  EXPECT_EQ(registered.placed.size(), 2u * 61u * 20u);
+  EXPECT_EQ(registered.robots.size(), 2u);
+  // No truth for this session: the registration is on, nothing measured.
+  const LiveRegistrationScore score = score_live_registration(session, reg_cfg, registered, LiveDataset{});
+  EXPECT_TRUE(score.error.empty()) << score.error;
+  EXPECT_TRUE(score.enabled);
+  EXPECT_EQ(score.scans, 0u);
+  EXPECT_EQ(score.points, 0u);
 
   // A config that cannot be read: an error, nothing compared.
   const SessionReplay none = replay_station_session(session, dir.path() + "/none.toml", dir.path() + "/replay3");
