@@ -343,16 +343,14 @@ SessionEvalCheck check_station_against_session_eval(const std::string& session, 
 
 namespace {
 
-// A model file's rows by point_key: (index, keep).
+// A model file's rows by point_key, and its keep column.
 struct ModelRows {
-  const PcdCloud* cloud = nullptr;
   std::unordered_map<std::uint64_t, std::size_t> row;
   int keep = -1;
 };
 
 Result<ModelRows> index_model(const PcdCloud& c) {
   ModelRows m;
-  m.cloud = &c;
   const int fr = c.field("robot"), fs = c.field("scan"), fb = c.field("beam");
   m.keep = c.field("keep");
   if (fr < 0 || fs < 0 || fb < 0 || m.keep < 0) return Error{"the model lacks robot/scan/beam/keep"};
