@@ -59,6 +59,9 @@ std::string station_config(const StationConfigInput& in) {
     << in.write_interval_s << "\nlatency_log = true\ncompare_methods = [";
   for (std::size_t i = 0; i < in.compare_methods.size(); ++i) o << (i ? ", \"" : "\"") << in.compare_methods[i] << "\"";
   o << "]\n";
+  // Scan-to-map registration in the fusion core (docs/registration.md): the section turns it on, with the
+  // station's defaults; `teamscan eval SESSION` reads the same section (the demo's identity check).
+  if (in.registration) o << "\n[registration]\nenabled = true\n";
   // ROS 2 wire names, for RViz2 / Foxglove watching the demo (docs/ros2.md; --station-ros2 false: off).
   o << "\n[ros2]\nenabled = " << (in.ros2 ? "true" : "false") << "\n";
   // The browser view only when asked for (--view PORT): loopback only.

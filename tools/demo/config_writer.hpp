@@ -27,6 +27,7 @@ struct StationConfigInput {
   double write_interval_s = 0.0;           // [fusion] write_interval_s (0: once, at shutdown)
   bool ros2 = true;                        // [ros2] enabled (docs/ros2.md)
   std::optional<int> view_port;            // [view] listen on 127.0.0.1:PORT (unset: no view)
+  bool registration = false;               // a [registration] section: scan-to-map registration, its defaults
 };
 [[nodiscard]] std::string station_config(const StationConfigInput& in);
 

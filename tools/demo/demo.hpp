@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "sim/scenario.hpp"
+
 namespace teamscan::demo {
 
 struct DemoOptions {
@@ -56,7 +58,16 @@ struct DemoOptions {
   bool secure = false;      // DDS Security with a throwaway site PKI in <out>/pki (docs/security.md)
   // The station's browser view on 127.0.0.1:PORT (its [view] listen; unset: off), docs/view.md.
   std::optional<int> view_port;
+  // Scan-to-map registration in the station's fusion core (its [registration]) and in the demo's
+  // `teamscan eval` runs (--registration); unset: on when the scenario's robots drift
+  // (scenario_drifts), docs/demo.md "Registration".
+  std::optional<bool> registration;
 };
+
+// Whether a scenario's odometry drifts: a robot with a skid-steer term in its [robot.odometry]
+// (systematic slip, turn slip, heading drift per metre, heading random walk). The per-cycle jitter every
+// scenario has (slip_sigma, heading_sigma) is not drift: it averages out.
+[[nodiscard]] bool scenario_drifts(const sim::Scenario& scenario);
 
 // --station-compare as the station's [fusion] compare_methods: "paper": the paper's methods and best
 // without the station's own; "none": none; else the comma-separated list (the station validates it).

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -15,7 +16,10 @@
 #include "common/point_flags.hpp"
 #include "common/pose.hpp"
 #include "groundstation/station/config.hpp"
+#include "groundstation/fusion/core.hpp"
+#include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/station/model_check.hpp"
+#include "groundstation/station/session_replay.hpp"
 
 namespace teamscan::demo {
 namespace {
@@ -145,6 +149,7 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live,
       ++rec.points;
     }
     ds.scans.push_back(rec);
+    L.scan_seq.push_back(s.seq);
   }, L.decode, err);
 
   // The last scans_published each robot reported (status.csv, by column name).
@@ -301,7 +306,9 @@ SessionEvalCheck check_station_against_session_eval(const std::string& session, 
   }
   sc.primary = method.empty() || method == gcfg.fusion.method;
   sc.method = sc.primary ? gcfg.fusion.method : method;
-  const station::FusionOptions station_options = station::fusion_options_from_config(gcfg.fusion, gcfg.kalman);
+  // With its [registration] (on and its keys): the eval of the session runs with the registration as the
+  // station did (`teamscan eval SESSION --registration`), so the identity holds with it on.
+  const station::FusionOptions station_options = station::fusion_options_from_config(gcfg.fusion, gcfg.kalman, gcfg.registration);
   auto check = station::check_model_against_eval(
       session, sc.primary ? station_options : station::compared_options(station_options, sc.method));
   if (!check) {
@@ -332,6 +339,208 @@ SessionEvalCheck check_station_against_session_eval(const std::string& session, 
   sc.live = mapping::removal_metrics(pts, rm_live);
   sc.identical = mc.mismatches == 0 && mc.compared > 0;
   return sc;
+}
+
+namespace {
+
+// A model file's rows by point_key, and its keep column.
+struct ModelRows {
+  std::unordered_map<std::uint64_t, std::size_t> row;
+  int keep = -1;
+};
+
+Result<ModelRows> index_model(const PcdCloud& c) {
+  ModelRows m;
+  const int fr = c.field("robot"), fs = c.field("scan"), fb = c.field("beam");
+  m.keep = c.field("keep");
+  if (fr < 0 || fs < 0 || fb < 0 || m.keep < 0) return Error{"the model lacks robot/scan/beam/keep"};
+  m.row.reserve(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    auto col = [&](int f) { return static_cast<std::uint32_t>(c.columns[static_cast<std::size_t>(f)][i]); };
+    m.row[station::point_key(col(fr), col(fs), col(fb))] = i;
+  }
+  return m;
+}
+
+}  // namespace
+
+SessionReplay replay_station_session(const std::string& session, const std::string& station_config,
+                                     const std::string& scratch_dir) {
+  SessionReplay out;
+  station::GroundStationConfig gcfg;
+  station::ConfigError gerr;
+  if (!station::load_groundstation_config(station_config, gcfg, gerr)) {
+    out.error = "cannot read the station config (" + gerr.message + ")";
+    return out;
+  }
+  const station::FusionOptions options = station::fusion_options_from_config(gcfg.fusion, gcfg.kalman, gcfg.registration);
+  std::vector<std::string> methods{options.core.method};
+  methods.insert(methods.end(), options.compare_methods.begin(), options.compare_methods.end());
+  std::vector<station::FusionOptions> per_method;
+  std::vector<std::unique_ptr<fusion::FusionCore>> cores;
+  for (const std::string& m : methods) {
+    per_method.push_back(station::compared_options(options, m));
+    auto core = fusion::FusionCore::create(per_method.back().core);
+    if (!core) {
+      out.error = std::string("fusion core for ") + m + ": " + core.error().what;
+      return out;
+    }
+    cores.push_back(std::move(core.value()));
+  }
+  // With the registration on, where the primary core put every scan and point (off: where the robots did).
+  if (options.core.registration) {
+    cores.front()->set_release_callback([&](const fusion::FusedScan& f) {
+      out.scan_pose[{f.robot, f.seq}] = f.view->map_from_robot;
+      for (std::size_t i = 0; i < f.view->points.size() && i < f.beams.size(); ++i)
+        out.placed[station::point_key(f.robot, f.seq, f.beams[i])] = f.view->points[i];
+    });
+  }
+  // Every sample in arrival order with its receive time, as the station took them (its restart replay).
+  station::SessionReadStats stats;
+  station::ScanBuffers buffers;
+  const Status st = station::replay_session_files(
+      session,
+      [&](const station::PoseObservation& p) {
+        if (p.robot_id == 0 || p.robot_id > kMaxRobots) return;
+        const fusion::PoseInput in = station::pose_input(p);
+        for (auto& c : cores) c->add_pose(in);
+      },
+      [&](const station::StoredScan& s) {
+        if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
+        const fusion::ScanInput in = station::scan_input(s, buffers);
+        for (auto& c : cores) (void)c->add_scan(in);
+      },
+      stats);
+  if (!st.ok()) {
+    out.error = std::string("session: ") + st.error().what;
+    return out;
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(scratch_dir, ec);
+  for (std::size_t k = 0; k < cores.size(); ++k) {
+    cores[k]->flush();
+    ReplayModelCheck mc;
+    mc.method = methods[k];
+    mc.primary = k == 0;
+    const std::string all_name = per_method[k].all_points_pcd.empty() ? station::method_file_name("fused_all.pcd", methods[k])
+                                                                      : per_method[k].all_points_pcd;
+    const std::string replayed_path = scratch_dir + "/" + all_name;
+    auto written = cores[k]->write_model(scratch_dir + "/" + per_method[k].kept_pcd, replayed_path);
+    auto station_cloud = read_pcd(session + "/" + all_name);
+    auto replay_cloud = read_pcd(replayed_path);
+    if (!written || !station_cloud || !replay_cloud) {
+      mc.error = !written ? std::string("replayed model: ") + written.error().what
+                 : !station_cloud ? std::string("the station's ") + all_name + ": " + station_cloud.error().what
+                                  : std::string("replayed model: ") + replay_cloud.error().what;
+      out.models.push_back(mc);
+      continue;
+    }
+    auto station_rows = index_model(station_cloud.value());
+    auto replay_rows = index_model(replay_cloud.value());
+    if (!station_rows || !replay_rows) {
+      mc.error = std::string("model columns: ") + (!station_rows ? station_rows.error().what : replay_rows.error().what);
+      out.models.push_back(mc);
+      continue;
+    }
+    const PcdCloud& sc = station_cloud.value();
+    const PcdCloud& rc = replay_cloud.value();
+    mc.model_points = sc.size();
+    mc.replay_points = rc.size();
+    for (const auto& [key, i] : station_rows->row) {
+      auto it = replay_rows->row.find(key);
+      if (it == replay_rows->row.end()) continue;
+      const std::size_t j = it->second;
+      ++mc.compared;
+      const auto ks = static_cast<std::size_t>(station_rows->keep), kr = static_cast<std::size_t>(replay_rows->keep);
+      if ((sc.columns[ks][i] != 0) != (rc.columns[kr][j] != 0)) ++mc.decisions_differ;
+      const double dx = sc.xyz[3 * i] - rc.xyz[3 * j], dy = sc.xyz[3 * i + 1] - rc.xyz[3 * j + 1], dz = sc.xyz[3 * i + 2] - rc.xyz[3 * j + 2];
+      const double d = std::sqrt(dx * dx + dy * dy + dz * dz);
+      if (d > 1e-3) ++mc.placed_differ;
+      mc.placed_differ_max_m = std::max(mc.placed_differ_max_m, d);
+    }
+    mc.identical = mc.compared > 0 && mc.compared == mc.model_points && mc.compared == mc.replay_points &&
+                   mc.decisions_differ == 0 && mc.placed_differ == 0;
+    out.models.push_back(mc);
+  }
+  if (const registration::Registration* reg = cores.front()->registration()) {
+    for (std::uint8_t id = 1; id <= kMaxRobots; ++id)
+      if (const registration::RobotCorrection* c = reg->correction(id)) out.robots.push_back(*c);
+  }
+  return out;
+}
+
+LiveRegistrationScore score_live_registration(const std::string& session, const std::string& station_config,
+                                              const SessionReplay& replay, const LiveDataset& live) {
+  LiveRegistrationScore out;
+  station::GroundStationConfig gcfg;
+  station::ConfigError gerr;
+  if (!station::load_groundstation_config(station_config, gcfg, gerr)) {
+    out.error = "cannot read the station config (" + gerr.message + ")";
+    return out;
+  }
+  out.enabled = station::fusion_options_from_config(gcfg.fusion, gcfg.kalman, gcfg.registration).core.registration;
+  if (!replay.error.empty()) {
+    out.error = replay.error;
+    return out;
+  }
+  // The session as the robots' odometry placed it (each scan's pose from the odometry at its stamp).
+  station::SessionReadStats stats;
+  auto read = station::read_session_dataset(session, stats);
+  if (!read) {
+    out.error = std::string("session: ") + read.error().what;
+    return out;
+  }
+  const Dataset& sd = read.value();
+  // The run window's truth, by (robot, seq) and (robot, seq, beam).
+  std::map<std::pair<std::uint8_t, std::uint32_t>, std::size_t> scan_of;
+  for (std::size_t i = 0; i < live.ds.scans.size() && i < live.scan_seq.size(); ++i)
+    scan_of[{live.ds.scans[i].robot, live.scan_seq[i]}] = i;
+  std::unordered_map<std::uint64_t, std::size_t> point_of;
+  point_of.reserve(live.ds.points.size());
+  for (std::size_t i = 0; i < live.ds.points.size() && i < live.point_seq.size(); ++i)
+    point_of[station::point_key(live.ds.points[i].robot, live.point_seq[i], live.ds.points[i].beam)] = i;
+
+  Dataset measured;
+  measured.truth = live.ds.truth;
+  std::vector<Pose2> corrected_poses;
+  std::vector<std::uint8_t> decided;
+  for (const ScanRecord& s : sd.scans) {
+    auto it = scan_of.find({s.robot, s.scan});
+    if (it == scan_of.end()) continue;
+    ScanRecord r = s;
+    r.true_pose = live.ds.scans[it->second].true_pose;
+    measured.scans.push_back(r);
+    // Registration off: corrected = odometry; on: the scans the core released (all, after its flush).
+    auto p = replay.scan_pose.find({s.robot, s.scan});
+    corrected_poses.push_back(p != replay.scan_pose.end() ? p->second : r.pose);
+    decided.push_back(!out.enabled || p != replay.scan_pose.end() ? 1 : 0);
+  }
+  std::vector<mapping::MapPoint> corrected_points;
+  for (const LabelledPoint& p : sd.points) {
+    const std::uint64_t key = station::point_key(p.robot, p.scan, p.beam);
+    auto placed = replay.placed.find(key);
+    const mapping::MapPoint at = placed != replay.placed.end() ? placed->second : mapping::MapPoint{p.x, p.y, p.z};
+    const double moved = std::sqrt((at.x - p.x) * (at.x - p.x) + (at.y - p.y) * (at.y - p.y) + (at.z - p.z) * (at.z - p.z));
+    if (moved > 1e-3) ++out.points_moved;
+    out.points_moved_max_m = std::max(out.points_moved_max_m, moved);
+    auto it = point_of.find(key);
+    if (it == point_of.end()) continue;
+    const LabelledPoint& t = live.ds.points[it->second];
+    LabelledPoint q = p;
+    q.label = t.label;
+    q.hit_robot = t.hit_robot;
+    q.tx = t.tx;
+    q.ty = t.ty;
+    q.tz = t.tz;
+    measured.points.push_back(q);
+    corrected_points.push_back(at);
+  }
+  mapping::measure_errors(measured, out.pose_m_odometry, out.pose_deg_odometry, out.point_m_odometry);
+  mapping::measure_errors(measured, out.pose_m_corrected, out.pose_deg_corrected, out.point_m_corrected, corrected_points,
+                          corrected_poses, decided);
+  out.scans = out.pose_m_corrected.count;
+  out.points = out.point_m_corrected.count;
+  return out;
 }
 
 UnplugReport unplug_report(const std::vector<StatusRow>& status, std::uint32_t robot_id) {

@@ -4,10 +4,14 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "common/dataset/dataset.hpp"
+#include "groundstation/mapping/dataset_registration.hpp"
 #include "groundstation/mapping/metrics.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "sim/live.hpp"
@@ -37,6 +41,7 @@ struct LiveDataset {
   std::string session_error;       // a session file that could not be read as expected
   std::vector<double> latency_ms;  // scan stamp (sweep end) -> stored by the station, per stored scan
   std::vector<std::uint32_t> point_seq;  // per ds.points: the robot's scan sequence number (the station's `scan`)
+  std::vector<std::uint32_t> scan_seq;   // per ds.scans: the same
   std::vector<double> point_error_mm;    // per point with a true hit: |measured − true hit point|
 };
 
@@ -97,6 +102,51 @@ struct SessionEvalCheck {
 [[nodiscard]] std::vector<SessionEvalCheck> check_station_models_against_session_eval(
     const std::string& session, const std::string& station_config, const std::vector<LabelledPoint>& points,
     const std::vector<std::uint32_t>& point_seq);
+
+// The station's models against its own fusion core replaying its session in arrival order (each
+// sample with its receive time, as the station's restart rebuilds it: FusionStage::replay_session):
+// every model row's decision (keep) and position compared, per model (its [fusion] method first, then
+// each compare_method). With the registration on, this is the identity the demo requires: the
+// registration's corrections follow the order the core releases scans in, which live is the arrival
+// order, while `teamscan eval SESSION` feeds the session in stamp order (docs/demo.md "Registration").
+struct ReplayModelCheck {
+  std::string method;
+  bool primary = false;
+  std::string error;
+  std::uint64_t model_points = 0, replay_points = 0, compared = 0;
+  std::uint64_t decisions_differ = 0, placed_differ = 0;  // placed: more than 1 mm apart
+  double placed_differ_max_m = 0;
+  bool identical = false;  // something compared, every row in both, nothing differs
+};
+// The replay's checks and, with the registration on, the primary core's placement for the
+// registration's figures (off: empty, the robots' own poses and points stand).
+struct SessionReplay {
+  std::string error;  // the config or the session could not be read; nothing compared
+  std::vector<ReplayModelCheck> models;
+  std::map<std::pair<std::uint8_t, std::uint32_t>, Pose2> scan_pose;  // (robot, seq) -> the pose it was decided with
+  std::unordered_map<std::uint64_t, mapping::MapPoint> placed;         // point_key -> where the core put it
+  std::vector<registration::RobotCorrection> robots;                   // the registration's counters (when on)
+};
+// `scratch_dir`: where the replayed models are written (created; the caller removes it).
+[[nodiscard]] SessionReplay replay_station_session(const std::string& session, const std::string& station_config,
+                                                   const std::string& scratch_dir);
+
+// The registration live (docs/demo.md "Registration"): pose error per scan and point error per non-ghost
+// point against the live world's truth, as the robots' odometry placed them (the session as stored) and
+// as the station corrected them (`replay`: its core on its session in arrival order, whose model is
+// checked row by row against the station's). Only the scans and points of the run window (those with a
+// truth in `live`) are measured, with `teamscan eval`'s metric (mapping::measure_errors).
+struct LiveRegistrationScore {
+  std::string error;     // the config or the session could not be read; nothing measured
+  bool enabled = false;  // the station config's registration
+  std::uint64_t scans = 0, points = 0;  // measured: scans with a true pose, non-ghost points with a true hit
+  mapping::ErrorStats pose_m_odometry, pose_deg_odometry, point_m_odometry;
+  mapping::ErrorStats pose_m_corrected, pose_deg_corrected, point_m_corrected;  // = odometry when off
+  std::uint64_t points_moved = 0;   // session points the station placed more than 1 mm from the robot's point
+  double points_moved_max_m = 0;
+};
+[[nodiscard]] LiveRegistrationScore score_live_registration(const std::string& session, const std::string& station_config,
+                                                            const SessionReplay& replay, const LiveDataset& live);
 
 // Fault `--unplug-robot`: the robot's lms_state sequence as the station stored it (consecutive
 // duplicates merged) and its highest lms_reopens, from status.csv.

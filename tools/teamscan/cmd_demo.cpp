@@ -67,6 +67,13 @@ const SubcommandRegistration kDemo{
        app.add_option("--station-ros2", a->station_ros2,
                       "The station's ROS 2 publishers ([ros2] enabled: rt/teamscan/map_cloud, rt/tf, rt/robotN/odom)")
            ->capture_default_str();
+       auto* reg_on = app.add_flag_callback(
+           "--registration", [a] { a->registration = true; },
+           "Scan-to-map registration in the station's fusion core ([registration]) and in the demo's evaluations "
+           "(default: on when the scenario's robots drift; docs/demo.md \"Registration\")");
+       auto* reg_off = app.add_flag_callback("--no-registration", [a] { a->registration = false; },
+                                             "Odometry alone, also for a scenario whose robots drift");
+       reg_on->excludes(reg_off);
        return [a] { return demo::run_demo(*a); };
      }}};
 

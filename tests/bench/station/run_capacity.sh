@@ -10,8 +10,13 @@
 # team, whose wait alone exceeds 50 ms). p50/p99 are the steady state (scans stamped after the feed's
 # first 2 s: the core releases nothing in its first hold_s); the all-scans p99 is printed beside them.
 #
-# usage: [METHOD=best] [TEAM_LAG=0.15] [STATION_CPU=1] [FEEDER_CPU=0] [DDS_CONFIG=file] tests/bench/station/run_capacity.sh \
-#          [BUILD_DIR] [DURATION_S] [N ...]        default: build/dev, 20 s of robot time, N = 8 16 24 32
+# REGISTRATION=1 turns the station's scan-to-map registration on (a [registration] section, its defaults;
+# docs/registration.md "Cost"); DATASET=DIR feeds a recorded data set (`teamscan sim ... --out DIR`, e.g.
+# lap2-drift) instead of the synthetic survey. cpu_ms_per_scan = the station's CPU seconds over the feed
+# and the drain / the scans it stored: on a shared machine a steadier figure than the latency.
+#
+# usage: [METHOD=best] [TEAM_LAG=0.15] [REGISTRATION=0] [DATASET=dir] [DOMAIN=id] [STATION_CPU=1] [FEEDER_CPU=0] [DDS_CONFIG=file] \
+#          tests/bench/station/run_capacity.sh [BUILD_DIR] [DURATION_S] [N ...]   default: build/dev, 20 s, N = 8 16 24 32
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../../.." && pwd)"
@@ -31,12 +36,17 @@ lag="${TEAM_LAG:-0.15}"
 extra="$(mktemp /tmp/teamscan-capacity.XXXXXX.toml)"
 # Appended to the feeder's generated config, inside its [fusion] table; the view off (no clients here).
 printf 'team_lag_s = %s\n[view]\nlisten = ""\n' "$lag" > "$extra"
-echo "# $(date -u +%FT%TZ) station capacity: ${duration} s robot time per N, method $method, team_lag_s $lag, station on CPU $scpu, feeder on CPU $fcpu, $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
-printf '%4s %8s %8s %6s %8s %8s %8s %10s %7s %8s\n' N published stored lost p50_ms p99_ms max_ms all_p99_ms cpu_% rss_MiB
+registration="${REGISTRATION:-0}"
+[ "$registration" = 1 ] && printf '[registration]\nenabled = true\n' >> "$extra"
+dataset_args=()
+[ -n "${DATASET:-}" ] && dataset_args=(--dataset "$DATASET")
+[ -n "${DOMAIN:-}" ] && dataset_args+=(--domain "$DOMAIN")  # a fixed DDS domain (default: from the feeder's pid)
+echo "# $(date -u +%FT%TZ) station capacity: ${duration} s robot time per N, method $method, team_lag_s $lag, registration $registration, template ${DATASET:-synthetic survey}, station on CPU $scpu, feeder on CPU $fcpu, $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
+printf '%4s %8s %8s %6s %8s %8s %8s %10s %7s %8s %8s %15s\n' N published stored lost p50_ms p99_ms max_ms all_p99_ms cpu_% rss_MiB cpu_s cpu_ms_per_scan
 best=0
 for n in "${counts[@]}"; do
   out="$(taskset -c "$fcpu" "$feeder" -n "$n" --duration "$duration" --dds-config "$dds" --station "$station" \
-         --station-cpu "$scpu" --method "$method" --station-config "$extra" 2>&1)"
+         --station-cpu "$scpu" --method "$method" --station-config "$extra" "${dataset_args[@]}" 2>&1)"
   fed=$(echo "$out" | sed -n 's/^fed: \([0-9]*\) scans.*/\1/p')
   line=$(echo "$out" | grep '^station: stored')
   stored=$(echo "$line" | sed -n 's/^station: stored \([0-9]*\).*/\1/p')
@@ -48,8 +58,10 @@ for n in "${counts[@]}"; do
   max=$(echo "$steady" | sed -n 's/.*fused map p50 [0-9.]* ms, p99 [0-9.]* ms, max \([0-9.]*\) ms.*/\1/p')
   cpu=$(echo "$line" | sed -n 's/.* = \([0-9]*\) % of one core.*/\1/p')
   rss=$(echo "$out" | sed -n 's/.*end [0-9.]* s: \([0-9.]*\).*/\1/p')
+  cpu_s=$(echo "$line" | sed -n 's/.*; CPU \([0-9.]*\) s over.*/\1/p')
+  per_scan=$(awk -v c="$cpu_s" -v n="$stored" 'BEGIN { if (n > 0) printf "%.3f", 1000 * c / n; else print "-" }')
   if [ -z "$line" ]; then echo "N=$n: no result:"; echo "$out" | tail -5; continue; fi
-  printf '%4d %8s %8s %6s %8s %8s %8s %10s %7s %8s\n' "$n" "$fed" "$stored" "$lost" "$p50" "$p99" "$max" "$all_p99" "$cpu" "$rss"
+  printf '%4d %8s %8s %6s %8s %8s %8s %10s %7s %8s %8s %15s\n' "$n" "$fed" "$stored" "$lost" "$p50" "$p99" "$max" "$all_p99" "$cpu" "$rss" "$cpu_s" "$per_scan"
   if [ "$lost" = "0" ] && awk -v p="$p99" 'BEGIN { exit !(p <= 50.0) }'; then best=$n; fi
 done
 echo "largest N with steady p99 <= 50 ms and nothing lost: $best (goal 32 on one core; load after: $(cut -d' ' -f1-3 /proc/loadavg))"

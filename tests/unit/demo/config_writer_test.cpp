@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "groundstation/station/config.hpp"
+#include "groundstation/station/fusion.hpp"
 #include "onboard/core/config.hpp"
 #include "tools/demo/config_writer.hpp"
 
@@ -75,6 +76,24 @@ TEST(DemoConfig, StationConfigParsesWithTheStationsParser) {
   EXPECT_EQ(c.team_source, station::TeamSourceKind::kKalman);
   EXPECT_TRUE(c.ros2.enabled);      // --station-ros2 defaults to on
   EXPECT_EQ(c.view.listen, "");     // no --view: the station serves no page
+  EXPECT_FALSE(c.fusion.registration);  // odometry alone unless the demo turns it on
+}
+
+// --registration (or a drifting scenario): a [registration] section, which the station's parser reads as
+// the registration on with its defaults, and so do the demo's checks (fusion_options_from_config).
+TEST(DemoConfig, StationRegistrationSectionTurnsItOn) {
+  StationConfigInput in;
+  in.session_root = "/tmp/demo-out";
+  in.registration = true;
+  const std::string text = station_config(in);
+  station::GroundStationConfig c;
+  station::ConfigError e;
+  ASSERT_TRUE(station::parse_groundstation_config(text, "groundstation.toml", c, e)) << e.message << "\n" << text;
+  EXPECT_TRUE(c.fusion.registration);
+  const station::FusionOptions o = station::fusion_options_from_config(c.fusion, c.kalman, c.registration);
+  EXPECT_TRUE(o.core.registration);
+  EXPECT_EQ(o.core.registration_options.window_s, registration::RegistrationOptions{}.window_s);
+  EXPECT_EQ(o.core.registration_options.min_map_features, registration::RegistrationOptions{}.min_map_features);
 }
 
 TEST(DemoConfig, StationRos2OffAndViewOnLoopback) {

@@ -3,14 +3,18 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstdlib>
 
 #include "common/dataset/pcd.hpp"
 #include "common/point_flags.hpp"
+#include "groundstation/station/config.hpp"
+#include "groundstation/station/fusion.hpp"
 #include "groundstation/station/session_store.hpp"
 #include "tests/unit/demo/temp_dir.hpp"
 #include "groundstation/mapping/filter.hpp"
 #include "tools/demo/demo.hpp"
 #include "tools/demo/scoring.hpp"
+#include "teamscan.h"
 
 namespace teamscan::demo {
 namespace {
@@ -182,6 +186,167 @@ TEST(DemoScoring, KillReportFromTheSession) {
   EXPECT_EQ(k.team_stale_after, 1u);
   EXPECT_EQ(k.direction_filtered_after, 1u);
   EXPECT_EQ(kill_report(session, 3, kill).lost_after_s, -1);
+}
+
+// A small session as the station stores it: two robots driving along a corridor (poses at 10 Hz, scans
+// at 20 Hz with points on both walls), received in stamp order.
+void write_corridor_session(const std::string& session) {
+  auto store = station::SessionStore::open(session);
+  ASSERT_TRUE(store.ok());
+  const std::int64_t t0 = 1'000'000'000'000;
+  for (int k = 0; k <= 60; ++k) {
+    const std::int64_t t = t0 + static_cast<std::int64_t>(k) * 50'000'000;
+    for (std::uint32_t id = 1; id <= 2; ++id) {
+      const double x = 0.015 * k + (id == 2 ? 1.5 : 0.0);
+      const station::ReceiveTime at{Time::from_ns(t + 5'000'000), Time::from_ns(t + 5'000'000)};
+      if (k % 2 == 0) {
+        teamscan_msg_RobotPose p{};
+        p.robot_id = id;
+        p.seq = static_cast<std::uint32_t>(k / 2);
+        p.stamp_ns = t;
+        p.x_mm = static_cast<std::int32_t>(x * 1000);
+        p.vx_mmps = 300;
+        store->append_pose(p, at);
+      }
+      station::StoredScan s{};
+      s.recv_realtime_ns = t + 6'000'000;
+      s.recv_monotonic_ns = s.recv_realtime_ns;
+      s.robot_id = id;
+      s.seq = static_cast<std::uint32_t>(k);
+      s.stamp_ns = t;
+      s.origin_x_mm = static_cast<std::int32_t>(x * 1000);
+      s.origin_z_mm = 400;
+      s.count = 20;
+      for (std::uint16_t b = 0; b < 20; ++b) {
+        s.points[b].x_mm = static_cast<std::int32_t>((x + 0.1 * (b % 10)) * 1000);
+        s.points[b].y_mm = b < 10 ? -1200 : 1200;
+        s.points[b].z_mm = 300 + 20 * b;
+        s.points[b].beam = b;
+      }
+      store->append_scan(s);
+    }
+  }
+  store->sync();
+}
+
+// The station's models against its own core replaying the session in arrival order: the model the
+// station's FusionStage wrote is identical, row by row (decision and position), for its method and a
+// compared one; a flipped decision and a moved point are found and counted.
+TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
+  test::TempDir dir;
+  const std::string session = dir.path() + "/session";
+  write_corridor_session(session);
+  const std::string cfg = dir.path() + "/groundstation.toml";
+  write_file(cfg, "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"position\"\nwrite_all_points = true\n"
+                  "compare_methods = [\"direction\"]\n[view]\nlisten = \"\"\n");
+  {  // The station's model: its fusion stage rebuilt from the session (its restart path) and written.
+    station::GroundStationConfig g;
+    station::ConfigError e;
+    ASSERT_TRUE(station::load_groundstation_config(cfg, g, e)) << e.message;
+    auto stage = station::FusionStage::create(station::fusion_options_from_config(g.fusion, g.kalman, g.registration), session);
+    ASSERT_TRUE(stage.ok());
+    ASSERT_TRUE(stage.value()->replay_session(session).ok());
+    stage.value()->flush();
+    ASSERT_TRUE(stage.value()->write_model().ok());
+  }
+  const SessionReplay same = replay_station_session(session, cfg, dir.path() + "/replay");
+  ASSERT_TRUE(same.error.empty()) << same.error;
+  ASSERT_EQ(same.models.size(), 2u);
+  EXPECT_EQ(same.models[0].method, "position");
+  EXPECT_TRUE(same.models[0].primary);
+  EXPECT_EQ(same.models[1].method, "direction");
+  for (const ReplayModelCheck& m : same.models) {
+    EXPECT_TRUE(m.error.empty()) << m.error;
+    EXPECT_GT(m.compared, 1000u);
+    EXPECT_EQ(m.compared, m.model_points);
+    EXPECT_EQ(m.decisions_differ, 0u);
+    EXPECT_EQ(m.placed_differ, 0u);
+    EXPECT_TRUE(m.identical) << m.method;
+  }
+  // Registration off: no placement kept (the robots' own poses and points stand), no counters.
+  EXPECT_TRUE(same.scan_pose.empty());
+  EXPECT_TRUE(same.placed.empty());
+  EXPECT_TRUE(same.robots.empty());
+
+  // The station's model with one decision flipped and one point moved by 5 cm.
+  auto cloud = read_pcd(session + "/fused_all.pcd");
+  ASSERT_TRUE(cloud.ok());
+  PcdCloud c = cloud.value();
+  const auto keep = static_cast<std::size_t>(c.field("keep"));
+  c.columns[keep][0] = c.columns[keep][0] != 0 ? 0 : 1;
+  c.xyz[3 * 1] += 0.05f;
+  c.columns[0][1] += 0.05;
+  const std::vector<PcdField> layout = {{"x"}, {"y"}, {"z"}, {"robot", 1, 'U'}, {"scan", 4, 'U'}, {"beam", 2, 'U'},
+                                        {"keep", 1, 'U'}, {"live_keep", 1, 'U'}};
+  ASSERT_TRUE(write_pcd(session + "/fused_all.pcd", c, layout).ok());
+  const SessionReplay changed = replay_station_session(session, cfg, dir.path() + "/replay2");
+  ASSERT_EQ(changed.models.size(), 2u);
+  EXPECT_EQ(changed.models[0].decisions_differ, 1u);
+  EXPECT_EQ(changed.models[0].placed_differ, 1u);
+  EXPECT_NEAR(changed.models[0].placed_differ_max_m, 0.05, 1e-3);
+  EXPECT_FALSE(changed.models[0].identical);
+  EXPECT_TRUE(changed.models[1].identical);  // the compared model's file is untouched
+
+  // With the registration on: the station's model (rewritten by its fusion stage) is again identical, and
+  // the primary core's placement of every scan and point is kept, with the registration's counters.
+  const std::string reg_cfg = dir.path() + "/groundstation-registration.toml";
+  write_file(reg_cfg, "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"position\"\nwrite_all_points = true\n"
+                      "[registration]\nenabled = true\n[view]\nlisten = \"\"\n");
+  {
+    station::GroundStationConfig g;
+    station::ConfigError e;
+    ASSERT_TRUE(station::load_groundstation_config(reg_cfg, g, e)) << e.message;
+    ASSERT_TRUE(g.fusion.registration);
+    auto stage = station::FusionStage::create(station::fusion_options_from_config(g.fusion, g.kalman, g.registration), session);
+    ASSERT_TRUE(stage.ok());
+    ASSERT_TRUE(stage.value()->replay_session(session).ok());
+    stage.value()->flush();
+    ASSERT_TRUE(stage.value()->write_model().ok());
+  }
+  const SessionReplay registered = replay_station_session(session, reg_cfg, dir.path() + "/replay-registered");
+  ASSERT_TRUE(registered.error.empty()) << registered.error;
+  ASSERT_EQ(registered.models.size(), 1u);
+  EXPECT_TRUE(registered.models[0].identical);
+  EXPECT_EQ(registered.scan_pose.size(), 2u * 61u);
+  EXPECT_EQ(registered.placed.size(), 2u * 61u * 20u);
+  EXPECT_EQ(registered.robots.size(), 2u);
+  // No truth for this session: the registration is on, nothing measured.
+  const LiveRegistrationScore score = score_live_registration(session, reg_cfg, registered, LiveDataset{});
+  EXPECT_TRUE(score.error.empty()) << score.error;
+  EXPECT_TRUE(score.enabled);
+  EXPECT_EQ(score.scans, 0u);
+  EXPECT_EQ(score.points, 0u);
+
+  // A config that cannot be read: an error, nothing compared.
+  const SessionReplay none = replay_station_session(session, dir.path() + "/none.toml", dir.path() + "/replay3");
+  EXPECT_FALSE(none.error.empty());
+  EXPECT_TRUE(none.models.empty());
+}
+
+// Registration on by default exactly when a robot's odometry has a skid-steer drift term; the per-cycle
+// jitter every scenario has is not drift. The shipped scenarios: the three drift ones, and team3 (its robot 3
+// turns 0.5°/m) and tables4 (0.1°/m); lap2, fig8, parked3 and convoy3 only have the jitter.
+TEST(DemoOptions, RegistrationOnWhenTheScenarioDrifts) {
+  sim::Scenario s;
+  s.robots.resize(2);
+  s.robots[0].odometry.slip_sigma = 0.01;
+  s.robots[0].odometry.heading_sigma = 0.01;
+  EXPECT_FALSE(scenario_drifts(s));
+  for (int term = 0; term < 4; ++term) {
+    sim::Scenario d = s;
+    sim::OdometryNoise& o = d.robots[1].odometry;
+    (term == 0 ? o.slip : term == 1 ? o.turn_slip : term == 2 ? o.drift_rad_per_m : o.heading_walk_rad_per_sqrt_m) = 0.01;
+    EXPECT_TRUE(scenario_drifts(d)) << term;
+  }
+  const char* src = std::getenv("TEAMSCAN_SOURCE_DIR");
+  const std::string dir = std::string{src ? src : "."} + "/sim/scenarios/";
+  for (const char* name : {"lap2-drift", "corridor2", "team3-drift", "lap2", "fig8", "team3", "tables4", "parked3", "convoy3"}) {
+    const sim::ScenarioLoad l = sim::load_scenario_file(dir + name + ".toml");
+    ASSERT_TRUE(l.scenario) << name << ": " << l.error;
+    const std::string n = name;
+    const bool drift = n == "lap2-drift" || n == "corridor2" || n == "team3-drift" || n == "team3" || n == "tables4";
+    EXPECT_EQ(scenario_drifts(*l.scenario), drift) << name;
+  }
 }
 
 }  // namespace
