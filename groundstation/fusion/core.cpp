@@ -112,6 +112,8 @@ bool FusionCore::add_scan(const ScanInput& in) {
   s.flags.assign(in.flags.begin(), in.flags.end());
   s.beams.assign(in.beams.begin(), in.beams.end());
   held_.push_back(std::move(s));
+  newest_scan_stamp_ns_[in.robot] = std::max(newest_scan_stamp_ns_[in.robot], in.stamp_ns);
+  last_scan_arrival_ns_[in.robot] = std::max(last_scan_arrival_ns_[in.robot], in.arrival_ns);
   newest_arrival_ns_ = std::max(newest_arrival_ns_, in.arrival_ns);
   release_ready(newest_arrival_ns_, false);
   return true;
@@ -129,6 +131,8 @@ void FusionCore::resume_at(std::int64_t arrival_ns) {
   for (HeldScan& s : held_) s.arrival_ns = std::max(s.arrival_ns, arrival_ns);
   for (std::uint8_t r = 1; r <= kMaxRobots; ++r)
     if (poses_.known(r)) last_pose_arrival_ns_[r] = std::max(last_pose_arrival_ns_[r], arrival_ns);
+  for (std::int64_t& t : last_scan_arrival_ns_)
+    if (t != INT64_MIN) t = std::max(t, arrival_ns);
   newest_arrival_ns_ = std::max(newest_arrival_ns_, arrival_ns);
 }
 
@@ -147,6 +151,17 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
     if (now_ns - last_pose_arrival_ns_[r] >= hold_ns) continue;
     watermark = std::min(watermark, poses_.newest_stamp(r));
   }
+  // With the registration, the release order is part of the state (each match sees the reference the
+  // scans released before it built), so a scan also waits for every robot still sending scans to have
+  // sent one stamped at or after it (a robot's scans arrive in order): then no earlier-stamped scan can
+  // still arrive, and live releases in stamp order as `teamscan eval` does. Costs about one scan period.
+  std::int64_t scan_watermark = INT64_MAX;
+  if (registration_) {
+    for (std::uint8_t r = 1; r <= kMaxRobots; ++r) {
+      if (last_scan_arrival_ns_[r] == INT64_MIN || now_ns - last_scan_arrival_ns_[r] >= hold_ns) continue;
+      scan_watermark = std::min(scan_watermark, newest_scan_stamp_ns_[r]);
+    }
+  }
   // The ready scans go in stamp order (robot, seq on a tie), whatever order they arrived in: the
   // registration's state, and with it every later scan's correction, follows the release order.
   releasing_.clear();
@@ -155,7 +170,7 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
     const std::int64_t cutoff = poses_.cutoff(it->stamp_ns);  // the newest pose stamp that decides it
     const bool own_ok = poses_.known(it->robot) &&
                         (poses_.newest_stamp(it->robot) >= cutoff || now_ns - last_pose_arrival_ns_[it->robot] >= hold_ns);
-    const bool by_poses = own_ok && cutoff <= watermark;
+    const bool by_poses = own_ok && cutoff <= watermark && it->stamp_ns <= scan_watermark;
     const bool forced = !by_poses && (all || now_ns - it->arrival_ns >= hold_ns);
     if (by_poses || forced) {
       it->forced = forced;

@@ -218,6 +218,15 @@ class FusionCore {
   std::int64_t newest_arrival_ns_ = INT64_MIN;
   std::int64_t first_arrival_ns_ = INT64_MIN;
   std::array<std::int64_t, kMaxRobots + 1> last_pose_arrival_ns_{};
+  // Per robot: its newest scan's stamp and the arrival of its last scan (the scan watermark, used with
+  // the registration: release_ready).
+  std::array<std::int64_t, kMaxRobots + 1> newest_scan_stamp_ns_ = filled(INT64_MIN);
+  std::array<std::int64_t, kMaxRobots + 1> last_scan_arrival_ns_ = filled(INT64_MIN);
+  static constexpr std::array<std::int64_t, kMaxRobots + 1> filled(std::int64_t v) {
+    std::array<std::int64_t, kMaxRobots + 1> a{};
+    a.fill(v);
+    return a;
+  }
   std::function<void(const FusedScan&)> on_release_;
   // Per robot: the newest seq fused and a bitmap of the kSeqWindow seqs up to it (bit k = newest − k).
   static constexpr std::uint32_t kSeqWindow = 1024;

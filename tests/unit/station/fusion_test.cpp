@@ -7,10 +7,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <map>
+#include <memory>
 #include <set>
 #include <thread>
 #include <numeric>
@@ -94,12 +96,20 @@ PoseObservation pose_observation(const TrajectorySample& s, std::int64_t receive
 // Feeds the stage as the robots send it. `pose_delay` > 0: every pose arrives that many scans late
 // (after scans stamped later than it), so the core must hold those scans for their team state.
 // `after_scan(arrival_ns)`: called after each scan is handed over.
+// `robot2_scan_delay` > 0: robot 2's scans arrive that many scans late (after robot 1's later-stamped
+// scans, as over a slower link).
 void feed(FusionStage& stage, const Dataset& d, std::size_t pose_delay = 0,
-          const std::function<void(std::int64_t)>& after_scan = {}) {
+          const std::function<void(std::int64_t)>& after_scan = {}, std::size_t robot2_scan_delay = 0) {
   static StoredScan scan;
   std::size_t next_odom = 0;
   std::vector<const TrajectorySample*> late;
   std::int64_t clock_ns = 0;
+  std::deque<std::unique_ptr<StoredScan>> late_scans;  // robot 2's, waiting
+  auto hand_over = [&](StoredScan& sc) {
+    sc.recv_realtime_ns = clock_ns;
+    stage.add_scan(sc);
+    if (after_scan) after_scan(clock_ns);
+  };
   for (const ScanRecord& r : d.scans) {
     while (next_odom < d.odom.size() && d.odom[next_odom].stamp_ns <= r.stamp_ns) late.push_back(&d.odom[next_odom++]);
     while (late.size() > pose_delay * 2) {  // ~pose_delay scans late (two robots)
@@ -122,9 +132,17 @@ void feed(FusionStage& stage, const Dataset& d, std::size_t pose_delay = 0,
     }
     // One beam without an echo: stored by the station, never part of the model.
     scan.points[scan.count++] = StoredPoint{0, 0, 0, 400, kPointInvalid};
-    stage.add_scan(scan);
-    if (after_scan) after_scan(clock_ns);
+    if (robot2_scan_delay > 0 && r.robot == 2) {
+      late_scans.push_back(std::make_unique<StoredScan>(scan));
+    } else {
+      hand_over(scan);
+      if (late_scans.size() > robot2_scan_delay / 2) {  // robot 1's scans pass it: about the delay in scans
+        hand_over(*late_scans.front());
+        late_scans.pop_front();
+      }
+    }
   }
+  for (auto& sc : late_scans) hand_over(*sc);
   for (const TrajectorySample* s : late) stage.add_pose(pose_observation(*s, clock_ns));
   while (next_odom < d.odom.size()) stage.add_pose(pose_observation(d.odom[next_odom++], clock_ns));
   stage.flush();
@@ -279,7 +297,9 @@ TEST(FusionRegistration, ModelDecisionsEqualEvalWithRegistrationOn) {
     }
     ASSERT_GT(n, 0u);
     EXPECT_LT(after, 0.5 * before) << method << ": mean error " << after / n << " m, odometry " << before / n << " m";
-    for (std::size_t pose_delay : {std::size_t{0}, std::size_t{3}}) {
+    // Poses late, and robot 2's scans late behind robot 1's (the release order, and with it each
+    // match's reference, must still be the stamp order: the scan watermark).
+    for (auto [pose_delay, scan_delay] : {std::pair<std::size_t, std::size_t>{0, 0}, {3, 0}, {0, 6}, {3, 6}}) {
       const std::string dir = temp_dir();
       FusionOptions o;
       o.core.method = method;
@@ -289,7 +309,7 @@ TEST(FusionRegistration, ModelDecisionsEqualEvalWithRegistrationOn) {
       o.all_points_pcd = "fused_all.pcd";
       auto stage = FusionStage::create(o, dir);
       ASSERT_TRUE(stage.ok());
-      feed(**stage, d, pose_delay);
+      feed(**stage, d, pose_delay, {}, scan_delay);
       EXPECT_GT((*stage)->core().counters().registration_corrections, 0u);
       ASSERT_TRUE((*stage)->write_model().ok());
       auto all = read_pcd(dir + "/fused_all.pcd");
@@ -305,8 +325,8 @@ TEST(FusionRegistration, ModelDecisionsEqualEvalWithRegistrationOn) {
       }
       for (std::size_t i = 0; i < d.points.size(); ++i) {
         const auto& [removed, x] = decided[{d.points[i].robot, d.points[i].scan, d.points[i].beam}];
-        ASSERT_EQ(removed, eval.removed[i]) << method << " point " << i << " pose_delay " << pose_delay;
-        ASSERT_EQ(x, eval.placed[i].x) << method << " point " << i << " pose_delay " << pose_delay;  // the same correction
+        ASSERT_EQ(removed, eval.removed[i]) << method << " point " << i << " pose_delay " << pose_delay << " scan_delay " << scan_delay;
+        ASSERT_EQ(x, eval.placed[i].x) << method << " point " << i << " pose_delay " << pose_delay << " scan_delay " << scan_delay;  // the same correction
       }
       std::filesystem::remove_all(dir);
     }
