@@ -415,6 +415,8 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
       g.masked_points = r.masked_points;
       if (options.registration) g.consistency_after = revisit_consistency(dataset, r.placed);
       report.placed = std::move(r.placed);
+      report.scan_poses = std::move(r.scan_poses);
+      report.scan_decided = std::move(r.scan_decided);
     }
     removed_by_method.push_back(std::move(r.removed));
   }

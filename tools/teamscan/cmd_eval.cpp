@@ -324,6 +324,17 @@ int run_eval(const EvalArgs& a) {
         dataset.value().points[i].y = report.placed[i].y;
         dataset.value().points[i].z = report.placed[i].z;
       }
+    // … and, without truth (whose track the pictures draw otherwise), the track the core placed the
+    // scans on: one sample per decided scan at its registered pose.
+    if (options.registration && dataset.value().truth.empty() && report.scan_poses.size() == dataset.value().scans.size()) {
+      std::vector<TrajectorySample> track;
+      for (std::size_t i = 0; i < dataset.value().scans.size(); ++i) {
+        if (i < report.scan_decided.size() && !report.scan_decided[i]) continue;
+        const ScanRecord& sc = dataset.value().scans[i];
+        track.push_back({sc.robot, sc.stamp_ns, report.scan_poses[i], 0.0, 0.0});
+      }
+      dataset.value().odom = std::move(track);
+    }
     const std::string command = reproduce_command(a, dir);
     const std::string md = mapping::report_markdown(report, command);
     std::fputs(md.c_str(), stdout);
