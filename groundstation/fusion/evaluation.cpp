@@ -415,6 +415,8 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
       g.masked_points = r.masked_points;
       if (options.registration) g.consistency_after = revisit_consistency(dataset, r.placed);
       report.placed = std::move(r.placed);
+      report.scan_poses = std::move(r.scan_poses);
+      report.scan_decided = std::move(r.scan_decided);
     }
     removed_by_method.push_back(std::move(r.removed));
   }
@@ -576,13 +578,18 @@ std::string report_json(const EvalReport& r, const std::string& command) {
   o << "\n  ],\n";
   {
     const RegistrationReport& g = r.registration;
+    auto share_on_earlier = [](const RevisitConsistency& k) {
+      return k.points ? static_cast<double>(k.on_earlier_points) / static_cast<double>(k.points) : 0.0;
+    };
     auto js = [&](const ErrorStats& e) {
       return "{\"p50\": " + json_number(e.p50) + ", \"p99\": " + json_number(e.p99) + ", \"max\": " + json_number(e.max) +
              ", \"count\": " + std::to_string(e.count) + "}";
     };
     o << "  \"registration\": {\"enabled\": " << (g.enabled ? "true" : "false") << ", \"have_truth\": " << (g.have_truth ? "true" : "false")
       << ", \"consistency_before_median_m\": " << json_number(g.consistency_before.median_m)
-      << ", \"consistency_after_median_m\": " << json_number(g.enabled ? g.consistency_after.median_m : g.consistency_before.median_m);
+      << ", \"consistency_after_median_m\": " << json_number(g.enabled ? g.consistency_after.median_m : g.consistency_before.median_m)
+      << ", \"consistency_before_on_earlier_share\": " << json_number(share_on_earlier(g.consistency_before))
+      << ", \"consistency_after_on_earlier_share\": " << json_number(share_on_earlier(g.enabled ? g.consistency_after : g.consistency_before));
     if (g.have_truth) {
       o << ", \"pose_m_before\": " << js(g.pose_m_before) << ", \"pose_deg_before\": " << js(g.pose_deg_before)
         << ", \"point_m_before\": " << js(g.point_m_before);
@@ -641,8 +648,10 @@ std::string report_markdown(const EvalReport& r, const std::string& command) {
   if (r.registration.consistency_before.points > 0) {
     const RegistrationReport& g = r.registration;
     auto c = [&](const RevisitConsistency& k) {
-      return md(k.median_m * 100, 1) + " / " + md(k.p90_m * 100, 1) + " cm (" +
-             md(k.points ? 100.0 * static_cast<double>(k.revisit_points) / static_cast<double>(k.points) : 0.0) + " % of the points)";
+      const double n = k.points ? static_cast<double>(k.points) : 1.0;
+      return md(k.median_m * 100, 1) + " / " + md(k.p90_m * 100, 1) + " cm (" + md(100.0 * static_cast<double>(k.revisit_points) / n) +
+             " % of the points; within " + md(k.on_earlier_m * 100, 0) + " cm of the earlier pass: " +
+             md(100.0 * static_cast<double>(k.on_earlier_points) / n) + " % of the points)";
     };
     o << "\nRevisit consistency (median / p90 distance of a revisit's points to the earlier pass, ≥ 30 s before, within 0.5 m; "
          "docs/registration.md): odometry "

@@ -148,6 +148,10 @@ struct EvalReport {
   // Every point where the core put it (registration applied; Dataset::points order): the cloud the
   // metrics above were computed on.
   std::vector<MapPoint> placed;
+  // Per Dataset::scans row, the pose the core decided the scan with (registration applied); empty
+  // when the core decided none.
+  std::vector<Pose2> scan_poses;
+  std::vector<std::uint8_t> scan_decided;
 };
 
 [[nodiscard]] EvalReport evaluate(const Dataset& dataset, const EvalOptions& options);

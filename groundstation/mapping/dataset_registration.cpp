@@ -71,6 +71,7 @@ RevisitConsistency revisit_consistency(const Dataset& d, std::span<const MapPoin
     }
     ++out.points;
     if (revisit) distances.push_back(std::sqrt(best2));
+    if (revisit && best2 <= out.on_earlier_m * out.on_earlier_m) ++out.on_earlier_points;
     std::vector<Seen>& here = grid[{cx, cy}];
     if (here.size() < 64) here.push_back({p.x, p.y, stamp});  // the earliest passes of each cell
   }

@@ -25,9 +25,15 @@ struct ErrorStats {
 // horizontal distance to the nearest point of that earlier pass. A consistent map puts a revisit on
 // the surfaces seen before (median ≈ range noise and beam spacing); drift shifts it by the pose
 // error accumulated in between. Reported: median and p90 over the revisit points, and their share.
+// The revisit set depends on the map (a revisit drawn > radius_m off counts as new ground), so the
+// figure that compares two maps of one log over the same denominator is `on_earlier_points`: the
+// points within `on_earlier_m` (10 cm) of the earlier pass, a share of all points (the more of the
+// log lands on what was mapped before, the more consistent the map).
 struct RevisitConsistency {
   double median_m = 0, p90_m = 0;
   std::uint64_t revisit_points = 0, points = 0;
+  std::uint64_t on_earlier_points = 0;
+  double on_earlier_m = 0.10;
 };
 // `placed`: one point per Dataset::points row where the map has it (empty: the data set's points).
 [[nodiscard]] RevisitConsistency revisit_consistency(const Dataset& dataset, std::span<const MapPoint> placed = {},

@@ -46,7 +46,7 @@ std::ptrdiff_t LineMap::nearest(double x_m, double y_m, double nx, double ny, do
   for (std::size_t k = 0; k < found; ++k) {
     if (d2[k] > gate2) break;
     const LineFeature& f = features_[idx[k]];
-    if (std::abs(f.nx * nx + f.ny * ny) >= min_dot) return static_cast<std::ptrdiff_t>(idx[k]);
+    if ((nx == 0 && ny == 0) || std::abs(f.nx * nx + f.ny * ny) >= min_dot) return static_cast<std::ptrdiff_t>(idx[k]);
   }
   return -1;
 }

@@ -31,7 +31,8 @@ class LineMap {
   [[nodiscard]] std::size_t size() const { return features_.size(); }
   [[nodiscard]] const std::vector<LineFeature>& features() const { return features_; }
   // Index of the nearest feature to (x, y) within `max_distance_m` whose normal agrees with (nx, ny)
-  // (|dot| ≥ min_dot; among the 4 nearest), or -1.
+  // (|dot| ≥ min_dot; among the 4 nearest), or -1. A query without a normal (0, 0: a bare point)
+  // takes the nearest line.
   [[nodiscard]] std::ptrdiff_t nearest(double x_m, double y_m, double nx, double ny, double max_distance_m,
                                        double min_dot) const;
 

@@ -9,6 +9,21 @@
 
 namespace teamscan::registration {
 
+RegistrationOptions planar_scan_options(RegistrationOptions o) {
+  o.surface.planar_scans = true;
+  o.surface.voxel_m = 0.15;
+  o.surface.min_points = 3;
+  o.point_source = true;
+  o.window_s = 60.0;
+  o.window_m = 0.01;  // the last scan (and any taken from the same spot)
+  o.match_every_s = 0.0;
+  o.rebuild_every_s = 0.0;
+  o.match.min_overlap = 0.30;
+  o.drift_rad2_per_m = 0.02 * 0.02;
+  o.drift_rad2_per_rad = 0.1 * 0.1;
+  return o;
+}
+
 Registration::Registration(RegistrationOptions options)
     : options_{options}, reference_{options.surface}, window_grid_{options.surface} {
   for (std::size_t id = 0; id < robots_.size(); ++id) robots_[id].c.robot = static_cast<std::uint8_t>(id);
@@ -43,6 +58,7 @@ const RobotCorrection& Registration::add_scan(std::uint8_t robot, std::int64_t s
   predict(r, odom_pose);
   WindowScan ws;
   ws.stamp_ns = stamp_ns;
+  ws.path_m = r.path_m;
   ws.points.reserve(points.size());
   for (std::size_t i = 0; i < points.size(); ++i)
     if (usable.empty() || usable[i]) ws.points.push_back(points[i]);
@@ -56,6 +72,7 @@ void Registration::predict(Robot& r, const Pose2& odom_pose) {
   const double ds = std::hypot(odom_pose.x_m - r.last_odom.x_m, odom_pose.y_m - r.last_odom.y_m);
   const double dtheta = std::abs(normalize_angle(odom_pose.theta_rad - r.last_odom.theta_rad));
   r.last_odom = odom_pose;
+  r.path_m += ds;
   const Vec2 pivot = r.c.map_from_odom.apply({odom_pose.x_m, odom_pose.y_m});
   r.c.covariance = move_pivot(r.c.covariance, r.c.pivot_m, pivot);
   r.c.pivot_m = pivot;
@@ -66,7 +83,10 @@ void Registration::predict(Robot& r, const Pose2& odom_pose) {
 
 void Registration::retire(Robot& r, std::int64_t now_ns) {
   const auto window_ns = static_cast<std::int64_t>(options_.window_s * 1e9);
-  while (!r.window.empty() && r.window.front().stamp_ns < now_ns - window_ns) {
+  auto leaves = [&](const WindowScan& ws) {
+    return ws.stamp_ns < now_ns - window_ns || (options_.window_m > 0 && r.path_m - ws.path_m > options_.window_m);
+  };
+  while (!r.window.empty() && leaves(r.window.front())) {
     for (const Vec3& p : r.window.front().points)
       if (reference_.add(corrected(r.c.map_from_odom, p))) map_dirty_ = true;
     r.window.pop_front();
@@ -93,10 +113,17 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
     ++r.c.first_lap;
     return;
   }
-  window_grid_.clear();
-  for (const WindowScan& ws : r.window)
-    for (const Vec3& p : ws.points) (void)window_grid_.add(p);
-  window_grid_.features(scratch_);
+  if (options_.point_source) {
+    // Each usable point is a source of its own, without a normal: it pairs with the nearest line.
+    scratch_.clear();
+    for (const WindowScan& ws : r.window)
+      for (const Vec3& p : ws.points) scratch_.push_back({p.x, p.y, 0.0, 0.0, 1.0f});
+  } else {
+    window_grid_.clear();
+    for (const WindowScan& ws : r.window)
+      for (const Vec3& p : ws.points) (void)window_grid_.add(p);
+    window_grid_.features(scratch_);
+  }
   // The bounded step opens with the prediction's uncertainty (3σ): a robot that went unmatched for a
   // while may move further, one matched a moment ago may not jump.
   MatchOptions mo = options_.match;

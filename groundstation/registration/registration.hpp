@@ -33,7 +33,13 @@ struct RegistrationOptions {
   SurfaceOptions surface;            // reference and window grids
   MatchOptions match;
   double window_s = 3.0;             // a robot's recent points matched as one rigid piece
+  double window_m = 0.0;             // … and no more path than this (0: time alone): a sparse log that
+                                     // covers metres in a few seconds keeps only a rigid stretch
   double match_every_s = 0.5;        // at most one match per robot this often
+  // The source of a match: the window's surface features (a tilted laser's 3-D points), or its
+  // points themselves, each paired with the nearest reference line (point-to-line: a sparse 2-D
+  // scan has too few points per voxel for features of its own).
+  bool point_source = false;
   double min_motion_m = 0.05;        // since the last match: less motion than this (and …
   double min_motion_rad = 0.017;     // … less turn) is standing still: no match
   double rebuild_every_s = 1.0;      // the reference's k-d tree is rebuilt at most this often
@@ -46,6 +52,15 @@ struct RegistrationOptions {
   double initial_sigma_m = 0.01;     // at the registration (the start pose is known)
   double initial_sigma_rad = 0.002;
 };
+
+// The policy for horizontal 2-D lasers (every point at the mount's height: an imported CARMEN log),
+// whose scans are sparse (180 beams, a wall voxel gets a point or two per scan) and may be far apart
+// (the Intel lab log: 18 cm and up to 25° between scans): every scan is matched on its own (the
+// window is the last scan, by path: time says nothing about such a log), its points against the
+// reference's lines; the reference follows every scan; wall voxels of 15 cm from 3 points; a match
+// is used with 30 % of the points on a line; the prediction's heading grows faster (a real skid's
+// turns). docs/registration.md "Real data". Everything else as `base`.
+[[nodiscard]] RegistrationOptions planar_scan_options(RegistrationOptions base = {});
 
 // A robot's correction and what registration did for it.
 struct RobotCorrection {
@@ -78,12 +93,14 @@ class Registration {
  private:
   struct WindowScan {
     std::int64_t stamp_ns = 0;
+    double path_m = 0;         // the robot's path length at this scan
     std::vector<Vec3> points;  // usable points only, odometry-map frame
   };
   struct Robot {
     bool started = false;
     RobotCorrection c;
     Pose2 last_odom;
+    double path_m = 0;  // driven so far (odometry)
     Pose2 odom_at_match;
     std::int64_t last_attempt_ns = 0;
     std::deque<WindowScan> window;

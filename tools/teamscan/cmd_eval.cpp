@@ -36,8 +36,10 @@ struct EvalArgs {
   std::uint64_t seed = 1;
   bool registration = false;     // scan-to-map registration in the fusion core (docs/registration.md)
   bool no_registration = false;  // odometry alone (the default, as the station's [fusion] registration)
-  double registration_window_s = registration::RegistrationOptions{}.window_s;
-  int registration_min_correspondences = static_cast<int>(registration::MatchOptions{}.min_correspondences);
+  // Unset: the registration's defaults for the data set's lasers (registration::planar_scan_options
+  // for an imported 2-D log, RegistrationOptions{} else).
+  std::optional<double> registration_window_s;
+  std::optional<int> registration_min_correspondences;
   std::string json_path;
   std::string out_dir;
   // Named interpretations of the paper (PAPER_NOTES.md), defaults as there.
@@ -100,9 +102,8 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.half_angle_deg) o << " --half-angle " << number(*a.half_angle_deg);
   o << " --seed " << a.seed;
   if (a.registration && !a.no_registration) o << " --registration";
-  if (a.registration_window_s != d.registration_window_s) o << " --registration-window " << number(a.registration_window_s);
-  if (a.registration_min_correspondences != d.registration_min_correspondences)
-    o << " --registration-min-correspondences " << a.registration_min_correspondences;
+  if (a.registration_window_s) o << " --registration-window " << number(*a.registration_window_s);
+  if (a.registration_min_correspondences) o << " --registration-min-correspondences " << *a.registration_min_correspondences;
   if (a.frequency_k != d.frequency_k) o << " --k " << number(a.frequency_k);
   if (a.grid_origin_z_m != d.grid_origin_z_m) o << " --grid-origin-z " << number(a.grid_origin_z_m);
   if (a.sigma_m != d.sigma_m) o << " --sigma " << number(a.sigma_m);
@@ -281,8 +282,6 @@ int run_eval(const EvalArgs& a) {
   options.pose_noise.correlation_s = a.pose_noise_correlation_s;
   options.pose_noise.seed = a.seed;
   options.registration = a.registration && !a.no_registration;
-  options.registration_options.window_s = a.registration_window_s;
-  options.registration_options.match.min_correspondences = static_cast<std::size_t>(a.registration_min_correspondences);
 
   std::string markdown, json;
   std::vector<std::string> jsons;
@@ -308,9 +307,15 @@ int run_eval(const EvalArgs& a) {
     }
     options.progress = [&](const std::string& stage) { std::fprintf(stderr, "teamscan eval: %s: %s\n", dir.c_str(), stage.c_str()); };
     // An imported 2-D log (level lasers; not a session folder, whose robots carry no mount): the
-    // registration uses planar-scan features.
-    options.registration_options.surface.planar_scans =
-        std::filesystem::exists(dir + "/dataset.toml") && mapping::level_lasers(dataset.value());
+    // registration's policy for sparse planar scans.
+    const bool planar = std::filesystem::exists(dir + "/dataset.toml") && mapping::level_lasers(dataset.value());
+    options.registration_options = planar ? registration::planar_scan_options() : registration::RegistrationOptions{};
+    if (a.registration_window_s) {
+      options.registration_options.window_s = *a.registration_window_s;
+      options.registration_options.window_m = 0.0;  // the window asked for, in time alone
+    }
+    if (a.registration_min_correspondences)
+      options.registration_options.match.min_correspondences = static_cast<std::size_t>(*a.registration_min_correspondences);
     EvalReport report = mapping::evaluate(dataset.value(), options);
     // The pictures show the cloud the metrics were computed on: where the fusion core put every point.
     if (options.registration)
@@ -319,6 +324,17 @@ int run_eval(const EvalArgs& a) {
         dataset.value().points[i].y = report.placed[i].y;
         dataset.value().points[i].z = report.placed[i].z;
       }
+    // … and, without truth (whose track the pictures draw otherwise), the track the core placed the
+    // scans on: one sample per decided scan at its registered pose.
+    if (options.registration && dataset.value().truth.empty() && report.scan_poses.size() == dataset.value().scans.size()) {
+      std::vector<TrajectorySample> track;
+      for (std::size_t i = 0; i < dataset.value().scans.size(); ++i) {
+        if (i < report.scan_decided.size() && !report.scan_decided[i]) continue;
+        const ScanRecord& sc = dataset.value().scans[i];
+        track.push_back({sc.robot, sc.stamp_ns, report.scan_poses[i], 0.0, 0.0});
+      }
+      dataset.value().odom = std::move(track);
+    }
     const std::string command = reproduce_command(a, dir);
     const std::string md = mapping::report_markdown(report, command);
     std::fputs(md.c_str(), stdout);
@@ -380,13 +396,12 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
                "[fusion] registration = true); reports pose and point error with odometry alone and registered (docs/registration.md)");
   app.add_flag("--no-registration", a->no_registration, "Odometry alone (the default)");
   app.add_option("--registration-window", a->registration_window_s,
-                 "Registration: a robot's recent points matched as one rigid piece, seconds ([registration] window_s)")
-      ->check(CLI::Range(0.1, 60.0))
-      ->capture_default_str();
+                 "Registration: a robot's recent points matched as one rigid piece, seconds ([registration] window_s; "
+                 "default 3; an imported 2-D log: the last scan, by path, docs/registration.md)")
+      ->check(CLI::Range(0.1, 60.0));
   app.add_option("--registration-min-correspondences", a->registration_min_correspondences,
-                 "Registration: a match needs at least this many features with a correspondence")
-      ->check(CLI::Range(3, 100000))
-      ->capture_default_str();
+                 "Registration: a match needs at least this many features with a correspondence (default 25)")
+      ->check(CLI::Range(3, 100000));
   app.add_option("--seed", a->seed, "RANSAC seed (the report is deterministic for a seed)")->capture_default_str();
   app.add_option("--json", a->json_path, "Write the JSON report to FILE");
   app.add_option("--out", a->out_dir, "Write report.md and report.json (and pictures) into REPORTDIR");

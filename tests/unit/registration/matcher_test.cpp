@@ -149,3 +149,29 @@ TEST(Matcher, PerturbDifferenceAndMovePivotAgree) {
 
 }  // namespace
 }  // namespace teamscan::registration
+
+namespace teamscan::registration {
+namespace {
+
+TEST(LineMapNearest, ABarePointTakesTheNearestLineWhateverItsNormal) {
+  // Two walls meeting at a corner: a line along x at y = 0 (normal +y), one along y at x = 1 (normal +x).
+  std::vector<LineFeature> f;
+  for (int i = 0; i < 10; ++i) f.push_back({0.1 * i, 0.0, 0.0, 1.0, 1.0f});
+  for (int i = 1; i < 10; ++i) f.push_back({1.0, 0.1 * i, 1.0, 0.0, 1.0f});
+  LineMap map;
+  map.build(f);
+  // With a normal, only the agreeing wall answers (the nearest feature is on the other one).
+  const std::ptrdiff_t with_normal = map.nearest(0.95, 0.04, 1.0, 0.0, 0.3, 0.8);
+  ASSERT_GE(with_normal, 0);
+  EXPECT_DOUBLE_EQ(f[static_cast<std::size_t>(with_normal)].nx, 1.0);
+  // Without one (a 2-D scan's point, RegistrationOptions::point_source), the nearest line.
+  const std::ptrdiff_t bare = map.nearest(0.95, 0.04, 0.0, 0.0, 0.3, 0.8);
+  ASSERT_GE(bare, 0);
+  EXPECT_DOUBLE_EQ(f[static_cast<std::size_t>(bare)].ny, 1.0);
+  EXPECT_DOUBLE_EQ(f[static_cast<std::size_t>(bare)].x_m, 0.9);
+  // The gate holds for bare points too.
+  EXPECT_EQ(map.nearest(0.5, 0.5, 0.0, 0.0, 0.3, 0.8), -1);
+}
+
+}  // namespace
+}  // namespace teamscan::registration

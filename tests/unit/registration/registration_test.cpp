@@ -215,6 +215,31 @@ TEST(Registration, FirstLapWaitsForAReference) {
   EXPECT_GT(c.covariance(2, 2), o.initial_sigma_rad * o.initial_sigma_rad * 2);
 }
 
+TEST(Registration, AWindowByPathRetiresScansByTheDistanceDriven) {
+  // A sparse log covers metres in a few seconds (RegistrationOptions::window_m): scans leave the
+  // window for the reference once the robot has driven window_m past them, however recent.
+  const Scene s = furnished_room();
+  auto run = [&](double window_m) {
+    RegistrationOptions o;
+    o.window_s = 60.0;
+    o.window_m = window_m;
+    o.min_map_features = 100000;  // no match: only the window and the reference are looked at
+    Registration reg{o};
+    std::mt19937_64 rng{6};
+    for (int k = 0; k < 6; ++k) {
+      const Pose2 p{-1.0 + 0.2 * k, 0.0, 0.0};  // 0.2 m per scan, 0.1 s apart
+      const auto pts = s.sample({p.x_m, p.y_m}, 3.0, 1500, rng);
+      (void)reg.add_scan(1, static_cast<std::int64_t>(k) * 100'000'000, p, pts, {});
+      if (k == 2) {
+        EXPECT_EQ(reg.reference_voxels(), 0u) << "0.4 m driven: every scan still in the window";
+      }
+    }
+    return reg.reference_voxels();
+  };
+  EXPECT_EQ(run(0.0), 0u);   // by time alone: 0.5 s of a 60 s window, nothing retired
+  EXPECT_GT(run(0.5), 100u);  // by path: the scans more than 0.5 m behind entered the reference
+}
+
 TEST(Registration, BadInputIsCountedAndChangesNothing) {
   Registration reg;
   const std::vector<Vec3> pts{{1, 1, 1}, {1, 1, 1.1}};
