@@ -20,8 +20,13 @@
 #include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/station/config.hpp"
 #include "groundstation/station/fusion.hpp"
+#include "groundstation/station/kalman_team_source.hpp"
+#include "groundstation/station/station.hpp"
+#include "onboard/bridge/bridge.hpp"
+#include "onboard/core/pipeline.hpp"
 #include "teamscan.h"
 #include "tests/bench/mapping/synthetic_survey.hpp"
+#include "tests/support/onboard_config_fixture.hpp"
 
 namespace teamscan::station {
 namespace {
@@ -311,6 +316,77 @@ TEST(FusionRegistration, ModelDecisionsEqualEvalWithRegistrationOn) {
       std::filesystem::remove_all(dir);
     }
   }
+}
+
+// The station→robot loop with the real registration: the fusion stage's accepted corrections go to the
+// Kalman team source (CorrectionShare, as main.cpp wires it), teamscan/team carries the drifting robot's
+// newest correction (team_member_from), and that robot's pipeline takes it into use (decode_team,
+// on_team): the correction it applies is the registration's, to the mm and µrad.
+TEST(FusionRegistration, TheTeamCarriesEachRobotsCorrectionToThatRobot) {
+  const Dataset d = survey(12.0, 2);
+  FusionOptions o;
+  o.core.method = "best";
+  o.core.registration = true;
+  o.core.registration_options.window_s = 1.0;
+  o.core.registration_options.match_every_s = 0.3;
+  o.core.registration_options.min_map_features = 20;
+  const std::string dir = temp_dir();
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  KalmanTeamSource team{mapping::TrackerOptions{}};
+  CorrectionShare share;
+  std::size_t handed_over = 0;
+  std::uint64_t last_accepted = 0;
+  const auto share_and_count = [&] {
+    share.share((*stage)->core(), team);
+    const registration::RobotCorrection* c = (*stage)->core().registration()->correction(2);
+    if (c != nullptr && c->accepted != last_accepted) {
+      last_accepted = c->accepted;
+      ++handed_over;
+    }
+  };
+  feed(**stage, d, 0, [&](std::int64_t) { share_and_count(); });
+  share_and_count();  // what the final flush released
+  const registration::RobotCorrection* c = (*stage)->core().registration()->correction(2);
+  ASSERT_NE(c, nullptr);
+  ASSERT_GT(c->accepted, 3u);
+  // The team source's estimates, fed the robots' odometry (its own clock: the survey's, moved to 2027).
+  constexpr std::int64_t kEpochNs = 1'800'000'000'000'000'000;
+  for (const TrajectorySample& s : d.odom) team.add_pose(pose_observation(s, s.stamp_ns));
+  const std::int64_t end_ns = d.odom.back().stamp_ns;
+  std::array<TeamMemberEstimate, kMaxRobots> estimates{};
+  static teamscan_msg_TeamState wire;
+  wire.count = static_cast<std::uint8_t>(team.estimate(Time::from_ns(end_ns), estimates));
+  ASSERT_EQ(wire.count, 2);
+  for (std::size_t i = 0; i < wire.count; ++i) {
+    team_member_from(estimates[i], false, wire.members[i]);
+    wire.members[i].valid_ns += kEpochNs;
+  }
+  const teamscan_msg_TeamMember& m = wire.members[1];
+  ASSERT_EQ(m.robot_id, 2u);
+  const OdomCorrection expected = OdomCorrection::from_pose(c->map_from_odom, static_cast<std::uint32_t>(handed_over));
+  EXPECT_EQ(m.corr_seq, handed_over);  // one number per accepted correction handed over
+  EXPECT_EQ(m.corr_x_mm, expected.x_mm);
+  EXPECT_EQ(m.corr_y_mm, expected.y_mm);
+  EXPECT_EQ(m.corr_yaw_urad, expected.yaw_urad);
+  EXPECT_GT(std::abs(m.corr_x_mm) + std::abs(m.corr_y_mm), 20);  // the drift was corrected (≈ 10 cm by 12 s)
+  // Its σ as at the match (the registration's covariance has grown with the metres driven since).
+  EXPECT_GT(m.corr_sigma_mm, 0u);
+  EXPECT_LE(m.corr_sigma_mm,
+            static_cast<std::uint32_t>(std::lround(1000.0 * std::sqrt(std::max(c->covariance(0, 0), c->covariance(1, 1))))));
+  std::string msg;
+  auto config = onboard::parse_onboard_config(test::pipeline_test_config_toml(2, false), msg);
+  ASSERT_TRUE(config.ok()) << msg;
+  auto robot = onboard::OnboardPipeline::create(config.value());
+  ASSERT_TRUE(robot.ok());
+  onboard::TeamSnapshot snapshot;
+  ASSERT_TRUE(onboard::decode_team(wire, snapshot));
+  ASSERT_TRUE(robot->on_team(snapshot, Time::from_ns(end_ns + kEpochNs)).ok());
+  EXPECT_EQ(robot->applied_correction().seq, expected.seq);
+  EXPECT_EQ(robot->applied_correction().x_mm, expected.x_mm);
+  EXPECT_EQ(robot->applied_correction().yaw_urad, expected.yaw_urad);
+  EXPECT_EQ(robot->counters().corrections_applied, 1u);
+  std::filesystem::remove_all(dir);
 }
 
 // A correction holds from a stamp on, whatever was added before it: the poses stamped at or after it
