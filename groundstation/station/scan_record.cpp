@@ -86,7 +86,8 @@ void undo_applied_correction(StoredScan& scan) {
   const std::uint16_t n = std::min<std::uint16_t>(scan.count, static_cast<std::uint16_t>(kMaxBeams));
   for (std::uint16_t i = 0; i < n; ++i) {
     StoredPoint& p = scan.points[i];
-    if ((p.flags & kPointUnplaced) == 0) move(p.x_mm, p.y_mm);
+    // A beam without an echo (invalid, dazzled) sits at the laser's centre: it moves with the origin.
+    if ((p.flags & kPointNoPose) == 0) move(p.x_mm, p.y_mm);
   }
 }
 

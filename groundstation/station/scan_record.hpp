@@ -67,9 +67,9 @@ void encode_scan_file_header(std::uint8_t (&out)[kScanFileHeaderBytes]);
 // The version of a file header (0 if `header` is not one: too short or the wrong magic).
 [[nodiscard]] std::uint32_t scan_file_version(std::span<const std::uint8_t> header);
 
-// Moves the origin and the placed points (kPointUnplaced clear) of a scan by the inverse of its applied
-// correction: from the robot's corrected map frame back to the odometry-map frame. Rounded to the
-// nearest millimetre, saturated to int32. No-op when none was applied.
+// Moves the origin and the points (all but kPointNoPose ones, whose coordinates are 0) of a scan by the
+// inverse of its applied correction: from the robot's corrected map frame back to the odometry-map
+// frame. Rounded to the nearest millimetre, saturated to int32. No-op when none was applied.
 void undo_applied_correction(StoredScan& scan);
 
 // Encodes one record into `out` (at least kScanRecordMaxBytes); returns its length. count is clamped

@@ -63,8 +63,8 @@ TeamCheck check_team(const TeamSnapshot& team, Time now, const TeamCheckLimits& 
 }
 
 bool correction_step_ok(const OdomCorrection& applied, const OdomCorrection& next, const TeamCheckLimits& limits) noexcept {
-  // Both passed the range checks (|x|, |y| ≤ 2^31, yaw within ±π): the differences fit an int64, and
-  // their squares (< 2^66 only if a shift exceeds the bound, tested first) do not overflow.
+  // int32 operands: the differences fit an int64 (< 2^32), and each is bounded by the step limit before
+  // it is squared, so the sum of squares stays below 2·(limit)² (no overflow for limits below 2^31).
   const std::int64_t dx = std::int64_t{next.x_mm} - applied.x_mm, dy = std::int64_t{next.y_mm} - applied.y_mm;
   const std::int64_t m = limits.max_correction_step_mm;
   if (dx > m || dx < -m || dy > m || dy < -m || dx * dx + dy * dy > m * m) return false;

@@ -113,6 +113,8 @@ TEST(RobotCorrectionLoop, TheRobotAppliesTheStationsCorrectionAndTheStationStore
 
   Beams beams;
   for (std::size_t b = 0; b < beams.range.size(); ++b) beams.range[b] = 1500 + static_cast<std::uint32_t>(b * 13 % 2500);
+  beams.flags[7] = kBeamInvalid;  // no echo: the point sits at the laser's centre, and moves with it
+  beams.flags[8] = kBeamDazzled;
   const Time scan_at = kT0 + 3900ms;
   static teamscan_msg_ScanPoints sample_corrected, sample_plain;
   onboard::encode_scan(corrected.on_scan(beams.at(scan_at)), sample_corrected);

@@ -101,17 +101,19 @@ TEST(ScanRecord, VersionOneFilesAreReadWithoutACorrection) {
 }
 
 // The station takes an accepted scan back to the odometry-map frame: the inverse of the correction the
-// robot applied, on the origin and the placed points; unplaced points (coordinates 0) stay.
+// robot applied, on the origin and the points (a beam without an echo sits at the laser's centre and
+// moves with it); points without a pose (coordinates 0) stay.
 TEST(ScanRecord, UndoingTheAppliedCorrectionGivesTheOdometryMapFrame) {
   static StoredScan s;
   s.applied = OdomCorrection{100, 200, 1'570'796, 3};  // (0.1 m, 0.2 m, +90°)
   s.origin_x_mm = 100;  // odometry-map (1000, 0) corrected
   s.origin_y_mm = 1200;
   s.origin_z_mm = 300;
-  s.count = 3;
+  s.count = 4;
   s.points[0] = StoredPoint{-2900, 1200, 310, 90, 0};   // odometry-map (1000, 3000)
   s.points[1] = StoredPoint{0, 0, 0, 91, kPointNoPose};
   s.points[2] = StoredPoint{-2900, 1200, 310, 92, kPointDirectionFiltered};
+  s.points[3] = StoredPoint{100, 1200, 300, 93, kPointInvalid};  // no echo: at the laser's centre
   undo_applied_correction(s);
   EXPECT_EQ(s.origin_x_mm, 1000);
   EXPECT_EQ(s.origin_y_mm, 0);
@@ -123,6 +125,8 @@ TEST(ScanRecord, UndoingTheAppliedCorrectionGivesTheOdometryMapFrame) {
   EXPECT_EQ(s.points[1].y_mm, 0);
   EXPECT_EQ(s.points[2].x_mm, 1000);
   EXPECT_EQ(s.points[2].flags, kPointDirectionFiltered);
+  EXPECT_EQ(s.points[3].x_mm, 1000);
+  EXPECT_EQ(s.points[3].y_mm, 0);
   EXPECT_EQ(s.applied.seq, 3u);  // the record keeps which one was applied
   // None applied: nothing moves.
   static StoredScan n;
