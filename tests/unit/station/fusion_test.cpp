@@ -26,6 +26,7 @@
 #include "onboard/core/pipeline.hpp"
 #include "teamscan.h"
 #include "tests/bench/mapping/synthetic_survey.hpp"
+#include "tests/support/odometry_drift.hpp"
 #include "tests/support/onboard_config_fixture.hpp"
 
 namespace teamscan::station {
@@ -42,30 +43,7 @@ Dataset survey(double duration_s = 3.0, std::uint8_t drift_robot = 0) {
   o.room_m = 6.0;
   o.seed = 3;
   Dataset d = bench::synthetic_survey(o);
-  if (drift_robot != 0) {
-    auto drift = [](std::int64_t stamp_ns) {
-      const double t = static_cast<double>(stamp_ns) * 1e-9;
-      const Pose2 about{3.0, 3.0, 0.0};
-      return about * Pose2{0.012 * t, -0.008 * t, 0.0025 * t} * about.inverse();  // 1.2 cm/s, 0.8 cm/s, 0.14°/s
-    };
-    std::map<std::uint32_t, std::int64_t> stamp_of;
-    for (ScanRecord& r : d.scans) {
-      if (r.robot != drift_robot) continue;
-      stamp_of[r.scan] = r.stamp_ns;
-      const Pose2 m = drift(r.stamp_ns);
-      r.pose = m * r.pose;
-      const Vec2 o2 = m.apply({r.origin.x, r.origin.y});
-      r.origin = {o2.x, o2.y, r.origin.z};
-    }
-    for (LabelledPoint& p : d.points) {
-      if (p.robot != drift_robot) continue;
-      const Vec2 q = drift(stamp_of[p.scan]).apply({p.x, p.y});
-      p.x = static_cast<float>(q.x);
-      p.y = static_cast<float>(q.y);
-    }
-    for (TrajectorySample& s : d.odom)
-      if (s.robot == drift_robot) s.pose = drift(s.stamp_ns) * s.pose;
-  }
+  if (drift_robot != 0) test::add_odometry_drift(d, drift_robot);
   for (LabelledPoint& p : d.points) {
     p.x = static_cast<float>(mm(p.x) * 1e-3);
     p.y = static_cast<float>(mm(p.y) * 1e-3);
