@@ -78,6 +78,9 @@ class ScanProjector {
 
   [[nodiscard]] const Pose3& robot_from_laser() const { return robot_from_laser_; }
   [[nodiscard]] const Pose2& map_from_odom() const { return map_from_odom_; }
+  // A new map_from_odom for the scans that follow (the robot's registration correction composed with
+  // its configured start pose). No allocation.
+  void set_map_from_odom(const Pose2& map_from_odom) { map_from_odom_ = map_from_odom; }
   [[nodiscard]] const ScanPointsOptions& options() const { return options_; }
 
  private:

@@ -513,4 +513,17 @@ std::uint32_t FusionStage::map_resolution_mm() const {
   return static_cast<std::uint32_t>(std::lround(options_.map_resolution_m * 1000.0));
 }
 
+void CorrectionShare::share(const fusion::FusionCore& core, TeamSource& team) {
+  const registration::Registration* reg = core.registration();
+  if (reg == nullptr) return;
+  for (std::uint8_t id = 1; id <= kMaxRobots; ++id) {
+    const registration::RobotCorrection* c = reg->correction(id);
+    if (c == nullptr || c->accepted == shared_[id]) continue;
+    shared_[id] = c->accepted;
+    team.set_correction(id, c->map_from_odom.x_m, c->map_from_odom.y_m, c->map_from_odom.theta_rad,
+                        std::sqrt(std::max(c->covariance(0, 0), c->covariance(1, 1))),
+                        std::sqrt(std::max(0.0, c->covariance(2, 2))));
+  }
+}
+
 }  // namespace teamscan::station

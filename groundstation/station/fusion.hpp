@@ -16,6 +16,7 @@
 // into one that follows. write_model() is the synchronous write (shutdown, tests).
 #pragma once
 
+#include <array>
 #include <condition_variable>
 #include <cstdint>
 #include <cstdio>
@@ -241,6 +242,18 @@ class FusionStage {
   std::vector<fusion::ModelSnapshot> writer_spare_;
   bool writer_begin_ = false, writer_busy_ = false, writer_done_ = false, writer_stop_ = false;
   ModelWriteReport writer_report_;
+};
+
+// Hands each robot's newly accepted registration correction (map_from_odom with its position σ
+// √max(σ_x², σ_y²) and heading σ) from the fusion core to the team source, so teamscan/team carries the
+// corrected poses and the correction itself (docs/registration.md "Back on the robots"). Call after
+// every sample the core took and after a session replay; a correction is handed over once.
+class CorrectionShare {
+ public:
+  void share(const fusion::FusionCore& core, TeamSource& team);
+
+ private:
+  std::array<std::uint64_t, kMaxRobots + 1> shared_{};  // accepted matches already handed over, per robot id
 };
 
 }  // namespace teamscan::station

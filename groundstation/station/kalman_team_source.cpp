@@ -23,6 +23,13 @@ void KalmanTeamSource::set_correction(std::uint32_t robot_id, double x_m, double
                                       double heading_sigma_rad) {
   if (robot_id == 0 || robot_id > kMaxRobots || !std::isfinite(x_m) || !std::isfinite(y_m) || !std::isfinite(yaw_rad)) return;
   map_from_odom_[robot_id] = Pose2{x_m, y_m, yaw_rad};
+  Correction& c = correction_[robot_id];
+  // Numbered 1, 2, ... (0 is "none"; a wrap skips it).
+  std::uint32_t seq = c.wire.seq + 1;
+  if (seq == 0) seq = 1;
+  c.wire = OdomCorrection::from_pose(map_from_odom_[robot_id], seq);
+  c.sigma_m = position_sigma_m;
+  c.sigma_yaw_rad = heading_sigma_rad;
   tracker_.registered(static_cast<std::uint8_t>(robot_id), position_sigma_m, heading_sigma_rad);
 }
 
@@ -55,6 +62,9 @@ std::size_t KalmanTeamSource::estimate(Time at, std::span<TeamMemberEstimate> ou
     e.valid = Time::from_ns(r.stamp_ns);
     // Lost by liveliness (the station) or by the tracker's own age limit (no pose for lost_after_s).
     e.lost = lost_[r.robot] || r.lost;
+    e.correction = correction_[r.robot].wire;
+    e.correction_sigma_m = correction_[r.robot].sigma_m;
+    e.correction_sigma_yaw_rad = correction_[r.robot].sigma_yaw_rad;
   }
   return n;
 }

@@ -2,7 +2,7 @@
 // constant-velocity filter per robot, fed with every received pose, predicted to the publication time.
 // With the registration on, each robot's poses are corrected by its map_from_odom before the tracker,
 // and a new correction registers the track (its σ replaces the accumulated drift): teamscan/team
-// carries the corrected poses.
+// carries the corrected poses and each robot's correction.
 #pragma once
 
 #include <array>
@@ -27,6 +27,12 @@ class KalmanTeamSource final : public TeamSource {
   std::array<bool, kMaxRobots + 1> lost_{};
   std::array<RobotBody, kMaxRobots + 1> body_{};
   std::array<Pose2, kMaxRobots + 1> map_from_odom_{};
+  struct Correction {
+    OdomCorrection wire;  // map_from_odom_ as teamscan/team carries it, numbered per robot
+    double sigma_m = 0.0;
+    double sigma_yaw_rad = 0.0;
+  };
+  std::array<Correction, kMaxRobots + 1> correction_{};
 };
 
 }  // namespace teamscan::station

@@ -157,7 +157,7 @@ int main(int argc, char** argv) {
   // fusion stage never costs a received sample; the station counts the failure and goes on).
   std::unique_ptr<FusionStage> fusion;
   std::vector<teamscan_msg_MapVoxel> map_voxels;
-  std::array<std::uint64_t, kMaxRobots + 1> corrections_shared{};  // accepted matches given to the team source
+  CorrectionShare corrections;  // each robot's new registration correction to the team source
   if (cfg.fusion.enabled) {
     auto created = FusionStage::create(fusion_options_from_config(cfg.fusion, cfg.kalman, cfg.registration), store->dir());
     if (!created) {
@@ -181,29 +181,16 @@ int main(int argc, char** argv) {
       store->log_event(now_realtime(), text);
     }
     // With the registration on, each robot's new correction goes to the team source, so teamscan/team
-    // carries the corrected poses (docs/registration.md).
-    auto share_corrections = [&] {
-      const registration::Registration* reg = fusion->core().registration();
-      if (reg == nullptr) return;
-      for (std::uint8_t id = 1; id <= kMaxRobots; ++id) {
-        const registration::RobotCorrection* c = reg->correction(id);
-        if (c == nullptr || c->accepted == corrections_shared[id]) continue;
-        corrections_shared[id] = c->accepted;
-        team->set_correction(id, c->map_from_odom.x_m, c->map_from_odom.y_m, c->map_from_odom.theta_rad,
-                             std::sqrt(std::max(c->covariance(0, 0), c->covariance(1, 1))),
-                             std::sqrt(std::max(0.0, c->covariance(2, 2))));
-      }
-    };
-    share_corrections();  // after the session replay
-    // The hooks outlive this block: they hold their own copy of share_corrections (its references are
-    // to this function's variables).
-    st.add_pose_hook([&fusion, share_corrections](const PoseObservation& p) {
+    // carries the corrected poses and the correction (docs/registration.md).
+    corrections.share(fusion->core(), *team);  // after the session replay
+    // The hooks outlive this block; what they refer to lives as long as this function.
+    st.add_pose_hook([&fusion, &corrections, team](const PoseObservation& p) {
       fusion->add_pose(p);
-      share_corrections();
+      corrections.share(fusion->core(), *team);
     });
-    st.add_scan_hook([&fusion, share_corrections](const StoredScan& s) {
+    st.add_scan_hook([&fusion, &corrections, team](const StoredScan& s) {
       fusion->add_scan(s);
-      share_corrections();
+      corrections.share(fusion->core(), *team);
     });
     log(kInfo, "fusion: method " + cfg.fusion.method + ", model " + store->dir() + "/fused.pcd");
     for (const std::string& m : cfg.fusion.compare_methods)

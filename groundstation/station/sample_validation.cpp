@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "common/odom_correction.hpp"
 #include "common/scan_points.hpp"
 #include "teamscan.h"
 
@@ -16,12 +17,10 @@ namespace {
 constexpr const char* kReasonNames[kRejectReasons] = {
     "accepted",   "robot_id", "beam_count",   "beam_index",  "outside_site", "yaw",
     "velocity",   "clock_unset", "stamp_behind", "stamp_ahead", "seq_jump", "identity",
+    "correction",
 };
 
 constexpr std::int64_t kOneDayNs = 86'400'000'000'000;
-
-// (−π, π] in µrad as the robots round it (lround(θ·1e6)).
-constexpr std::int64_t kPiUrad = 3'141'593;
 
 std::int64_t metres_to_mm(double m) { return static_cast<std::int64_t>(std::llround(m * 1000.0)); }
 
@@ -172,6 +171,12 @@ Verdict SampleValidator::check_scan(const teamscan_msg_ScanPoints& s, Time recei
   Verdict v = check_header(t, s.robot_id, s.stamp_ns, received);
   if (!v.ok()) return count(t, s.robot_id, v);
   if (s.count > kMaxBeams) return count(t, s.robot_id, {Reject::kBeamCount, s.count});
+  const OdomCorrection applied{s.corr_x_mm, s.corr_y_mm, s.corr_yaw_urad, s.corr_seq};
+  if (applied.none() ? (applied.x_mm != 0 || applied.y_mm != 0 || applied.yaw_urad != 0)
+                     : (!applied.yaw_in_range() || std::llabs(std::int64_t{applied.x_mm}) > max_x_mm_ - min_x_mm_ ||
+                        std::llabs(std::int64_t{applied.y_mm}) > max_y_mm_ - min_y_mm_)) {
+    return count(t, s.robot_id, {Reject::kCorrection, applied.yaw_in_range() ? applied.x_mm : applied.yaw_urad});
+  }
   if (!inside_site(s.origin_x_mm, s.origin_y_mm, s.origin_z_mm)) {
     return count(t, s.robot_id, {Reject::kOutsideSite, s.origin_x_mm});
   }

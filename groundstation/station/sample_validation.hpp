@@ -33,8 +33,10 @@ enum class Reject : std::uint16_t {
   kStampAhead = 9,    // stamp more than max_stamp_ahead after receipt: the robot's clock is ahead
   kSeqJump = 10,      // sequence number jumped (far forward, or far back without a restart)
   kIdentity = 11,     // sent by another participant than the robot it claims (DDS Security partitions)
+  kCorrection = 12,   // a scan's applied correction (corr_*): yaw outside (−π, π], a shift beyond the
+                      // site's extent, or values with corr_seq 0 (none applied)
 };
-inline constexpr std::size_t kRejectReasons = 12;  // including kNone
+inline constexpr std::size_t kRejectReasons = 13;  // including kNone
 [[nodiscard]] const char* reject_name(Reject r);    // "robot_id", "beam_count", ... ("accepted" for kNone)
 
 enum class SampleTopic : std::uint8_t { kPose = 0, kScan = 1, kStatus = 2 };

@@ -5,6 +5,9 @@
 #include <array>
 #include <cstring>
 
+#include "common/point_flags.hpp"
+#include "common/scan_points.hpp"
+
 namespace teamscan::station {
 namespace {
 
@@ -18,6 +21,11 @@ constexpr std::array<std::uint32_t, 256> make_crc_table() {
   return t;
 }
 constexpr auto kCrcTable = make_crc_table();
+
+// Body bytes before the points (format in scan_record.hpp): version 2, and version 1 (no corr_*).
+constexpr std::uint32_t kBodyBeforePoints = 64;
+constexpr std::uint32_t kBodyBeforePointsV1 = 48;
+static_assert(kScanRecordFixedBytes == 8 + kBodyBeforePoints + 4);
 
 class Writer {
  public:
@@ -61,13 +69,35 @@ void encode_scan_file_header(std::uint8_t (&out)[kScanFileHeaderBytes]) {
   w.u32(static_cast<std::uint32_t>(kScanFileHeaderBytes));
 }
 
+std::uint32_t scan_file_version(std::span<const std::uint8_t> header) {
+  if (header.size() < kScanFileHeaderBytes || !std::equal(kScanFileMagic, kScanFileMagic + 8, header.begin())) return 0;
+  return Reader(header.data() + 8).u32();
+}
+
+void undo_applied_correction(StoredScan& scan) {
+  if (scan.applied.none()) return;
+  const Pose2 odom_from_map = scan.applied.map_from_odom().inverse();
+  const auto move = [&](std::int32_t& x_mm, std::int32_t& y_mm) {
+    const Vec2 p = odom_from_map.apply(Vec2{x_mm * 1e-3, y_mm * 1e-3});
+    x_mm = metres_to_mm_i32(p.x);
+    y_mm = metres_to_mm_i32(p.y);
+  };
+  move(scan.origin_x_mm, scan.origin_y_mm);
+  const std::uint16_t n = std::min<std::uint16_t>(scan.count, static_cast<std::uint16_t>(kMaxBeams));
+  for (std::uint16_t i = 0; i < n; ++i) {
+    StoredPoint& p = scan.points[i];
+    // A beam without an echo (invalid, dazzled) sits at the laser's centre: it moves with the origin.
+    if ((p.flags & kPointNoPose) == 0) move(p.x_mm, p.y_mm);
+  }
+}
+
 std::size_t encode_scan_record(const StoredScan& scan, std::span<std::uint8_t> out) {
   const std::uint16_t count = std::min<std::uint16_t>(scan.count, static_cast<std::uint16_t>(kMaxBeams));
   const std::size_t total = kScanRecordFixedBytes + count * kScanPointBytes;
   if (out.size() < total) return 0;
   Writer w(out.data());
   w.u32(kScanRecordMagic);
-  w.u32(static_cast<std::uint32_t>(48 + count * kScanPointBytes));
+  w.u32(static_cast<std::uint32_t>(kBodyBeforePoints + count * kScanPointBytes));
   w.i64(scan.recv_realtime_ns);
   w.i64(scan.recv_monotonic_ns);
   w.u32(scan.robot_id);
@@ -76,6 +106,10 @@ std::size_t encode_scan_record(const StoredScan& scan, std::span<std::uint8_t> o
   w.i32(scan.origin_x_mm);
   w.i32(scan.origin_y_mm);
   w.i32(scan.origin_z_mm);
+  w.i32(scan.applied.x_mm);
+  w.i32(scan.applied.y_mm);
+  w.i32(scan.applied.yaw_urad);
+  w.u32(scan.applied.seq);
   w.u16(count);
   w.u16(scan.rejected);
   for (std::uint16_t i = 0; i < count; ++i) {
@@ -91,12 +125,14 @@ std::size_t encode_scan_record(const StoredScan& scan, std::span<std::uint8_t> o
   return total;
 }
 
-long decode_scan_record(std::span<const std::uint8_t> bytes, StoredScan& out, ScanDecodeStats& stats) {
+long decode_scan_record(std::span<const std::uint8_t> bytes, StoredScan& out, ScanDecodeStats& stats,
+                        std::uint32_t version) {
   if (bytes.size() < 8) return 0;
   Reader h(bytes.data());
   if (h.u32() != kScanRecordMagic) return -1;
   const std::uint32_t body = h.u32();
-  if (body < 48 || (body - 48) % kScanPointBytes != 0 || (body - 48) / kScanPointBytes > kMaxBeams) {
+  const std::uint32_t fixed = version == 1 ? kBodyBeforePointsV1 : kBodyBeforePoints;
+  if (body < fixed || (body - fixed) % kScanPointBytes != 0 || (body - fixed) / kScanPointBytes > kMaxBeams) {
     ++stats.bad_length;
     return -1;
   }
@@ -116,9 +152,16 @@ long decode_scan_record(std::span<const std::uint8_t> bytes, StoredScan& out, Sc
   out.origin_x_mm = r.i32();
   out.origin_y_mm = r.i32();
   out.origin_z_mm = r.i32();
+  out.applied = OdomCorrection{};
+  if (version != 1) {
+    out.applied.x_mm = r.i32();
+    out.applied.y_mm = r.i32();
+    out.applied.yaw_urad = r.i32();
+    out.applied.seq = r.u32();
+  }
   out.count = r.u16();
   out.rejected = r.u16();
-  if (out.count != (body - 48) / kScanPointBytes) {
+  if (out.count != (body - fixed) / kScanPointBytes) {
     ++stats.bad_length;
     return -1;
   }

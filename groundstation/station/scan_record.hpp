@@ -1,14 +1,19 @@
 // scans.bin: the ground station's append-only record of every received scan, with its receive time.
 //
 // File   = header (16 bytes) + records. All integers little-endian.
-// Header = "TSSCANS1" (8 bytes) | u32 version = 1 | u32 header_bytes = 16
-// Record = u32 magic 0x52534354 ("TCSR") | u32 body_bytes (= 48 + 16*count)
+// Header = "TSSCANS1" (8 bytes) | u32 version = 2 | u32 header_bytes = 16
+// Record = u32 magic 0x52534354 ("TCSR") | u32 body_bytes (= 64 + 16*count; version 1: 48 + 16*count)
 //          | i64 recv_realtime_ns | i64 recv_monotonic_ns                      (ground station clocks)
 //          | u32 robot_id | u32 seq | i64 stamp_ns | i32 origin_x_mm | i32 origin_y_mm | i32 origin_z_mm
+//          | i32 corr_x_mm | i32 corr_y_mm | i32 corr_yaw_urad | u32 corr_seq  (version 2 only: the
+//            correction the robot applied, ScanPoints.corr_*; version 1 files read as none)
 //          | u16 count | u16 rejected (0: accepted; else the station refused the scan at receipt, the
 //            Reject code of sample_validation.hpp: stored raw, never fused)
-//          | count x (i32 x_mm | i32 y_mm | i32 z_mm | u16 beam | u16 flags)      (map frame, as received)
+//          | count x (i32 x_mm | i32 y_mm | i32 z_mm | u16 beam | u16 flags)
 //          | u32 crc32 (IEEE 802.3, over magic .. last point)
+// Frame of origin and points: an accepted scan is stored in the odometry-map frame (the frame of
+// teamscan/pose, in which the registration matches): the robot's applied correction is undone at
+// receipt (undo_applied_correction) and kept in corr_*; a refused scan is stored as received.
 // Each record is written with a single write(2), so a crash of the process (not of the kernel) never
 // leaves half a record; a torn tail after power loss is detected by the CRC and reported, never crashes.
 #pragma once
@@ -20,14 +25,15 @@
 #include <string>
 
 #include "common/capacities.hpp"
+#include "common/odom_correction.hpp"
 
 namespace teamscan::station {
 
 inline constexpr char kScanFileMagic[8] = {'T', 'S', 'S', 'C', 'A', 'N', 'S', '1'};
-inline constexpr std::uint32_t kScanFileVersion = 1;
+inline constexpr std::uint32_t kScanFileVersion = 2;  // written; 1 and 2 are read
 inline constexpr std::size_t kScanFileHeaderBytes = 16;
 inline constexpr std::uint32_t kScanRecordMagic = 0x52534354u;  // "TCSR" little-endian
-inline constexpr std::size_t kScanRecordFixedBytes = 8 + 48 + 4;  // magic+len, body before points, crc
+inline constexpr std::size_t kScanRecordFixedBytes = 8 + 64 + 4;  // magic+len, body before points, crc
 inline constexpr std::size_t kScanPointBytes = 16;
 inline constexpr std::size_t kScanRecordMaxBytes = kScanRecordFixedBytes + kMaxBeams * kScanPointBytes;
 
@@ -48,6 +54,7 @@ struct StoredScan {
   std::int32_t origin_x_mm = 0;
   std::int32_t origin_y_mm = 0;
   std::int32_t origin_z_mm = 0;
+  OdomCorrection applied;      // the correction the robot applied (ScanPoints.corr_*); none: identity
   std::uint16_t count = 0;
   std::uint16_t rejected = 0;  // Reject code (sample_validation.hpp); 0 = accepted
   StoredPoint points[kMaxBeams];
@@ -57,6 +64,13 @@ struct StoredScan {
 
 // The 16-byte file header.
 void encode_scan_file_header(std::uint8_t (&out)[kScanFileHeaderBytes]);
+// The version of a file header (0 if `header` is not one: too short or the wrong magic).
+[[nodiscard]] std::uint32_t scan_file_version(std::span<const std::uint8_t> header);
+
+// Moves the origin and the points (all but kPointNoPose ones, whose coordinates are 0) of a scan by the
+// inverse of its applied correction: from the robot's corrected map frame back to the odometry-map
+// frame. Rounded to the nearest millimetre, saturated to int32. No-op when none was applied.
+void undo_applied_correction(StoredScan& scan);
 
 // Encodes one record into `out` (at least kScanRecordMaxBytes); returns its length. count is clamped
 // to kMaxBeams.
@@ -76,21 +90,23 @@ struct ScanDecodeStats {
 template <class F>
 ScanDecodeStats decode_scan_file(std::span<const std::uint8_t> bytes, F&& on_scan);
 
-// Decodes one record at the start of `bytes`. Returns the record length, 0 if more bytes are needed
-// (truncated), or -1 if the bytes there are not a valid record.
-[[nodiscard]] long decode_scan_record(std::span<const std::uint8_t> bytes, StoredScan& out, ScanDecodeStats& stats);
+// Decodes one record of a file of `version` (1 or 2) at the start of `bytes`. Returns the record length,
+// 0 if more bytes are needed (truncated), or -1 if the bytes there are not a valid record.
+[[nodiscard]] long decode_scan_record(std::span<const std::uint8_t> bytes, StoredScan& out, ScanDecodeStats& stats,
+                                      std::uint32_t version = kScanFileVersion);
 
 template <class F>
 ScanDecodeStats decode_scan_file(std::span<const std::uint8_t> bytes, F&& on_scan) {
   ScanDecodeStats stats;
-  if (bytes.size() < kScanFileHeaderBytes || !std::equal(kScanFileMagic, kScanFileMagic + 8, bytes.begin())) {
+  const std::uint32_t version = scan_file_version(bytes);
+  if (version != 1 && version != kScanFileVersion) {
     stats.bad_header = true;
     return stats;
   }
   static thread_local StoredScan scan;
   std::size_t pos = kScanFileHeaderBytes;
   while (pos < bytes.size()) {
-    const long n = decode_scan_record(bytes.subspan(pos), scan, stats);
+    const long n = decode_scan_record(bytes.subspan(pos), scan, stats, version);
     if (n > 0) {
       ++stats.records;
       on_scan(static_cast<const StoredScan&>(scan));

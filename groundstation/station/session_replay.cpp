@@ -64,8 +64,9 @@ class ScanFileStream {
     buf_.resize(kChunk + kScanRecordMaxBytes);
     if (Status st = fill(); !st.ok()) return st;
     if (have_ == 0) return ok_status();  // empty file
-    if (have_ < kScanFileHeaderBytes || !std::equal(kScanFileMagic, kScanFileMagic + 8, buf_.begin()))
-      return Error{"session: scans.bin has no teamscan header"};
+    version_ = scan_file_version(std::span<const std::uint8_t>(buf_.data(), have_));
+    if (version_ == 0) return Error{"session: scans.bin has no teamscan header"};
+    if (version_ != 1 && version_ != kScanFileVersion) return Error{"session: scans.bin of an unknown version"};
     pos_ = kScanFileHeaderBytes;
     return ok_status();
   }
@@ -75,7 +76,8 @@ class ScanFileStream {
     for (;;) {
       if (fd_ < 0) return false;
       if (pos_ < have_) {
-        const long r = decode_scan_record(std::span<const std::uint8_t>(buf_.data() + pos_, have_ - pos_), out, decode_);
+        const long r =
+            decode_scan_record(std::span<const std::uint8_t>(buf_.data() + pos_, have_ - pos_), out, decode_, version_);
         if (r > 0) {
           pos_ += static_cast<std::size_t>(r);
           return true;
@@ -122,6 +124,7 @@ class ScanFileStream {
   std::vector<std::uint8_t> buf_;
   std::size_t have_ = 0, pos_ = 0;
   bool eof_ = false;
+  std::uint32_t version_ = kScanFileVersion;
   Status error_ = ok_status();
 };
 

@@ -91,7 +91,8 @@ Result<SessionStore> SessionStore::open(const std::string& dir) {
         "recv_realtime_ns,recv_monotonic_ns,robot_id,seq,stamp_ns,arcos_state,lms_state,team_fresh,"
         "sip_rate_mhz,scan_rate_mhz,arcos_bad_packets,lms_bad_telegrams,lms_resyncs,scans_published,"
         "points_direction_filtered,dds_write_errors,uptime_s,arcos_reopens,lms_reopens,points_team_stale,"
-        "points_no_pose,loop_max_us,clock_sync,teams_rejected,last_team_reject,rejected\n";
+        "points_no_pose,loop_max_us,clock_sync,teams_rejected,last_team_reject,corrections_applied,"
+        "corrections_rejected,rejected\n";
     s.write_all(s.status_fd_, kHeader, sizeof kHeader - 1);
   }
   if (created_rejected) {
@@ -162,18 +163,18 @@ void SessionStore::append_pose(const teamscan_msg_RobotPose& p, const ReceiveTim
 }
 
 void SessionStore::append_status(const teamscan_msg_RobotStatus& s, const ReceiveTime& at, std::uint16_t rejected) {
-  char line[384];
+  char line[512];
   const int n = std::snprintf(
       line, sizeof line,
       "%" PRId64 ",%" PRId64 ",%" PRIu32 ",%" PRIu32 ",%" PRId64 ",%u,%u,%u,%" PRIu32 ",%" PRIu32 ",%" PRIu32
       ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32
-      ",%" PRIu32 ",%" PRIu32 ",%u,%" PRIu32 ",%" PRIu32 ",%u\n",
+      ",%" PRIu32 ",%" PRIu32 ",%u,%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%u\n",
       at.realtime.ns(), at.monotonic.ns(), s.robot_id, s.seq, s.stamp_ns, static_cast<unsigned>(s.arcos_state),
       static_cast<unsigned>(s.lms_state), static_cast<unsigned>(s.team_fresh), s.sip_rate_mhz, s.scan_rate_mhz,
       s.arcos_bad_packets, s.lms_bad_telegrams, s.lms_resyncs, s.scans_published, s.points_direction_filtered,
       s.dds_write_errors, s.uptime_s, s.arcos_reopens, s.lms_reopens, s.points_team_stale, s.points_no_pose,
       s.loop_max_us, static_cast<unsigned>(s.clock_sync), s.teams_rejected, s.last_team_reject,
-      static_cast<unsigned>(rejected));
+      s.corrections_applied, s.corrections_rejected, static_cast<unsigned>(rejected));
   write_all(status_fd_, line, static_cast<std::size_t>(n));
   ++counters_.statuses;
 }

@@ -57,8 +57,38 @@ std::uint16_t to_mm_u16(double m) {
   return static_cast<std::uint16_t>(std::clamp(std::round(m * 1000.0), 0.0, 65535.0));
 }
 
-// The scan as stored (scans.bin), with the validator's verdict. Every point the sample carries is kept:
-// a count above MAX_BEAMS (refused) stores the MAX_BEAMS points of the fixed-size sample.
+// A σ in whole mm / µrad, saturated (a NaN or a negative σ: 0, "unknown").
+std::uint32_t to_mm_u32(double m) {
+  const double v = std::round(m * 1000.0);
+  return v > 0.0 ? static_cast<std::uint32_t>(std::min(v, 4294967295.0)) : 0u;
+}
+std::uint32_t to_urad_u32(double rad) { return to_mm_u32(rad * 1000.0); }
+
+}  // namespace
+
+void team_member_from(const TeamMemberEstimate& e, bool lost, teamscan_msg_TeamMember& m) {
+  m.robot_id = e.robot_id;
+  m.x_mm = to_mm(e.x_m);
+  m.y_mm = to_mm(e.y_m);
+  m.vx_mmps = to_mm(e.vx_mps);
+  m.vy_mmps = to_mm(e.vy_mps);
+  m.cov_xx_mm2 = static_cast<float>(e.cov_xx_m2 * 1e6);
+  m.cov_xy_mm2 = static_cast<float>(e.cov_xy_m2 * 1e6);
+  m.cov_yy_mm2 = static_cast<float>(e.cov_yy_m2 * 1e6);
+  m.length_mm = to_mm_u16(e.body.length_m);
+  m.width_mm = to_mm_u16(e.body.width_m);
+  m.height_mm = to_mm_u16(e.body.height_m);
+  m.lost = lost ? 1 : 0;
+  m.reserved = 0;
+  m.valid_ns = e.valid.ns();
+  m.corr_x_mm = e.correction.x_mm;
+  m.corr_y_mm = e.correction.y_mm;
+  m.corr_yaw_urad = e.correction.yaw_urad;
+  m.corr_sigma_mm = to_mm_u32(e.correction_sigma_m);
+  m.corr_sigma_yaw_urad = to_urad_u32(e.correction_sigma_yaw_rad);
+  m.corr_seq = e.correction.seq;
+}
+
 const StoredScan& stored_from(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject verdict, StoredScan& out) {
   out.recv_realtime_ns = at.realtime.ns();
   out.recv_monotonic_ns = at.monotonic.ns();
@@ -68,15 +98,15 @@ const StoredScan& stored_from(const teamscan_msg_ScanPoints& s, const ReceiveTim
   out.origin_x_mm = s.origin_x_mm;
   out.origin_y_mm = s.origin_y_mm;
   out.origin_z_mm = s.origin_z_mm;
+  out.applied = OdomCorrection{s.corr_x_mm, s.corr_y_mm, s.corr_yaw_urad, s.corr_seq};
   out.count = std::min<std::uint16_t>(s.count, static_cast<std::uint16_t>(kMaxBeams));
   out.rejected = static_cast<std::uint16_t>(verdict);
   for (std::uint16_t b = 0; b < out.count; ++b) {
     out.points[b] = StoredPoint{s.points[b].x_mm, s.points[b].y_mm, s.points[b].z_mm, s.points[b].beam, s.points[b].flags};
   }
+  if (verdict == Reject::kNone) undo_applied_correction(out);
   return out;
 }
-
-}  // namespace
 
 // Every DDS entity and preallocated sample of the station (DDS_SYSTEMD.md 1.8: takes into our own
 // fixed-size samples allocate nothing).
@@ -378,8 +408,14 @@ void Station::on_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const
     event("robot " + std::to_string(s.robot_id) + " refused " + std::to_string(s.teams_rejected - r.teams_rejected) +
           " team state(s), last reason code " + std::to_string(s.last_team_reject));
   }
+  if (s.corrections_rejected > r.corrections_rejected) {
+    event("robot " + std::to_string(s.robot_id) + " refused " +
+          std::to_string(s.corrections_rejected - r.corrections_rejected) +
+          " odometry correction(s) as an absurd step from the one it applies");
+  }
   r.clock_sync = s.clock_sync;
   r.teams_rejected = s.teams_rejected;
+  r.corrections_rejected = s.corrections_rejected;
   ++r.statuses;
   ++counters_.statuses;
 }
@@ -466,23 +502,8 @@ bool Station::publish_team_if_due(Time now_mono) {
   t.count = static_cast<std::uint8_t>(std::min<std::size_t>(n, kMaxRobots));
   for (std::size_t i = 0; i < t.count; ++i) {
     const TeamMemberEstimate& e = d.estimates[i];
-    teamscan_msg_TeamMember& m = t.members[i];
-    m.robot_id = e.robot_id;
-    m.x_mm = to_mm(e.x_m);
-    m.y_mm = to_mm(e.y_m);
-    m.vx_mmps = to_mm(e.vx_mps);
-    m.vy_mmps = to_mm(e.vy_mps);
-    m.cov_xx_mm2 = static_cast<float>(e.cov_xx_m2 * 1e6);
-    m.cov_xy_mm2 = static_cast<float>(e.cov_xy_m2 * 1e6);
-    m.cov_yy_mm2 = static_cast<float>(e.cov_yy_m2 * 1e6);
-    m.length_mm = to_mm_u16(e.body.length_m);
-    m.width_mm = to_mm_u16(e.body.width_m);
-    m.height_mm = to_mm_u16(e.body.height_m);
     // The station's own liveliness view wins over a tracker that does not know yet.
-    const bool lost = e.lost || (e.robot_id <= kMaxRobots && robots_[e.robot_id].lost);
-    m.lost = lost ? 1 : 0;
-    m.reserved = 0;
-    m.valid_ns = e.valid.ns();
+    team_member_from(e, e.lost || (e.robot_id <= kMaxRobots && robots_[e.robot_id].lost), t.members[i]);
   }
   if (dds_write(d.team_writer, &t) < 0) {
     ++counters_.team_write_errors;

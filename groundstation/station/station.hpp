@@ -25,8 +25,21 @@ struct teamscan_msg_MapVoxel;
 struct teamscan_msg_RobotPose;
 struct teamscan_msg_RobotStatus;
 struct teamscan_msg_ScanPoints;
+struct teamscan_msg_TeamMember;
 
 namespace teamscan::station {
+
+// A received scan as the station stores it (scans.bin) and hands it on, with the validator's verdict.
+// Every point the sample carries is kept: a count above MAX_BEAMS (refused) stores the MAX_BEAMS points
+// of the fixed-size sample. An accepted scan goes back to the odometry-map frame (the robot's applied
+// correction, ScanPoints.corr_*, undone and recorded: undo_applied_correction), so the session record and
+// everything after it (the fusion core, its registration, `teamscan eval` of the session) see the frame
+// of teamscan/pose; a refused one is stored as received.
+const StoredScan& stored_from(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject verdict, StoredScan& out);
+
+// One member of teamscan/team from the team source's estimate (mm, mm/s, mm², µrad; the robot's
+// odometry correction with its σ), marked lost if `lost`.
+void team_member_from(const TeamMemberEstimate& e, bool lost, teamscan_msg_TeamMember& m);
 
 struct StationOptions {
   std::uint32_t domain_id = 0xFFFFFFFFu;      // DDS_DOMAIN_DEFAULT
@@ -65,6 +78,7 @@ struct RobotRecord {
   Time last_identity_event;            // CLOCK_MONOTONIC: identity events are rate-limited to 1 per second
   std::uint8_t clock_sync = 0;         // the robot's own report (RobotStatus.clock_sync): 0 unknown, 1 yes, 2 no
   std::uint32_t teams_rejected = 0;    // the robot's count of refused team states (RobotStatus)
+  std::uint32_t corrections_rejected = 0;  // the robot's count of refused own corrections (RobotStatus)
   std::uint64_t writer_handles[3] = {0, 0, 0};    // pose, scan, status publication handles
   std::uint64_t instance_handles[3] = {0, 0, 0};  // this robot's instance on each reader
 };

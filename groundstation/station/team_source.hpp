@@ -10,6 +10,7 @@
 #include <span>
 
 #include "common/capacities.hpp"
+#include "common/odom_correction.hpp"
 #include "common/time.hpp"
 
 namespace teamscan::station {
@@ -48,6 +49,11 @@ struct TeamMemberEstimate {
   RobotBody body;
   Time valid;               // CLOCK_REALTIME the estimate is predicted to
   bool lost = false;
+  // The robot's current odometry correction (set_correction) in its wire form, numbered per robot
+  // (1, 2, ...; none: 0), with its σ: teamscan/team hands it to the robot (TeamMember.corr_*).
+  OdomCorrection correction;
+  double correction_sigma_m = 0.0;
+  double correction_sigma_yaw_rad = 0.0;
 };
 
 class TeamSource {
@@ -59,7 +65,8 @@ class TeamSource {
   virtual void set_body(std::uint32_t robot_id, const RobotBody& body) = 0;
   // The registration's correction of a robot's odometry (map_from_odom: x, y, yaw) with its position
   // and heading σ, from the fusion core (docs/registration.md): the poses that follow are corrected by
-  // it. A source without a model of it ignores it (the last-pose stand-in).
+  // it, and the estimates carry it to the robot. A source without a model of it ignores it (the
+  // last-pose stand-in: its estimates carry none).
   virtual void set_correction(std::uint32_t robot_id, double x_m, double y_m, double yaw_rad, double position_sigma_m,
                               double heading_sigma_rad) {
     (void)robot_id, (void)x_m, (void)y_m, (void)yaw_rad, (void)position_sigma_m, (void)heading_sigma_rad;

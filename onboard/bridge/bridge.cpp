@@ -39,6 +39,10 @@ void encode_scan(const OnboardScan& in, teamscan_msg_ScanPoints& out) {
   out.origin_x_mm = in.origin_x_mm;
   out.origin_y_mm = in.origin_y_mm;
   out.origin_z_mm = in.origin_z_mm;
+  out.corr_x_mm = in.applied.x_mm;
+  out.corr_y_mm = in.applied.y_mm;
+  out.corr_yaw_urad = in.applied.yaw_urad;
+  out.corr_seq = in.applied.seq;
   // The wire carries the whole array (fixed size); clamp so a bad count never reads past the end.
   const std::uint16_t n = in.count <= kMaxBeams ? in.count : static_cast<std::uint16_t>(kMaxBeams);
   out.count = n;
@@ -81,6 +85,8 @@ void encode_status(const OnboardStatus& in, teamscan_msg_RobotStatus& out) {
   out.loop_max_us = in.loop_max_us;
   out.teams_rejected = in.teams_rejected;
   out.last_team_reject = in.last_team_reject;
+  out.corrections_applied = in.corrections_applied;
+  out.corrections_rejected = in.corrections_rejected;
 }
 
 bool decode_team(const teamscan_msg_TeamState& in, TeamSnapshot& out) {
@@ -103,6 +109,9 @@ bool decode_team(const teamscan_msg_TeamState& in, TeamSnapshot& out) {
     s.height_mm = m.height_mm;
     s.valid_ns = m.valid_ns;
     s.lost = m.lost != 0;
+    s.correction = OdomCorrection{m.corr_x_mm, m.corr_y_mm, m.corr_yaw_urad, m.corr_seq};
+    s.correction_sigma_mm = m.corr_sigma_mm;
+    s.correction_sigma_yaw_urad = m.corr_sigma_yaw_urad;
   }
   return true;
 }

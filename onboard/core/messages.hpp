@@ -6,11 +6,12 @@
 #include <cstdint>
 
 #include "common/capacities.hpp"
+#include "common/odom_correction.hpp"
 #include "common/scan_points.hpp"
 
 namespace teamscan::onboard {
 
-// Odometry pose in the map frame (teamscan/pose), one per SIP.
+// Odometry pose in the odometry-map frame (teamscan/pose: the configured start pose, no correction), one per SIP.
 struct OnboardPose {
   std::uint32_t robot_id = 0;
   std::uint32_t seq = 0;
@@ -37,7 +38,7 @@ using teamscan::kPointTeamStale;
 // One point: {x_mm, y_mm, z_mm (map frame), beam (0 = rightmost), flags (kPoint*)}.
 using OnboardPoint = teamscan::ScanPoint;
 
-// One sweep in the map frame (teamscan/scan).
+// One sweep in the map frame, corrected by `applied` (teamscan/scan).
 struct OnboardScan {
   std::uint32_t robot_id = 0;
   std::uint32_t seq = 0;
@@ -45,6 +46,7 @@ struct OnboardScan {
   std::int32_t origin_x_mm = 0;     // laser origin in the map frame at stamp_ns
   std::int32_t origin_y_mm = 0;
   std::int32_t origin_z_mm = 0;
+  OdomCorrection applied;           // the own correction applied to origin and points (none: odometry-map frame)
   std::uint16_t count = 0;          // valid entries in points
   OnboardPoint points[kMaxBeams];
 };
@@ -75,6 +77,8 @@ struct OnboardStatus {
   std::uint32_t loop_max_us = 0;    // longest loop iteration since the last status
   std::uint32_t teams_rejected = 0;   // team states refused by check_team (team_validation.hpp)
   std::uint32_t last_team_reject = 0; // TeamReject of the newest refused one
+  std::uint32_t corrections_applied = 0;   // own corrections taken into use (pipeline.hpp)
+  std::uint32_t corrections_rejected = 0;  // own corrections refused as an absurd step
 };
 
 // One teammate as tracked by the ground station (teamscan/team).
@@ -92,6 +96,9 @@ struct TeamMemberState {
   std::uint16_t height_mm = 0;      // top of the robot (with its laser) above the floor
   std::int64_t valid_ns = 0;        // time the position is predicted to, CLOCK_REALTIME
   bool lost = false;
+  OdomCorrection correction;        // this member's odometry correction (none: identity)
+  std::uint32_t correction_sigma_mm = 0;
+  std::uint32_t correction_sigma_yaw_urad = 0;
 };
 
 struct TeamSnapshot {

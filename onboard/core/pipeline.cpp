@@ -55,6 +55,7 @@ TeamCheck OnboardPipeline::on_team(const TeamSnapshot& team, Time now) {
     return check;  // the filter keeps the last good state
   }
   ++team_checks_.accepted;
+  take_own_correction(team);
   filter_.set_team(team);
   ++counters_.teams;
   have_team_ = true;
@@ -62,6 +63,27 @@ TeamCheck OnboardPipeline::on_team(const TeamSnapshot& team, Time now) {
   const std::uint32_t n = std::min<std::uint32_t>(team.count, static_cast<std::uint32_t>(kMaxRobots));
   for (std::uint32_t i = 0; i < n; ++i) newest_team_valid_ns_ = std::max(newest_team_valid_ns_, team.members[i].valid_ns);
   return check;
+}
+
+void OnboardPipeline::take_own_correction(const TeamSnapshot& team) {
+  const std::uint32_t n = std::min<std::uint32_t>(team.count, static_cast<std::uint32_t>(kMaxRobots));
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const TeamMemberState& m = team.members[i];
+    if (m.robot_id != robot_id_) continue;
+    const OdomCorrection& next = m.correction;
+    // The one in use (or still none). Compared whole: a restarted station numbers from 1 again.
+    if (next.seq == applied_.seq && next.x_mm == applied_.x_mm && next.y_mm == applied_.y_mm &&
+        next.yaw_urad == applied_.yaw_urad)
+      return;
+    if (!next.none() && !correction_step_ok(applied_, next, team_limits_)) {
+      ++counters_.corrections_rejected;
+      return;
+    }
+    applied_ = next;
+    ++counters_.corrections_applied;
+    projector_.set_map_from_odom(applied_.map_from_odom() * map_from_odom_);
+    return;
+  }
 }
 
 bool OnboardPipeline::team_fresh(Time now) const {
@@ -76,7 +98,7 @@ const OnboardScan& OnboardPipeline::on_scan(const ScanBeams& beams) {
   filter_stats_ = DirectionFilterStats{};
   if (filter_enabled_) {
     if (points_.pose_ok) {
-      // R1 of eq. 7 is this robot's own position at the scan's stamp.
+      // R1 of eq. 7 is this robot's own position at the scan's stamp, corrected like its teammates'.
       filter_stats_ = filter_.apply(metres_to_mm_i32(points_.map_from_robot.x_m), metres_to_mm_i32(points_.map_from_robot.y_m),
                                     points_.stamp, points_.points.data(), points_.count);
     } else {
@@ -92,6 +114,7 @@ const OnboardScan& OnboardPipeline::on_scan(const ScanBeams& beams) {
   scan_.origin_x_mm = points_.origin_x_mm;
   scan_.origin_y_mm = points_.origin_y_mm;
   scan_.origin_z_mm = points_.origin_z_mm;
+  scan_.applied = applied_;
   std::uint16_t n = 0;
   for (std::uint16_t i = 0; i < points_.count; ++i) {
     const ScanPoint& p = points_.points[i];

@@ -28,6 +28,8 @@ struct PipelineCounters {
   std::uint64_t points_team_stale = 0;
   std::uint64_t points_no_pose = 0;
   std::uint64_t teams = 0;
+  std::uint64_t corrections_applied = 0;   // own corrections taken into use
+  std::uint64_t corrections_rejected = 0;  // own corrections refused: an absurd step (correction_step_ok)
 };
 
 class OnboardPipeline {
@@ -41,11 +43,17 @@ class OnboardPipeline {
                    OnboardPose& out);
 
   // The newest team state (teamscan/team), received at `now` (CLOCK_REALTIME). Checked first
-  // (team_validation.hpp): a refused state is counted and the filter keeps the last good one.
+  // (team_validation.hpp): a refused state is counted and the filter keeps the last good one. An
+  // accepted state's member for this robot brings its odometry correction: a new one (another
+  // corr_seq) is taken into use for the scans that follow unless its step from the applied one is
+  // absurd (counted; the applied one stays). None (corr_seq 0: the station has none, e.g. restarted)
+  // goes back to the identity.
   TeamCheck on_team(const TeamSnapshot& team, Time now);
 
-  // One scan: points, direction filter, and the teamscan/scan sample (every point with its flags, or
-  // only kept points, per config). The returned reference stays valid until the next call.
+  // One scan: points in the map frame corrected by the applied correction (the teammates' positions in
+  // teamscan/team are corrected too), the direction filter from this robot's corrected position, and
+  // the teamscan/scan sample (every point with its flags, or only kept points, per config) saying which
+  // correction it carries. The returned reference stays valid until the next call.
   const OnboardScan& on_scan(const ScanBeams& beams);
 
   [[nodiscard]] const ScanPoints& last_points() const { return points_; }
@@ -53,16 +61,19 @@ class OnboardPipeline {
   [[nodiscard]] const PipelineCounters& counters() const { return counters_; }
   [[nodiscard]] const TeamCheckCounters& team_checks() const { return team_checks_; }
   [[nodiscard]] const OdometryHistory<>& odometry() const { return odometry_; }
+  [[nodiscard]] const OdomCorrection& applied_correction() const { return applied_; }
   [[nodiscard]] bool team_fresh(Time now) const;
 
  private:
   OnboardPipeline(const OnboardConfig& config, DirectionFilter filter);
+  void take_own_correction(const TeamSnapshot& team);
 
   std::uint32_t robot_id_;
   bool filter_enabled_;
   PublishMode publish_;
-  Pose2 map_from_odom_;
-  ScanProjector projector_;
+  Pose2 map_from_odom_;     // the configured start pose: the odometry-map frame of teamscan/pose
+  OdomCorrection applied_;  // this robot's correction in use (none: identity)
+  ScanProjector projector_; // projects with applied_ · map_from_odom_
   DirectionFilter filter_;
   OdometryHistory<> odometry_;
   ScanPoints points_;

@@ -7,7 +7,8 @@ namespace teamscan::onboard {
 
 namespace {
 constexpr const char* kNames[kTeamRejectReasons] = {"accepted", "count",    "robot_id", "duplicate_id", "covariance",
-                                                    "position", "velocity", "size",     "stamp"};
+                                                    "position", "velocity", "size",     "stamp",
+                                                    "correction"};
 }  // namespace
 
 const char* team_reject_name(TeamReject r) {
@@ -49,8 +50,29 @@ TeamCheck check_team(const TeamSnapshot& team, Time now, const TeamCheckLimits& 
     if (m.valid_ns < limits.clock_set_after_ns || now_ns < limits.clock_set_after_ns) return {TeamReject::kStamp, i};
     if (m.valid_ns > now_ns && m.valid_ns - now_ns > limits.max_ahead.count()) return {TeamReject::kStamp, i};
     if (!m.lost && now_ns - m.valid_ns > limits.max_age.count()) return {TeamReject::kStamp, i};
+    // The odometry correction: none is all zeros; a correction shifts by less than the plausible
+    // extent (twice the position bound: from one edge to the other) and turns within (−π, π].
+    const OdomCorrection& c = m.correction;
+    const std::int64_t cx = c.x_mm, cy = c.y_mm, cmax = 2 * limits.max_abs_position_mm;
+    if (c.none() ? (c.x_mm != 0 || c.y_mm != 0 || c.yaw_urad != 0)
+                 : (!c.yaw_in_range() || cx > cmax || cx < -cmax || cy > cmax || cy < -cmax)) {
+      return {TeamReject::kCorrection, i};
+    }
   }
   return {};
+}
+
+bool correction_step_ok(const OdomCorrection& applied, const OdomCorrection& next, const TeamCheckLimits& limits) noexcept {
+  // int32 operands: the differences fit an int64 (< 2^32), and each is bounded by the step limit before
+  // it is squared, so the sum of squares stays below 2·(limit)² (no overflow for limits below 2^31).
+  const std::int64_t dx = std::int64_t{next.x_mm} - applied.x_mm, dy = std::int64_t{next.y_mm} - applied.y_mm;
+  const std::int64_t m = limits.max_correction_step_mm;
+  if (dx > m || dx < -m || dy > m || dy < -m || dx * dx + dy * dy > m * m) return false;
+  constexpr std::int64_t kTwoPiUrad = 6'283'185;
+  std::int64_t dyaw = std::int64_t{next.yaw_urad} - applied.yaw_urad;
+  if (dyaw > kTwoPiUrad / 2) dyaw -= kTwoPiUrad;
+  if (dyaw < -kTwoPiUrad / 2) dyaw += kTwoPiUrad;
+  return dyaw <= limits.max_correction_step_urad && dyaw >= -limits.max_correction_step_urad;
 }
 
 }  // namespace teamscan::onboard

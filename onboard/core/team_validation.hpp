@@ -1,6 +1,6 @@
 // The robot's check of every team state (teamscan/team) before the direction filter uses it
 // (docs/validation.md): count ≤ 32, known robot ids (each once), finite non-negative covariances,
-// plausible positions, velocities, sizes and stamps. Pure, no allocation, no exceptions (firmware rules):
+// plausible positions, velocities, sizes, stamps and odometry corrections. Pure, no allocation, no exceptions (firmware rules):
 // the pipeline keeps the last good state and counts the refused ones in the robot's status.
 #pragma once
 
@@ -23,8 +23,10 @@ enum class TeamReject : std::uint8_t {
   kVelocity = 6,     // a member faster than plausible
   kSize = 7,         // a footprint or height beyond plausible
   kStamp = 8,        // a member's valid_ns not within the window of this robot's clock
+  kCorrection = 9,   // a member's odometry correction: yaw outside (−π, π], a shift beyond the plausible
+                     // extent, or values with corr_seq 0 (none)
 };
-inline constexpr std::size_t kTeamRejectReasons = 9;
+inline constexpr std::size_t kTeamRejectReasons = 10;
 [[nodiscard]] const char* team_reject_name(TeamReject r);
 
 struct TeamCheckLimits {
@@ -38,6 +40,11 @@ struct TeamCheckLimits {
   Duration max_age = std::chrono::seconds(30);
   Duration max_ahead = std::chrono::seconds(2);
   std::int64_t clock_set_after_ns = 1'577'836'800'000'000'000;  // 2020-01-01
+  // This robot's own odometry correction may move from the one it applies by at most this much per
+  // new correction (correction_step_ok). The station's registration steps by at most max(12 cm, 3σ)
+  // and max(2°, 3σ) per match (docs/registration.md); a step beyond these bounds is absurd.
+  std::int64_t max_correction_step_mm = 2'000;   // 2 m
+  std::int64_t max_correction_step_urad = 523'599;  // 30°
 };
 
 struct TeamCheck {
@@ -48,6 +55,12 @@ struct TeamCheck {
 
 // Checks one team state against `now` (this robot's CLOCK_REALTIME).
 [[nodiscard]] TeamCheck check_team(const TeamSnapshot& team, Time now, const TeamCheckLimits& limits) noexcept;
+
+// Whether `next` (this robot's correction in a team state that passed check_team) is a plausible step
+// from `applied` (the one in use; none = the identity): a shift of at most max_correction_step_mm and
+// a turn of at most max_correction_step_urad (the shortest way round). Integer arithmetic only.
+[[nodiscard]] bool correction_step_ok(const OdomCorrection& applied, const OdomCorrection& next,
+                                      const TeamCheckLimits& limits) noexcept;
 
 struct TeamCheckCounters {
   std::uint64_t accepted = 0;

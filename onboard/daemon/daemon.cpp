@@ -288,17 +288,21 @@ void OnboardDaemon::publish_status(Time now) {
   s.points_team_stale = clamp_u32(pc.points_team_stale);
   s.points_no_pose = clamp_u32(pc.points_no_pose);
   s.loop_max_us = loop_max_us_;
+  s.corrections_applied = clamp_u32(pc.corrections_applied);
+  s.corrections_rejected = clamp_u32(pc.corrections_rejected);
   if (!publisher_.publish_status(s).ok()) ++publish_errors_;
 
   char text[512];
   std::snprintf(text, sizeof text,
                 "arcos %s %.1f Hz (opens %u, bad %u); lms %s %.1f Hz (opens %u, bad %u, dropped %u, forced %u); scans %u, "
-                "filtered %u, stale %u, no pose %u; team %s (refused %u, last %s); clock %s; loop max %u us; publish errors %u",
+                "filtered %u, stale %u, no pose %u; team %s (refused %u, last %s); correction %u (applied %u, refused %u); "
+                "clock %s; loop max %u us; publish errors %u",
                 arcos_dev_.open ? arcos::to_string(arcos_.state()) : "closed", s.sip_rate_mhz / 1000.0, s.arcos_reopens,
                 s.arcos_bad_packets, lms_dev_.open ? lms200::to_string(lms_.state()) : "closed", s.scan_rate_mhz / 1000.0,
                 s.lms_reopens, s.lms_bad_telegrams, scans_dropped_, scans_forced_, s.scans_published, s.points_direction_filtered,
                 s.points_team_stale, s.points_no_pose, s.team_fresh ? "fresh" : "stale", s.teams_rejected,
-                team_reject_name(pipeline_.team_checks().last_reject), to_string(sync), s.loop_max_us, publish_errors_);
+                team_reject_name(pipeline_.team_checks().last_reject), pipeline_.applied_correction().seq,
+                s.corrections_applied, s.corrections_rejected, to_string(sync), s.loop_max_us, publish_errors_);
   dds::notify_status(text);
   sips_in_period_ = scans_in_period_ = 0;
   loop_max_us_ = 0;

@@ -2,8 +2,9 @@
 // onboard daemon (issue 15). As Cyclone does for a received sample: the encapsulation header picks the
 // byte order, dds_stream_normalize_data checks (and byte-swaps) the bytes against the type's ops from
 // the idlc-generated descriptor, and only a sample that passes is read with dds_stream_read. Then the
-// station's SampleValidator (pose, scan, status) and its scans.bin encoding, and the daemon's
-// decode_team + check_team (team). The map is read and freed (its bounded sequence allocates).
+// station's SampleValidator (pose, scan, status), its stored form (stored_from: the robot's applied
+// correction undone) and scans.bin encoding, and the daemon's decode_team + check_team and its own
+// correction's step check (team). The map is read and freed (its bounded sequence allocates).
 #include <cstdint>
 #include <cstring>
 #include <vector>
@@ -13,6 +14,7 @@
 
 #include "groundstation/station/sample_validation.hpp"
 #include "groundstation/station/scan_record.hpp"
+#include "groundstation/station/station.hpp"
 #include "onboard/core/team_validation.hpp"
 #include "onboard/bridge/bridge.hpp"
 #include "tests/fuzz/dds/cdr_input.hpp"
@@ -65,16 +67,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   switch (type) {
     case 0: (void)validator.check_pose(sample.pose, received); break;
     case 1: {
-      (void)validator.check_scan(sample.scan, received);
-      // The station stores every scan raw, whatever its count: the record clamps to MAX_BEAMS.
+      const station::Verdict verdict = validator.check_scan(sample.scan, received);
+      // The station stores every scan, whatever its count (the record clamps to MAX_BEAMS): an accepted
+      // one with the robot's applied correction undone, a refused one raw.
       static station::StoredScan stored;
-      stored.robot_id = sample.scan.robot_id;
-      stored.count = sample.scan.count;
-      for (std::size_t i = 0; i < kMaxBeams; ++i) {
-        stored.points[i] = station::StoredPoint{sample.scan.points[i].x_mm, sample.scan.points[i].y_mm,
-                                                sample.scan.points[i].z_mm, sample.scan.points[i].beam,
-                                                sample.scan.points[i].flags};
-      }
+      (void)station::stored_from(sample.scan, station::ReceiveTime{received, received}, verdict.reason, stored);
       static std::uint8_t record[station::kScanRecordMaxBytes];
       const std::size_t len = station::encode_scan_record(stored, record);
       station::ScanDecodeStats stats;
@@ -87,7 +84,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     case 3: {
       static onboard::TeamSnapshot snapshot;
       if (onboard::decode_team(sample.team, snapshot)) {
-        (void)onboard::check_team(snapshot, received, onboard::TeamCheckLimits{});
+        if (onboard::check_team(snapshot, received, onboard::TeamCheckLimits{}).ok() && snapshot.count > 0) {
+          (void)onboard::correction_step_ok(OdomCorrection{}, snapshot.members[0].correction, onboard::TeamCheckLimits{});
+        }
       }
       break;
     }

@@ -1,7 +1,7 @@
 // Writes the seed corpus of fuzz_cdr_samples (cdr_input.hpp format): a sane sample of every teamscan type
 // and issue 15's bad values (robot ids 0 / 33 / 999999, count 65535 / 402, stamps 0 / INT64_MIN /
-// INT64_MAX, coordinates ±2^31 mm, yaw 2^31 µrad, NaN covariances), serialised by Cyclone's
-// dds_stream_write from the generated descriptors, little- and big-endian.
+// INT64_MAX, coordinates ±2^31 mm, yaw 2^31 µrad, NaN covariances, absurd odometry corrections),
+// serialised by Cyclone's dds_stream_write from the generated descriptors, little- and big-endian.
 // usage: make_cdr_seeds DIR
 #include <climits>
 #include <cmath>
@@ -72,6 +72,17 @@ int main(int argc, char** argv) {
   for (std::uint16_t b = 0; b < 401; ++b) s.points[b] = teamscan_msg_ScanPoint{1000 + b, 2000, 300, b, 0};
   write_seed(dir, "scan", 1, &s, false);
   write_seed(dir, "scan", 1, &s, true);
+  // A scan the robot corrected (its applied map_from_odom), and one with an absurd correction.
+  s.corr_x_mm = 250;
+  s.corr_y_mm = -400;
+  s.corr_yaw_urad = 80'000;
+  s.corr_seq = 3;
+  write_seed(dir, "scan_corrected", 1, &s, false);
+  s.corr_yaw_urad = INT32_MIN;
+  s.corr_x_mm = INT32_MAX;
+  write_seed(dir, "scan_bad_correction", 1, &s, false);
+  s.corr_x_mm = s.corr_y_mm = s.corr_yaw_urad = 0;
+  s.corr_seq = 0;
   s.count = 65535;
   write_seed(dir, "scan_count_65535", 1, &s, false);
   s.count = 402;
@@ -90,10 +101,16 @@ int main(int argc, char** argv) {
   t.count = 2;
   for (std::uint32_t i = 0; i < 2; ++i) {
     t.members[i] = teamscan_msg_TeamMember{i + 1, 3000, 1500 * static_cast<std::int32_t>(i), 200, 0, 400.0f, 0.0f, 400.0f,
-                                           508, 497, 500, 0, 0, kNow};
+                                           508, 497, 500, 0, 0, kNow,
+                                           // member 1 with an odometry correction, member 2 without
+                                           i == 0 ? 250 : 0, i == 0 ? -400 : 0, i == 0 ? 80'000 : 0,
+                                           i == 0 ? 30u : 0u, i == 0 ? 2'000u : 0u, i == 0 ? 5u : 0u};
   }
   write_seed(dir, "team", 3, &t, false);
   write_seed(dir, "team", 3, &t, true);
+  t.members[0].corr_yaw_urad = INT32_MAX;
+  write_seed(dir, "team_bad_correction", 3, &t, false);
+  t.members[0].corr_yaw_urad = 80'000;
   t.members[1].cov_xx_mm2 = std::numeric_limits<float>::quiet_NaN();
   write_seed(dir, "team_nan_cov", 3, &t, false);
   t.count = 200;

@@ -1,7 +1,8 @@
 // Hardware-in-loop test of the daemon's event loop in-process, against an emulated Pioneer and LMS-200
 // on pseudo-terminals, with a recording Publisher in place of the DDS bridge (it also plays the ground
-// station: a teammate 3 m ahead, fresh). Checks what reaches the publisher: pose, scan points in the
-// map frame with direction-filter flags, status, and the "kept" publish mode.
+// station: a teammate 3 m ahead, fresh, and in the second test this robot's odometry correction). Checks
+// what reaches the publisher: pose, scan points in the map frame with direction-filter flags, status, the
+// "kept" publish mode, and the correction applied.
 #include <gtest/gtest.h>
 
 #include <pthread.h>
@@ -44,10 +45,12 @@ class FlatRanges final : public lms200::RangeSource {
   }
 };
 
-// Records what the daemon publishes; offers a fresh team state with one teammate at (x, y) mm.
+// Records what the daemon publishes; offers a fresh team state with one teammate at (x, y) mm and, if
+// `own` is a correction, this robot (id 1) as a member with that odometry correction.
 class RecordingPublisher final : public Publisher {
  public:
-  RecordingPublisher(std::int32_t mate_x_mm, std::int32_t mate_y_mm) : x_{mate_x_mm}, y_{mate_y_mm} {}
+  RecordingPublisher(std::int32_t mate_x_mm, std::int32_t mate_y_mm, OdomCorrection own = {})
+      : x_{mate_x_mm}, y_{mate_y_mm}, own_{own} {}
   Status publish_pose(const OnboardPose& p) override {
     std::lock_guard lock{m_};
     pose_ = p;
@@ -76,6 +79,13 @@ class RecordingPublisher final : public Publisher {
     out.members[0].x_mm = x_;
     out.members[0].y_mm = y_;
     out.members[0].valid_ns = now_realtime().ns();
+    if (!own_.none()) {
+      out.count = 2;
+      out.members[1] = TeamMemberState{};
+      out.members[1].robot_id = 1;
+      out.members[1].valid_ns = out.members[0].valid_ns;
+      out.members[1].correction = own_;
+    }
     return true;
   }
   const char* name() const override { return "recording"; }
@@ -93,6 +103,7 @@ class RecordingPublisher final : public Publisher {
  private:
   std::mutex m_;
   std::int32_t x_, y_;
+  OdomCorrection own_;
   bool fresh_ = false;
 };
 
@@ -188,6 +199,72 @@ TEST(OnboardDaemonInProcess, PublishesFilteredMapFramePoints) {
       for (std::uint16_t i = 0; i < scan.count; ++i) EXPECT_EQ(scan.points[i].flags, 0) << scan.points[i].beam;
     }
   }
+  (*arcos_runner)->stop();
+  (*lms_runner)->stop();
+}
+
+// The station's odometry correction for this robot arrives in teamscan/team: the daemon projects its
+// scans with it (origin and points in the corrected map frame, the scan saying which correction), starts
+// its direction filter's cone at its corrected position against the teammate's corrected position, and
+// counts the correction in its status; teamscan/pose stays in the odometry-map frame.
+TEST(OnboardDaemonInProcess, AppliesItsOwnCorrectionFromTheTeamState) {
+  TempDir dir;
+  const fs::path arcos_link = dir.path / "ttyArcos", lms_link = dir.path / "ttyLms";
+  arcos::PioneerEmulator pioneer;
+  FlatRanges ranges;
+  lms200::LmsEmulatorOptions lms_options;
+  lms_options.variant = LaserVariant{180, 50};
+  lms200::LmsEmulator scanner{lms_options, &ranges};
+  scanner.power_up(now_monotonic());
+  auto arcos_runner = serial::PtyRunner::create(pioneer, serial::PtyRunnerOptions{.link_path = arcos_link.string()});
+  auto lms_runner = serial::PtyRunner::create(scanner, serial::PtyRunnerOptions{.link_path = lms_link.string()});
+  ASSERT_TRUE(arcos_runner.ok() && lms_runner.ok());
+  ASSERT_TRUE((*arcos_runner)->start().ok());
+  ASSERT_TRUE((*lms_runner)->start().ok());
+  std::string msg;
+  auto config = parse_onboard_config("[robot]\nid = 1\n[arcos]\ndevice = \"" + arcos_link.string() + "\"\n[lms]\ndevice = \"" +
+                                         lms_link.string() + "\"\nbaud = 500000\nfov_deg = 180\nresolution_deg = 0.5\n" +
+                                         "[mount]\nx_m = 0.16\ny_m = 0\nz_m = 0.45\npitch_deg = 0\n" +
+                                         "[filter]\nhalf_angle_deg = 7\nextrapolate_team = false\n[status]\nperiod_s = 0.1\n",
+                                     msg);
+  ASSERT_TRUE(config.ok()) << msg;
+  // map_from_odom = (0.5 m, −0.2 m, 0.1 rad): the robot, at its odometry origin, stands at (0.5, −0.2)
+  // heading 0.1 rad in the team's map; the teammate 3.16 m straight ahead of it there, at (3644, 115).
+  const OdomCorrection c{500, -200, 100'000, 3};
+  RecordingPublisher rec{3644, 115, c};
+  auto daemon = OnboardDaemon::create(config.value(), rec);
+  ASSERT_TRUE(daemon.ok()) << daemon.error().what;
+  int rc = -1;
+  std::thread loop{[&] { rc = (*daemon)->run(); }};
+  const bool streamed = wait_until(
+      [&] { return rec.with([&] { return rec.scans_ >= 20 && rec.poses_ >= 2 && rec.status_.corrections_applied > 0; }); },
+      std::chrono::seconds(30));
+  const OnboardScan scan = rec.with([&] { return rec.scan_; });
+  const OnboardPose pose = rec.with([&] { return rec.pose_; });
+  const OnboardStatus status = rec.with([&] { return rec.status_; });
+  ::pthread_kill(loop.native_handle(), SIGTERM);
+  loop.join();
+  ASSERT_TRUE(streamed);
+  EXPECT_EQ(rc, 0);
+  EXPECT_EQ(pose.x_mm, 0);  // teamscan/pose: the odometry-map frame
+  EXPECT_EQ(pose.y_mm, 0);
+  EXPECT_EQ(scan.applied.seq, 3u);
+  EXPECT_EQ(scan.applied.x_mm, 500);
+  EXPECT_EQ(scan.applied.yaw_urad, 100'000);
+  // Origin (0.16, 0) corrected: (659.2, −184.0).
+  EXPECT_EQ(scan.origin_x_mm, 659);
+  EXPECT_EQ(scan.origin_y_mm, -184);
+  ASSERT_EQ(scan.count, 361);
+  const auto find = [&](std::uint16_t beam) -> const OnboardPoint& { return scan.points[beam]; };
+  // Beam 180 (0°) corrected: (3644.2, 115.5), on the line to the teammate; beam 192 (6°): 5.7° off it,
+  // inside the 7° cone; beam 196 (8°) outside.
+  EXPECT_EQ(find(180).x_mm, 3644);
+  EXPECT_EQ(find(180).y_mm, 115);
+  EXPECT_EQ(find(180).flags, kPointDirectionFiltered);
+  EXPECT_EQ(find(192).flags, kPointDirectionFiltered);
+  EXPECT_EQ(find(196).flags, 0);
+  EXPECT_EQ(status.corrections_applied, 1u);  // the same correction in every team state: taken once
+  EXPECT_EQ(status.corrections_rejected, 0u);
   (*arcos_runner)->stop();
   (*lms_runner)->stop();
 }

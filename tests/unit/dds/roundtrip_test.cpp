@@ -65,6 +65,7 @@ TEST(DdsRoundTrip, FullScanArrivesPointForPoint) {
   s.origin_x_mm = 1;
   s.origin_y_mm = 2;
   s.origin_z_mm = 3;
+  s.applied = OdomCorrection{-321, 654, -1'234'567, 42};  // the odometry correction the robot applied
   s.count = kMaxBeams;
   for (std::uint16_t i = 0; i < kMaxBeams; ++i) {
     s.points[i] = OnboardPoint{i * 7 - 1000, -i * 3, i % 5 == 0 ? -400 : 400, i,
@@ -80,6 +81,10 @@ TEST(DdsRoundTrip, FullScanArrivesPointForPoint) {
   EXPECT_EQ(r.origin_x_mm, 1);
   EXPECT_EQ(r.origin_y_mm, 2);
   EXPECT_EQ(r.origin_z_mm, 3);
+  EXPECT_EQ(r.corr_x_mm, -321);
+  EXPECT_EQ(r.corr_y_mm, 654);
+  EXPECT_EQ(r.corr_yaw_urad, -1'234'567);
+  EXPECT_EQ(r.corr_seq, 42u);
   ASSERT_EQ(r.count, kMaxBeams);
   for (std::uint16_t i = 0; i < kMaxBeams; ++i) {
     ASSERT_EQ(r.points[i].x_mm, i * 7 - 1000) << i;
@@ -138,6 +143,13 @@ TEST(DdsRoundTrip, TeamStateReachesLateJoiningRobot) {
     ts.members[i].x_mm = static_cast<std::int32_t>(1000 * i);
     ts.members[i].lost = i == 2 ? 1 : 0;
   }
+  // Robot 1's odometry correction, as the station's registration estimated it.
+  ts.members[0].corr_x_mm = 120;
+  ts.members[0].corr_y_mm = -45;
+  ts.members[0].corr_yaw_urad = 17'453;
+  ts.members[0].corr_sigma_mm = 25;
+  ts.members[0].corr_sigma_yaw_urad = 3'000;
+  ts.members[0].corr_seq = 6;
   ASSERT_EQ(dds_write(wr, &ts), DDS_RETCODE_OK);
 
   DdsBridge b = make_bridge(1);
@@ -152,6 +164,13 @@ TEST(DdsRoundTrip, TeamStateReachesLateJoiningRobot) {
   EXPECT_EQ(snap.members[1].robot_id, 2u);
   EXPECT_EQ(snap.members[1].x_mm, 1000);
   EXPECT_TRUE(snap.members[2].lost);
+  EXPECT_EQ(snap.members[0].correction.x_mm, 120);
+  EXPECT_EQ(snap.members[0].correction.y_mm, -45);
+  EXPECT_EQ(snap.members[0].correction.yaw_urad, 17'453);
+  EXPECT_EQ(snap.members[0].correction.seq, 6u);
+  EXPECT_EQ(snap.members[0].correction_sigma_mm, 25u);
+  EXPECT_EQ(snap.members[0].correction_sigma_yaw_urad, 3'000u);
+  EXPECT_TRUE(snap.members[1].correction.none());
   EXPECT_FALSE(b.take_team(snap));  // nothing new
   dds_delete(pp);
 }

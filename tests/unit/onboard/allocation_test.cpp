@@ -1,7 +1,8 @@
 // Firmware discipline (STYLE.md 5): after start-up the onboard data path allocates nothing. This binary
 // replaces malloc & co. (glibc's __libc_* underneath) and counts the calls made while armed, then
 // pushes 10 000 scans through decode (when drivers/lms200 is built) -> 3-D points -> direction filter ->
-// scan message, with odometry at 10 Hz and team updates in between.
+// scan message, with odometry at 10 Hz and team updates in between (each with a new odometry correction
+// of this robot: applied to the projection, or refused as an absurd step).
 #include <gtest/gtest.h>
 
 #include <array>
@@ -93,7 +94,11 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
   std::array<std::uint8_t, kMaxBeams> beam_flags{};
 
   TeamSnapshot team;
-  team.count = 8;
+  team.count = 9;
+  // Member 8 is this robot (id 1): its odometry correction changes with every team state (a new one
+  // taken into use, every fifth an absurd step that is refused), so the correction path runs too.
+  team.members[8].robot_id = 1;
+  team.members[8].x_mm = 500;
   for (std::uint32_t m = 0; m < 8; ++m) {
     team.members[m].robot_id = m + 2;
     team.members[m].x_mm = 2000 + static_cast<std::int32_t>(m) * 700;
@@ -120,7 +125,11 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
       const Time stamp = t0 + Duration{static_cast<std::int64_t>(k) * 13'333'333 * 2};  // 37.5 Hz (0.5°: 2 revolutions)
       if (k % 4 == 0) (void)pipeline->on_odometry(stamp, {0.001 * k, 0.0, 0.0001 * k}, 100, 0.01, pose);
       if (k % 10 == 0) {
-        for (std::uint32_t m = 0; m < 8; ++m) team.members[m].valid_ns = stamp.ns();
+        for (std::uint32_t m = 0; m < 9; ++m) team.members[m].valid_ns = stamp.ns();
+        const auto step = static_cast<std::uint32_t>(k / 10);
+        team.members[8].correction =
+            OdomCorrection{static_cast<std::int32_t>(step % 50) * 10 + (step % 5 == 4 ? 9000 : 0), -150,
+                           static_cast<std::int32_t>(step % 40) * 1000, step + 1};
         pipeline->on_team(team, stamp);
       }
       if (k % 4 == 1) {
@@ -144,6 +153,9 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
   EXPECT_GT(filtered, 0u);  // the filter really ran against the 8 teammates
   EXPECT_EQ(pipeline->team_checks().rejected, 2'500u);  // every malformed team state refused
   EXPECT_EQ(pipeline->team_checks().accepted, 1'000u);
+  // Every fifth correction is a 9 m step from the applied one: refused; the others are taken.
+  EXPECT_EQ(pipeline->counters().corrections_rejected, 200u);
+  EXPECT_EQ(pipeline->counters().corrections_applied, 800u);
   EXPECT_EQ(allocations, 0);
 }
 

@@ -30,6 +30,7 @@ TEST(DdsCodec, ScanFieldsCopiedAndTailZeroed) {
   in.origin_x_mm = -1500;
   in.origin_y_mm = 2500;
   in.origin_z_mm = 420;
+  in.applied = OdomCorrection{-120, 340, -2'000'000, 12};
   in.count = 3;
   in.points[0] = OnboardPoint{1, -2, 3, 0, kPointInvalid};
   in.points[1] = OnboardPoint{-80000, 80000, -1, 200, kPointDirectionFiltered | kPointDazzled};
@@ -43,6 +44,10 @@ TEST(DdsCodec, ScanFieldsCopiedAndTailZeroed) {
   EXPECT_EQ(out.origin_x_mm, -1500);
   EXPECT_EQ(out.origin_y_mm, 2500);
   EXPECT_EQ(out.origin_z_mm, 420);
+  EXPECT_EQ(out.corr_x_mm, -120);
+  EXPECT_EQ(out.corr_y_mm, 340);
+  EXPECT_EQ(out.corr_yaw_urad, -2'000'000);
+  EXPECT_EQ(out.corr_seq, 12u);
   ASSERT_EQ(out.count, 3);
   EXPECT_EQ(out.points[1].x_mm, -80000);
   EXPECT_EQ(out.points[1].y_mm, 80000);
@@ -70,8 +75,9 @@ TEST(DdsCodec, TeamDecodeCopiesEveryMemberAndRejectsBadCount) {
   static teamscan_msg_TeamState in;
   std::memset(&in, 0, sizeof in);
   in.count = 2;
-  in.members[0] = teamscan_msg_TeamMember{3, 1000, -2000, 10, -20, 25.0f, 1.5f, 36.0f, 508, 497, 900, 0, 0, 42};
-  in.members[1] = teamscan_msg_TeamMember{9, 0, 0, 0, 0, 0.0f, 0.0f, 0.0f, 0, 0, 0, 1, 0, -1};
+  in.members[0] = teamscan_msg_TeamMember{3, 1000, -2000, 10, -20, 25.0f, 1.5f, 36.0f, 508, 497, 900, 0, 0, 42,
+                                          -150, 260, 1'234'567, 35, 8'000, 77};
+  in.members[1] = teamscan_msg_TeamMember{9, 0, 0, 0, 0, 0.0f, 0.0f, 0.0f, 0, 0, 0, 1, 0, -1, 0, 0, 0, 0, 0, 0};
   TeamSnapshot out;
   ASSERT_TRUE(decode_team(in, out));
   ASSERT_EQ(out.count, 2u);
@@ -88,7 +94,14 @@ TEST(DdsCodec, TeamDecodeCopiesEveryMemberAndRejectsBadCount) {
   EXPECT_EQ(out.members[0].height_mm, 900);
   EXPECT_EQ(out.members[0].valid_ns, 42);
   EXPECT_FALSE(out.members[0].lost);
+  EXPECT_EQ(out.members[0].correction.x_mm, -150);
+  EXPECT_EQ(out.members[0].correction.y_mm, 260);
+  EXPECT_EQ(out.members[0].correction.yaw_urad, 1'234'567);
+  EXPECT_EQ(out.members[0].correction_sigma_mm, 35u);
+  EXPECT_EQ(out.members[0].correction_sigma_yaw_urad, 8'000u);
+  EXPECT_EQ(out.members[0].correction.seq, 77u);
   EXPECT_TRUE(out.members[1].lost);
+  EXPECT_TRUE(out.members[1].correction.none());
 
   in.count = 33;
   TeamSnapshot untouched;
@@ -123,8 +136,12 @@ TEST(DdsCodec, PoseAndStatusFieldsCopied) {
   s.clock_sync = 2;
   s.teams_rejected = 17;
   s.last_team_reject = 4;
+  s.corrections_applied = 41;
+  s.corrections_rejected = 3;
   teamscan_msg_RobotStatus t{};
   encode_status(s, t);
+  EXPECT_EQ(t.corrections_applied, 41u);
+  EXPECT_EQ(t.corrections_rejected, 3u);
   EXPECT_EQ(t.clock_sync, 2);
   EXPECT_EQ(t.teams_rejected, 17u);
   EXPECT_EQ(t.last_team_reject, 4u);

@@ -86,6 +86,13 @@ std::vector<std::pair<TeamSnapshot, TeamReject>> malformed(Time now) {
     t.members[1].valid_ns = bad;
     out.emplace_back(t, TeamReject::kStamp);
   }
+  for (const OdomCorrection& bad : {OdomCorrection{0, 0, 3'141'594, 4}, OdomCorrection{0, 0, INT32_MIN, 4},
+                                    OdomCorrection{20'000'001, 0, 0, 4}, OdomCorrection{0, INT32_MIN, 0, 4},
+                                    OdomCorrection{10, 0, 0, 0}}) {  // values with "none"
+    t = base();
+    t.members[1].correction = bad;
+    out.emplace_back(t, TeamReject::kCorrection);
+  }
   return out;
 }
 
@@ -100,6 +107,27 @@ TEST(TeamValidation, AGoodTeamPasses) {
   lost.members[1].lost = true;
   lost.members[1].valid_ns = (kNow - 3600s).ns();
   EXPECT_TRUE(check_team(lost, kNow, limits).ok());
+}
+
+TEST(TeamValidation, PlausibleCorrectionsPass) {
+  const TeamCheckLimits limits;
+  TeamSnapshot t = good_team(kNow);
+  t.members[0].correction = OdomCorrection{-1200, 20'000'000, -3'141'593, 1};
+  t.members[1].correction = OdomCorrection{0, 0, 3'141'593, 0xFFFFFFFFu};
+  EXPECT_TRUE(check_team(t, kNow, limits).ok());
+}
+
+TEST(TeamValidation, TheCorrectionStepIsBoundedInShiftAndTurnTheShortWayRound) {
+  const TeamCheckLimits limits;  // 2 m, 30°
+  const OdomCorrection from{1000, -1000, 3'000'000, 5};
+  EXPECT_TRUE(correction_step_ok(from, {2414, 414, 3'000'000, 6}, limits));    // 1.9997 m diagonal
+  EXPECT_FALSE(correction_step_ok(from, {2415, 415, 3'000'000, 6}, limits));   // 2.0011 m
+  EXPECT_FALSE(correction_step_ok(from, {3001, -1000, 3'000'000, 6}, limits));
+  EXPECT_TRUE(correction_step_ok(from, {1000, -1000, 3'000'000 - 523'599, 6}, limits));
+  EXPECT_FALSE(correction_step_ok(from, {1000, -1000, 3'000'000 - 523'600, 6}, limits));
+  // 3.0 rad to −3.0 rad is 0.283 rad (16°) across ±π, not 6 rad.
+  EXPECT_TRUE(correction_step_ok(from, {1000, -1000, -3'000'000, 6}, limits));
+  EXPECT_FALSE(correction_step_ok({}, {INT32_MAX, INT32_MIN, 0, 1}, limits));  // no overflow at the extremes
 }
 
 TEST(TeamValidation, EveryMalformedStateIsRefusedWithItsReason) {

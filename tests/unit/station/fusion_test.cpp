@@ -22,8 +22,14 @@
 #include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/station/config.hpp"
 #include "groundstation/station/fusion.hpp"
+#include "groundstation/station/kalman_team_source.hpp"
+#include "groundstation/station/station.hpp"
+#include "onboard/bridge/bridge.hpp"
+#include "onboard/core/pipeline.hpp"
 #include "teamscan.h"
 #include "tests/bench/mapping/synthetic_survey.hpp"
+#include "tests/support/odometry_drift.hpp"
+#include "tests/support/onboard_config_fixture.hpp"
 
 namespace teamscan::station {
 namespace {
@@ -39,30 +45,7 @@ Dataset survey(double duration_s = 3.0, std::uint8_t drift_robot = 0) {
   o.room_m = 6.0;
   o.seed = 3;
   Dataset d = bench::synthetic_survey(o);
-  if (drift_robot != 0) {
-    auto drift = [](std::int64_t stamp_ns) {
-      const double t = static_cast<double>(stamp_ns) * 1e-9;
-      const Pose2 about{3.0, 3.0, 0.0};
-      return about * Pose2{0.012 * t, -0.008 * t, 0.0025 * t} * about.inverse();  // 1.2 cm/s, 0.8 cm/s, 0.14°/s
-    };
-    std::map<std::uint32_t, std::int64_t> stamp_of;
-    for (ScanRecord& r : d.scans) {
-      if (r.robot != drift_robot) continue;
-      stamp_of[r.scan] = r.stamp_ns;
-      const Pose2 m = drift(r.stamp_ns);
-      r.pose = m * r.pose;
-      const Vec2 o2 = m.apply({r.origin.x, r.origin.y});
-      r.origin = {o2.x, o2.y, r.origin.z};
-    }
-    for (LabelledPoint& p : d.points) {
-      if (p.robot != drift_robot) continue;
-      const Vec2 q = drift(stamp_of[p.scan]).apply({p.x, p.y});
-      p.x = static_cast<float>(q.x);
-      p.y = static_cast<float>(q.y);
-    }
-    for (TrajectorySample& s : d.odom)
-      if (s.robot == drift_robot) s.pose = drift(s.stamp_ns) * s.pose;
-  }
+  if (drift_robot != 0) test::add_odometry_drift(d, drift_robot);
   for (LabelledPoint& p : d.points) {
     p.x = static_cast<float>(mm(p.x) * 1e-3);
     p.y = static_cast<float>(mm(p.y) * 1e-3);
@@ -331,6 +314,77 @@ TEST(FusionRegistration, ModelDecisionsEqualEvalWithRegistrationOn) {
       std::filesystem::remove_all(dir);
     }
   }
+}
+
+// The station→robot loop with the real registration: the fusion stage's accepted corrections go to the
+// Kalman team source (CorrectionShare, as main.cpp wires it), teamscan/team carries the drifting robot's
+// newest correction (team_member_from), and that robot's pipeline takes it into use (decode_team,
+// on_team): the correction it applies is the registration's, to the mm and µrad.
+TEST(FusionRegistration, TheTeamCarriesEachRobotsCorrectionToThatRobot) {
+  const Dataset d = survey(12.0, 2);
+  FusionOptions o;
+  o.core.method = "best";
+  o.core.registration = true;
+  o.core.registration_options.window_s = 1.0;
+  o.core.registration_options.match_every_s = 0.3;
+  o.core.registration_options.min_map_features = 20;
+  const std::string dir = temp_dir();
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  KalmanTeamSource team{mapping::TrackerOptions{}};
+  CorrectionShare share;
+  std::size_t handed_over = 0;
+  std::uint64_t last_accepted = 0;
+  const auto share_and_count = [&] {
+    share.share((*stage)->core(), team);
+    const registration::RobotCorrection* c = (*stage)->core().registration()->correction(2);
+    if (c != nullptr && c->accepted != last_accepted) {
+      last_accepted = c->accepted;
+      ++handed_over;
+    }
+  };
+  feed(**stage, d, 0, [&](std::int64_t) { share_and_count(); });
+  share_and_count();  // what the final flush released
+  const registration::RobotCorrection* c = (*stage)->core().registration()->correction(2);
+  ASSERT_NE(c, nullptr);
+  ASSERT_GT(c->accepted, 3u);
+  // The team source's estimates, fed the robots' odometry (its own clock: the survey's, moved to 2027).
+  constexpr std::int64_t kEpochNs = 1'800'000'000'000'000'000;
+  for (const TrajectorySample& s : d.odom) team.add_pose(pose_observation(s, s.stamp_ns));
+  const std::int64_t end_ns = d.odom.back().stamp_ns;
+  std::array<TeamMemberEstimate, kMaxRobots> estimates{};
+  static teamscan_msg_TeamState wire;
+  wire.count = static_cast<std::uint8_t>(team.estimate(Time::from_ns(end_ns), estimates));
+  ASSERT_EQ(wire.count, 2);
+  for (std::size_t i = 0; i < wire.count; ++i) {
+    team_member_from(estimates[i], false, wire.members[i]);
+    wire.members[i].valid_ns += kEpochNs;
+  }
+  const teamscan_msg_TeamMember& m = wire.members[1];
+  ASSERT_EQ(m.robot_id, 2u);
+  const OdomCorrection expected = OdomCorrection::from_pose(c->map_from_odom, static_cast<std::uint32_t>(handed_over));
+  EXPECT_EQ(m.corr_seq, handed_over);  // one number per accepted correction handed over
+  EXPECT_EQ(m.corr_x_mm, expected.x_mm);
+  EXPECT_EQ(m.corr_y_mm, expected.y_mm);
+  EXPECT_EQ(m.corr_yaw_urad, expected.yaw_urad);
+  EXPECT_GT(std::abs(m.corr_x_mm) + std::abs(m.corr_y_mm), 20);  // the drift was corrected (≈ 10 cm by 12 s)
+  // Its σ as at the match (the registration's covariance has grown with the metres driven since).
+  EXPECT_GT(m.corr_sigma_mm, 0u);
+  EXPECT_LE(m.corr_sigma_mm,
+            static_cast<std::uint32_t>(std::lround(1000.0 * std::sqrt(std::max(c->covariance(0, 0), c->covariance(1, 1))))));
+  std::string msg;
+  auto config = onboard::parse_onboard_config(test::pipeline_test_config_toml(2, false), msg);
+  ASSERT_TRUE(config.ok()) << msg;
+  auto robot = onboard::OnboardPipeline::create(config.value());
+  ASSERT_TRUE(robot.ok());
+  onboard::TeamSnapshot snapshot;
+  ASSERT_TRUE(onboard::decode_team(wire, snapshot));
+  ASSERT_TRUE(robot->on_team(snapshot, Time::from_ns(end_ns + kEpochNs)).ok());
+  EXPECT_EQ(robot->applied_correction().seq, expected.seq);
+  EXPECT_EQ(robot->applied_correction().x_mm, expected.x_mm);
+  EXPECT_EQ(robot->applied_correction().yaw_urad, expected.yaw_urad);
+  EXPECT_EQ(robot->counters().corrections_applied, 1u);
+  std::filesystem::remove_all(dir);
 }
 
 // A correction holds from a stamp on, whatever was added before it: the poses stamped at or after it

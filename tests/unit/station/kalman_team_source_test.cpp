@@ -41,6 +41,16 @@ TEST(KalmanTeamSource, TracksAConstantVelocityRobotAtAnAngle) {
   EXPECT_FALSE(out[0].lost);
 }
 
+TEST(KalmanTeamSource, ARobotWithoutACorrectionCarriesNone) {
+  KalmanTeamSource k(mapping::TrackerOptions{});
+  for (int i = 0; i <= 5; ++i) k.add_pose(pose(2, 10.0 + 0.1 * i, 0.0, 0.1 * i, 0.0, 0.0, 1.0));
+  std::array<TeamMemberEstimate, kMaxRobots> out{};
+  ASSERT_EQ(k.estimate(Time::from_seconds(10.5), out), 1u);
+  EXPECT_TRUE(out[0].correction.none());
+  EXPECT_EQ(out[0].correction.x_mm, 0);
+  EXPECT_EQ(out[0].correction.yaw_urad, 0);
+}
+
 TEST(KalmanTeamSource, OrderedByIdAndLostFromLivelinessOrAge) {
   mapping::TrackerOptions o;
   o.lost_after_s = 1.0;
@@ -77,6 +87,19 @@ TEST(KalmanTeamSource, PosesAfterACorrectionArePublishedCorrected) {
   const Pose2 expected = Pose2{0.0, 0.3, 0.05} * Pose2{6.0, 0.0, 0.0};
   EXPECT_NEAR(out[0].x_m, expected.x_m, 0.02);
   EXPECT_NEAR(out[0].y_m, expected.y_m, 0.02);
+  // The estimate carries the correction itself for the robot (teamscan/team TeamMember.corr_*),
+  // numbered from 1, in whole mm and µrad, with its σ.
+  EXPECT_EQ(out[0].correction.seq, 1u);
+  EXPECT_EQ(out[0].correction.x_mm, 0);
+  EXPECT_EQ(out[0].correction.y_mm, 300);
+  EXPECT_EQ(out[0].correction.yaw_urad, 50'000);
+  EXPECT_DOUBLE_EQ(out[0].correction_sigma_m, 0.01);
+  EXPECT_DOUBLE_EQ(out[0].correction_sigma_yaw_rad, 0.001);
+  k.set_correction(3, -0.0625, 0.31, -3.5, 0.02, 0.002);  // yaw wrapped into (−π, π]
+  ASSERT_EQ(k.estimate(Time::from_seconds(16.0), out), 1u);
+  EXPECT_EQ(out[0].correction.seq, 2u);
+  EXPECT_EQ(out[0].correction.x_mm, -63);  // −62.5 mm: ties away from zero
+  EXPECT_EQ(out[0].correction.yaw_urad, 2'783'185);
   k.set_correction(0, 1, 1, 1, 1, 1);  // bad ids are ignored
   k.set_correction(kMaxRobots + 1, 1, 1, 1, 1, 1);
 }

@@ -118,6 +118,31 @@ TEST(SampleValidation, EveryBadValueOfTheIssueIsRefusedWithItsReason) {
   EXPECT_NE(v.status_text().find("rejected 17"), std::string::npos);
 }
 
+// The correction a robot says it applied to a scan (ScanPoints.corr_*): none is all zeros; a correction
+// turns within (−π, π] and shifts by at most the site's extent. Anything else: kCorrection, not fused.
+TEST(SampleValidation, TheAppliedCorrectionOfAScanIsChecked) {
+  SampleValidator v;
+  std::uint32_t seq = 0;
+  const auto with = [&](std::int32_t x, std::int32_t y, std::int32_t yaw, std::uint32_t corr_seq) {
+    auto& s = scan(5, ++seq);
+    s.corr_x_mm = x;
+    s.corr_y_mm = y;
+    s.corr_yaw_urad = yaw;
+    s.corr_seq = corr_seq;
+    return v.check_scan(s, kRecv);
+  };
+  EXPECT_TRUE(with(0, 0, 0, 0).ok());
+  EXPECT_TRUE(with(-150, 37, -3'141'593, 1).ok());
+  EXPECT_TRUE(with(20'000'000, -20'000'000, 3'141'593, 2).ok());  // the site's whole width (±10 km)
+  EXPECT_EQ(with(0, 0, 3'141'594, 3).reason, Reject::kCorrection);
+  EXPECT_EQ(with(0, 0, INT32_MIN, 3).reason, Reject::kCorrection);
+  EXPECT_EQ(with(20'000'001, 0, 0, 3).reason, Reject::kCorrection);
+  EXPECT_EQ(with(0, INT32_MIN, 0, 3).reason, Reject::kCorrection);
+  EXPECT_EQ(with(5, 0, 0, 0).reason, Reject::kCorrection);  // values, but "none applied"
+  EXPECT_EQ(v.counters().by_robot[5][static_cast<std::size_t>(Reject::kCorrection)], 5u);
+  EXPECT_STREQ(reject_name(Reject::kCorrection), "correction");
+}
+
 TEST(SampleValidation, SequenceWrapReplayRestartJumpAndResync) {
   SampleValidator v;
   const std::uint32_t top = 0xFFFFFFFEu;

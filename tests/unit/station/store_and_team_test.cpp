@@ -141,6 +141,8 @@ TEST(SessionStore, StatusLineHasEveryFieldInHeaderOrder) {
     st.clock_sync = 1;
     st.teams_rejected = 23;
     st.last_team_reject = 4;
+    st.corrections_applied = 24;
+    st.corrections_rejected = 25;
     s->append_status(st, ReceiveTime{Time::from_ns(1), Time::from_ns(2)}, 7);
     teamscan_msg_RobotPose p{};
     p.robot_id = 999999;
@@ -152,9 +154,10 @@ TEST(SessionStore, StatusLineHasEveryFieldInHeaderOrder) {
   EXPECT_NE(slurp(dir + "/poses.csv").find("yaw_rate_mradps,rejected\n1,2,999999,0,0,0,0,0,0,0,0,1\n"), std::string::npos);
   const std::string text = slurp(dir + "/status.csv");
   const std::string header = text.substr(0, text.find('\n'));
-  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 25);
-  EXPECT_EQ(header.substr(header.rfind("loop_max_us")), "loop_max_us,clock_sync,teams_rejected,last_team_reject,rejected");
-  EXPECT_EQ(text.substr(text.find('\n') + 1), "1,2,3,4,5,6,7,1,10000,75000,11,12,13,14,15,16,17,18,19,20,21,22,1,23,4,7\n");
+  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 27);
+  EXPECT_EQ(header.substr(header.rfind("loop_max_us")),
+            "loop_max_us,clock_sync,teams_rejected,last_team_reject,corrections_applied,corrections_rejected,rejected");
+  EXPECT_EQ(text.substr(text.find('\n') + 1), "1,2,3,4,5,6,7,1,10000,75000,11,12,13,14,15,16,17,18,19,20,21,22,1,23,4,24,25,7\n");
   std::filesystem::remove_all(std::filesystem::path(dir).parent_path());
 }
 
