@@ -9,8 +9,15 @@
 
 namespace teamscan::registration {
 
+namespace {
+SurfaceOptions with_cap(SurfaceOptions o, std::uint32_t cap) {
+  o.voxel_cap = cap;
+  return o;
+}
+}  // namespace
+
 Registration::Registration(RegistrationOptions options)
-    : options_{options}, reference_{options.surface}, window_grid_{options.surface} {
+    : options_{options}, reference_{options.surface}, window_grid_{with_cap(options.surface, options.window_voxel_cap)} {
   for (std::size_t id = 0; id < robots_.size(); ++id) robots_[id].c.robot = static_cast<std::uint8_t>(id);
 }
 

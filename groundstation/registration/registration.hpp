@@ -33,6 +33,9 @@ struct RegistrationOptions {
   SurfaceOptions surface;            // reference and window grids
   MatchOptions match;
   double window_s = 3.0;             // a robot's recent points matched as one rigid piece
+  // The window's voxels take this many points (the reference's take surface.voxel_cap): the window is
+  // one rigid piece, so every sweep across a voxel counts (a tilted laser's stripes fill it).
+  std::uint32_t window_voxel_cap = 1024;
   double match_every_s = 0.5;        // at most one match per robot this often
   double min_motion_m = 0.05;        // since the last match: less motion than this (and …
   double min_motion_rad = 0.017;     // … less turn) is standing still: no match
