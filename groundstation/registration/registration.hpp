@@ -48,6 +48,19 @@ struct RegistrationOptions {
   double drift_rad2_per_rad = 0.03 * 0.03;
   double initial_sigma_m = 0.01;     // at the registration (the start pose is known)
   double initial_sigma_rad = 0.002;
+  // The drift's systematic part, estimated with the correction (the filter's state: the correction and
+  // three rates): the odometry's distance scale (wheel slip), its heading drift per metre driven and per
+  // radian turned. The prediction extrapolates the correction with them between matches (a skid-steer
+  // base drifts by the metre, so a constant offset falls behind), and a window's scans are matched in
+  // the frame the rates put them in. Off: the correction is held between matches.
+  bool estimate_rates = true;
+  double initial_sigma_scale = 0.03;            // 3 % of the distance
+  double initial_sigma_drift_rad_per_m = 0.01;  // 0.6°/m
+  double initial_sigma_turn = 0.03;             // 3 % of the turn
+  // The rates may change slowly (floor, load): their σ² grows per metre driven.
+  double rate_walk_scale2_per_m = 1e-6;
+  double rate_walk_drift2_per_m = 1e-8;
+  double rate_walk_turn2_per_m = 1e-6;
 };
 
 // A robot's correction and what registration did for it.
@@ -56,6 +69,11 @@ struct RobotCorrection {
   Pose2 map_from_odom;                                  // applied on top of the odometry-map frame
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero(); // (x, y, yaw) about the robot's position
   Vec2 pivot_m;                                         // the robot's position (map frame)
+  // The estimated drift rates (RegistrationOptions::estimate_rates): the robot's true motion between two
+  // odometry poses is the odometry's increment (dx, dy, dθ) made (dx, dy)·(1 + scale),
+  // dθ·(1 + turn) + drift_rad_per_m·√(dx² + dy²).
+  double scale = 0, drift_rad_per_m = 0, turn = 0;
+  bool matched = false;                                 // this scan's match was accepted (a measurement)
   std::uint64_t matches = 0, accepted = 0, degenerate = 0, standing_still = 0, first_lap = 0;
   std::uint64_t rejected_overlap = 0, rejected_fit = 0, rejected_step = 0, too_few_features = 0;
   MatchResult last;                                     // the last match tried
@@ -82,10 +100,13 @@ class Registration {
   struct WindowScan {
     std::int64_t stamp_ns = 0;
     std::vector<Vec3> points;  // usable points only, odometry-map frame
+    Pose2 map_from_odom;       // the correction at the scan (moved with every later match)
   };
+  using Matrix6 = Eigen::Matrix<double, 6, 6>;
   struct Robot {
     bool started = false;
     RobotCorrection c;
+    Matrix6 covariance = Matrix6::Zero();  // (x, y, yaw about c.pivot_m, scale, drift, turn)
     Pose2 last_odom;
     Pose2 odom_at_match;
     std::int64_t last_attempt_ns = 0;
