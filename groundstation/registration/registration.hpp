@@ -1,9 +1,11 @@
 // Scan-to-map registration of a robot team (docs/registration.md): per robot, its recent points (a
 // sliding window of scans, odometry-map frame) are matched against the reference built from every
 // robot's older, corrected points; the match (matcher.hpp) is a measurement of the robot's
-// correction map_from_odom, fused with the correction's own prediction in a 3-state Kalman filter
-// whose uncertainty grows with the distance driven (skid-steer drift). Scans leave the window into
-// the reference with the correction their robot has then. Pure: no I/O, no clocks; counters.
+// correction map_from_odom, fused with the correction's own prediction in a Kalman filter whose state
+// is the correction and the odometry's drift rates (slip, heading drift per metre and per radian
+// turned): the prediction extrapolates the correction with them, its uncertainty grows with the
+// distance driven (skid-steer drift). Scans leave the window into the reference with the correction
+// at the scan (moved by every later match). Pure: no I/O, no clocks; counters.
 //
 // Policy for what such matchers hit in the field:
 //  - standing still: no new information → no match (counted), the correction is kept;
