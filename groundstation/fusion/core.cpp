@@ -226,9 +226,10 @@ void FusionCore::register_scan(const HeldScan& s) {
       registration_->add_scan(s.robot, s.stamp_ns, own.odom, registration_points_, registration_usable_);
   const Pose2& now = c.map_from_odom;
   if (now.x_m != correction.x_m || now.y_m != correction.y_m || now.theta_rad != correction.theta_rad) {
-    // The correction is also a measurement for the robot's Kalman track (its covariance, about the
-    // robot's position): the drift restarts from it.
-    const double position_sigma_m = std::sqrt(std::max(c.covariance(0, 0), c.covariance(1, 1)));
+    // A matched correction is also a measurement for the robot's Kalman track (its covariance, about
+    // the robot's position): the drift restarts from it. One the drift rates extrapolated between
+    // matches is a change of frame only.
+    const double position_sigma_m = c.matched ? std::sqrt(std::max(c.covariance(0, 0), c.covariance(1, 1))) : -1.0;
     poses_.set_map_from_odom(s.robot, s.stamp_ns, now, position_sigma_m, std::sqrt(std::max(0.0, c.covariance(2, 2))));
     ++counters_.registration_corrections;
   }

@@ -49,7 +49,7 @@ struct MatchOptions {
   double huber_m = 0.02;             // robust weight: residuals beyond this count linearly
   double min_normal_dot = 0.8;       // |n_source · n_map| of a correspondence (≈ 37°)
   double lever_m = 2.0;              // yaw is compared with metres at this lever arm (eigen-analysis)
-  double degenerate_ratio = 0.04;    // λ / λ_max below this: the direction is not constrained
+  double degenerate_ratio = 0.01;    // λ / λ_max below this: the direction is not constrained
   std::size_t min_correspondences = 25;
   double min_overlap = 0.45;         // share of source features with a correspondence at the end gate
   double max_rms_m = 0.035;          // weighted RMS point-to-line residual at the end

@@ -24,8 +24,15 @@ RegistrationOptions planar_scan_options(RegistrationOptions o) {
   return o;
 }
 
+namespace {
+SurfaceOptions with_cap(SurfaceOptions o, std::uint32_t cap) {
+  o.voxel_cap = cap;
+  return o;
+}
+}  // namespace
+
 Registration::Registration(RegistrationOptions options)
-    : options_{options}, reference_{options.surface}, window_grid_{options.surface} {
+    : options_{options}, reference_{options.surface}, window_grid_{with_cap(options.surface, options.window_voxel_cap)} {
   for (std::size_t id = 0; id < robots_.size(); ++id) robots_[id].c.robot = static_cast<std::uint8_t>(id);
 }
 
@@ -46,19 +53,26 @@ const RobotCorrection& Registration::add_scan(std::uint8_t robot, std::int64_t s
     r.last_odom = odom_pose;
     r.odom_at_match = odom_pose;
     r.last_attempt_ns = stamp_ns;
-    r.c.covariance = Eigen::Vector3d{options_.initial_sigma_m * options_.initial_sigma_m,
-                                     options_.initial_sigma_m * options_.initial_sigma_m,
-                                     options_.initial_sigma_rad * options_.initial_sigma_rad}
-                         .asDiagonal();
+    const double sm = options_.initial_sigma_m, sr = options_.initial_sigma_rad;
+    r.covariance = Matrix6::Zero();
+    r.covariance.diagonal().head<3>() = Eigen::Vector3d{sm * sm, sm * sm, sr * sr};
+    if (options_.estimate_rates)
+      r.covariance.diagonal().tail<3>() =
+          Eigen::Vector3d{options_.initial_sigma_scale * options_.initial_sigma_scale,
+                          options_.initial_sigma_drift_rad_per_m * options_.initial_sigma_drift_rad_per_m,
+                          options_.initial_sigma_turn * options_.initial_sigma_turn};
+    r.c.covariance = r.covariance.topLeftCorner<3, 3>();
     r.c.pivot_m = r.c.map_from_odom.apply({odom_pose.x_m, odom_pose.y_m});
   } else if (!r.window.empty() && stamp_ns < r.window.back().stamp_ns) {
     ++rejected_scans_;  // out of order: the window is a time window
     return r.c;
   }
+  r.c.matched = false;
   predict(r, odom_pose);
   WindowScan ws;
   ws.stamp_ns = stamp_ns;
   ws.path_m = r.path_m;
+  ws.map_from_odom = r.c.map_from_odom;
   ws.points.reserve(points.size());
   for (std::size_t i = 0; i < points.size(); ++i)
     if (usable.empty() || usable[i]) ws.points.push_back(points[i]);
@@ -68,17 +82,50 @@ const RobotCorrection& Registration::add_scan(std::uint8_t robot, std::int64_t s
   return r.c;
 }
 
+namespace {
+// The left-perturbation Jacobian that moves the pose block's pivot (move_pivot), the rates unchanged.
+Eigen::Matrix<double, 6, 6> pivot_jacobian(const Vec2& from, const Vec2& to) {
+  Eigen::Matrix<double, 6, 6> j = Eigen::Matrix<double, 6, 6>::Identity();
+  j(0, 2) = -(to.y - from.y);
+  j(1, 2) = to.x - from.x;
+  return j;
+}
+}  // namespace
+
 void Registration::predict(Robot& r, const Pose2& odom_pose) {
-  const double ds = std::hypot(odom_pose.x_m - r.last_odom.x_m, odom_pose.y_m - r.last_odom.y_m);
-  const double dtheta = std::abs(normalize_angle(odom_pose.theta_rad - r.last_odom.theta_rad));
+  // The odometry's increment in the robot's frame, and the true one the rates make of it.
+  const Pose2 delta = r.last_odom.inverse() * odom_pose;
+  const double ds = std::hypot(delta.x_m, delta.y_m);
+  const double dtheta = normalize_angle(delta.theta_rad);
+  const Pose2 map_pose = r.c.map_from_odom * r.last_odom;  // where the robot was
   r.last_odom = odom_pose;
   r.path_m += ds;
+  // Standing still, or no rate estimated yet: the correction is held exactly (no rounding drift).
+  const bool rates = r.c.scale != 0.0 || r.c.drift_rad_per_m != 0.0 || r.c.turn != 0.0;
+  if (options_.estimate_rates && rates && (ds > 0.0 || dtheta != 0.0)) {
+    const Pose2 moved{delta.x_m * (1.0 + r.c.scale), delta.y_m * (1.0 + r.c.scale),
+                      dtheta * (1.0 + r.c.turn) + r.c.drift_rad_per_m * ds};
+    r.c.map_from_odom = (map_pose * moved) * odom_pose.inverse();
+  }
   const Vec2 pivot = r.c.map_from_odom.apply({odom_pose.x_m, odom_pose.y_m});
-  r.c.covariance = move_pivot(r.c.covariance, r.c.pivot_m, pivot);
+  Matrix6 f = pivot_jacobian(r.c.pivot_m, pivot);
+  // How the rates move the robot over this increment (left perturbation about the new position).
+  const double c = std::cos(map_pose.theta_rad), s = std::sin(map_pose.theta_rad);
+  f(0, 3) = c * delta.x_m - s * delta.y_m;
+  f(1, 3) = s * delta.x_m + c * delta.y_m;
+  f(2, 4) = ds;
+  f(2, 5) = dtheta;
+  r.covariance = f * r.covariance * f.transpose();
   r.c.pivot_m = pivot;
-  r.c.covariance(0, 0) += options_.drift_m2_per_m * ds;
-  r.c.covariance(1, 1) += options_.drift_m2_per_m * ds;
-  r.c.covariance(2, 2) += options_.drift_rad2_per_m * ds + options_.drift_rad2_per_rad * dtheta;
+  r.covariance(0, 0) += options_.drift_m2_per_m * ds;
+  r.covariance(1, 1) += options_.drift_m2_per_m * ds;
+  r.covariance(2, 2) += options_.drift_rad2_per_m * ds + options_.drift_rad2_per_rad * std::abs(dtheta);
+  if (options_.estimate_rates) {
+    r.covariance(3, 3) += options_.rate_walk_scale2_per_m * ds;
+    r.covariance(4, 4) += options_.rate_walk_drift2_per_m * ds;
+    r.covariance(5, 5) += options_.rate_walk_turn2_per_m * ds;
+  }
+  r.c.covariance = r.covariance.topLeftCorner<3, 3>();
 }
 
 void Registration::retire(Robot& r, std::int64_t now_ns) {
@@ -87,8 +134,10 @@ void Registration::retire(Robot& r, std::int64_t now_ns) {
     return ws.stamp_ns < now_ns - window_ns || (options_.window_m > 0 && r.path_m - ws.path_m > options_.window_m);
   };
   while (!r.window.empty() && leaves(r.window.front())) {
+    // With the correction at the scan (the later matches applied): its place as well as it is known.
+    const Pose2& at_scan = r.window.front().map_from_odom;
     for (const Vec3& p : r.window.front().points)
-      if (reference_.add(corrected(r.c.map_from_odom, p))) map_dirty_ = true;
+      if (reference_.add(corrected(at_scan, p))) map_dirty_ = true;
     r.window.pop_front();
   }
 }
@@ -113,15 +162,24 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
     ++r.c.first_lap;
     return;
   }
+  // The window is matched as one rigid piece in the odometry frame of now: each scan's points moved by
+  // the correction's change since it (the rates' extrapolation; none when the correction was held).
+  const Pose2 now_from_map = r.c.map_from_odom.inverse();
+  auto for_each_window_point = [&](auto&& f) {
+    for (const WindowScan& ws : r.window) {
+      const bool held = ws.map_from_odom.x_m == r.c.map_from_odom.x_m && ws.map_from_odom.y_m == r.c.map_from_odom.y_m &&
+                        ws.map_from_odom.theta_rad == r.c.map_from_odom.theta_rad;
+      const Pose2 now_from_scan = now_from_map * ws.map_from_odom;
+      for (const Vec3& p : ws.points) f(held ? p : corrected(now_from_scan, p));
+    }
+  };
   if (options_.point_source) {
     // Each usable point is a source of its own, without a normal: it pairs with the nearest line.
     scratch_.clear();
-    for (const WindowScan& ws : r.window)
-      for (const Vec3& p : ws.points) scratch_.push_back({p.x, p.y, 0.0, 0.0, 1.0f});
+    for_each_window_point([&](const Vec3& p) { scratch_.push_back({p.x, p.y, 0.0, 0.0, 1.0f}); });
   } else {
     window_grid_.clear();
-    for (const WindowScan& ws : r.window)
-      for (const Vec3& p : ws.points) (void)window_grid_.add(p);
+    for_each_window_point([&](const Vec3& p) { (void)window_grid_.add(p); });
     window_grid_.features(scratch_);
   }
   // The bounded step opens with the prediction's uncertainty (3σ): a robot that went unmatched for a
@@ -142,21 +200,35 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
     case MatchStatus::step_too_large: ++r.c.rejected_step; return;
   }
   ++r.c.accepted;
+  r.c.matched = true;
   if (m.degenerate) ++r.c.degenerate;
   fuse(r, m);
   r.odom_at_match = odom_pose;
 }
 
 void Registration::fuse(Robot& r, const MatchResult& m) {
-  // Kalman update of the correction with the match as a measurement, both about the match's pivot.
-  const Eigen::Matrix3d p = move_pivot(r.c.covariance, r.c.pivot_m, m.pivot_m);
+  // Kalman update of the correction (and, through their correlation, the rates) with the match as a
+  // measurement of the correction, both about the match's pivot.
+  const Matrix6 to_match = pivot_jacobian(r.c.pivot_m, m.pivot_m);
+  const Matrix6 p = to_match * r.covariance * to_match.transpose();
   const Eigen::Vector3d innovation = difference(m.map_from_odom, r.c.map_from_odom, m.pivot_m);
-  const Eigen::Matrix3d k = p * (p + m.covariance).inverse();
-  const Eigen::Vector3d step = k * innovation;
+  const Eigen::Matrix<double, 6, 3> k = p.leftCols<3>() * (p.topLeftCorner<3, 3>() + m.covariance).inverse();
+  const Eigen::Matrix<double, 6, 1> step = k * innovation;
+  const Pose2 before = r.c.map_from_odom;
   r.c.map_from_odom = perturb(r.c.map_from_odom, m.pivot_m, step(0), step(1), step(2));
-  Eigen::Matrix3d updated = (Eigen::Matrix3d::Identity() - k) * p;
+  if (options_.estimate_rates) {
+    r.c.scale += step(3);
+    r.c.drift_rad_per_m += step(4);
+    r.c.turn += step(5);
+  }
+  Matrix6 updated = p - k * p.topRows<3>();
   updated = 0.5 * (updated + updated.transpose());
-  r.c.covariance = move_pivot(updated, m.pivot_m, r.c.pivot_m);
+  r.covariance = pivot_jacobian(m.pivot_m, r.c.pivot_m) * updated * pivot_jacobian(m.pivot_m, r.c.pivot_m).transpose();
+  r.c.covariance = r.covariance.topLeftCorner<3, 3>();
+  // The window's scans were off by the same: they move with it (their change relative to now stays
+  // the rates' extrapolation).
+  const Pose2 moved = r.c.map_from_odom * before.inverse();
+  for (WindowScan& ws : r.window) ws.map_from_odom = moved * ws.map_from_odom;
 }
 
 }  // namespace teamscan::registration

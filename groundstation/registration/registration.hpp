@@ -1,9 +1,11 @@
 // Scan-to-map registration of a robot team (docs/registration.md): per robot, its recent points (a
 // sliding window of scans, odometry-map frame) are matched against the reference built from every
 // robot's older, corrected points; the match (matcher.hpp) is a measurement of the robot's
-// correction map_from_odom, fused with the correction's own prediction in a 3-state Kalman filter
-// whose uncertainty grows with the distance driven (skid-steer drift). Scans leave the window into
-// the reference with the correction their robot has then. Pure: no I/O, no clocks; counters.
+// correction map_from_odom, fused with the correction's own prediction in a Kalman filter whose state
+// is the correction and the odometry's drift rates (slip, heading drift per metre and per radian
+// turned): the prediction extrapolates the correction with them, its uncertainty grows with the
+// distance driven (skid-steer drift). Scans leave the window into the reference with the correction
+// at the scan (moved by every later match). Pure: no I/O, no clocks; counters.
 //
 // Policy for what such matchers hit in the field:
 //  - standing still: no new information → no match (counted), the correction is kept;
@@ -35,6 +37,9 @@ struct RegistrationOptions {
   double window_s = 3.0;             // a robot's recent points matched as one rigid piece
   double window_m = 0.0;             // … and no more path than this (0: time alone): a sparse log that
                                      // covers metres in a few seconds keeps only a rigid stretch
+  // The window's voxels take this many points (the reference's take surface.voxel_cap): the window is
+  // one rigid piece, so every sweep across a voxel counts (a tilted laser's stripes fill it).
+  std::uint32_t window_voxel_cap = 1024;
   double match_every_s = 0.5;        // at most one match per robot this often
   // The source of a match: the window's surface features (a tilted laser's 3-D points), or its
   // points themselves, each paired with the nearest reference line (point-to-line: a sparse 2-D
@@ -51,6 +56,19 @@ struct RegistrationOptions {
   double drift_rad2_per_rad = 0.03 * 0.03;
   double initial_sigma_m = 0.01;     // at the registration (the start pose is known)
   double initial_sigma_rad = 0.002;
+  // The drift's systematic part, estimated with the correction (the filter's state: the correction and
+  // three rates): the odometry's distance scale (wheel slip), its heading drift per metre driven and per
+  // radian turned. The prediction extrapolates the correction with them between matches (a skid-steer
+  // base drifts by the metre, so a constant offset falls behind), and a window's scans are matched in
+  // the frame the rates put them in. Off: the correction is held between matches.
+  bool estimate_rates = true;
+  double initial_sigma_scale = 0.03;            // 3 % of the distance
+  double initial_sigma_drift_rad_per_m = 0.01;  // 0.6°/m
+  double initial_sigma_turn = 0.03;             // 3 % of the turn
+  // The rates may change slowly (floor, load): their σ² grows per metre driven.
+  double rate_walk_scale2_per_m = 1e-6;
+  double rate_walk_drift2_per_m = 1e-8;
+  double rate_walk_turn2_per_m = 1e-6;
 };
 
 // The policy for horizontal 2-D lasers (every point at the mount's height: an imported CARMEN log),
@@ -68,6 +86,11 @@ struct RobotCorrection {
   Pose2 map_from_odom;                                  // applied on top of the odometry-map frame
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero(); // (x, y, yaw) about the robot's position
   Vec2 pivot_m;                                         // the robot's position (map frame)
+  // The estimated drift rates (RegistrationOptions::estimate_rates): the robot's true motion between two
+  // odometry poses is the odometry's increment (dx, dy, dθ) made (dx, dy)·(1 + scale),
+  // dθ·(1 + turn) + drift_rad_per_m·√(dx² + dy²).
+  double scale = 0, drift_rad_per_m = 0, turn = 0;
+  bool matched = false;                                 // this scan's match was accepted (a measurement)
   std::uint64_t matches = 0, accepted = 0, degenerate = 0, standing_still = 0, first_lap = 0;
   std::uint64_t rejected_overlap = 0, rejected_fit = 0, rejected_step = 0, too_few_features = 0;
   MatchResult last;                                     // the last match tried
@@ -95,10 +118,13 @@ class Registration {
     std::int64_t stamp_ns = 0;
     double path_m = 0;         // the robot's path length at this scan
     std::vector<Vec3> points;  // usable points only, odometry-map frame
+    Pose2 map_from_odom;       // the correction at the scan (moved with every later match)
   };
+  using Matrix6 = Eigen::Matrix<double, 6, 6>;
   struct Robot {
     bool started = false;
     RobotCorrection c;
+    Matrix6 covariance = Matrix6::Zero();  // (x, y, yaw about c.pivot_m, scale, drift, turn)
     Pose2 last_odom;
     double path_m = 0;  // driven so far (odometry)
     Pose2 odom_at_match;

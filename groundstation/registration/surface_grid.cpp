@@ -49,8 +49,31 @@ void SurfaceGrid::features(std::vector<LineFeature>& out) const {
     std::uint64_t column;
     LineFeature f;
   };
+  // A voxel too thin to be a surface on its own (one laser stripe across it) but lying along a
+  // horizontal line: a tilted laser's stripe on a wall, or on the ceiling. The stripes of one column
+  // are pooled; the pool of a wall spans its heights (a vertical plane), a ceiling's does not.
+  struct Stripe {
+    std::uint64_t column;
+    double n;
+    Eigen::Vector3d mean;
+    Eigen::Matrix3d scatter;  // about `mean`, summed (n · covariance)
+  };
   std::vector<Candidate> candidates;
+  std::vector<Stripe> stripes;
   candidates.reserve(voxels_.size() / 2);
+  const double min_extent2 = options_.min_extent_m * options_.min_extent_m;
+  // The plane test of a scatter (covariance `cov`) whose mean is `mean`: a feature in `candidates`.
+  auto vertical_surface = [&](std::uint64_t column, const Eigen::Matrix3d& cov, const Eigen::Vector3d& mean, double n) {
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+    es.computeDirect(cov);
+    const Eigen::Vector3d ev = es.eigenvalues();  // ascending
+    if (!(ev(1) >= min_extent2) || ev(0) > options_.max_flatness * ev(1)) return false;
+    const Eigen::Vector3d normal = es.eigenvectors().col(0);
+    if (std::abs(normal.z()) > options_.max_normal_z) return false;
+    const double h = std::hypot(normal.x(), normal.y());
+    candidates.push_back({column, {mean.x(), mean.y(), normal.x() / h, normal.y() / h, static_cast<float>(n)}});
+    return true;
+  };
   voxels_.for_each([&](std::uint64_t key, const Voxel& v) {
     if (v.n < options_.min_points) return;
     const double n = v.n;
@@ -60,22 +83,43 @@ void SurfaceGrid::features(std::vector<LineFeature>& out) const {
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es2;
       es2.computeDirect(cov.topLeftCorner<2, 2>());
       const Eigen::Vector2d ev2 = es2.eigenvalues();
-      if (!(ev2(1) >= options_.min_extent_m * options_.min_extent_m) || ev2(0) > options_.max_flatness * ev2(1)) return;
+      if (!(ev2(1) >= min_extent2) || ev2(0) > options_.max_flatness * ev2(1)) return;
       const Eigen::Vector2d n2 = es2.eigenvectors().col(0).normalized();
       const Eigen::Vector3d mean = v.origin + mean_rel;
       candidates.push_back({key >> 21, {mean.x(), mean.y(), n2.x(), n2.y(), static_cast<float>(v.n)}});
       return;
     }
+    const Eigen::Vector3d mean = v.origin + mean_rel;
+    if (vertical_surface(key >> 21, cov, mean, n) || !options_.pool_stripes) return;
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
     es.computeDirect(cov);
-    const Eigen::Vector3d ev = es.eigenvalues();  // ascending
-    if (!(ev(1) >= options_.min_extent_m * options_.min_extent_m) || ev(0) > options_.max_flatness * ev(1)) return;
-    const Eigen::Vector3d normal = es.eigenvectors().col(0);
-    if (std::abs(normal.z()) > options_.max_normal_z) return;
-    const double h = std::hypot(normal.x(), normal.y());
-    const Eigen::Vector3d mean = v.origin + mean_rel;
-    candidates.push_back({key >> 21, {mean.x(), mean.y(), normal.x() / h, normal.y() / h, static_cast<float>(v.n)}});
+    const Eigen::Vector3d ev = es.eigenvalues();
+    const Eigen::Vector3d along = es.eigenvectors().col(2);
+    if (ev(1) < min_extent2 && ev(2) >= min_extent2 && std::abs(along.z()) <= options_.max_stripe_slope)
+      stripes.push_back({key >> 21, n, mean, cov * n});
   });
+  if (!stripes.empty()) {
+    std::sort(stripes.begin(), stripes.end(), [](const Stripe& a, const Stripe& b) { return a.column < b.column; });
+    for (std::size_t i = 0; i < stripes.size();) {
+      std::size_t j = i;
+      double n = 0;
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (; j < stripes.size() && stripes[j].column == stripes[i].column; ++j) {
+        n += stripes[j].n;
+        mean += stripes[j].n * stripes[j].mean;
+      }
+      if (j - i >= 2) {
+        mean /= n;
+        Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+        for (std::size_t k = i; k < j; ++k) {
+          const Eigen::Vector3d d = stripes[k].mean - mean;
+          scatter += stripes[k].scatter + stripes[k].n * d * d.transpose();
+        }
+        (void)vertical_surface(stripes[i].column, scatter / n, mean, n);
+      }
+      i = j;
+    }
+  }
   std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) { return a.column < b.column; });
   // Merge the voxels of one column (the same wall at several heights) whose normals agree.
   for (std::size_t i = 0; i < candidates.size();) {

@@ -25,6 +25,11 @@ struct SurfaceOptions {
   double min_extent_m = 0.02;       // √λ_mid: the points span a surface, not one laser stripe (a line
                                     // whose normal could point anywhere round it)
   double floor_band_m = 0.06;       // points below this height are floor and never enter
+  // A tilted laser draws stripes: a voxel crossed by one stripe is a line, too thin for a normal.
+  // The stripes of one voxel column (lines within max_stripe_slope of horizontal) are pooled; a pool
+  // that passes the surface test (the stripes at several heights of a wall) is a feature.
+  bool pool_stripes = true;
+  double max_stripe_slope = 0.5;    // |z| of a stripe's unit direction
   // Horizontal 2-D lasers (every point at the mount's height): a voxel's surface is a line in the
   // floor plane; its normal comes from the points' spread in x, y alone.
   bool planar_scans = false;

@@ -256,3 +256,68 @@ TEST(Registration, BadInputIsCountedAndChangesNothing) {
 
 }  // namespace
 }  // namespace teamscan::registration
+
+namespace teamscan::registration {
+namespace {
+
+struct RateRun {
+  double mean_error_m = 0, mean_error_deg = 0;
+  RobotCorrection last;
+};
+
+// Robot 1 drifts (3 % slip, 0.3°/m) and is matched only every 2 s; robot 2 has exact odometry and
+// builds the reference. The error is averaged over every scan of robot 1 in the last 60 s.
+RateRun drive_with_sparse_matches(bool estimate_rates) {
+  const Scene s = furnished_room();
+  RegistrationOptions o;
+  o.match_every_s = 2.0;
+  o.estimate_rates = estimate_rates;
+  Registration reg{o};
+  DriftingRobot r1{1, 0.03, deg_to_rad(0.3)}, r2{2, 0.0, 0.0};
+  std::mt19937_64 rng{7};
+  std::vector<std::uint8_t> usable;
+  RateRun out;
+  int n = 0;
+  for (int k = 0; k <= 1200; ++k) {
+    const std::int64_t t_ns = static_cast<std::int64_t>(k) * 100'000'000;
+    const double phase = 0.3 * 0.1 * k / 2.1;
+    for (DriftingRobot* r : {&r1, &r2}) {
+      r->move_to(on_oval(phase + (r->id == 2 ? kPi : 0.0), 2.6, 1.7));
+      const auto pts = testing::into_odometry(s.sample({r->truth.x_m, r->truth.y_m}, 3.0, 1500, rng), r->true_correction());
+      usable.assign(pts.size(), 1);
+      const RobotCorrection& c = reg.add_scan(r->id, t_ns, r->odom, pts, usable);
+      if (r->id == 1 && k > 600) {
+        const Errors e = error_of(c, *r);
+        out.mean_error_m += e.after_m;
+        out.mean_error_deg += e.after_deg;
+        ++n;
+      }
+    }
+  }
+  out.mean_error_m /= n;
+  out.mean_error_deg /= n;
+  out.last = *reg.correction(1);
+  return out;
+}
+
+TEST(Registration, EstimatesTheDriftRatesAndExtrapolatesBetweenMatches) {
+  const RateRun held = drive_with_sparse_matches(false);
+  const RateRun rates = drive_with_sparse_matches(true);
+  // The odometry reports 3 % more distance and turns 0.3°/m too much: the true increment is the
+  // odometry's scaled by 1/1.03 and turned back by 0.3°/m of true distance.
+  EXPECT_NEAR(rates.last.scale, 1.0 / 1.03 - 1.0, 0.006);
+  // The robot turns one way round the oval, so the heading drift per metre and per radian turned are
+  // told apart only by the curvature's changes: their sum over a lap (2π rad in 13.66 m) is what counts.
+  const double lap_m = 13.66;  // Ramanujan: the 2.6 × 1.7 m oval
+  EXPECT_NEAR(rates.last.drift_rad_per_m + rates.last.turn * 2.0 * kPi / lap_m, -deg_to_rad(0.3) / 1.03, deg_to_rad(0.05))
+      << rates.last.drift_rad_per_m << " " << rates.last.turn;
+  EXPECT_EQ(held.last.scale, 0.0);
+  EXPECT_EQ(held.last.drift_rad_per_m, 0.0);
+  // Between the matches the held correction falls behind by 2 s of drift; the rates keep up.
+  EXPECT_LT(rates.mean_error_m, 0.5 * held.mean_error_m) << held.mean_error_m;
+  EXPECT_LT(rates.mean_error_deg, 0.5 * held.mean_error_deg) << held.mean_error_deg;
+  EXPECT_LT(rates.mean_error_m, 0.015);
+}
+
+}  // namespace
+}  // namespace teamscan::registration

@@ -94,3 +94,46 @@ TEST(SurfaceGrid, AHorizontalLaserSeesWallsEdgeOn) {
 
 }  // namespace
 }  // namespace teamscan::registration
+
+namespace teamscan::registration {
+namespace {
+
+// A wall y = 3.05 seen by a laser pitched down as it drives along x: every sweep draws one stripe on the
+// wall, a horizontal line at a height that changes from sweep to sweep, so a voxel holds a few thin
+// line (too thin for a normal on its own). The ceiling's stripes lie at one height, z = 2.5 on a voxel
+// boundary, so each is split between two voxels of its column: pooled, still one line.
+void stripes(SurfaceGrid& grid, double wall_y, double ceiling_z, std::mt19937_64& rng) {
+  std::normal_distribution<double> g(0.0, 0.003);
+  for (int sweep = 0; sweep < 6; ++sweep) {
+    const double z = 0.15 + 0.1 * sweep;  // one stripe per 10 cm voxel layer
+    for (double x = -2.0; x < 2.0; x += 0.005) {
+      (void)grid.add({x + g(rng), wall_y + g(rng), z + g(rng)});
+      (void)grid.add({x + g(rng), 0.4 * sweep - 1.0 + g(rng), ceiling_z + g(rng)});
+    }
+  }
+}
+
+TEST(SurfaceGrid, ATiltedLasersStripesOnAWallArePooledPerColumn) {
+  std::mt19937_64 rng{4};
+  SurfaceOptions o;
+  o.voxel_cap = 1000;
+  SurfaceGrid grid{o};
+  stripes(grid, 3.05, 2.5, rng);
+  std::vector<LineFeature> f;
+  grid.features(f);
+  // One feature per wall column (40 columns along 4 m), none from the ceiling's stripes.
+  ASSERT_GE(f.size(), 38u);
+  for (const LineFeature& l : f) {
+    EXPECT_NEAR(l.y_m, 3.05, 0.02) << l.x_m;
+    EXPECT_GT(std::abs(l.ny), 0.99) << l.x_m;
+  }
+  // Without pooling, the same stripes give no feature: each voxel holds lines only.
+  o.pool_stripes = false;
+  SurfaceGrid single{o};
+  stripes(single, 3.05, 2.5, rng);
+  single.features(f);
+  EXPECT_EQ(f.size(), 0u);
+}
+
+}  // namespace
+}  // namespace teamscan::registration
