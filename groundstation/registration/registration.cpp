@@ -21,6 +21,9 @@ RegistrationOptions planar_scan_options(RegistrationOptions o) {
   o.match.min_overlap = 0.30;
   o.drift_rad2_per_m = 0.02 * 0.02;
   o.drift_rad2_per_rad = 0.1 * 0.1;
+  // Every scan is matched: no gap to extrapolate over, and one scan's short baseline makes the rates'
+  // estimates noise (the Intel lab: within 10 cm 33.0 % without them, 19.5 % with).
+  o.estimate_rates = false;
   return o;
 }
 

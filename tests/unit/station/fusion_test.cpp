@@ -335,11 +335,13 @@ TEST(FusionRegistration, TheTeamCarriesEachRobotsCorrectionToThatRobot) {
   CorrectionShare share;
   std::size_t handed_over = 0;
   std::uint64_t last_accepted = 0;
+  Pose2 at_last_match;  // the correction when its last match was accepted (extrapolated by the rates since)
   const auto share_and_count = [&] {
     share.share((*stage)->core(), team);
     const registration::RobotCorrection* c = (*stage)->core().registration()->correction(2);
     if (c != nullptr && c->accepted != last_accepted) {
       last_accepted = c->accepted;
+      at_last_match = c->map_from_odom;
       ++handed_over;
     }
   };
@@ -362,7 +364,9 @@ TEST(FusionRegistration, TheTeamCarriesEachRobotsCorrectionToThatRobot) {
   }
   const teamscan_msg_TeamMember& m = wire.members[1];
   ASSERT_EQ(m.robot_id, 2u);
-  const OdomCorrection expected = OdomCorrection::from_pose(c->map_from_odom, static_cast<std::uint32_t>(handed_over));
+  // The team carries each accepted match's correction (not the rates' extrapolation between matches:
+  // docs/registration.md "Not done yet").
+  const OdomCorrection expected = OdomCorrection::from_pose(at_last_match, static_cast<std::uint32_t>(handed_over));
   EXPECT_EQ(m.corr_seq, handed_over);  // one number per accepted correction handed over
   EXPECT_EQ(m.corr_x_mm, expected.x_mm);
   EXPECT_EQ(m.corr_y_mm, expected.y_mm);
