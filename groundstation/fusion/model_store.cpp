@@ -27,13 +27,18 @@ bool ModelStore::add(const ModelPoint& m) {
     return static_cast<std::int32_t>(std::clamp(k, -double(mapping::VoxelMap::kIndexLimit), double(mapping::VoxelMap::kIndexLimit - 1)));
   };
   const std::uint64_t key = mapping::VoxelMap::pack({index(m.p.x), index(m.p.y), index(m.p.z)});
-  bool inserted = false;
-  std::uint32_t& at = index_.get_or_insert(key, 0, &inserted);
-  if (inserted) {
-    at = static_cast<std::uint32_t>(slots_.size());
-    slots_.emplace_back();
+  // A scan's neighbouring beams often land in one voxel: the last voxel is remembered.
+  if (key != last_key_) {
+    bool inserted = false;
+    std::uint32_t& at = index_.get_or_insert(key, 0, &inserted);
+    if (inserted) {
+      at = static_cast<std::uint32_t>(slots_.size());
+      slots_.emplace_back();
+    }
+    last_key_ = key;
+    last_slot_ = at;
   }
-  Slot& s = slots_[at];
+  Slot& s = slots_[last_slot_];
   if (s.count >= cap_) {
     ++capped_;
     return false;

@@ -84,6 +84,8 @@ class ModelStore {
   std::uint32_t cap_;
   mapping::FlatKeyMap<std::uint32_t> index_;  // packed voxel key -> index in slots_
   std::vector<Slot> slots_;
+  std::uint64_t last_key_ = mapping::FlatKeyMap<std::uint32_t>::kEmpty;  // the voxel of the last add
+  std::uint32_t last_slot_ = 0;
   std::vector<std::unique_ptr<Chunk[], FreePage>> pages_;
   std::uint32_t chunks_ = 0;
   std::uint64_t points_ = 0, capped_ = 0;
