@@ -90,9 +90,9 @@ async function main() {
     });
     const page = context.pages()[0] || (await context.newPage());
     page.on('console', (m) => { if (m.type() === 'error') console.log(`page error: ${m.text()}`); });
-    await waitFor('the page to load', 60000, async () => {
+    await waitFor('the page to load', 120000, async () => {
       try {
-        await page.goto(url, { timeout: 5000 });
+        await page.goto(url, { timeout: 15000 });
         return true;
       } catch (e) {
         return false;
