@@ -71,6 +71,10 @@ TEST(StationRestart, EveryScanMissedWhileDownArrivesAfterRestart) {
     ASSERT_TRUE(wait_for_subscribers(*bridge, 1, 15s));
     publish(1, 50);
     ASSERT_TRUE(bridge->wait_for_scan_acks(10s).ok());
+    // An acknowledgement means the station's DDS reader holds the sample, not that its loop stored it
+    // yet: the crash comes once the 50 are in its session (the restart below must recover the rest anyway).
+    const auto stored_by = std::chrono::steady_clock::now() + 20s;
+    while (seqs_in(first, kRobot).size() < 50 && std::chrono::steady_clock::now() < stored_by) std::this_thread::sleep_for(20ms);
     gs.signal(SIGKILL);  // a crash: no orderly shutdown
     ASSERT_TRUE(gs.wait(5s).has_value());
   }
