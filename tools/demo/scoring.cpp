@@ -35,6 +35,14 @@ Pose2 interpolate_pose(const std::vector<TrajectorySample>& s, std::int64_t t) {
   return interpolate(a.pose, b.pose, f);
 }
 
+
+// The station's config as the demo wrote it; false with `error` set.
+bool read_station_config(const std::string& path, station::GroundStationConfig& cfg, std::string& error) {
+  station::ConfigError e;
+  if (station::load_groundstation_config(path, cfg, e)) return true;
+  error = "cannot read the station config (" + e.message + ")";
+  return false;
+}
 }  // namespace
 
 LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live,
@@ -281,12 +289,8 @@ std::vector<SessionEvalCheck> check_station_models_against_session_eval(const st
                                                                        const std::vector<LabelledPoint>& points,
                                                                        const std::vector<std::uint32_t>& point_seq) {
   station::GroundStationConfig gcfg;
-  station::ConfigError gerr;
-  if (!station::load_groundstation_config(station_config, gcfg, gerr)) {
-    SessionEvalCheck sc;
-    sc.error = "cannot read the station config (" + gerr.message + ")";
-    return {sc};
-  }
+  SessionEvalCheck failed;
+  if (!read_station_config(station_config, gcfg, failed.error)) return {failed};
   std::vector<SessionEvalCheck> out;
   out.push_back(check_station_against_session_eval(session, station_config, points, point_seq));
   for (const std::string& m : gcfg.fusion.compare_methods)
@@ -299,11 +303,7 @@ SessionEvalCheck check_station_against_session_eval(const std::string& session, 
                                                     const std::vector<std::uint32_t>& point_seq, const std::string& method) {
   SessionEvalCheck sc;
   station::GroundStationConfig gcfg;
-  station::ConfigError gerr;
-  if (!station::load_groundstation_config(station_config, gcfg, gerr)) {
-    sc.error = "cannot read the station config (" + gerr.message + ")";
-    return sc;
-  }
+  if (!read_station_config(station_config, gcfg, sc.error)) return sc;
   sc.primary = method.empty() || method == gcfg.fusion.method;
   sc.method = sc.primary ? gcfg.fusion.method : method;
   // With its [registration] (on and its keys): the eval of the session runs with the registration as the
@@ -368,11 +368,7 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
                                      const std::string& scratch_dir) {
   SessionReplay out;
   station::GroundStationConfig gcfg;
-  station::ConfigError gerr;
-  if (!station::load_groundstation_config(station_config, gcfg, gerr)) {
-    out.error = "cannot read the station config (" + gerr.message + ")";
-    return out;
-  }
+  if (!read_station_config(station_config, gcfg, out.error)) return out;
   const station::FusionOptions options = station::fusion_options_from_config(gcfg.fusion, gcfg.kalman, gcfg.registration);
   std::vector<std::string> methods{options.core.method};
   methods.insert(methods.end(), options.compare_methods.begin(), options.compare_methods.end());
@@ -473,11 +469,7 @@ LiveRegistrationScore score_live_registration(const std::string& session, const 
                                               const SessionReplay& replay, const LiveDataset& live) {
   LiveRegistrationScore out;
   station::GroundStationConfig gcfg;
-  station::ConfigError gerr;
-  if (!station::load_groundstation_config(station_config, gcfg, gerr)) {
-    out.error = "cannot read the station config (" + gerr.message + ")";
-    return out;
-  }
+  if (!read_station_config(station_config, gcfg, out.error)) return out;
   out.enabled = station::fusion_options_from_config(gcfg.fusion, gcfg.kalman, gcfg.registration).core.registration;
   if (!replay.error.empty()) {
     out.error = replay.error;
