@@ -20,6 +20,7 @@
 #include "dds/security/openssl_util.hpp"
 #include "groundstation/station/config.hpp"
 #include "groundstation/station/disk_sync.hpp"
+#include "groundstation/station/huge_page_heap.hpp"
 #include "groundstation/station/ros2_publisher.hpp"
 #include "groundstation/station/session_store.hpp"
 #include "groundstation/station/station.hpp"
@@ -54,6 +55,8 @@ constexpr int kInfo = 6;
 int main(int argc, char** argv) {
   using namespace teamscan;
   using namespace teamscan::station;
+  std::string heap_why;
+  const HeapPages heap = use_huge_page_heap(argv, &heap_why);  // may re-execute: first, before any thread
   CLI::App app{"teamscan ground station: receives, stores and tracks the robots' DDS data"};
   std::string config_path;
   std::string session_dir;
@@ -127,6 +130,9 @@ int main(int argc, char** argv) {
     return 1;
   }
   log(kInfo, "session folder " + store->dir());
+  if (heap == HeapPages::Huge) log(kInfo, "heap on transparent huge pages (glibc.malloc.hugetlb=1)");
+  else if (heap == HeapPages::OperatorSet) log(kInfo, std::string("heap pages as GLIBC_TUNABLES says: ") + std::getenv("GLIBC_TUNABLES"));
+  else log(kWarning, "heap on 4 KiB pages (the re-execution with glibc.malloc.hugetlb=1 failed: " + heap_why + ")");
   LastPoseTeamSource last_pose(cfg.last_pose);
   TeamSource* team = &last_pose;
   KalmanTeamSource kalman(tracker_options(cfg.kalman), cfg.last_pose.default_body);
