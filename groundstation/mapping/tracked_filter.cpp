@@ -63,6 +63,16 @@ BodyBox body_box(const RobotEstimate& other, const TrackedOptions& o, const Eige
   return b;
 }
 
+double box_reach_m(const BodyBox& b, double sweep_s) {
+  // Every test of box_contains bounds |along| and |across| by one of these pairs (the outline lies
+  // inside the low footprint); the centre moves by velocity · dt_s with |dt_s| ≤ sweep_s.
+  const double upper_x = std::isfinite(b.upper_from_z_m) ? std::abs(b.upper_centre_x_m) + b.upper_half_x_m : 0.0;
+  const double upper_y = std::isfinite(b.upper_from_z_m) ? b.upper_half_y_m : 0.0;
+  const double r = std::max({std::hypot(b.half_x_m, b.half_y_m), std::hypot(b.low_half_x_m, b.low_half_y_m),
+                             std::hypot(upper_x, upper_y)});
+  return r + std::hypot(b.velocity_mps.x, b.velocity_mps.y) * std::abs(sweep_s) + 1e-6;
+}
+
 bool box_contains(const BodyBox& b, const MapPoint& p, double dt_s) {
   if (p.z < b.z_min_m || p.z > b.z_max_m) return false;
   const double dx = p.x - (b.centre_m.x + b.velocity_mps.x * dt_s);
@@ -102,8 +112,18 @@ void TrackedFilter::point_bits(const ScanView& scan, std::span<std::uint8_t> rem
   // The scanning robot's own odometry drift (tracker.hpp): its points are off by its position error
   // plus its heading error times the range, relative to teammates registered by their own odometry.
   const RobotEstimate* self = scan.team->find(scan.robot);
+  // The scan's footprint (x, y bounds): a teammate whose box cannot reach it is skipped without testing
+  // its points (with 32 robots most teammates are rooms away; the decisions are the same).
+  double lo_x = INFINITY, lo_y = INFINITY, hi_x = -INFINITY, hi_y = -INFINITY;
+  for (const MapPoint& p : scan.points) {
+    lo_x = std::min(lo_x, static_cast<double>(p.x));
+    hi_x = std::max(hi_x, static_cast<double>(p.x));
+    lo_y = std::min(lo_y, static_cast<double>(p.y));
+    hi_y = std::max(hi_y, static_cast<double>(p.y));
+  }
   for (const RobotEstimate& other : scan.team->robots) {
     if (other.robot == scan.robot || !other.valid) continue;
+    if (!(lo_x <= hi_x)) break;  // no points (or none finite in x, y: none can be in a box)
     Eigen::Matrix2d extra = Eigen::Matrix2d::Zero();
     if (options_.include_drift && self != nullptr && self->valid) {
       const double range_m = std::hypot(other.position_m.x - scan.origin_m.x, other.position_m.y - scan.origin_m.y);
@@ -112,6 +132,10 @@ void TrackedFilter::point_bits(const ScanView& scan, std::span<std::uint8_t> rem
     }
     BodyBox box = body_box(other, options_, extra);
     box.sensor_m = scan.origin_m;
+    const double reach_m = box_reach_m(box, options_.sweep_s);
+    const double gap_x = std::max({0.0, lo_x - box.centre_m.x, box.centre_m.x - hi_x});
+    const double gap_y = std::max({0.0, lo_y - box.centre_m.y, box.centre_m.y - hi_y});
+    if (gap_x * gap_x + gap_y * gap_y > reach_m * reach_m) continue;
     for (std::size_t i = 0; i < scan.points.size(); ++i) {
       if (removed[i]) continue;
       // The teammates are interpolated to each beam's time within the sweep (TrackedOptions::sweep_s).

@@ -39,6 +39,9 @@ struct BodyBox {
 // Whether `p` lies in `box` with the teammate moved by `dt_s` (beam time − scan stamp), the beam
 // coming from box.sensor_m.
 [[nodiscard]] bool box_contains(const BodyBox& box, const MapPoint& p, double dt_s);
+// How far from box.centre_m (in x, y) a point box_contains accepts can lie, for |dt_s| ≤ sweep_s: a
+// bound, so a scan whose points are all further away needs no test.
+[[nodiscard]] double box_reach_m(const BodyBox& box, double sweep_s);
 
 class TrackedFilter final : public Filter {
  public:
