@@ -79,7 +79,8 @@ TEST(E2eRegistrationDemo, DriftingLap2IsCorrectedLiveAndTheModelIsItsSessionRepl
   const std::size_t r2 = s.find("{\"robot\": 2, \"corrections_applied\"", corr);
   const double accepted2 = json_number(s, "accepted", s.find("{\"robot\": 2, \"matches\"", reg));
   EXPECT_GT(json_number(s, "corrections_applied", r2), 0) << s;
-  EXPECT_GT(json_number(s, "scans_corrected", r2), 0.5 * json_number(s, "scans", r2)) << s;
+  // A quarter of its stored scans at least (20 s: ~70 %; the first match waits for the first lap's map).
+  EXPECT_GT(json_number(s, "scans_corrected", r2), 0.25 * json_number(s, "scans", r2)) << s;
   EXPECT_GT(json_number(s, "corrections_carried", r2), accepted2) << s;  // the extrapolation between matches too
   EXPECT_GT(std::abs(json_number(s, "last_x_mm", r2)) + std::abs(json_number(s, "last_y_mm", r2)), 20) << s;
   auto robot_stat = [&](const char* what, const char* q) { return json_number(s, q, s.find(std::string("\"") + what + "\":", r2)); };
