@@ -228,9 +228,9 @@ void FusionCore::register_scan(const HeldScan& s) {
   if (now.x_m != correction.x_m || now.y_m != correction.y_m || now.theta_rad != correction.theta_rad) {
     // A matched correction is also a measurement for the robot's Kalman track (its covariance, about
     // the robot's position): the drift restarts from it. One the drift rates extrapolated between
-    // matches is a change of frame only.
-    const double position_sigma_m = c.matched ? std::sqrt(std::max(c.covariance(0, 0), c.covariance(1, 1))) : -1.0;
-    poses_.set_map_from_odom(s.robot, s.stamp_ns, now, position_sigma_m, std::sqrt(std::max(0.0, c.covariance(2, 2))));
+    // matches is a change of frame only. Both carry their σ (teamscan/team hands it to the robot).
+    poses_.set_map_from_odom(s.robot, s.stamp_ns, now, std::sqrt(std::max({0.0, c.covariance(0, 0), c.covariance(1, 1)})),
+                             std::sqrt(std::max(0.0, c.covariance(2, 2))), c.matched);
     ++counters_.registration_corrections;
   }
 }

@@ -29,11 +29,21 @@ std::int64_t PoseHistory::newest_stamp(std::uint8_t robot) const {
   return robots_[robot].entries.back().pose.stamp_ns;
 }
 
-Pose2 PoseHistory::correction_at(const Robot& r, std::int64_t stamp_ns) {
+const PoseHistory::Correction* PoseHistory::in_force(const Robot& r, std::int64_t stamp_ns) {
   auto after = std::upper_bound(r.corrections.begin(), r.corrections.end(), stamp_ns,
                                 [](std::int64_t t, const Correction& c) { return t < c.from_stamp_ns; });
-  if (after == r.corrections.begin()) return Pose2{};
-  return std::prev(after)->map_from_odom;
+  if (after == r.corrections.begin()) return nullptr;
+  return &*std::prev(after);
+}
+
+Pose2 PoseHistory::correction_at(const Robot& r, std::int64_t stamp_ns) {
+  const Correction* c = in_force(r, stamp_ns);
+  return c != nullptr ? c->map_from_odom : Pose2{};
+}
+
+const PoseHistory::Correction* PoseHistory::correction_at(std::uint8_t robot, std::int64_t stamp_ns) const {
+  if (robot == 0 || robot > kMaxRobots) return nullptr;
+  return in_force(robots_[robot], stamp_ns);
 }
 
 Pose2 PoseHistory::map_from_odom(std::uint8_t robot, std::int64_t stamp_ns) const {
@@ -42,7 +52,7 @@ Pose2 PoseHistory::map_from_odom(std::uint8_t robot, std::int64_t stamp_ns) cons
 }
 
 void PoseHistory::set_map_from_odom(std::uint8_t robot, std::int64_t from_stamp_ns, const Pose2& map_from_odom,
-                                    double position_sigma_m, double heading_sigma_rad) {
+                                    double position_sigma_m, double heading_sigma_rad, bool measurement) {
   if (robot == 0 || robot > kMaxRobots || !std::isfinite(map_from_odom.x_m) || !std::isfinite(map_from_odom.y_m) ||
       !std::isfinite(map_from_odom.theta_rad)) {
     return;
@@ -50,8 +60,8 @@ void PoseHistory::set_map_from_odom(std::uint8_t robot, std::int64_t from_stamp_
   Robot& r = robots_[robot];
   auto at = std::lower_bound(r.corrections.begin(), r.corrections.end(), from_stamp_ns,
                              [](const Correction& c, std::int64_t t) { return c.from_stamp_ns < t; });
-  const Correction c{from_stamp_ns, map_from_odom, std::isfinite(position_sigma_m) ? position_sigma_m : -1.0,
-                     std::isfinite(heading_sigma_rad) ? heading_sigma_rad : 0.0};
+  const Correction c{from_stamp_ns, map_from_odom, std::isfinite(position_sigma_m) ? std::max(0.0, position_sigma_m) : 0.0,
+                     std::isfinite(heading_sigma_rad) ? std::max(0.0, heading_sigma_rad) : 0.0, measurement};
   if (at != r.corrections.end() && at->from_stamp_ns == from_stamp_ns) {
     *at = c;
   } else {
@@ -77,7 +87,7 @@ mapping::RobotTrack PoseHistory::fold(const Robot& r, std::size_t k, std::uint8_
                                 [](std::int64_t t0, const Correction& c) { return t0 < c.from_stamp_ns; });
   const Correction* registration = nullptr;
   for (; after != r.corrections.end() && after->from_stamp_ns <= e.pose.stamp_ns; ++after)
-    if (after->position_sigma_m >= 0.0) registration = &*after;
+    if (after->measurement) registration = &*after;
   if (registration != nullptr) t.registered(registration->position_sigma_m, registration->heading_sigma_rad);
   t.update(e.pose.stamp_ns, e.map_pose, e.pose.v_mps);
   return t;

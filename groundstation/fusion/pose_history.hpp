@@ -58,15 +58,27 @@ class PoseHistory {
   // Every robot with a pose at or before `stamp_ns`, its track predicted to `stamp_ns`, by robot id.
   [[nodiscard]] mapping::TeamState team_at(std::int64_t stamp_ns) const;
 
+  // A robot's correction from a stamp on, as set_map_from_odom set it.
+  struct Correction {
+    std::int64_t from_stamp_ns = 0;
+    Pose2 map_from_odom;
+    double position_sigma_m = 0.0;   // its σ about the robot's position
+    double heading_sigma_rad = 0.0;
+    bool measurement = false;        // a match: registers the Kalman track; else a change of frame only
+  };
   // The registration's correction of a robot's odometry (identity until set), from `from_stamp_ns` on:
   // the poses stamped at or after it (held or still to come) are corrected by it and their tracks
-  // folded again. A correction set again at the same stamp replaces the earlier one. With
-  // `position_sigma_m` >= 0 it is also a measurement for the Kalman track: the track is registered
-  // (RobotTrack::registered, with the correction's σ) before the first pose stamped at or after it.
+  // folded again. A correction set again at the same stamp replaces the earlier one. A `measurement`
+  // (an accepted match) also registers the Kalman track (RobotTrack::registered, with its σ) before the
+  // first pose stamped at or after it; otherwise (the drift rates' extrapolation between matches) it is
+  // a change of frame, whose σ is only carried (correction_at).
   void set_map_from_odom(std::uint8_t robot, std::int64_t from_stamp_ns, const Pose2& map_from_odom,
-                         double position_sigma_m = -1.0, double heading_sigma_rad = 0.0);
+                         double position_sigma_m = 0.0, double heading_sigma_rad = 0.0, bool measurement = false);
   // The correction in force at `stamp_ns` (identity before the first).
   [[nodiscard]] Pose2 map_from_odom(std::uint8_t robot, std::int64_t stamp_ns) const;
+  // The same with its stamp and σ: what the core applies to the poses and scans stamped `stamp_ns`, and
+  // what teamscan/team hands the robot at a publication time (station CorrectionShare). nullptr: none.
+  [[nodiscard]] const Correction* correction_at(std::uint8_t robot, std::int64_t stamp_ns) const;
   // Whether a robot has ever been corrected (identity is exact without one).
   [[nodiscard]] bool corrected(std::uint8_t robot) const { return robot <= kMaxRobots && !robots_[robot].corrections.empty(); }
 
@@ -87,17 +99,12 @@ class PoseHistory {
     Pose2 map_pose;          // corrected into the map frame
     mapping::RobotTrack track;  // after this pose
   };
-  struct Correction {
-    std::int64_t from_stamp_ns = 0;
-    Pose2 map_from_odom;
-    double position_sigma_m = -1.0;  // < 0: a frame change only, the track is not registered
-    double heading_sigma_rad = 0.0;
-  };
   struct Robot {
     std::vector<Entry> entries;  // stamp order
     std::vector<Correction> corrections;  // from_stamp order
   };
   [[nodiscard]] const Entry* at_or_before(const Robot& r, std::int64_t stamp_ns) const;
+  [[nodiscard]] static const Correction* in_force(const Robot& r, std::int64_t stamp_ns);
   [[nodiscard]] static Pose2 correction_at(const Robot& r, std::int64_t stamp_ns);
   // Recomputes the map poses and tracks of the entries from index `from` on.
   void refold(Robot& r, std::size_t from, std::uint8_t robot) const;

@@ -513,16 +513,22 @@ std::uint32_t FusionStage::map_resolution_mm() const {
   return static_cast<std::uint32_t>(std::lround(options_.map_resolution_m * 1000.0));
 }
 
-void CorrectionShare::share(const fusion::FusionCore& core, TeamSource& team) {
+void CorrectionShare::share(const fusion::FusionCore& core, TeamSource& team, Time at) {
   const registration::Registration* reg = core.registration();
   if (reg == nullptr) return;
   for (std::uint8_t id = 1; id <= kMaxRobots; ++id) {
-    const registration::RobotCorrection* c = reg->correction(id);
-    if (c == nullptr || c->accepted == shared_[id]) continue;
-    shared_[id] = c->accepted;
-    team.set_correction(id, c->map_from_odom.x_m, c->map_from_odom.y_m, c->map_from_odom.theta_rad,
-                        std::sqrt(std::max(c->covariance(0, 0), c->covariance(1, 1))),
-                        std::sqrt(std::max(0.0, c->covariance(2, 2))));
+    const fusion::PoseHistory::Correction* c = core.poses().correction_at(id, at.ns());
+    if (c == nullptr) continue;
+    Shared& s = shared_[id];
+    const Pose2& m = c->map_from_odom;
+    if (s.any && s.from_stamp_ns == c->from_stamp_ns && s.map_from_odom.x_m == m.x_m && s.map_from_odom.y_m == m.y_m &&
+        s.map_from_odom.theta_rad == m.theta_rad) {
+      continue;
+    }
+    const registration::RobotCorrection* r = reg->correction(id);
+    const std::uint64_t accepted = r != nullptr ? r->accepted : 0;
+    team.set_correction(id, m.x_m, m.y_m, m.theta_rad, c->position_sigma_m, c->heading_sigma_rad, accepted != s.accepted);
+    s = Shared{c->from_stamp_ns, m, accepted, true};
   }
 }
 

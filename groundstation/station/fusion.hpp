@@ -244,16 +244,26 @@ class FusionStage {
   ModelWriteReport writer_report_;
 };
 
-// Hands each robot's newly accepted registration correction (map_from_odom with its position σ
-// √max(σ_x², σ_y²) and heading σ) from the fusion core to the team source, so teamscan/team carries the
-// corrected poses and the correction itself (docs/registration.md "Back on the robots"). Call after
-// every sample the core took and after a session replay; a correction is handed over once.
+// Hands each robot's correction, as the fusion core applies it at a time (PoseHistory::correction_at:
+// the newest its registration set at or before that time, an accepted match's or the drift rates'
+// extrapolation between matches, with its σ), to the team source whenever it changed, so teamscan/team
+// carries the corrected poses and the correction itself (docs/registration.md "Back on the robots").
+// A change that follows an accepted match registers the team source's track (`measurement`); the
+// extrapolation is a change of frame. Call with the time before every team publication (the loop: also
+// after held scans were released by the clock), after every sample the core took, and after a session
+// replay.
 class CorrectionShare {
  public:
-  void share(const fusion::FusionCore& core, TeamSource& team);
+  void share(const fusion::FusionCore& core, TeamSource& team, Time at);
 
  private:
-  std::array<std::uint64_t, kMaxRobots + 1> shared_{};  // accepted matches already handed over, per robot id
+  struct Shared {
+    std::int64_t from_stamp_ns = 0;
+    Pose2 map_from_odom;
+    std::uint64_t accepted = 0;  // the registration's accepted matches when it was handed over
+    bool any = false;
+  };
+  std::array<Shared, kMaxRobots + 1> shared_{};  // per robot id: the correction last handed over
 };
 
 }  // namespace teamscan::station

@@ -20,7 +20,7 @@ void KalmanTeamSource::add_pose(const PoseObservation& p) {
 }
 
 void KalmanTeamSource::set_correction(std::uint32_t robot_id, double x_m, double y_m, double yaw_rad, double position_sigma_m,
-                                      double heading_sigma_rad) {
+                                      double heading_sigma_rad, bool measurement) {
   if (robot_id == 0 || robot_id > kMaxRobots || !std::isfinite(x_m) || !std::isfinite(y_m) || !std::isfinite(yaw_rad)) return;
   map_from_odom_[robot_id] = Pose2{x_m, y_m, yaw_rad};
   Correction& c = correction_[robot_id];
@@ -30,7 +30,7 @@ void KalmanTeamSource::set_correction(std::uint32_t robot_id, double x_m, double
   c.wire = OdomCorrection::from_pose(map_from_odom_[robot_id], seq);
   c.sigma_m = position_sigma_m;
   c.sigma_yaw_rad = heading_sigma_rad;
-  tracker_.registered(static_cast<std::uint8_t>(robot_id), position_sigma_m, heading_sigma_rad);
+  if (measurement) tracker_.registered(static_cast<std::uint8_t>(robot_id), position_sigma_m, heading_sigma_rad);
 }
 
 void KalmanTeamSource::set_lost(std::uint32_t robot_id, bool lost) {

@@ -1,7 +1,7 @@
 // TeamSource over the mapping engineer's Kalman tracker (groundstation/mapping/tracker.hpp): the
 // constant-velocity filter per robot, fed with every received pose, predicted to the publication time.
 // With the registration on, each robot's poses are corrected by its map_from_odom before the tracker,
-// and a new correction registers the track (its σ replaces the accumulated drift): teamscan/team
+// and a new measured correction registers the track (its σ replaces the accumulated drift): teamscan/team
 // carries the corrected poses and each robot's correction.
 #pragma once
 
@@ -19,7 +19,7 @@ class KalmanTeamSource final : public TeamSource {
   void set_lost(std::uint32_t robot_id, bool lost) override;
   void set_body(std::uint32_t robot_id, const RobotBody& body) override;
   void set_correction(std::uint32_t robot_id, double x_m, double y_m, double yaw_rad, double position_sigma_m,
-                      double heading_sigma_rad) override;
+                      double heading_sigma_rad, bool measurement) override;
   [[nodiscard]] std::size_t estimate(Time at, std::span<TeamMemberEstimate> out) const override;
 
  private:

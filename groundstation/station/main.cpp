@@ -188,15 +188,15 @@ int main(int argc, char** argv) {
     }
     // With the registration on, each robot's new correction goes to the team source, so teamscan/team
     // carries the corrected poses and the correction (docs/registration.md).
-    corrections.share(fusion->core(), *team);  // after the session replay
+    corrections.share(fusion->core(), *team, now_realtime());  // after the session replay
     // The hooks outlive this block; what they refer to lives as long as this function.
     st.add_pose_hook([&fusion, &corrections, team](const PoseObservation& p) {
       fusion->add_pose(p);
-      corrections.share(fusion->core(), *team);
+      corrections.share(fusion->core(), *team, now_realtime());
     });
     st.add_scan_hook([&fusion, &corrections, team](const StoredScan& s) {
       fusion->add_scan(s);
-      corrections.share(fusion->core(), *team);
+      corrections.share(fusion->core(), *team, now_realtime());
     });
     log(kInfo, "fusion: method " + cfg.fusion.method + ", model " + store->dir() + "/fused.pcd");
     for (const std::string& m : cfg.fusion.compare_methods)
@@ -306,6 +306,14 @@ int main(int argc, char** argv) {
     const std::size_t handled = st.poll(std::min<Duration>(cfg.station.team_period, std::chrono::milliseconds(50)));
     now = now_monotonic();
     if (handled > 0) handle_max = std::max(handle_max, now - before_poll);
+    if (fusion) {
+      // Held scans that waited long enough go now (the clock, not a sample, releases them: a burst, a
+      // feed that stopped); their matches may move a correction, so the correction the core applies now
+      // goes to the team source before the team is published, not only after the next sample.
+      const Time rt = now_realtime();
+      fusion->tick(rt.ns());
+      corrections.share(fusion->core(), *team, rt);
+    }
     st.publish_team_if_due(now);
     if (ros2) ros2->tick(now, *team);
     if (view_feeder) view_feeder->tick(now);
@@ -313,10 +321,7 @@ int main(int argc, char** argv) {
       dds::notify_watchdog();
       next_ping = now + ping_period;
     }
-    if (fusion) {
-      fusion->tick(now_realtime().ns());
-      (void)fusion->poll_write();  // a finished write logged; a coalesced one started
-    }
+    if (fusion) (void)fusion->poll_write();  // a finished write logged; a coalesced one started
     // The periodic model write: the snapshot in this loop, the files on the writer thread (events.log).
     if (fusion && cfg.fusion.write_interval.count() > 0 && now >= next_write) {
       if (fusion->counters().scans != scans_at_write) {

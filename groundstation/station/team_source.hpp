@@ -65,11 +65,12 @@ class TeamSource {
   virtual void set_body(std::uint32_t robot_id, const RobotBody& body) = 0;
   // The registration's correction of a robot's odometry (map_from_odom: x, y, yaw) with its position
   // and heading σ, from the fusion core (docs/registration.md): the poses that follow are corrected by
-  // it, and the estimates carry it to the robot. A source without a model of it ignores it (the
-  // last-pose stand-in: its estimates carry none).
+  // it, and the estimates carry it to the robot. `measurement`: an accepted match since the last one set
+  // (the track is registered with the σ); else the drift rates' extrapolation, a change of frame only.
+  // A source without a model of it ignores it (the last-pose stand-in: its estimates carry none).
   virtual void set_correction(std::uint32_t robot_id, double x_m, double y_m, double yaw_rad, double position_sigma_m,
-                              double heading_sigma_rad) {
-    (void)robot_id, (void)x_m, (void)y_m, (void)yaw_rad, (void)position_sigma_m, (void)heading_sigma_rad;
+                              double heading_sigma_rad, bool measurement) {
+    (void)robot_id, (void)x_m, (void)y_m, (void)yaw_rad, (void)position_sigma_m, (void)heading_sigma_rad, (void)measurement;
   }
   // Writes every known robot predicted to `at` into `out` (ordered by robot id); returns the count.
   [[nodiscard]] virtual std::size_t estimate(Time at, std::span<TeamMemberEstimate> out) const = 0;

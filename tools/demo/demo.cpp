@@ -637,6 +637,35 @@ int run_demo(const DemoOptions& a) {
     }
     stj << "]},\n";
   }
+  // The corrections back on the robots: what each daemon took from teamscan/team and applied to the
+  // scans it published, and the pose error of those scans as the robot placed them.
+  {
+    const RobotCorrections rc = score_robot_corrections(session, L);
+    std::ostringstream t;
+    std::ostringstream j;
+    if (!rc.error.empty()) t << "  corrections on the robots: not measured: " << rc.error << "\n";
+    for (const RobotCorrectionScore& r : rc.robots) {
+      t << "  robot" << unsigned(r.robot) << " applied " << r.corrections_applied << " corrections from teamscan/team (refused "
+        << r.corrections_rejected << "); " << r.scans_corrected << " of " << r.scans << " stored scans carry one ("
+        << r.corrections_carried << " distinct, the last (" << r.last.x_mm << " mm, " << r.last.y_mm << " mm, "
+        << fmt("%.3f", r.last.yaw_urad * 1e-6 * kRadToDeg) << " deg) #" << r.last.seq << ")";
+      if (r.pose_m_robot.count > 0)
+        t << "; pose error of the " << r.pose_m_robot.count << " run-window scans carrying one: as the robot placed them "
+          << stats_text(r.pose_m_robot, 100, "%.1f") << " cm, " << stats_text(r.pose_deg_robot, 1, "%.2f")
+          << " deg; odometry alone " << stats_text(r.pose_m_odometry, 100, "%.1f") << " cm, " << stats_text(r.pose_deg_odometry, 1, "%.2f")
+          << " deg";
+      t << "\n";
+      j << (j.tellp() > 0 ? ",\n    " : "\n    ") << "{\"robot\": " << unsigned(r.robot) << ", \"corrections_applied\": " << r.corrections_applied
+        << ", \"corrections_rejected\": " << r.corrections_rejected << ", \"scans\": " << r.scans
+        << ", \"scans_corrected\": " << r.scans_corrected << ", \"corrections_carried\": " << r.corrections_carried
+        << ", \"last_x_mm\": " << r.last.x_mm << ", \"last_y_mm\": " << r.last.y_mm << ", \"last_yaw_urad\": " << r.last.yaw_urad
+        << ", \"last_seq\": " << r.last.seq << ",\n      \"pose_m_robot\": " << stats_json(r.pose_m_robot)
+        << ", \"pose_deg_robot\": " << stats_json(r.pose_deg_robot) << ", \"pose_m_odometry\": " << stats_json(r.pose_m_odometry)
+        << ", \"pose_deg_odometry\": " << stats_json(r.pose_deg_odometry) << "}";
+    }
+    stxt << t.str();
+    stj << "  \"robot_corrections\": {\"error\": \"" << json_escape(rc.error) << "\", \"robots\": [" << j.str() << "\n  ]},\n";
+  }
   // The identity the verdict requires: with the registration off, `teamscan eval SESSION` (stamp order:
   // the decisions do not depend on the order); with it on, the station's own core on its session in
   // arrival order (the corrections follow the order), and the eval's differences are reported above.

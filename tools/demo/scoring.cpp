@@ -19,6 +19,7 @@
 #include "groundstation/fusion/core.hpp"
 #include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/station/model_check.hpp"
+#include "groundstation/station/scan_record_read.hpp"
 #include "groundstation/station/session_replay.hpp"
 
 namespace teamscan::demo {
@@ -532,6 +533,76 @@ LiveRegistrationScore score_live_registration(const std::string& session, const 
                           corrected_poses, decided);
   out.scans = out.pose_m_corrected.count;
   out.points = out.point_m_corrected.count;
+  return out;
+}
+
+RobotCorrections score_robot_corrections(const std::string& session, const LiveDataset& live) {
+  RobotCorrections out;
+  std::map<std::uint8_t, RobotCorrectionScore> by_robot;
+  auto robot = [&](std::uint32_t id) -> RobotCorrectionScore& {
+    RobotCorrectionScore& r = by_robot[static_cast<std::uint8_t>(id)];
+    r.robot = static_cast<std::uint8_t>(id);
+    return r;
+  };
+  Result<std::vector<StatusRow>> status = read_status_csv(session + "/status.csv");
+  if (!status) {
+    out.error = std::string("session: ") + status.error().what;
+    return out;
+  }
+  for (const StatusRow& s : status.value()) {  // counters only grow: the highest is the last
+    RobotCorrectionScore& r = robot(s.robot_id);
+    r.corrections_applied = std::max(r.corrections_applied, s.corrections_applied);
+    r.corrections_rejected = std::max(r.corrections_rejected, s.corrections_rejected);
+  }
+  // Each accepted scan's applied correction, by (robot, seq).
+  std::map<std::pair<std::uint8_t, std::uint32_t>, OdomCorrection> applied;
+  std::map<std::uint8_t, std::set<std::uint32_t>> carried;
+  station::ScanDecodeStats st;
+  std::string err;
+  if (!station::read_scan_file(session + "/scans.bin", [&](const station::StoredScan& sc) {
+        if (sc.rejected != 0 || sc.robot_id == 0 || sc.robot_id > kMaxRobots) return;
+        RobotCorrectionScore& r = robot(sc.robot_id);
+        ++r.scans;
+        r.last = sc.applied;
+        if (sc.applied.none()) return;
+        ++r.scans_corrected;
+        carried[r.robot].insert(sc.applied.seq);
+        applied[{r.robot, sc.seq}] = sc.applied;
+      }, st, err)) {
+    out.error = "session: " + err;
+    return out;
+  }
+  for (const auto& [id, seqs] : carried) by_robot[id].corrections_carried = seqs.size();
+  // The run window's scans that carry a correction: odometry pose (the session's, at the scan's stamp)
+  // and the robot's, against the truth.
+  station::SessionReadStats stats;
+  auto read = station::read_session_dataset(session, stats);
+  if (!read) {
+    out.error = std::string("session: ") + read.error().what;
+    return out;
+  }
+  std::map<std::pair<std::uint8_t, std::uint32_t>, std::size_t> truth_of;
+  for (std::size_t i = 0; i < live.ds.scans.size() && i < live.scan_seq.size(); ++i)
+    truth_of[{live.ds.scans[i].robot, live.scan_seq[i]}] = i;
+  for (auto& [id, r] : by_robot) {
+    Dataset measured;
+    measured.truth = live.ds.truth;
+    std::vector<Pose2> robot_poses;
+    for (const ScanRecord& s : read->scans) {
+      if (s.robot != id) continue;
+      auto a = applied.find({s.robot, s.scan});
+      auto t = truth_of.find({s.robot, s.scan});
+      if (a == applied.end() || t == truth_of.end()) continue;
+      ScanRecord m = s;
+      m.true_pose = live.ds.scans[t->second].true_pose;
+      measured.scans.push_back(m);
+      robot_poses.push_back(a->second.map_from_odom() * s.pose);
+    }
+    mapping::ErrorStats points;
+    mapping::measure_errors(measured, r.pose_m_odometry, r.pose_deg_odometry, points);
+    mapping::measure_errors(measured, r.pose_m_robot, r.pose_deg_robot, points, {}, robot_poses);
+    out.robots.push_back(r);
+  }
   return out;
 }
 

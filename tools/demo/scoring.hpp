@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/dataset/dataset.hpp"
+#include "common/odom_correction.hpp"
 #include "groundstation/mapping/dataset_registration.hpp"
 #include "groundstation/mapping/metrics.hpp"
 #include "groundstation/station/scan_record.hpp"
@@ -147,6 +148,25 @@ struct LiveRegistrationScore {
 };
 [[nodiscard]] LiveRegistrationScore score_live_registration(const std::string& session, const std::string& station_config,
                                                             const SessionReplay& replay, const LiveDataset& live);
+
+// The corrections back on the robots (docs/registration.md "Back on the robots"): per robot, what its
+// daemon did with the corrections teamscan/team brought it (its last status: taken into use, refused),
+// the stored scans that say they carry one (scans.bin records each scan's applied correction), and the
+// pose error against the live world's truth of the run window's scans that carry one: as the robot
+// placed them (the correction it applied on its odometry) and by its odometry alone.
+struct RobotCorrectionScore {
+  std::uint8_t robot = 0;
+  std::uint64_t corrections_applied = 0, corrections_rejected = 0;  // the robot's last status
+  std::uint64_t scans = 0, scans_corrected = 0;  // stored (accepted at the edge), and carrying a correction
+  std::uint64_t corrections_carried = 0;         // distinct corrections (corr_seq) the scans carry
+  OdomCorrection last;                           // the last scan's
+  mapping::ErrorStats pose_m_odometry, pose_deg_odometry, pose_m_robot, pose_deg_robot;
+};
+struct RobotCorrections {
+  std::string error;  // the session could not be read; nothing measured
+  std::vector<RobotCorrectionScore> robots;  // by robot id
+};
+[[nodiscard]] RobotCorrections score_robot_corrections(const std::string& session, const LiveDataset& live);
 
 // Fault `--unplug-robot`: the robot's lms_state sequence as the station stored it (consecutive
 // duplicates merged) and its highest lms_reopens, from status.csv.

@@ -108,25 +108,27 @@ Result<std::vector<StatusRow>> read_status_csv(const std::string& path, std::siz
   Result<CsvTable> table = CsvTable::read(path);
   if (!table) return table.error();
   const CsvTable& t = table.value();
-  static const char* const kNames[] = {"robot_id", "stamp_ns", "lms_state", "scans_published", "lms_reopens",
-                                       "points_team_stale"};
+  static const char* const kNames[] = {"robot_id",          "stamp_ns",          "lms_state",           "scans_published",
+                                       "lms_reopens",       "points_team_stale", "corrections_applied", "corrections_rejected"};
   // Error texts are static (common/result.hpp): one per column, the missing one named.
   static const char* const kMissing[] = {
       "status.csv lacks the column robot_id",        "status.csv lacks the column stamp_ns",
       "status.csv lacks the column lms_state",       "status.csv lacks the column scans_published",
-      "status.csv lacks the column lms_reopens",     "status.csv lacks the column points_team_stale"};
-  std::size_t cols[6];
-  if (const std::size_t m = columns(t, kNames, cols); m < 6) return Error{kMissing[m]};
+      "status.csv lacks the column lms_reopens",     "status.csv lacks the column points_team_stale",
+      "status.csv lacks the column corrections_applied", "status.csv lacks the column corrections_rejected"};
+  std::size_t cols[8];
+  if (const std::size_t m = columns(t, kNames, cols); m < 8) return Error{kMissing[m]};
   std::vector<StatusRow> out;
   std::size_t bad = t.bad_rows();
   for (std::size_t r = 0; r < t.rows(); ++r) {
-    std::int64_t v[6];
+    std::int64_t v[8];
     if (!integers(t, r, cols, v)) {
       ++bad;
       continue;
     }
     out.push_back({static_cast<std::uint32_t>(v[0]), v[1], static_cast<unsigned>(v[2]), static_cast<std::uint32_t>(v[3]),
-                   static_cast<std::uint32_t>(v[4]), static_cast<std::uint32_t>(v[5])});
+                   static_cast<std::uint32_t>(v[4]), static_cast<std::uint32_t>(v[5]), static_cast<std::uint64_t>(v[6]),
+                   static_cast<std::uint64_t>(v[7])});
   }
   if (bad_rows) *bad_rows = bad;
   return out;

@@ -44,6 +44,8 @@ struct StatusRow {
   std::uint32_t scans_published = 0;
   std::uint32_t lms_reopens = 0;
   std::uint32_t points_team_stale = 0;
+  std::uint64_t corrections_applied = 0;   // its own odometry corrections taken from teamscan/team
+  std::uint64_t corrections_rejected = 0;  // … and refused (an absurd step)
 };
 
 // One pose as stored in poses.csv (wire units).

@@ -149,8 +149,8 @@ TEST(SessionCsv, RowsThatDoNotParseAreSkippedAndCounted) {
   const std::string path = dir.path() + "/status.csv";
   std::FILE* f = std::fopen(path.c_str(), "w");
   ASSERT_NE(f, nullptr);
-  std::fputs("lms_reopens,robot_id,stamp_ns,lms_state,scans_published,points_team_stale\n"
-             "2,1,10,3,4,5\nx,1,11,3,4,5\n7,1,12,3,4\n",
+  std::fputs("lms_reopens,robot_id,stamp_ns,lms_state,scans_published,points_team_stale,corrections_rejected,corrections_applied\n"
+             "2,1,10,3,4,5,1,9\nx,1,11,3,4,5,0,0\n7,1,12,3,4,0,0\n",
              f);
   std::fclose(f);
   std::size_t bad = 0;
@@ -158,6 +158,8 @@ TEST(SessionCsv, RowsThatDoNotParseAreSkippedAndCounted) {
   ASSERT_TRUE(rows.ok());
   ASSERT_EQ(rows->size(), 1u);
   EXPECT_EQ((*rows)[0].lms_reopens, 2u);
+  EXPECT_EQ((*rows)[0].corrections_applied, 9u);
+  EXPECT_EQ((*rows)[0].corrections_rejected, 1u);
   EXPECT_EQ(bad, 2u);
 }
 

@@ -26,6 +26,7 @@
 #include "groundstation/station/station.hpp"
 #include "onboard/bridge/bridge.hpp"
 #include "onboard/core/pipeline.hpp"
+#include "onboard/core/team_validation.hpp"
 #include "teamscan.h"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 #include "tests/support/odometry_drift.hpp"
@@ -316,11 +317,13 @@ TEST(FusionRegistration, ModelDecisionsEqualEvalWithRegistrationOn) {
   }
 }
 
-// The station→robot loop with the real registration: the fusion stage's accepted corrections go to the
-// Kalman team source (CorrectionShare, as main.cpp wires it), teamscan/team carries the drifting robot's
-// newest correction (team_member_from), and that robot's pipeline takes it into use (decode_team,
-// on_team): the correction it applies is the registration's, to the mm and µrad.
-TEST(FusionRegistration, TheTeamCarriesEachRobotsCorrectionToThatRobot) {
+// The station→robot loop with the real registration: the fusion stage's corrections go to the Kalman
+// team source (CorrectionShare, as main.cpp wires it), teamscan/team carries the drifting robot's
+// correction as the core applies it at the publication time (team_member_from): between two matches the
+// drift rates' extrapolation, not the last match's offset; every step of the published sequence is one
+// the robot takes (correction_step_ok: 2 m / 30°), and that robot's pipeline takes the last one into use
+// (decode_team, on_team): the correction it applies is the core's, to the mm and µrad.
+TEST(FusionRegistration, TheTeamCarriesTheCorrectionTheCoreAppliesAtThePublicationTime) {
   const Dataset d = survey(12.0, 2);
   FusionOptions o;
   o.core.method = "best";
@@ -332,29 +335,79 @@ TEST(FusionRegistration, TheTeamCarriesEachRobotsCorrectionToThatRobot) {
   auto stage = FusionStage::create(o, dir);
   ASSERT_TRUE(stage.ok());
   KalmanTeamSource team{mapping::TrackerOptions{}};
-  CorrectionShare share;
-  std::size_t handed_over = 0;
-  std::uint64_t last_accepted = 0;
-  Pose2 at_last_match;  // the correction when its last match was accepted (extrapolated by the rates since)
-  const auto share_and_count = [&] {
-    share.share((*stage)->core(), team);
-    const registration::RobotCorrection* c = (*stage)->core().registration()->correction(2);
-    if (c != nullptr && c->accepted != last_accepted) {
-      last_accepted = c->accepted;
-      at_last_match = c->map_from_odom;
-      ++handed_over;
+  // The team source knows both robots from their first poses (an estimate lists only tracked robots).
+  for (std::uint8_t id : {1, 2}) {
+    for (const TrajectorySample& s : d.odom) {
+      if (s.robot != id) continue;
+      team.add_pose(pose_observation(s, s.stamp_ns));
+      break;
     }
+  }
+  CorrectionShare share;
+  const onboard::TeamCheckLimits limits;
+  std::array<TeamMemberEstimate, kMaxRobots> estimates{};
+  OdomCorrection published;             // robot 2's correction on the last team published
+  std::uint64_t accepted_before = 0;    // the registration's accepted matches at that publication
+  Pose2 at_last_match;                  // the correction the core applied when its last match was accepted
+  std::size_t publications = 0, changed = 0, extrapolated = 0, steps_refused = 0;
+  double largest_step_mm = 0;
+  // A team publication at `at_ns`: the correction handed over, the estimate in its wire form.
+  const auto publish = [&](std::int64_t at_ns) {
+    share.share((*stage)->core(), team, Time::from_ns(at_ns));
+    const std::size_t n = team.estimate(Time::from_ns(at_ns), estimates);
+    const TeamMemberEstimate* e = nullptr;
+    for (std::size_t i = 0; i < n; ++i)
+      if (estimates[i].robot_id == 2) e = &estimates[i];
+    ASSERT_NE(e, nullptr);
+    ++publications;
+    const registration::RobotCorrection* c = (*stage)->core().registration()->correction(2);
+    const std::uint64_t accepted = c != nullptr ? c->accepted : 0;
+    const fusion::PoseHistory::Correction* applied = (*stage)->core().poses().correction_at(2, at_ns);
+    if (applied == nullptr) {
+      EXPECT_TRUE(e->correction.none());
+      return;
+    }
+    // What the core applies at this time, in wire form: the same values, its σ.
+    const OdomCorrection core = OdomCorrection::from_pose(applied->map_from_odom, e->correction.seq);
+    ASSERT_FALSE(e->correction.none());
+    EXPECT_EQ(e->correction.x_mm, core.x_mm) << at_ns;
+    EXPECT_EQ(e->correction.y_mm, core.y_mm) << at_ns;
+    EXPECT_EQ(e->correction.yaw_urad, core.yaw_urad) << at_ns;
+    EXPECT_EQ(e->correction_sigma_m, applied->position_sigma_m);
+    if (accepted != accepted_before && c != nullptr && c->matched) at_last_match = c->map_from_odom;
+    const bool values_changed = e->correction.x_mm != published.x_mm || e->correction.y_mm != published.y_mm ||
+                                e->correction.yaw_urad != published.yaw_urad;
+    if (values_changed) {
+      ++changed;
+      EXPECT_NE(e->correction.seq, published.seq);  // a new number for new values
+      if (!onboard::correction_step_ok(published, e->correction, limits)) ++steps_refused;
+      largest_step_mm = std::max(largest_step_mm, std::hypot(e->correction.x_mm - published.x_mm, e->correction.y_mm - published.y_mm));
+      // No match since the last publication, and still it moved: the rates' extrapolation, away from
+      // the last match's correction.
+      const OdomCorrection held = OdomCorrection::from_pose(at_last_match, 0);
+      if (accepted == accepted_before && accepted > 0 &&
+          (e->correction.x_mm != held.x_mm || e->correction.y_mm != held.y_mm || e->correction.yaw_urad != held.yaw_urad))
+        ++extrapolated;
+    }
+    published = e->correction;
+    accepted_before = accepted;
   };
-  feed(**stage, d, 0, [&](std::int64_t) { share_and_count(); });
-  share_and_count();  // what the final flush released
+  // A team publication after every scan the station took (the loop publishes at 10 Hz, between samples).
+  feed(**stage, d, 0, [&](std::int64_t arrival_ns) { publish(arrival_ns); });
+  publish(d.odom.back().stamp_ns);  // what the final flush released
   const registration::RobotCorrection* c = (*stage)->core().registration()->correction(2);
   ASSERT_NE(c, nullptr);
   ASSERT_GT(c->accepted, 3u);
-  // The team source's estimates, fed the robots' odometry (its own clock: the survey's, moved to 2027).
+  EXPECT_GT(changed, c->accepted);       // more changes than matches: the extrapolation between them
+  EXPECT_GT(extrapolated, 10u) << changed << " changes of " << publications << " publications, " << c->accepted << " matches";
+  EXPECT_EQ(steps_refused, 0u) << "largest step " << largest_step_mm << " mm";
+  EXPECT_LT(largest_step_mm, 120.0);     // within the registration's own step bound (12 cm at these σ)
+  EXPECT_GT(std::abs(published.x_mm) + std::abs(published.y_mm), 20);  // the drift was corrected (≈ 10 cm by 12 s)
+
+  // The last team state on the wire, to the drifting robot's pipeline (its own clock: moved to 2027).
   constexpr std::int64_t kEpochNs = 1'800'000'000'000'000'000;
   for (const TrajectorySample& s : d.odom) team.add_pose(pose_observation(s, s.stamp_ns));
   const std::int64_t end_ns = d.odom.back().stamp_ns;
-  std::array<TeamMemberEstimate, kMaxRobots> estimates{};
   static teamscan_msg_TeamState wire;
   wire.count = static_cast<std::uint8_t>(team.estimate(Time::from_ns(end_ns), estimates));
   ASSERT_EQ(wire.count, 2);
@@ -364,17 +417,12 @@ TEST(FusionRegistration, TheTeamCarriesEachRobotsCorrectionToThatRobot) {
   }
   const teamscan_msg_TeamMember& m = wire.members[1];
   ASSERT_EQ(m.robot_id, 2u);
-  // The team carries each accepted match's correction (not the rates' extrapolation between matches:
-  // docs/registration.md "Not done yet").
-  const OdomCorrection expected = OdomCorrection::from_pose(at_last_match, static_cast<std::uint32_t>(handed_over));
-  EXPECT_EQ(m.corr_seq, handed_over);  // one number per accepted correction handed over
+  const OdomCorrection expected = OdomCorrection::from_pose((*stage)->core().poses().map_from_odom(2, end_ns), published.seq);
+  EXPECT_EQ(m.corr_seq, published.seq);
   EXPECT_EQ(m.corr_x_mm, expected.x_mm);
   EXPECT_EQ(m.corr_y_mm, expected.y_mm);
   EXPECT_EQ(m.corr_yaw_urad, expected.yaw_urad);
-  EXPECT_GT(std::abs(m.corr_x_mm) + std::abs(m.corr_y_mm), 20);  // the drift was corrected (≈ 10 cm by 12 s)
-  // Its σ as at the match (the registration's covariance has grown with the metres driven since).
-  EXPECT_GT(m.corr_sigma_mm, 0u);
-  EXPECT_LE(m.corr_sigma_mm,
+  EXPECT_EQ(m.corr_sigma_mm,
             static_cast<std::uint32_t>(std::lround(1000.0 * std::sqrt(std::max(c->covariance(0, 0), c->covariance(1, 1))))));
   std::string msg;
   auto config = onboard::parse_onboard_config(test::pipeline_test_config_toml(2, false), msg);
@@ -427,10 +475,10 @@ TEST(PoseHistoryCorrection, AppliesByStampNotByArrival) {
     ASSERT_TRUE(early.add(pose(k)));
     ASSERT_TRUE(none.add(pose(k)));
   }
-  early.set_map_from_odom(1, 1'500'000'000, c, 0.004, 0.001);
-  none.set_map_from_odom(1, 1'500'000'000, c);
+  early.set_map_from_odom(1, 1'500'000'000, c, 0.004, 0.001, true);
+  none.set_map_from_odom(1, 1'500'000'000, c, 0.004, 0.001);  // σ carried, a change of frame only
   for (std::int64_t k = 0; k < 15; ++k) ASSERT_TRUE(late.add(pose(k)));
-  late.set_map_from_odom(1, 1'500'000'000, c, 0.004, 0.001);
+  late.set_map_from_odom(1, 1'500'000'000, c, 0.004, 0.001, true);
   for (std::int64_t k = 15; k < 20; ++k) ASSERT_TRUE(late.add(pose(k)));
   const mapping::RobotEstimate e = early.team_at(1'900'000'000).robots.at(0), l = late.team_at(1'900'000'000).robots.at(0),
                                n = none.team_at(1'900'000'000).robots.at(0);

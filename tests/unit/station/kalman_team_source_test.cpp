@@ -79,7 +79,7 @@ TEST(KalmanTeamSource, PosesAfterACorrectionArePublishedCorrected) {
   ASSERT_EQ(k.estimate(Time::from_seconds(12.0), out), 1u);
   const double cov_before = out[0].cov_xx_m2;
   // Odometry says (2, 0); the map says the odometry frame sits 0.3 m further in y and turned 0.05 rad.
-  k.set_correction(3, 0.0, 0.3, 0.05, 0.01, 0.001);
+  k.set_correction(3, 0.0, 0.3, 0.05, 0.01, 0.001, true);
   ASSERT_EQ(k.estimate(Time::from_seconds(12.0), out), 1u);
   EXPECT_LT(out[0].cov_xx_m2, cov_before);  // the drift restarts from the correction's σ
   for (int i = 21; i <= 60; ++i) k.add_pose(pose(3, 10.0 + 0.1 * i, 0.1 * i, 0.0, 0.0, 1.0, 0.0));
@@ -95,13 +95,13 @@ TEST(KalmanTeamSource, PosesAfterACorrectionArePublishedCorrected) {
   EXPECT_EQ(out[0].correction.yaw_urad, 50'000);
   EXPECT_DOUBLE_EQ(out[0].correction_sigma_m, 0.01);
   EXPECT_DOUBLE_EQ(out[0].correction_sigma_yaw_rad, 0.001);
-  k.set_correction(3, -0.0625, 0.31, -3.5, 0.02, 0.002);  // yaw wrapped into (−π, π]
+  k.set_correction(3, -0.0625, 0.31, -3.5, 0.02, 0.002, true);  // yaw wrapped into (−π, π]
   ASSERT_EQ(k.estimate(Time::from_seconds(16.0), out), 1u);
   EXPECT_EQ(out[0].correction.seq, 2u);
   EXPECT_EQ(out[0].correction.x_mm, -63);  // −62.5 mm: ties away from zero
   EXPECT_EQ(out[0].correction.yaw_urad, 2'783'185);
-  k.set_correction(0, 1, 1, 1, 1, 1);  // bad ids are ignored
-  k.set_correction(kMaxRobots + 1, 1, 1, 1, 1, 1);
+  k.set_correction(0, 1, 1, 1, 1, 1, true);  // bad ids are ignored
+  k.set_correction(kMaxRobots + 1, 1, 1, 1, 1, 1, true);
 }
 
 }  // namespace

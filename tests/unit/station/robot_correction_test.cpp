@@ -80,7 +80,7 @@ TEST(RobotCorrectionLoop, TheRobotAppliesTheStationsCorrectionAndTheStationStore
   };
   for (int k = 0; k <= 20; ++k) odometry(k);
   // The registration moves robot 1's odometry frame by (0.25 m, −0.4 m, 0.08 rad).
-  team.set_correction(1, 0.25, -0.4, 0.08, 0.03, 0.002);
+  team.set_correction(1, 0.25, -0.4, 0.08, 0.03, 0.002, true);
   for (int k = 21; k <= 40; ++k) odometry(k);
 
   // teamscan/team as the station publishes it.
