@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "common/pose.hpp"
-#include "groundstation/mapping/beyond_options.hpp"
+#include "groundstation/mapping/freespace_tracked_options.hpp"
 #include "groundstation/mapping/tracker.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
 

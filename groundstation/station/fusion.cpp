@@ -89,7 +89,7 @@ fusion::ScanInput scan_input(const StoredScan& s, ScanBuffers& b) {
   b.flags.clear();
   b.beams.clear();
   for (std::size_t i = 0; i < n; ++i) {
-    const StoredPoint& sp = s.points[i];
+    const ScanPoint& sp = s.points[i];
     // Beams without a 3-D point (no echo, dazzled, unplaced) are stored in scans.bin but are not part
     // of the model, as in the data set's points.pcd.
     if (sp.flags & kPointUnplaced) continue;

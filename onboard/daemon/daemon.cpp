@@ -16,7 +16,6 @@
 
 #include "common/clock.hpp"
 #include "drivers/serial/posix_call.hpp"
-#include "onboard/daemon/lms_scan.hpp"
 #include "onboard/daemon/log.hpp"
 #include "dds/notify.hpp"
 
@@ -243,14 +242,14 @@ void OnboardDaemon::drain_scans(Time now, bool force) {
     pending_head_ = (pending_head_ + 1) % kPendingScans;
     --pending_size_;
     force = false;  // a forced drain releases one scan
-    ScanBeams beams;
-    if (!to_scan_beams(p.telegram, p.stamp, config_.lms_variant, beam_flags_, beams)) {
+    // A partial scan or one of another variant would place its beams at wrong angles: dropped, counted.
+    const ScanPoints* msg = pipeline_.on_scan(p.telegram.sweep(), p.stamp);
+    if (msg == nullptr) {
       ++scans_dropped_;
       continue;
     }
-    const OnboardScan& msg = pipeline_.on_scan(beams);
     ++scans_in_period_;
-    if (publisher_.publish_scan(msg).ok()) ++scans_published_; else ++publish_errors_;
+    if (publisher_.publish_scan(*msg).ok()) ++scans_published_; else ++publish_errors_;
   }
 }
 

@@ -130,7 +130,6 @@ class OnboardDaemon {
   std::uint32_t scans_forced_ = 0;  // projected before a covering SIP arrived
   Time next_team_reject_log_{};      // monotonic
   ClockSync clock_sync_ = ClockSync::kUnknown;
-  std::array<std::uint8_t, kMaxBeams> beam_flags_{};
   std::array<std::uint8_t, kSerialRxChunk> rx_buf_{};
   std::array<std::uint8_t, 2 * kMaxLmsTelegram> tx_buf_{};
 };

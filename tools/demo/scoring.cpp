@@ -131,7 +131,7 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live,
     rec.pose = interpolate_pose(odom_of[id], t);
     rec.true_pose = live.true_motion(live_index[id], static_cast<double>(t - scenario.start_time_ns) * 1e-9).pose;
     for (std::uint16_t k = 0; k < s.count; ++k) {
-      const station::StoredPoint& p = s.points[k];
+      const ScanPoint& p = s.points[k];
       if (p.flags & kPointUnplaced) continue;  // no 3-D point (as the simulator's data set)
       if (p.beam >= truth->beams.size()) continue;
       const sim::LiveBeamTruth& b = truth->beams[p.beam];
