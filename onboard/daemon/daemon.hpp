@@ -110,7 +110,6 @@ class OnboardDaemon {
   std::uint32_t loop_max_us_ = 0;
   std::uint32_t status_seq_ = 0;
   std::uint32_t publish_errors_ = 0;
-  std::uint32_t scans_dropped_ = 0;   // telegrams that were not a full scan of the configured variant
   std::uint64_t scans_published_ = 0;
   arcos::ArcosClientState last_arcos_state_ = arcos::ArcosClientState::kIdle;
   lms200::LmsClientState last_lms_state_ = lms200::LmsClientState::idle;

@@ -45,6 +45,9 @@ std::int64_t realtime_ns() {
 
 int run_robot(int argc, char** argv) {
   using namespace teamscan::onboard;
+  using teamscan::ScanPoint;
+  using teamscan::ScanPoints;
+  using teamscan::Time;
   DdsBridgeOptions opt;
   opt.robot_id = static_cast<std::uint32_t>(arg_long(argc, argv, "--robot", 1));
   opt.domain_id = static_cast<std::uint32_t>(arg_long(argc, argv, "--domain", DDS_DOMAIN_DEFAULT));

@@ -386,9 +386,9 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
   // With the registration on, where the primary core put every scan and point (off: where the robots did).
   if (options.core.registration) {
     cores.front()->set_release_callback([&](const fusion::FusedScan& f) {
-      out.scan_pose[{f.robot, f.seq}] = f.view->map_from_robot;
+      out.scan_pose[{f.view->robot, f.view->scan}] = f.view->map_from_robot;
       for (std::size_t i = 0; i < f.view->points.size() && i < f.beams.size(); ++i)
-        out.placed[station::point_key(f.robot, f.seq, f.beams[i])] = f.view->points[i];
+        out.placed[station::point_key(f.view->robot, f.view->scan, f.beams[i])] = f.view->points[i];
     });
   }
   // Every sample in arrival order with its receive time, as the station took them (its restart replay).

@@ -286,5 +286,22 @@ TEST(OnboardPipeline, NoOdometryMeansNoPoseAndNoFilter) {
   for (std::uint16_t i = 0; i < s.count; ++i) EXPECT_EQ(s.points[i].flags, kPointNoPose) << i;
 }
 
+// Only a full sweep of the configured variant (180°/1° here: 181 beams) is placed; anything else is
+// refused and counted, and takes no sequence number.
+TEST(OnboardPipeline, ASweepThatIsNotOneOfTheConfiguredVariantIsRefused) {
+  auto p = OnboardPipeline::create(config());
+  ASSERT_TRUE(p.ok());
+  const std::array<std::uint32_t, 361> range{};
+  const std::array<std::uint8_t, 361> flags{};
+  EXPECT_EQ(p->on_scan(BeamSpans{range, flags}, kT0), nullptr);  // a 0.5° sweep
+  EXPECT_EQ(p->on_scan(BeamSpans{}, kT0), nullptr);              // a partial telegram's sweep()
+  EXPECT_EQ(p->counters().scans_refused, 2u);
+  EXPECT_EQ(p->counters().scans, 0u);
+  Beams b;
+  b.range.fill(2000);
+  EXPECT_EQ(test::scan_of(*p, b.spans(), kT0).seq, 1u);
+  EXPECT_EQ(p->counters().scans, 1u);
+}
+
 }  // namespace
 }  // namespace teamscan::onboard
