@@ -9,12 +9,21 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 
 #include "common/pose.hpp"
 #include "common/time.hpp"
 #include "common/units.hpp"
 
 namespace teamscan {
+
+// The beams of one full sweep as the geometry (common/scan_points.hpp) reads them: spans into the
+// decoded telegram (lms200::ScanTelegram::sweep()), never a copy, so not a form of the scan of its own.
+// range_mm and flags (kBeam*, common/point_flags.hpp) have the same length.
+struct BeamSpans {
+  std::span<const std::uint32_t> range_mm;
+  std::span<const std::uint8_t> flags;
+};
 
 inline constexpr double kLmsMirrorHz = 75.0;
 inline constexpr Duration kLmsRevolution{13'333'333};  // 1 / 75 Hz

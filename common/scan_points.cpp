@@ -31,21 +31,22 @@ void ScanProjector::prepare(LaserVariant variant) {
   }
 }
 
-void ScanProjector::project(const ScanBeams& scan, const OdometryHistory<>& odometry, ScanPoints& out) {
-  TEAMSCAN_EXPECTS(scan.range_mm.size() <= kMaxBeams);
-  TEAMSCAN_EXPECTS(scan.beam_flags.empty() || scan.beam_flags.size() == scan.range_mm.size());
-  if (!(scan.variant == variant_)) prepare(scan.variant);
-  TEAMSCAN_EXPECTS(scan.range_mm.size() <= variant_.beams());
+bool ScanProjector::project(BeamSpans beams, Time stamp, LaserVariant variant, const OdometryHistory<>& odometry,
+                            ScanPoints& out) {
+  if (beams.range_mm.size() != variant.beams() || beams.flags.size() != beams.range_mm.size() ||
+      beams.range_mm.size() > kMaxBeams)
+    return false;
+  if (!(variant == variant_)) prepare(variant);
 
   const double reg_c = std::cos(map_from_odom_.theta_rad), reg_s = std::sin(map_from_odom_.theta_rad);
   const Vec3 mount = robot_from_laser_.translation;
 
-  out.stamp = scan.stamp;
-  out.count = static_cast<std::uint16_t>(scan.range_mm.size());
+  out.stamp = stamp;
+  out.count = static_cast<std::uint16_t>(beams.range_mm.size());
   out.unplaced = 0;
 
   // The sensor origin and the robot pose at the stamp (the paper's R1 for the direction filter).
-  const Result<Pose2> at_stamp = odometry.interpolate(scan.stamp, options_.max_extrapolation);
+  const Result<Pose2> at_stamp = odometry.interpolate(stamp, options_.max_extrapolation);
   out.pose_ok = at_stamp.ok();
   if (out.pose_ok) {
     out.map_from_robot = map_from_odom_ * at_stamp.value();
@@ -62,13 +63,13 @@ void ScanProjector::project(const ScanBeams& scan, const OdometryHistory<>& odom
     ScanPoint& p = out.points[i];
     p.beam = i;
     p.flags = 0;
-    const std::uint32_t range_mm = scan.range_mm[i];
-    const std::uint8_t in_flags = scan.beam_flags.empty() ? std::uint8_t{0} : scan.beam_flags[i];
+    const std::uint32_t range_mm = beams.range_mm[i];
+    const std::uint8_t in_flags = beams.flags[i];
     if ((in_flags & kBeamInvalid) != 0 || range_mm == 0) p.flags |= kPointInvalid;
     if ((in_flags & kBeamDazzled) != 0) p.flags |= kPointDazzled;
     if (p.flags == 0 && range_mm > options_.max_range_mm) p.flags |= kPointOutOfRange;
 
-    const Time beam_time = scan.stamp - variant_.beam_age(i);
+    const Time beam_time = stamp - variant_.beam_age(i);
     const Result<Pose2> odom_from_robot = odometry.interpolate(beam_time, options_.max_extrapolation);
     if (!odom_from_robot.ok()) {
       p.flags |= kPointNoPose;
@@ -91,6 +92,7 @@ void ScanProjector::project(const ScanBeams& scan, const OdometryHistory<>& odom
     p.y_mm = metres_to_mm_i32(y_m + s * px + c * py);
     p.z_mm = metres_to_mm_i32(pz);
   }
+  return true;
 }
 
 }  // namespace teamscan

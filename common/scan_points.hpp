@@ -1,7 +1,10 @@
 // One LMS 2xx scan -> 3-D points in the map frame: the single definition of the laser geometry,
 // shared by the robot daemon (live) and the simulator (to build the data set), so that both produce
-// the same millimetres for the same beams (DESIGN.md "Frames, units, time"). Firmware-clean: no heap,
-// no exceptions; fixed capacities from common/capacities.hpp.
+// the same millimetres for the same beams (DESIGN.md "Frames, units, time"). The input is the
+// scanner's own decoded telegram, viewed in place (lms200::ScanTelegram::sweep(), the daemon's and the
+// simulator's receiver's alike: common/laser_geometry.hpp BeamSpans); the output, ScanPoints, is the scan the robot publishes on teamscan/scan and the
+// ground station records. Firmware-clean: no heap, no exceptions; fixed capacities from
+// common/capacities.hpp.
 #pragma once
 
 #include <array>
@@ -13,17 +16,10 @@
 #include "common/odometry_history.hpp"
 #include "common/point_flags.hpp"
 #include "common/pose.hpp"
+#include "common/odom_correction.hpp"
 #include "common/time.hpp"
 
 namespace teamscan {
-
-// A decoded scan, as the daemon gets it from the LMS client and the simulator from its ray caster.
-struct ScanBeams {
-  Time stamp;                               // end of the sweep (geometry header), CLOCK_REALTIME
-  LaserVariant variant;                     // fov and resolution: beam angles and beam times
-  std::span<const std::uint32_t> range_mm;  // one per beam, already in mm (cm mode: × 10)
-  std::span<const std::uint8_t> beam_flags; // kBeam*; same length as range_mm (or empty = all valid)
-};
 
 // One point in the map frame: int32 millimetres (wire unit), the beam it came from, kPoint* flags.
 struct ScanPoint {
@@ -34,16 +30,24 @@ struct ScanPoint {
   std::uint16_t flags = 0;
 };
 
+// One sweep in the map frame: what the projector makes, the direction filter flags in place and the
+// robot publishes (teamscan/scan, idl/teamscan.idl ScanPoints, field for field), and what the ground
+// station records (station::StoredScan holds one). Corrected by `applied` (none: the odometry-map frame).
 struct ScanPoints {
-  Time stamp;                    // the scan's stamp (end of sweep)
+  std::uint32_t robot_id = 0;    // set by the publisher (the projector leaves it)
+  std::uint32_t seq = 0;         // the robot's scan sequence number, set by the publisher
+  Time stamp;                    // the scan's stamp (end of sweep), CLOCK_REALTIME
   std::int32_t origin_x_mm = 0;  // laser centre in the map frame at the stamp
   std::int32_t origin_y_mm = 0;
   std::int32_t origin_z_mm = 0;
+  OdomCorrection applied;        // the robot's own correction in origin and points (none: identity)
+  std::uint16_t count = 0;       // points[0..count): beams 0..count-1 in order, or (published "kept")
+                                 // only the kept ones, still in beam order
+  std::array<ScanPoint, kMaxBeams> points{};
+  // The projection's result, not on the wire (the ground station decides poses itself).
   Pose2 map_from_robot;          // robot pose at the stamp (valid only if pose_ok)
   bool pose_ok = false;
-  std::uint16_t count = 0;       // points[0..count) = beams 0..count-1 in order
   std::uint16_t unplaced = 0;    // beams with kPointNoPose
-  std::array<ScanPoint, kMaxBeams> points{};
 };
 
 struct ScanPointsOptions {
@@ -65,7 +69,7 @@ struct ScanPointsOptions {
 // with odom_from_robot(t_i) from OdometryHistory::interpolate. Coordinates are rounded to the nearest
 // millimetre (ties away from zero, std::llround) and saturated to int32.
 //
-// Flags: kBeamInvalid or range 0 -> kPointInvalid, kBeamDazzled -> kPointDazzled; both put the point
+// Flags: kBeamInvalid (a reserved distance code) or range 0 -> kPointInvalid, kBeamDazzled -> kPointDazzled; both put the point
 // at the laser centre at t_i (so a consumer that ignores flags sees no phantom far point); a valid
 // range > max_range_mm -> kPointOutOfRange with the measured position; a beam whose time the odometry
 // cannot cover -> kPointNoPose with coordinates 0.
@@ -73,8 +77,12 @@ class ScanProjector {
  public:
   ScanProjector(const Pose3& robot_from_laser, const Pose2& map_from_odom, const ScanPointsOptions& options = {});
 
-  // Fills `out` (count = number of beams, at most kMaxBeams; extra beams are a contract violation).
-  void project(const ScanBeams& scan, const OdometryHistory<>& odometry, ScanPoints& out);
+  // Fills `out`'s geometry (stamp, origin, points, pose; robot_id, seq and applied are the caller's)
+  // from the beams of one full sweep of `variant` ending at `stamp`. False, `out` unchanged, when they
+  // are not one (a partial scan: no beams; another beam count; flags not one per beam): its beams would
+  // land at wrong angles; the caller drops and counts it.
+  [[nodiscard]] bool project(BeamSpans beams, Time stamp, LaserVariant variant, const OdometryHistory<>& odometry,
+                             ScanPoints& out);
 
   [[nodiscard]] const Pose3& robot_from_laser() const { return robot_from_laser_; }
   [[nodiscard]] const Pose2& map_from_odom() const { return map_from_odom_; }

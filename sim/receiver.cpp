@@ -53,8 +53,6 @@ void RobotReceiver::drain(bool force) {
 void RobotReceiver::flush() { drain(true); }
 
 void RobotReceiver::project(const lms200::ScanTelegram& scan, Time stamp) {
-  std::array<std::uint8_t, kMaxBeams> beam_flags{};
-  for (std::size_t i = 0; i < scan.count; ++i) beam_flags[i] = lms200::beam_flags(scan, i);
   // The variant follows from the count (the telegram does not carry the resolution).
   LaserVariant variant{180, 100};
   switch (scan.count) {
@@ -64,9 +62,9 @@ void RobotReceiver::project(const lms200::ScanTelegram& scan, Time stamp) {
     case 401: variant = {100, 25}; break;
     default: break;
   }
-  const ScanBeams beams{stamp, variant, std::span<const std::uint32_t>{scan.ranges_mm.data(), scan.count},
-                        std::span<const std::uint8_t>{beam_flags.data(), scan.count}};
-  projector_.project(beams, history_, *points_);
+  // The same input as the robot daemon's (ScanTelegram::sweep()). Not one full sweep (a partial scan,
+  // a count of no variant): nothing to place, the scan is skipped.
+  if (!projector_.project(scan.sweep(), stamp, variant, history_, *points_)) return;
   on_scan_({sequence_++, &scan, points_.get()});
 }
 

@@ -170,6 +170,7 @@ Status decode_scan(std::span<const std::uint8_t> telegram, MeasuringMode mode, S
     out.invalid[i] = classify(distance, bits);
     // Energy values are not distances: keep them unscaled. Largest product: 0x7FFF × 100 fits u32.
     out.ranges_mm[i] = mode == MeasuringMode::energy ? distance : distance * scale;
+    out.beam_flags[i] = beam_flags(out, i);
   }
   return ok_status();
 }

@@ -9,6 +9,7 @@
 #include <span>
 
 #include "common/capacities.hpp"
+#include "common/laser_geometry.hpp"
 #include "common/point_flags.hpp"
 #include "common/result.hpp"
 
@@ -76,8 +77,11 @@ struct CountWord {
   [[nodiscard]] static CountWord decode(std::uint16_t w);
 };
 
-// Flag bits of one beam as sent, the bits above the distance: mode 0 gives field A = 1, field B = 2,
-// dazzle = 4 (L21: bit 13 -> 1, bit 15 -> 4). Interpret with the helpers below and the scan's mode.
+// One measured-values telegram, decoded: the scan's first form, for the robot daemon and the
+// simulator's receiver alike. `flags`: the bits of one beam as sent, above the distance (mode 0 gives
+// field A = 1, field B = 2, dazzle = 4; L21: bit 13 -> 1, bit 15 -> 4), interpreted with the helpers
+// below and the scan's mode; `beam_flags`: the same beam as the geometry reads it (beam_flags() below,
+// filled by decode_scan).
 struct ScanTelegram {
   std::uint16_t count = 0;
   Unit unit = Unit::mm;
@@ -89,7 +93,14 @@ struct ScanTelegram {
   std::array<std::uint32_t, kMaxBeams> ranges_mm{};  // distance × unit (cm ×10, dm ×100); raw code for reserved
   std::array<std::uint8_t, kMaxBeams> flags{};       // value word >> distance bits
   std::array<BeamInvalid, kMaxBeams> invalid{};       // none for a usable distance
+  std::array<std::uint8_t, kMaxBeams> beam_flags{};   // kBeam* (common/point_flags.hpp), from invalid and flags
   [[nodiscard]] std::uint16_t valid_count() const;
+  // The geometry's input (common/scan_points.hpp ScanProjector): ranges and beam flags of beams
+  // [0, count), viewed in place; empty for a partial scan (its beams are not those of one sweep).
+  [[nodiscard]] BeamSpans sweep() const {
+    if (partial || count > kMaxBeams) return {};
+    return {std::span<const std::uint32_t>(ranges_mm.data(), count), std::span<const std::uint8_t>(beam_flags.data(), count)};
+  }
 };
 
 // Flag meaning per mode (§2.7 table); false where the mode has no such bit.
@@ -99,9 +110,9 @@ struct ScanTelegram {
 [[nodiscard]] bool dazzle(MeasuringMode mode, std::uint8_t flags);
 [[nodiscard]] std::uint8_t reflectivity(MeasuringMode mode, std::uint8_t flags);
 
-// The geometry's flags (common/point_flags.hpp kBeam*) of beam `i` of `t`, for the robot daemon and
-// the simulator's receiver alike: a reserved distance code is invalid (the dazzle code 0x1FFE also
-// dazzled); the dazzle bit on a distance is dazzled.
+// The geometry's flags (common/point_flags.hpp kBeam*) of beam `i` of `t` (what decode_scan stores in
+// beam_flags): a reserved distance code is invalid (the dazzle code 0x1FFE also dazzled); the dazzle
+// bit on a distance is dazzled.
 [[nodiscard]] std::uint8_t beam_flags(const ScanTelegram& t, std::size_t i);
 
 // Decodes a verified 0xB0 telegram (whole telegram, STX..CRC, as the parser yields it). The measuring

@@ -97,23 +97,24 @@ bool FusionCore::seen_before(std::uint8_t robot, std::uint32_t seq) {
 
 bool FusionCore::add_scan(const ScanInput& in) {
   ++counters_.scans_in;
-  if (in.robot == 0 || in.robot > kMaxRobots) return false;
-  if (seen_before(in.robot, in.seq)) {
+  const mapping::ScanView& v = in.view;
+  if (v.robot == 0 || v.robot > kMaxRobots) return false;
+  if (seen_before(v.robot, v.scan)) {
     ++counters_.duplicate_scans;
     return false;
   }
   HeldScan s;
-  s.robot = in.robot;
-  s.seq = in.seq;
-  s.stamp_ns = in.stamp_ns;
+  s.view = v;
+  s.view.points = {};
+  s.view.flags = {};
+  s.view.team = nullptr;
   s.arrival_ns = in.arrival_ns;
-  s.origin_m = in.origin_m;
-  s.points.assign(in.points.begin(), in.points.end());
-  s.flags.assign(in.flags.begin(), in.flags.end());
+  s.points.assign(v.points.begin(), v.points.end());
+  s.flags.assign(v.flags.begin(), v.flags.end());
   s.beams.assign(in.beams.begin(), in.beams.end());
   held_.push_back(std::move(s));
-  newest_scan_stamp_ns_[in.robot] = std::max(newest_scan_stamp_ns_[in.robot], in.stamp_ns);
-  last_scan_arrival_ns_[in.robot] = std::max(last_scan_arrival_ns_[in.robot], in.arrival_ns);
+  newest_scan_stamp_ns_[v.robot] = std::max(newest_scan_stamp_ns_[v.robot], v.stamp_ns);
+  last_scan_arrival_ns_[v.robot] = std::max(last_scan_arrival_ns_[v.robot], in.arrival_ns);
   newest_arrival_ns_ = std::max(newest_arrival_ns_, in.arrival_ns);
   release_ready(newest_arrival_ns_, false);
   return true;
@@ -167,10 +168,11 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
   releasing_.clear();
   for (auto it = held_.begin(); it != held_.end();) {
     // Its own robot's poses must have passed it too (own pose), unless that robot is silent.
-    const std::int64_t cutoff = poses_.cutoff(it->stamp_ns);  // the newest pose stamp that decides it
-    const bool own_ok = poses_.known(it->robot) &&
-                        (poses_.newest_stamp(it->robot) >= cutoff || now_ns - last_pose_arrival_ns_[it->robot] >= hold_ns);
-    const bool by_poses = own_ok && cutoff <= watermark && it->stamp_ns <= scan_watermark;
+    const std::int64_t cutoff = poses_.cutoff(it->view.stamp_ns);  // the newest pose stamp that decides it
+    const std::uint8_t robot = it->view.robot;
+    const bool own_ok = poses_.known(robot) &&
+                        (poses_.newest_stamp(robot) >= cutoff || now_ns - last_pose_arrival_ns_[robot] >= hold_ns);
+    const bool by_poses = own_ok && cutoff <= watermark && it->view.stamp_ns <= scan_watermark;
     const bool forced = !by_poses && (all || now_ns - it->arrival_ns >= hold_ns);
     if (by_poses || forced) {
       it->forced = forced;
@@ -181,24 +183,24 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
     }
   }
   std::stable_sort(releasing_.begin(), releasing_.end(), [](const HeldScan& x, const HeldScan& y) {
-    if (x.stamp_ns != y.stamp_ns) return x.stamp_ns < y.stamp_ns;
-    if (x.robot != y.robot) return x.robot < y.robot;
-    return x.seq < y.seq;
+    if (x.view.stamp_ns != y.view.stamp_ns) return x.view.stamp_ns < y.view.stamp_ns;
+    if (x.view.robot != y.view.robot) return x.view.robot < y.view.robot;
+    return x.view.scan < y.view.scan;
   });
   for (HeldScan& s : releasing_) release(s, s.forced);
   releasing_.clear();
 }
 
 void FusionCore::register_scan(const HeldScan& s) {
-  const PoseHistory::ScanPose own = poses_.scan_pose(s.robot, s.stamp_ns);
+  const PoseHistory::ScanPose own = poses_.scan_pose(s.view.robot, s.view.stamp_ns);
   if (!own.found) return;  // no odometry of its own: nothing to correct
   // Teammates' bodies at the scan's time (their corrected tracks): hits on them must not pull the match.
-  const mapping::TeamState team = poses_.team_at(s.stamp_ns);
+  const mapping::TeamState team = poses_.team_at(s.view.stamp_ns);
   std::vector<mapping::BodyBox> boxes;
-  const Pose2 correction = poses_.map_from_odom(s.robot, s.stamp_ns);
-  const Vec3 sensor = registration::corrected(correction, s.origin_m);
+  const Pose2 correction = poses_.map_from_odom(s.view.robot, s.view.stamp_ns);
+  const Vec3 sensor = registration::corrected(correction, s.view.origin_m);
   for (const mapping::RobotEstimate& e : team.robots) {
-    if (!e.valid || e.robot == s.robot) continue;
+    if (!e.valid || e.robot == s.view.robot) continue;
     boxes.push_back(mapping::body_box(e, options_.methods.tracked));
     boxes.back().sensor_m = sensor;
   }
@@ -223,13 +225,13 @@ void FusionCore::register_scan(const HeldScan& s) {
     registration_usable_.push_back(usable ? 1 : 0);
   }
   const registration::RobotCorrection& c =
-      registration_->add_scan(s.robot, s.stamp_ns, own.odom, registration_points_, registration_usable_);
+      registration_->add_scan(s.view.robot, s.view.stamp_ns, own.odom, registration_points_, registration_usable_);
   const Pose2& now = c.map_from_odom;
   if (now.x_m != correction.x_m || now.y_m != correction.y_m || now.theta_rad != correction.theta_rad) {
     // A matched correction is also a measurement for the robot's Kalman track (its covariance, about
     // the robot's position): the drift restarts from it. One the drift rates extrapolated between
     // matches is a change of frame only. Both carry their σ (teamscan/team hands it to the robot).
-    poses_.set_map_from_odom(s.robot, s.stamp_ns, now, std::sqrt(std::max({0.0, c.covariance(0, 0), c.covariance(1, 1)})),
+    poses_.set_map_from_odom(s.view.robot, s.view.stamp_ns, now, std::sqrt(std::max({0.0, c.covariance(0, 0), c.covariance(1, 1)})),
                              std::sqrt(std::max(0.0, c.covariance(2, 2))), c.matched);
     ++counters_.registration_corrections;
   }
@@ -241,26 +243,22 @@ void FusionCore::release(HeldScan& s, bool forced) {
   // The registration first (it may correct this scan's robot from this scan's stamp on), then the
   // correction in force at the scan's stamp (identity until set): points and origin into the map frame.
   if (registration_) register_scan(s);
-  const Pose2 correction = poses_.map_from_odom(s.robot, s.stamp_ns);
+  const Pose2 correction = poses_.map_from_odom(s.view.robot, s.view.stamp_ns);
   if (!is_identity(correction)) {
     for (mapping::MapPoint& p : s.points) {
       const Vec2 q = correction.apply(Vec2{p.x, p.y});
       p.x = static_cast<float>(q.x);
       p.y = static_cast<float>(q.y);
     }
-    const Vec2 o = correction.apply(Vec2{s.origin_m.x, s.origin_m.y});
-    s.origin_m.x = o.x;
-    s.origin_m.y = o.y;
+    const Vec2 o = correction.apply(Vec2{s.view.origin_m.x, s.view.origin_m.y});
+    s.view.origin_m.x = o.x;
+    s.view.origin_m.y = o.y;
   }
-  const mapping::TeamState team = poses_.team_at(s.stamp_ns);
-  const PoseHistory::ScanPose own = poses_.scan_pose(s.robot, s.stamp_ns);
-  mapping::ScanView view;
-  view.robot = s.robot;
-  view.scan = s.seq;
-  view.stamp_ns = s.stamp_ns;
-  view.origin_m = s.origin_m;
+  const mapping::TeamState team = poses_.team_at(s.view.stamp_ns);
+  const PoseHistory::ScanPose own = poses_.scan_pose(s.view.robot, s.view.stamp_ns);
+  mapping::ScanView& view = s.view;
   // Without any pose of its own robot: at its sensor origin, heading 0 (as the station always did).
-  view.map_from_robot = own.found ? own.map_from_robot : Pose2{s.origin_m.x, s.origin_m.y, 0.0};
+  view.map_from_robot = own.found ? own.map_from_robot : Pose2{view.origin_m.x, view.origin_m.y, 0.0};
   view.points = s.points;
   view.flags = s.flags;
   view.team = &team;
@@ -275,12 +273,9 @@ void FusionCore::release(HeldScan& s, bool forced) {
   if (options_.max_points_per_voxel > 0) store(s);
   if (on_release_) {
     FusedScan f;
-    f.robot = s.robot;
-    f.seq = s.seq;
-    f.stamp_ns = s.stamp_ns;
+    f.view = &view;
     f.arrival_ns = s.arrival_ns;
     f.forced = forced;
-    f.view = &view;
     f.beams = s.beams;
     f.bits = bits_;
     f.removed = removed_;
@@ -292,9 +287,9 @@ void FusionCore::store(const HeldScan& s) {
   for (std::size_t i = 0; i < s.points.size(); ++i) {
     ModelPoint m;
     m.p = s.points[i];
-    m.seq = s.seq;
+    m.seq = s.view.scan;
     m.beam = i < s.beams.size() ? s.beams[i] : static_cast<std::uint16_t>(i);
-    m.robot = s.robot & 0x7Fu;
+    m.robot = s.view.robot & 0x7Fu;
     m.bits = bits_[i];
     m.removed_at_release = removed_[i] != 0 ? 1 : 0;
     if (model_.add(m)) ++counters_.stored_points;

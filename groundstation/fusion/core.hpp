@@ -68,27 +68,22 @@ struct CoreOptions {
   registration::RegistrationOptions registration_options{};
 };
 
-// One scan as the core takes it: map-frame points (before map_from_odom), their onboard flags
-// (common/dataset point_flags) and beam indices.
+// One scan as the core takes it: the filters' view of it (mapping::ScanView: robot, sequence number,
+// stamp, sensor origin, map-frame points before map_from_odom in metres, their onboard flags in the
+// data set's vocabulary, common/point_flags.hpp), when it arrived and each point's beam. The core
+// decides its pose and team state (view.map_from_robot and view.team are not read) and copies the
+// spans, so they need to live only for add_scan.
 struct ScanInput {
-  std::uint8_t robot = 0;
-  std::uint32_t seq = 0;
-  std::int64_t stamp_ns = 0;
-  std::int64_t arrival_ns = 0;  // offline: the stamp
-  Vec3 origin_m;
-  std::span<const mapping::MapPoint> points;
-  std::span<const std::uint16_t> flags;  // empty or one per point
+  mapping::ScanView view;
+  std::int64_t arrival_ns = 0;           // offline: the stamp
   std::span<const std::uint16_t> beams;  // empty or one per point
 };
 
 // A released scan, as the core decided it (handed to the release callback).
 struct FusedScan {
-  std::uint8_t robot = 0;
-  std::uint32_t seq = 0;
-  std::int64_t stamp_ns = 0;
+  const mapping::ScanView* view = nullptr;    // robot, seq, stamp, pose, team, points (map frame), flags
   std::int64_t arrival_ns = 0;
   bool forced = false;                        // released by hold_s, not by the poses
-  const mapping::ScanView* view = nullptr;    // pose, team, points (map frame), flags
   std::span<const std::uint16_t> beams;
   std::span<const std::uint8_t> bits;         // the point part per point
   std::span<const std::uint8_t> removed;      // the decision at release (map so far)
@@ -193,11 +188,11 @@ class FusionCore {
 
  private:
   FusionCore(const CoreOptions& options, std::unique_ptr<mapping::Filter> filter);
+  // A scan waiting for its team state: its input with the spans copied into owned storage (the view's
+  // spans are pointed at it on release).
   struct HeldScan {
-    std::uint8_t robot = 0;
-    std::uint32_t seq = 0;
-    std::int64_t stamp_ns = 0, arrival_ns = 0;
-    Vec3 origin_m;
+    mapping::ScanView view;
+    std::int64_t arrival_ns = 0;
     std::vector<mapping::MapPoint> points;
     std::vector<std::uint16_t> flags, beams;
     bool forced = false;  // released by hold_s (set when it is released)

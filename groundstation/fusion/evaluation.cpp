@@ -221,11 +221,11 @@ CoreRun run_through_core(const Dataset& dataset, const std::string& method, cons
   out.scan_decided.assign(dataset.scans.size(), 0);
   std::vector<std::uint8_t> bits(dataset.points.size(), 0);
   core.set_release_callback([&](const fusion::FusedScan& f) {
-    if (auto row = row_of.find({f.robot, f.seq}); row != row_of.end()) {
+    if (auto row = row_of.find({f.view->robot, f.view->scan}); row != row_of.end()) {
       out.scan_poses[row->second] = f.view->map_from_robot;
       out.scan_decided[row->second] = 1;
     }
-    auto it = by_scan.find({f.robot, f.seq});
+    auto it = by_scan.find({f.view->robot, f.view->scan});
     if (it == by_scan.end()) return;
     for (std::size_t j = 0; j < it->second.size() && j < f.bits.size(); ++j) {
       bits[it->second[j]] = f.bits[j];
@@ -260,17 +260,17 @@ CoreRun run_through_core(const Dataset& dataset, const std::string& method, cons
       }
     }
     fusion::ScanInput in;
-    in.robot = r.robot;
-    in.seq = r.scan;
-    in.stamp_ns = r.stamp_ns;
-    in.arrival_ns = r.stamp_ns;
-    in.origin_m = r.origin;
+    in.view.robot = r.robot;
+    in.view.scan = r.scan;
+    in.view.stamp_ns = r.stamp_ns;
+    in.view.origin_m = r.origin;
     if (noise.active()) {
       const Pose2 err = pose_error.at(r.robot, r.stamp_ns);
-      in.origin_m = {r.origin.x + err.x_m, r.origin.y + err.y_m, r.origin.z};
+      in.view.origin_m = {r.origin.x + err.x_m, r.origin.y + err.y_m, r.origin.z};
     }
-    in.points = points;
-    in.flags = flags;
+    in.view.points = points;
+    in.view.flags = flags;
+    in.arrival_ns = r.stamp_ns;
     in.beams = beams;
     core.add_scan(in);
   }

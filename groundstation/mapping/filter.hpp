@@ -13,14 +13,16 @@
 #include <vector>
 
 #include "common/pose.hpp"
-#include "groundstation/mapping/beyond_options.hpp"
+#include "groundstation/mapping/freespace_tracked_options.hpp"
 #include "groundstation/mapping/tracker.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
 
 namespace teamscan::mapping {
 
 // One scan as a filter sees it: who measured it, when, from where, its points and their onboard
-// flags (common/dataset point_flags), and the team's tracked state at the scan's time.
+// flags (common/dataset point_flags), and the team's tracked state at the scan's time. The fusion
+// core's form of a scan (groundstation/fusion/core.hpp ScanInput carries one; the core sets
+// map_from_robot and team).
 struct ScanView {
   std::uint8_t robot = 0;
   std::uint32_t scan = 0;

@@ -12,7 +12,7 @@
 #include <span>
 #include <vector>
 
-#include "groundstation/mapping/beyond_options.hpp"
+#include "groundstation/mapping/freespace_tracked_options.hpp"
 #include "groundstation/mapping/filter.hpp"
 #include "groundstation/mapping/flat_key_map.hpp"
 

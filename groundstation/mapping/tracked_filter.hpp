@@ -6,7 +6,7 @@
 
 #include <algorithm>
 
-#include "groundstation/mapping/beyond_options.hpp"
+#include "groundstation/mapping/freespace_tracked_options.hpp"
 #include "groundstation/mapping/filter.hpp"
 
 namespace teamscan::mapping {

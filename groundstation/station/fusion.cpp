@@ -89,7 +89,7 @@ fusion::ScanInput scan_input(const StoredScan& s, ScanBuffers& b) {
   b.flags.clear();
   b.beams.clear();
   for (std::size_t i = 0; i < n; ++i) {
-    const StoredPoint& sp = s.points[i];
+    const ScanPoint& sp = s.points[i];
     // Beams without a 3-D point (no echo, dazzled, unplaced) are stored in scans.bin but are not part
     // of the model, as in the data set's points.pcd.
     if (sp.flags & kPointUnplaced) continue;
@@ -98,13 +98,13 @@ fusion::ScanInput scan_input(const StoredScan& s, ScanBuffers& b) {
     b.beams.push_back(sp.beam);
   }
   fusion::ScanInput in;
-  in.robot = static_cast<std::uint8_t>(s.robot_id <= kMaxRobots ? s.robot_id : 0);
-  in.seq = s.seq;
-  in.stamp_ns = s.stamp_ns;
+  in.view.robot = static_cast<std::uint8_t>(s.robot_id <= kMaxRobots ? s.robot_id : 0);
+  in.view.scan = s.seq;
+  in.view.stamp_ns = s.stamp_ns;
+  in.view.origin_m = {s.origin_x_mm * 1e-3, s.origin_y_mm * 1e-3, s.origin_z_mm * 1e-3};
+  in.view.points = b.points;
+  in.view.flags = b.flags;
   in.arrival_ns = s.recv_realtime_ns;
-  in.origin_m = {s.origin_x_mm * 1e-3, s.origin_y_mm * 1e-3, s.origin_z_mm * 1e-3};
-  in.points = b.points;
-  in.flags = b.flags;
   in.beams = b.beams;
   return in;
 }
@@ -228,9 +228,9 @@ void FusionStage::on_release(const fusion::FusedScan& f) {
   // The scan is now decided and in the fused map: its latency from the end of its sweep. Both stamps
   // are CLOCK_REALTIME (the robots' clocks are NTP-disciplined, DESIGN.md "Frames, units, time").
   const std::int64_t fused_ns = now_realtime().ns();
-  fused_latency_.add(fused_ns - f.stamp_ns);
+  fused_latency_.add(fused_ns - f.view->stamp_ns);
   if (latency_log_ != nullptr) {
-    std::fprintf(latency_log_, "%u,%u,%lld,%lld,%lld\n", f.robot, f.seq, static_cast<long long>(f.stamp_ns),
+    std::fprintf(latency_log_, "%u,%u,%lld,%lld,%lld\n", f.view->robot, f.view->scan, static_cast<long long>(f.view->stamp_ns),
                  static_cast<long long>(f.arrival_ns), static_cast<long long>(fused_ns));
   }
 }

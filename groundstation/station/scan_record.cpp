@@ -85,7 +85,7 @@ void undo_applied_correction(StoredScan& scan) {
   move(scan.origin_x_mm, scan.origin_y_mm);
   const std::uint16_t n = std::min<std::uint16_t>(scan.count, static_cast<std::uint16_t>(kMaxBeams));
   for (std::uint16_t i = 0; i < n; ++i) {
-    StoredPoint& p = scan.points[i];
+    ScanPoint& p = scan.points[i];
     // A beam without an echo (invalid, dazzled) sits at the laser's centre: it moves with the origin.
     if ((p.flags & kPointNoPose) == 0) move(p.x_mm, p.y_mm);
   }

@@ -26,6 +26,7 @@
 
 #include "common/capacities.hpp"
 #include "common/odom_correction.hpp"
+#include "common/scan_points.hpp"
 
 namespace teamscan::station {
 
@@ -37,14 +38,9 @@ inline constexpr std::size_t kScanRecordFixedBytes = 8 + 64 + 4;  // magic+len, 
 inline constexpr std::size_t kScanPointBytes = 16;
 inline constexpr std::size_t kScanRecordMaxBytes = kScanRecordFixedBytes + kMaxBeams * kScanPointBytes;
 
-struct StoredPoint {
-  std::int32_t x_mm = 0;
-  std::int32_t y_mm = 0;
-  std::int32_t z_mm = 0;
-  std::uint16_t beam = 0;
-  std::uint16_t flags = 0;
-};
-
+// A received teamscan/scan sample as the session records it: the robot's ScanPoints as the wire
+// carries it (no robot-side pose), in the odometry-map frame, with its receipt (the station's clocks)
+// and the station's verdict on it. One record of scans.bin.
 struct StoredScan {
   std::int64_t recv_realtime_ns = 0;
   std::int64_t recv_monotonic_ns = 0;
@@ -57,7 +53,7 @@ struct StoredScan {
   OdomCorrection applied;      // the correction the robot applied (ScanPoints.corr_*); none: identity
   std::uint16_t count = 0;
   std::uint16_t rejected = 0;  // Reject code (sample_validation.hpp); 0 = accepted
-  StoredPoint points[kMaxBeams];
+  ScanPoint points[kMaxBeams];  // as the robot published them (common/scan_points.hpp), frame as above
 };
 
 [[nodiscard]] std::uint32_t crc32_ieee(std::span<const std::uint8_t> bytes, std::uint32_t crc = 0);

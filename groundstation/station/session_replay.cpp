@@ -204,10 +204,11 @@ Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& s
       [&](const StoredScan& s) {
         if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
         if (!seen.emplace(s.robot_id, s.seq).second) return;  // a DDS history replay: stored twice
-        const fusion::ScanInput in = scan_input(s, buffers);
+        const fusion::ScanInput input = scan_input(s, buffers);
+        const mapping::ScanView& in = input.view;
         ScanRecord r;
         r.robot = in.robot;
-        r.scan = in.seq;
+        r.scan = in.scan;
         r.stamp_ns = in.stamp_ns;
         r.beams = static_cast<std::uint16_t>(std::min<std::size_t>(s.count, kMaxBeams));
         r.points = static_cast<std::uint16_t>(in.points.size());
@@ -222,8 +223,8 @@ Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& s
           lp.ty = lp.y;
           lp.tz = lp.z;
           lp.robot = in.robot;
-          lp.scan = in.seq;
-          lp.beam = in.beams[i];
+          lp.scan = in.scan;
+          lp.beam = input.beams[i];
           lp.flags = in.flags[i];
           ds.points.push_back(lp);
         }

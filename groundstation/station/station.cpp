@@ -102,7 +102,7 @@ const StoredScan& stored_from(const teamscan_msg_ScanPoints& s, const ReceiveTim
   out.count = std::min<std::uint16_t>(s.count, static_cast<std::uint16_t>(kMaxBeams));
   out.rejected = static_cast<std::uint16_t>(verdict);
   for (std::uint16_t b = 0; b < out.count; ++b) {
-    out.points[b] = StoredPoint{s.points[b].x_mm, s.points[b].y_mm, s.points[b].z_mm, s.points[b].beam, s.points[b].flags};
+    out.points[b] = ScanPoint{s.points[b].x_mm, s.points[b].y_mm, s.points[b].z_mm, s.points[b].beam, s.points[b].flags};
   }
   if (verdict == Reject::kNone) undo_applied_correction(out);
   return out;

@@ -28,7 +28,7 @@ void ViewFeeder::on_scan(const StoredScan& s, std::uint64_t removed_total) {
   ++r.latency_n;
   std::size_t n = 0;
   for (std::uint32_t i = 0; i < s.count && i < kMaxBeams; ++i) {
-    const StoredPoint& p = s.points[i];
+    const ScanPoint& p = s.points[i];
     if (p.flags & kPointUnplaced) continue;  // not in the map (as the fusion stage)
     tap_[n++] = view::TapPoint{p.x_mm, p.y_mm, p.z_mm};
   }

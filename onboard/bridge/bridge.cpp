@@ -32,10 +32,10 @@ void encode_pose(const OnboardPose& in, teamscan_msg_RobotPose& out) {
   out.yaw_rate_mradps = in.yaw_rate_mradps;
 }
 
-void encode_scan(const OnboardScan& in, teamscan_msg_ScanPoints& out) {
+void encode_scan(const ScanPoints& in, teamscan_msg_ScanPoints& out) {
   out.robot_id = in.robot_id;
   out.seq = in.seq;
-  out.stamp_ns = in.stamp_ns;
+  out.stamp_ns = in.stamp.ns();
   out.origin_x_mm = in.origin_x_mm;
   out.origin_y_mm = in.origin_y_mm;
   out.origin_z_mm = in.origin_z_mm;
@@ -47,7 +47,7 @@ void encode_scan(const OnboardScan& in, teamscan_msg_ScanPoints& out) {
   const std::uint16_t n = in.count <= kMaxBeams ? in.count : static_cast<std::uint16_t>(kMaxBeams);
   out.count = n;
   for (std::uint16_t i = 0; i < n; ++i) {
-    const OnboardPoint& p = in.points[i];
+    const ScanPoint& p = in.points[i];
     teamscan_msg_ScanPoint& q = out.points[i];
     q.x_mm = p.x_mm;
     q.y_mm = p.y_mm;
@@ -187,7 +187,7 @@ Status DdsBridge::publish_pose(const OnboardPose& pose) {
   return ok_status();
 }
 
-Status DdsBridge::publish_scan(const OnboardScan& scan) {
+Status DdsBridge::publish_scan(const ScanPoints& scan) {
   if (!participant_.valid() || scan.robot_id != robot_id_) {
     ++counters_.write_errors;
     return Error{"dds: scan for another robot id or bridge not created", 0, static_cast<long>(scan.robot_id)};

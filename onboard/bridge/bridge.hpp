@@ -60,7 +60,7 @@ class DdsBridge {
   // Publish one sample. Fails (counted) if the DDS write fails or the sample's robot_id differs from
   // the bridge's (a programming error elsewhere, but a runtime fault here: never abort on the robot).
   [[nodiscard]] Status publish_pose(const OnboardPose& pose);
-  [[nodiscard]] Status publish_scan(const OnboardScan& scan);
+  [[nodiscard]] Status publish_scan(const ScanPoints& scan);
   [[nodiscard]] Status publish_status(const OnboardStatus& status);
 
   // The newest team state received since the last call, if any. Never blocks, never allocates.
@@ -96,9 +96,10 @@ class DdsBridge {
   DdsBridgeCounters counters_{};
 };
 
-// Pure conversions between the onboard structs and the generated IDL types (no DDS, no allocation).
+// Pure conversions between the onboard structs and the generated IDL types (no DDS, no allocation). The
+// scan sample is common/scan_points.hpp ScanPoints written out to the wire's layout.
 void encode_pose(const OnboardPose& in, teamscan_msg_RobotPose& out);
-void encode_scan(const OnboardScan& in, teamscan_msg_ScanPoints& out);
+void encode_scan(const ScanPoints& in, teamscan_msg_ScanPoints& out);
 void encode_status(const OnboardStatus& in, teamscan_msg_RobotStatus& out);
 // False (out unchanged beyond count) if the sample's count is out of range.
 [[nodiscard]] bool decode_team(const teamscan_msg_TeamState& in, TeamSnapshot& out);

@@ -1,5 +1,7 @@
 // Plain fixed-size message structs the onboard pipeline hands to the DDS bridge (onboard/bridge) and gets
-// back from it: the robot-side mirror of idl/teamscan.idl, free of DDS so the core stays testable.
+// back from it: the robot-side mirror of idl/teamscan.idl, free of DDS so the core stays testable. The
+// scan (teamscan/scan) is common/scan_points.hpp ScanPoints itself: the projector's output, flagged in
+// place by the direction filter, published as it is.
 // Fixed capacities only (common/capacities.hpp); field layout agreed with the dds branch.
 #pragma once
 
@@ -22,33 +24,6 @@ struct OnboardPose {
   std::int32_t vx_mmps = 0;         // map-frame velocity
   std::int32_t vy_mmps = 0;
   std::int32_t yaw_rate_mradps = 0;
-};
-
-// Per-point flags: the kPoint* bits of common/scan_points.hpp (same values as teamscan.idl POINT_*:
-// 1 direction-filtered, 2 invalid, 4 dazzled, 8 position-filtered; onboard adds 16 out of range,
-// 32 no pose, 64 team state stale).
-using teamscan::kPointDazzled;
-using teamscan::kPointDirectionFiltered;
-using teamscan::kPointInvalid;
-using teamscan::kPointNoPose;
-using teamscan::kPointOutOfRange;
-using teamscan::kPointPositionFiltered;
-using teamscan::kPointTeamStale;
-
-// One point: {x_mm, y_mm, z_mm (map frame), beam (0 = rightmost), flags (kPoint*)}.
-using OnboardPoint = teamscan::ScanPoint;
-
-// One sweep in the map frame, corrected by `applied` (teamscan/scan).
-struct OnboardScan {
-  std::uint32_t robot_id = 0;
-  std::uint32_t seq = 0;
-  std::int64_t stamp_ns = 0;        // end of the mirror sweep, CLOCK_REALTIME
-  std::int32_t origin_x_mm = 0;     // laser origin in the map frame at stamp_ns
-  std::int32_t origin_y_mm = 0;
-  std::int32_t origin_z_mm = 0;
-  OdomCorrection applied;           // the own correction applied to origin and points (none: odometry-map frame)
-  std::uint16_t count = 0;          // valid entries in points
-  OnboardPoint points[kMaxBeams];
 };
 
 // Device states and counters (teamscan/status).

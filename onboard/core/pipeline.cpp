@@ -24,7 +24,8 @@ OnboardPipeline::OnboardPipeline(const OnboardConfig& config, DirectionFilter fi
       map_from_odom_{config.map_from_odom()},
       projector_{config.mount.robot_from_laser(), config.map_from_odom(),
                  ScanPointsOptions{config.max_range_mm(), config.odometry_max_extrapolation}},
-      filter_{filter} {}
+      filter_{filter},
+      variant_{config.lms_variant} {}
 
 bool OnboardPipeline::on_odometry(Time stamp, const Pose2& odom_from_robot, double trans_vel_mm_s,
                                   double rot_vel_rad_s, OnboardPose& out) {
@@ -90,17 +91,20 @@ bool OnboardPipeline::team_fresh(Time now) const {
   return have_team_ && filter_.fresh(Time::from_ns(newest_team_valid_ns_), now);
 }
 
-const OnboardScan& OnboardPipeline::on_scan(const ScanBeams& beams) {
-  projector_.project(beams, odometry_, points_);
+const ScanPoints* OnboardPipeline::on_scan(BeamSpans beams, Time stamp) {
+  if (!projector_.project(beams, stamp, variant_, odometry_, scan_)) {
+    ++counters_.scans_refused;
+    return nullptr;
+  }
   ++counters_.scans;
-  counters_.points += points_.count;
-  counters_.points_no_pose += points_.unplaced;
+  counters_.points += scan_.count;
+  counters_.points_no_pose += scan_.unplaced;
   filter_stats_ = DirectionFilterStats{};
   if (filter_enabled_) {
-    if (points_.pose_ok) {
+    if (scan_.pose_ok) {
       // R1 of eq. 7 is this robot's own position at the scan's stamp, corrected like its teammates'.
-      filter_stats_ = filter_.apply(metres_to_mm_i32(points_.map_from_robot.x_m), metres_to_mm_i32(points_.map_from_robot.y_m),
-                                    points_.stamp, points_.points.data(), points_.count);
+      filter_stats_ = filter_.apply(metres_to_mm_i32(scan_.map_from_robot.x_m), metres_to_mm_i32(scan_.map_from_robot.y_m),
+                                    scan_.stamp, scan_.points.data(), scan_.count);
     } else {
       ++counters_.scans_without_pose;
     }
@@ -109,21 +113,18 @@ const OnboardScan& OnboardPipeline::on_scan(const ScanBeams& beams) {
   counters_.points_team_stale += filter_stats_.stale_points;
 
   scan_.robot_id = robot_id_;
-  ++scan_.seq;
-  scan_.stamp_ns = points_.stamp.ns();
-  scan_.origin_x_mm = points_.origin_x_mm;
-  scan_.origin_y_mm = points_.origin_y_mm;
-  scan_.origin_z_mm = points_.origin_z_mm;
+  ++scan_.seq;  // the projector leaves robot_id, seq and applied alone
   scan_.applied = applied_;
-  std::uint16_t n = 0;
-  for (std::uint16_t i = 0; i < points_.count; ++i) {
-    const ScanPoint& p = points_.points[i];
-    if (publish_ == PublishMode::kept && (p.flags & kNotKept) != 0) continue;
-    scan_.points[n++] = p;
+  if (publish_ == PublishMode::kept) {
+    // Only the kept points, moved forward in place (beam order kept; each point carries its beam).
+    std::uint16_t n = 0;
+    for (std::uint16_t i = 0; i < scan_.count; ++i) {
+      if ((scan_.points[i].flags & kNotKept) == 0) scan_.points[n++] = scan_.points[i];
+    }
+    scan_.count = n;
   }
-  scan_.count = n;
-  counters_.points_published += n;
-  return scan_;
+  counters_.points_published += scan_.count;
+  return &scan_;
 }
 
 }  // namespace teamscan::onboard

@@ -1,6 +1,6 @@
-// The robot's data path without I/O: odometry samples into the history, each scan into map-frame points
-// (common/scan_points), the direction filter against the latest team state, and the fixed-size messages
-// for the DDS bridge. Built once at start-up; after that nothing allocates (tests/unit/onboard
+// The robot's data path without I/O: odometry samples into the history, each LMS telegram's sweep into
+// map-frame points (common/scan_points ScanPoints), flagged in place by the direction filter against the
+// latest team state: that ScanPoints is the teamscan/scan message the DDS bridge publishes. Built once at start-up; after that nothing allocates (tests/unit/onboard
 // allocation_test.cpp counts).
 #pragma once
 
@@ -21,6 +21,7 @@ struct PipelineCounters {
   std::uint64_t poses = 0;
   std::uint64_t odometry_rejected = 0;   // out-of-order SIP stamps
   std::uint64_t scans = 0;
+  std::uint64_t scans_refused = 0;       // telegrams that were not one full sweep of the configured variant
   std::uint64_t scans_without_pose = 0;  // no odometry at the scan's stamp: not filtered
   std::uint64_t points = 0;
   std::uint64_t points_published = 0;
@@ -50,13 +51,16 @@ class OnboardPipeline {
   // goes back to the identity.
   TeamCheck on_team(const TeamSnapshot& team, Time now);
 
-  // One scan: points in the map frame corrected by the applied correction (the teammates' positions in
-  // teamscan/team are corrected too), the direction filter from this robot's corrected position, and
-  // the teamscan/scan sample (every point with its flags, or only kept points, per config) saying which
-  // correction it carries. The returned reference stays valid until the next call.
-  const OnboardScan& on_scan(const ScanBeams& beams);
+  // One sweep (lms200::ScanTelegram::sweep()) ending at `stamp`: points in the map frame corrected by the
+  // applied correction (the teammates' positions in teamscan/team are corrected too), the direction
+  // filter from this robot's corrected position flagging them in place, and the robot id, the next
+  // sequence number and the correction it carries: the teamscan/scan sample (every point with its
+  // flags, or, publish = kept, only the kept points). Null, counted in scans_refused, when the beams are
+  // not one full sweep of the configured variant. The scan stays valid until the next call.
+  const ScanPoints* on_scan(BeamSpans beams, Time stamp);
 
-  [[nodiscard]] const ScanPoints& last_points() const { return points_; }
+  // The last scan on_scan made (the published one).
+  [[nodiscard]] const ScanPoints& last_scan() const { return scan_; }
   [[nodiscard]] const DirectionFilterStats& last_filter_stats() const { return filter_stats_; }
   [[nodiscard]] const PipelineCounters& counters() const { return counters_; }
   [[nodiscard]] const TeamCheckCounters& team_checks() const { return team_checks_; }
@@ -76,9 +80,9 @@ class OnboardPipeline {
   ScanProjector projector_; // projects with applied_ · map_from_odom_
   DirectionFilter filter_;
   OdometryHistory<> odometry_;
-  ScanPoints points_;
+  LaserVariant variant_;    // the configured scan variant: a sweep of another one is refused
   DirectionFilterStats filter_stats_;
-  OnboardScan scan_;
+  ScanPoints scan_;
   std::uint32_t pose_seq_ = 0;
   std::int64_t newest_team_valid_ns_ = 0;
   bool have_team_ = false;

@@ -16,7 +16,6 @@
 
 #include "common/clock.hpp"
 #include "drivers/serial/posix_call.hpp"
-#include "onboard/daemon/lms_scan.hpp"
 #include "onboard/daemon/log.hpp"
 #include "dds/notify.hpp"
 
@@ -243,14 +242,12 @@ void OnboardDaemon::drain_scans(Time now, bool force) {
     pending_head_ = (pending_head_ + 1) % kPendingScans;
     --pending_size_;
     force = false;  // a forced drain releases one scan
-    ScanBeams beams;
-    if (!to_scan_beams(p.telegram, p.stamp, config_.lms_variant, beam_flags_, beams)) {
-      ++scans_dropped_;
-      continue;
-    }
-    const OnboardScan& msg = pipeline_.on_scan(beams);
+    // A partial scan or one of another variant would place its beams at wrong angles: the pipeline
+    // refuses it (counted in its scans_refused).
+    const ScanPoints* msg = pipeline_.on_scan(p.telegram.sweep(), p.stamp);
+    if (msg == nullptr) continue;
     ++scans_in_period_;
-    if (publisher_.publish_scan(msg).ok()) ++scans_published_; else ++publish_errors_;
+    if (publisher_.publish_scan(*msg).ok()) ++scans_published_; else ++publish_errors_;
   }
 }
 
@@ -299,7 +296,7 @@ void OnboardDaemon::publish_status(Time now) {
                 "clock %s; loop max %u us; publish errors %u",
                 arcos_dev_.open ? arcos::to_string(arcos_.state()) : "closed", s.sip_rate_mhz / 1000.0, s.arcos_reopens,
                 s.arcos_bad_packets, lms_dev_.open ? lms200::to_string(lms_.state()) : "closed", s.scan_rate_mhz / 1000.0,
-                s.lms_reopens, s.lms_bad_telegrams, scans_dropped_, scans_forced_, s.scans_published, s.points_direction_filtered,
+                s.lms_reopens, s.lms_bad_telegrams, clamp_u32(pc.scans_refused), scans_forced_, s.scans_published, s.points_direction_filtered,
                 s.points_team_stale, s.points_no_pose, s.team_fresh ? "fresh" : "stale", s.teams_rejected,
                 team_reject_name(pipeline_.team_checks().last_reject), pipeline_.applied_correction().seq,
                 s.corrections_applied, s.corrections_rejected, to_string(sync), s.loop_max_us, publish_errors_);

@@ -110,7 +110,6 @@ class OnboardDaemon {
   std::uint32_t loop_max_us_ = 0;
   std::uint32_t status_seq_ = 0;
   std::uint32_t publish_errors_ = 0;
-  std::uint32_t scans_dropped_ = 0;   // telegrams that were not a full scan of the configured variant
   std::uint64_t scans_published_ = 0;
   arcos::ArcosClientState last_arcos_state_ = arcos::ArcosClientState::kIdle;
   lms200::LmsClientState last_lms_state_ = lms200::LmsClientState::idle;
@@ -130,7 +129,6 @@ class OnboardDaemon {
   std::uint32_t scans_forced_ = 0;  // projected before a covering SIP arrived
   Time next_team_reject_log_{};      // monotonic
   ClockSync clock_sync_ = ClockSync::kUnknown;
-  std::array<std::uint8_t, kMaxBeams> beam_flags_{};
   std::array<std::uint8_t, kSerialRxChunk> rx_buf_{};
   std::array<std::uint8_t, 2 * kMaxLmsTelegram> tx_buf_{};
 };

@@ -11,7 +11,7 @@ class DdsPublisher final : public Publisher {
  public:
   explicit DdsPublisher(DdsBridge bridge) : bridge_{std::move(bridge)} {}
   Status publish_pose(const OnboardPose& pose) override { return bridge_.publish_pose(pose); }
-  Status publish_scan(const OnboardScan& scan) override { return bridge_.publish_scan(scan); }
+  Status publish_scan(const ScanPoints& scan) override { return bridge_.publish_scan(scan); }
   Status publish_status(const OnboardStatus& status) override { return bridge_.publish_status(status); }
   bool take_team(TeamSnapshot& out) override { return bridge_.take_team(out); }
   const char* name() const override { return "dds"; }

@@ -14,7 +14,7 @@ class Publisher {
  public:
   virtual ~Publisher() = default;
   [[nodiscard]] virtual Status publish_pose(const OnboardPose& pose) = 0;
-  [[nodiscard]] virtual Status publish_scan(const OnboardScan& scan) = 0;
+  [[nodiscard]] virtual Status publish_scan(const ScanPoints& scan) = 0;
   [[nodiscard]] virtual Status publish_status(const OnboardStatus& status) = 0;
   // The newest team state since the last call, if any; never blocks.
   [[nodiscard]] virtual bool take_team(TeamSnapshot& out) = 0;
@@ -25,7 +25,7 @@ class Publisher {
 class NullPublisher final : public Publisher {
  public:
   Status publish_pose(const OnboardPose&) override { ++poses; return ok_status(); }
-  Status publish_scan(const OnboardScan&) override { ++scans; return ok_status(); }
+  Status publish_scan(const ScanPoints&) override { ++scans; return ok_status(); }
   Status publish_status(const OnboardStatus&) override { ++statuses; return ok_status(); }
   bool take_team(TeamSnapshot&) override { return false; }
   const char* name() const override { return "none (test stub)"; }

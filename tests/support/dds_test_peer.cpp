@@ -45,6 +45,9 @@ std::int64_t realtime_ns() {
 
 int run_robot(int argc, char** argv) {
   using namespace teamscan::onboard;
+  using teamscan::ScanPoint;
+  using teamscan::ScanPoints;
+  using teamscan::Time;
   DdsBridgeOptions opt;
   opt.robot_id = static_cast<std::uint32_t>(arg_long(argc, argv, "--robot", 1));
   opt.domain_id = static_cast<std::uint32_t>(arg_long(argc, argv, "--domain", DDS_DOMAIN_DEFAULT));
@@ -58,7 +61,7 @@ int run_robot(int argc, char** argv) {
     std::fprintf(stderr, "robot: %s (%ld)\n", bridge.error().what, bridge.error().detail);
     return 1;
   }
-  static OnboardScan scan;
+  static ScanPoints scan;
   OnboardPose pose;
   OnboardStatus status;
   pose.robot_id = scan.robot_id = status.robot_id = opt.robot_id;
@@ -79,10 +82,10 @@ int run_robot(int argc, char** argv) {
     pose.x_mm = static_cast<std::int32_t>(1000 * opt.robot_id + (seq % 1000));
     pose.y_mm = static_cast<std::int32_t>(seq % 500);
     scan.seq = seq;
-    scan.stamp_ns = now;
+    scan.stamp = Time::from_ns(now);
     scan.count = points;
     for (std::uint16_t b = 0; b < points; ++b) {
-      scan.points[b] = OnboardPoint{static_cast<std::int32_t>(seq), b, static_cast<std::int32_t>(opt.robot_id), b, 0};
+      scan.points[b] = ScanPoint{static_cast<std::int32_t>(seq), b, static_cast<std::int32_t>(opt.robot_id), b, 0};
     }
     (void)bridge->publish_pose(pose);
     (void)bridge->publish_scan(scan);

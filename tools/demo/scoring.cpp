@@ -132,7 +132,7 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live,
     rec.pose = interpolate_pose(odom_of[id], t);
     rec.true_pose = live.true_motion(live_index[id], static_cast<double>(t - scenario.start_time_ns) * 1e-9).pose;
     for (std::uint16_t k = 0; k < s.count; ++k) {
-      const station::StoredPoint& p = s.points[k];
+      const ScanPoint& p = s.points[k];
       if (p.flags & kPointUnplaced) continue;  // no 3-D point (as the simulator's data set)
       if (p.beam >= truth->beams.size()) continue;
       const sim::LiveBeamTruth& b = truth->beams[p.beam];
@@ -387,9 +387,9 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
   // With the registration on, where the primary core put every scan and point (off: where the robots did).
   if (options.core.registration) {
     cores.front()->set_release_callback([&](const fusion::FusedScan& f) {
-      out.scan_pose[{f.robot, f.seq}] = f.view->map_from_robot;
+      out.scan_pose[{f.view->robot, f.view->scan}] = f.view->map_from_robot;
       for (std::size_t i = 0; i < f.view->points.size() && i < f.beams.size(); ++i)
-        out.placed[station::point_key(f.robot, f.seq, f.beams[i])] = f.view->points[i];
+        out.placed[station::point_key(f.view->robot, f.view->scan, f.beams[i])] = f.view->points[i];
     });
   }
   // Every sample in arrival order with its receive time, as the station took them (its restart replay).

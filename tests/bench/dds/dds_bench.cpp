@@ -32,16 +32,16 @@ using namespace teamscan::onboard;
 using namespace teamscan::dds;
 constexpr const char* kPongTopic = "teamscan/bench_pong";
 
-OnboardScan& full_scan(std::uint32_t robot) {
-  static OnboardScan s;
+ScanPoints& full_scan(std::uint32_t robot) {
+  static ScanPoints s;
   s.robot_id = robot;
   s.count = kMaxBeams;
-  for (std::uint16_t b = 0; b < kMaxBeams; ++b) s.points[b] = OnboardPoint{b * 10, -b * 10, 300, b, 0};
+  for (std::uint16_t b = 0; b < kMaxBeams; ++b) s.points[b] = ScanPoint{b * 10, -b * 10, 300, b, 0};
   return s;
 }
 
 void BM_EncodeScan(benchmark::State& state) {
-  OnboardScan& in = full_scan(1);
+  ScanPoints& in = full_scan(1);
   static teamscan_msg_ScanPoints out;
   for (auto _ : state) {
     encode_scan(in, out);
@@ -60,7 +60,7 @@ void BM_PublishScan(benchmark::State& state) {
     state.SkipWithError(b.error().what);
     return;
   }
-  OnboardScan& s = full_scan(2);
+  ScanPoints& s = full_scan(2);
   for (std::uint32_t i = 0; i < 2 * o.scan_history_depth; ++i) {  // fill the history first
     s.seq = i;
     (void)b->publish_scan(s);
@@ -120,7 +120,7 @@ void BM_PublishToTakeLatency(benchmark::State& state) {
   static teamscan_msg_ScanPoints rx;
   void* buf[1] = {&rx};
   dds_sample_info_t info;
-  OnboardScan& s = full_scan(3);
+  ScanPoints& s = full_scan(3);
   const double rate_hz = static_cast<double>(state.range(0));
   std::vector<double> one_way_us;
   one_way_us.reserve(100000);

@@ -15,7 +15,6 @@
 #include "drivers/lms200/scan.hpp"
 #include "onboard/core/pipeline.hpp"
 #include "tests/support/onboard_config_fixture.hpp"
-#include "onboard/daemon/lms_scan.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace teamscan::onboard {
@@ -30,7 +29,6 @@ OnboardConfig bench_config(bool gates) {
 void BM_ScanPipeline(benchmark::State& state) {
   const bool gates = state.range(0) != 0;
   auto pipeline = OnboardPipeline::create(bench_config(gates));
-  const LaserVariant variant{180, 50};
   std::array<std::uint16_t, 361> words{};
   for (std::size_t i = 0; i < 361; ++i)
     words[i] = lms200::encode_value_word(static_cast<std::uint32_t>(600 + (i * 37) % 7000), 0,
@@ -42,7 +40,6 @@ void BM_ScanPipeline(benchmark::State& state) {
   std::array<std::uint8_t, kMaxLmsTelegram> telegram{};
   const std::size_t len = lms200::build_scan_reply(telegram, cw.encode(), words, std::nullopt);
   lms200::ScanTelegram decoded;
-  std::array<std::uint8_t, kMaxBeams> beam_flags{};
 
   TeamSnapshot team;
   team.count = 8;
@@ -72,10 +69,8 @@ void BM_ScanPipeline(benchmark::State& state) {
     const auto a = std::chrono::steady_clock::now();
     (void)lms200::decode_scan(std::span<const std::uint8_t>(telegram.data(), len), lms200::MeasuringMode::m8_fields_dazzle,
                               decoded);
-    ScanBeams beams;
-    (void)to_scan_beams(decoded, stamp, variant, beam_flags, beams);
-    const OnboardScan& s = pipeline->on_scan(beams);
-    benchmark::DoNotOptimize(s.count);
+    const ScanPoints* s = pipeline->on_scan(decoded.sweep(), stamp);
+    benchmark::DoNotOptimize(s);
     const auto b = std::chrono::steady_clock::now();
     filtered += pipeline->last_filter_stats().filtered;
     if (us.size() < us.capacity()) us.push_back(std::chrono::duration<double, std::micro>(b - a).count());

@@ -57,7 +57,7 @@ const Feed& feed() {
       s.origin_y_mm = mm(r.origin.y);
       s.origin_z_mm = mm(r.origin.z);
       for (const LabelledPoint* p : points[{r.robot, r.scan}])
-        s.points[s.count++] = StoredPoint{mm(p->x), mm(p->y), mm(p->z), p->beam, 0};
+        s.points[s.count++] = ScanPoint{mm(p->x), mm(p->y), mm(p->z), p->beam, 0};
     }
     return out;
   }();

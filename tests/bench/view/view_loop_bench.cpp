@@ -83,7 +83,7 @@ Feed make_feed(double seconds) {
     s.origin_y_mm = mm(r.origin.y);
     s.origin_z_mm = mm(r.origin.z);
     for (const LabelledPoint* p : points[{r.robot, r.scan}]) {
-      if (s.count < kMaxBeams) s.points[s.count++] = StoredPoint{mm(p->x), mm(p->y), mm(p->z), p->beam, 0};
+      if (s.count < kMaxBeams) s.points[s.count++] = ScanPoint{mm(p->x), mm(p->y), mm(p->z), p->beam, 0};
     }
   }
   std::sort(out.scans.begin(), out.scans.end(), [](const auto& a, const auto& b) { return a.stamp_ns < b.stamp_ns; });

@@ -25,7 +25,7 @@ constexpr std::uint32_t kScans = 10000;
 TEST(DdsAllocations, CounterIsLinkedIn) { EXPECT_TRUE(test::alloc_counter_active()); }
 
 TEST(DdsAllocations, EncodingAllocatesNothing) {
-  static OnboardScan in;
+  static ScanPoints in;
   static teamscan_msg_ScanPoints out;
   in.robot_id = 1;
   in.count = kMaxBeams;
@@ -56,14 +56,14 @@ TEST(DdsAllocations, PublishScanIsConstantAndEveryScanArrivesInOrder) {
   for (int i = 0; i < 1000 && bridge->scan_subscribers() == 0; ++i) dds_sleepfor(DDS_MSECS(10));
   ASSERT_EQ(bridge->scan_subscribers(), 1u);
 
-  static OnboardScan scan;
+  static ScanPoints scan;
   scan.robot_id = 11;
   scan.count = kMaxBeams;
-  for (std::uint16_t b = 0; b < kMaxBeams; ++b) scan.points[b] = OnboardPoint{b, -b, 300, b, 0};
+  for (std::uint16_t b = 0; b < kMaxBeams; ++b) scan.points[b] = ScanPoint{b, -b, 300, b, 0};
   std::vector<std::uint32_t> per_call(kScans);  // preallocated: the vector never grows while counting
   for (std::uint32_t i = 0; i < kScans; ++i) {
     scan.seq = i + 1;
-    scan.stamp_ns = i;
+    scan.stamp = Time::from_ns(i);
     test::AllocScope scope;
     const Status st = bridge->publish_scan(scan);
     per_call[i] = static_cast<std::uint32_t>(scope.delta().allocs);

@@ -57,7 +57,7 @@ class RecordingPublisher final : public Publisher {
     ++poses_;
     return ok_status();
   }
-  Status publish_scan(const OnboardScan& s) override {
+  Status publish_scan(const ScanPoints& s) override {
     std::lock_guard lock{m_};
     scan_ = s;
     ++scans_;
@@ -96,7 +96,7 @@ class RecordingPublisher final : public Publisher {
     return f();
   }
   OnboardPose pose_{};
-  OnboardScan scan_{};
+  ScanPoints scan_{};
   OnboardStatus status_{};
   long poses_ = 0, scans_ = 0, statuses_ = 0;
 
@@ -152,7 +152,7 @@ TEST(OnboardDaemonInProcess, PublishesFilteredMapFramePoints) {
 
     const bool streamed = wait_until([&] { return rec.with([&] { return rec.scans_ >= 20 && rec.poses_ >= 2; }); },
                                      std::chrono::seconds(30));
-    const OnboardScan scan = rec.with([&] { return rec.scan_; });
+    const ScanPoints scan = rec.with([&] { return rec.scan_; });
     const OnboardPose pose = rec.with([&] { return rec.pose_; });
     const OnboardStatus status = rec.with([&] { return rec.status_; });
     ::pthread_kill(loop.native_handle(), SIGTERM);
@@ -173,7 +173,7 @@ TEST(OnboardDaemonInProcess, PublishesFilteredMapFramePoints) {
     // Beam 180 (0°) hits (3160, 0, 450); beam 192 (6°): robot-frame (3143.6, 313.6) is 5.7° off the line
     // to the teammate, inside the 7° cone; beam 196 (8°): (3130.8, 417.5) is 7.6° off, outside; beam 0
     // (−90°): (160, −3000).
-    auto find = [&](std::uint16_t beam) -> const OnboardPoint* {
+    auto find = [&](std::uint16_t beam) -> const ScanPoint* {
       for (std::uint16_t i = 0; i < scan.count; ++i)
         if (scan.points[i].beam == beam) return &scan.points[i];
       return nullptr;
@@ -239,7 +239,7 @@ TEST(OnboardDaemonInProcess, AppliesItsOwnCorrectionFromTheTeamState) {
   const bool streamed = wait_until(
       [&] { return rec.with([&] { return rec.scans_ >= 20 && rec.poses_ >= 2 && rec.status_.corrections_applied > 0; }); },
       std::chrono::seconds(30));
-  const OnboardScan scan = rec.with([&] { return rec.scan_; });
+  const ScanPoints scan = rec.with([&] { return rec.scan_; });
   const OnboardPose pose = rec.with([&] { return rec.pose_; });
   const OnboardStatus status = rec.with([&] { return rec.status_; });
   ::pthread_kill(loop.native_handle(), SIGTERM);
@@ -255,7 +255,7 @@ TEST(OnboardDaemonInProcess, AppliesItsOwnCorrectionFromTheTeamState) {
   EXPECT_EQ(scan.origin_x_mm, 659);
   EXPECT_EQ(scan.origin_y_mm, -184);
   ASSERT_EQ(scan.count, 361);
-  const auto find = [&](std::uint16_t beam) -> const OnboardPoint& { return scan.points[beam]; };
+  const auto find = [&](std::uint16_t beam) -> const ScanPoint& { return scan.points[beam]; };
   // Beam 180 (0°) corrected: (3644.2, 115.5), on the line to the teammate; beam 192 (6°): 5.7° off it,
   // inside the 7° cone; beam 196 (8°) outside.
   EXPECT_EQ(find(180).x_mm, 3644);

@@ -16,7 +16,6 @@
 #include "drivers/lms200/scan.hpp"
 #include "onboard/core/pipeline.hpp"
 #include "tests/support/onboard_config_fixture.hpp"
-#include "onboard/daemon/lms_scan.hpp"
 #include "onboard/bridge/bridge.hpp"
 #include "tests/support/alloc_counter.hpp"
 
@@ -44,7 +43,6 @@ TEST(PipelineDdsAllocations, DecodeFilterPublishTenThousandScans) {
   ASSERT_TRUE(bridge.ok()) << bridge.error().what;
 
   // One 361-value telegram as the scanner sends it (mm, measuring mode 0).
-  const LaserVariant variant{180, 50};
   std::array<std::uint16_t, 361> words{};
   for (std::size_t i = 0; i < 361; ++i)
     words[i] = lms200::encode_value_word(static_cast<std::uint32_t>(600 + (i * 37) % 7000), 0, lms200::BeamInvalid::none,
@@ -55,7 +53,6 @@ TEST(PipelineDdsAllocations, DecodeFilterPublishTenThousandScans) {
   std::array<std::uint8_t, kMaxLmsTelegram> telegram{};
   const std::size_t len = lms200::build_scan_reply(telegram, cw.encode(), words, std::nullopt);
   static lms200::ScanTelegram decoded;
-  std::array<std::uint8_t, kMaxBeams> beam_flags{};
 
   static TeamSnapshot team;
   team.count = 8;
@@ -79,13 +76,12 @@ TEST(PipelineDdsAllocations, DecodeFilterPublishTenThousandScans) {
     }
     ASSERT_TRUE(lms200::decode_scan(std::span<const std::uint8_t>(telegram.data(), len),
                                     lms200::MeasuringMode::m8_fields_dazzle, decoded).ok());
-    ScanBeams beams;
-    ASSERT_TRUE(to_scan_beams(decoded, stamp, variant, beam_flags, beams));
-    const OnboardScan& scan = pipeline->on_scan(beams);
+    const ScanPoints* scan = pipeline->on_scan(decoded.sweep(), stamp);
+    ASSERT_NE(scan, nullptr);
     filtered += pipeline->last_filter_stats().filtered;
     ours[static_cast<std::size_t>(k)] = static_cast<std::uint32_t>(scope.delta().allocs);
     scope.restart();
-    const Status st = bridge->publish_scan(scan);
+    const Status st = bridge->publish_scan(*scan);
     in_write[static_cast<std::size_t>(k)] = static_cast<std::uint32_t>(scope.delta().allocs);
     ASSERT_TRUE(st.ok()) << st.error().what;
   }

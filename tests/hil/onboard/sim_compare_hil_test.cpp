@@ -395,9 +395,9 @@ TEST(OnboardSimCompareHil, DaemonPointsEqualTheSimulatorsAndFlagsTheOfflineFilte
       if (sw.beams[i].invalid == lms200::BeamInvalid::dazzled) bflags[i] |= kBeamDazzled;
     }
     const auto n = static_cast<std::uint16_t>(sw.beams.size());
-    projector.project(ScanBeams{stamp, cfg.lms_variant, std::span<const std::uint32_t>(ranges.data(), n),
-                                std::span<const std::uint8_t>(bflags.data(), n)},
-                      history, out);
+    EXPECT_TRUE(projector.project(BeamSpans{std::span<const std::uint32_t>(ranges.data(), n),
+                                            std::span<const std::uint8_t>(bflags.data(), n)},
+                                  stamp, cfg.lms_variant, history, out));
   };
   auto filter = onboard::DirectionFilter::create(cfg.filter, spec.id);
   ASSERT_TRUE(filter.ok());

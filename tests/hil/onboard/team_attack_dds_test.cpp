@@ -22,6 +22,7 @@
 #include "dds/topics.hpp"
 #include "teamscan.h"
 #include "tests/support/onboard_config_fixture.hpp"
+#include "tests/support/pipeline_scan.hpp"
 
 namespace teamscan::onboard {
 namespace {
@@ -80,7 +81,7 @@ void malformed_team(teamscan_msg_TeamState& t, std::uint32_t k, std::int64_t now
 struct Beams {
   std::array<std::uint32_t, 361> range{};
   std::array<std::uint8_t, 361> flags{};
-  ScanBeams at(Time t) const { return {t, LaserVariant{180, 50}, range, flags}; }
+  BeamSpans spans() const { return {range, flags}; }
 };
 
 TEST(TeamAttackOverDds, MalformedTeamStatesAt50HzChangeNoDecision) {
@@ -146,8 +147,8 @@ TEST(TeamAttackOverDds, MalformedTeamStatesAt50HzChangeNoDecision) {
       next_poll = now + 10ms;
     }
     if (now >= next_scan && robot->odometry().size() >= 2) {
-      const OnboardScan& a = reference->on_scan(beams.at(rt - 5ms));
-      const OnboardScan& b = robot->on_scan(beams.at(rt - 5ms));
+      const ScanPoints& a = test::scan_of(*reference, beams.spans(), rt - 5ms);
+      const ScanPoints& b = test::scan_of(*robot, beams.spans(), rt - 5ms);
       ASSERT_EQ(a.count, b.count);
       for (std::uint16_t i = 0; i < a.count; ++i) ASSERT_EQ(a.points[i].flags, b.points[i].flags) << "scan " << scans << " point " << i;
       filtered += reference->last_filter_stats().filtered;

@@ -102,7 +102,7 @@ void start_robots(Robots& robots) {
 // Publishes the survey in time order: each robot's odometry pose at the stamp, then its scan. Pose seqs
 // and the rows awaited in poses.csv count on from `poses_before` (a survey published in parts).
 void publish_survey(Robots& robots, const Dataset& d, const std::string& poses_csv, std::size_t poses_before = 0) {
-  static onboard::OnboardScan scan;
+  static ScanPoints scan;
   std::map<std::pair<std::uint8_t, std::uint32_t>, std::vector<const LabelledPoint*>> points;
   for (const LabelledPoint& p : d.points) points[{p.robot, p.scan}].push_back(&p);
   std::size_t next_odom = 0;
@@ -131,13 +131,13 @@ void publish_survey(Robots& robots, const Dataset& d, const std::string& poses_c
     }
     scan.robot_id = r.robot;
     scan.seq = r.scan + 1;  // onboard seq counts from 1
-    scan.stamp_ns = r.stamp_ns;
+    scan.stamp = Time::from_ns(r.stamp_ns);
     scan.origin_x_mm = mm(r.origin.x);
     scan.origin_y_mm = mm(r.origin.y);
     scan.origin_z_mm = mm(r.origin.z);
     scan.count = 0;
     for (const LabelledPoint* p : points[{r.robot, r.scan}]) {
-      scan.points[scan.count++] = onboard::OnboardPoint{mm(p->x), mm(p->y), mm(p->z), p->beam, 0};
+      scan.points[scan.count++] = ScanPoint{mm(p->x), mm(p->y), mm(p->z), p->beam, 0};
     }
     ASSERT_TRUE(robots.bridges[r.robot - 1u].publish_scan(scan).ok());
   }

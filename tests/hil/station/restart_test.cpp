@@ -53,14 +53,14 @@ TEST(StationRestart, EveryScanMissedWhileDownArrivesAfterRestart) {
   o.domain_id = test::test_domain_id();
   auto bridge = onboard::DdsBridge::create(o);
   ASSERT_TRUE(bridge.ok()) << bridge.error().what;
-  static onboard::OnboardScan scan;
+  static ScanPoints scan;
   scan.robot_id = kRobot;
   scan.count = 401;
   auto publish = [&](std::uint32_t from, std::uint32_t to) {
     for (std::uint32_t seq = from; seq <= to; ++seq) {
       scan.seq = seq;
-      scan.stamp_ns = seq;
-      for (std::uint16_t b = 0; b < 401; ++b) scan.points[b] = onboard::OnboardPoint{static_cast<std::int32_t>(seq), b, 0, b, 0};
+      scan.stamp = Time::from_ns(seq);
+      for (std::uint16_t b = 0; b < 401; ++b) scan.points[b] = ScanPoint{static_cast<std::int32_t>(seq), b, 0, b, 0};
       ASSERT_TRUE(bridge->publish_scan(scan).ok());
       std::this_thread::sleep_for(2ms);
     }

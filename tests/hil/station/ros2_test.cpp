@@ -173,7 +173,7 @@ TEST(StationRos2, MapCloudTfAndOdometryReachRmwLikeReaders) {
   mapping::TeamTracker reference(tracker_options);
   const std::int64_t base_ns = now_realtime().ns() - 3'000'000'000;
   std::uint64_t points_sent = 0;
-  static onboard::OnboardScan scan;
+  static ScanPoints scan;
   std::size_t poses_sent = 0;
   std::int32_t last_x_mm[2] = {0, 0}, last_y_mm[2] = {0, 0};
   for (std::int64_t k = 0; k < kPoses; ++k) {
@@ -200,21 +200,21 @@ TEST(StationRos2, MapCloudTfAndOdometryReachRmwLikeReaders) {
         std::this_thread::sleep_for(1ms);
       scan.robot_id = id;
       scan.seq = static_cast<std::uint32_t>(k + 1);
-      scan.stamp_ns = stamp + 500'000;
+      scan.stamp = Time::from_ns(stamp + 500'000);
       scan.origin_x_mm = p.x_mm;
       scan.origin_y_mm = p.y_mm;
       scan.origin_z_mm = 400;
       scan.count = kPointsPerScan;
       for (int i = 0; i < kPointsPerScan; ++i) {
         const auto kk = static_cast<std::int32_t>(k);
-        scan.points[i] = onboard::OnboardPoint{6000, -3000 + 100 * i + 7 * kk, 200 + 20 * kk + static_cast<std::int32_t>(id) * 5,
+        scan.points[i] = ScanPoint{6000, -3000 + 100 * i + 7 * kk, 200 + 20 * kk + static_cast<std::int32_t>(id) * 5,
                                                static_cast<std::uint16_t>(i), 0};
       }
       if (id == 2 && k > 0) {
         // Robot 2 also sees robot 1's body (its last pose, 0.3..0.6 m up): ghosts the filter removes,
         // so the cloud (kept voxels) differs from the whole map.
         for (int i = 0; i < kGhostPoints; ++i) {
-          scan.points[scan.count++] = onboard::OnboardPoint{last_x_mm[0], last_y_mm[0] + 40 * (i % 3) - 40, 300 + 100 * (i / 3),
+          scan.points[scan.count++] = ScanPoint{last_x_mm[0], last_y_mm[0] + 40 * (i % 3) - 40, 300 + 100 * (i / 3),
                                                             static_cast<std::uint16_t>(kPointsPerScan + i), 0};
         }
       }

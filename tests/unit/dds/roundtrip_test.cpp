@@ -58,17 +58,17 @@ TEST(DdsRoundTrip, FullScanArrivesPointForPoint) {
   ASSERT_TRUE(sub.ok());
   DdsBridge b = make_bridge(6);
   ASSERT_TRUE(sub.wait_matched(1, kWait));
-  static OnboardScan s;
+  static ScanPoints s;
   s.robot_id = 6;
   s.seq = 9;
-  s.stamp_ns = 123;
+  s.stamp = Time::from_ns(123);
   s.origin_x_mm = 1;
   s.origin_y_mm = 2;
   s.origin_z_mm = 3;
   s.applied = OdomCorrection{-321, 654, -1'234'567, 42};  // the odometry correction the robot applied
   s.count = kMaxBeams;
   for (std::uint16_t i = 0; i < kMaxBeams; ++i) {
-    s.points[i] = OnboardPoint{i * 7 - 1000, -i * 3, i % 5 == 0 ? -400 : 400, i,
+    s.points[i] = ScanPoint{i * 7 - 1000, -i * 3, i % 5 == 0 ? -400 : 400, i,
                                static_cast<std::uint16_t>(i % 16)};
   }
   ASSERT_TRUE(b.publish_scan(s).ok());
@@ -212,7 +212,7 @@ TEST(DdsRoundTrip, MapUpdateWithVoxels) {
 // order, as long as they fit the history depth (the multi-process restart test is in tests/hil/station).
 TEST(DdsRoundTrip, LateScanReaderGetsTheWholeHistory) {
   DdsBridge b = make_bridge(2, 100);
-  static OnboardScan s;
+  static ScanPoints s;
   s.robot_id = 2;
   s.count = 1;
   for (std::uint32_t seq = 1; seq <= 150; ++seq) {

@@ -159,5 +159,27 @@ TEST(ScanBeamFlags, EveryReasonAndTheDazzleBit) {
   EXPECT_EQ(beam_flags(s, 8), 0);
 }
 
+// decode_scan stores each beam's geometry flags, and sweep() views ranges and flags in place: what the
+// projector (common/scan_points.hpp) reads on the robot and in the simulator.
+TEST(ScanBeamFlags, DecodeStoresThemAndTheSweepViewsThem) {
+  ScanTelegram s;
+  const std::uint16_t dazzle_bit = 0x8000;
+  ASSERT_TRUE(decode_scan(scan(CountWord{3, 0, false, 1}.encode(),
+                               {1000, reserved_code(BeamInvalid::not_valid, 13), static_cast<std::uint16_t>(2000 | dazzle_bit)}),
+                          MeasuringMode::m8_fields_dazzle, s).ok());
+  const BeamSpans beams = s.sweep();
+  ASSERT_EQ(beams.range_mm.size(), 3u);
+  ASSERT_EQ(beams.flags.size(), 3u);
+  EXPECT_EQ(beams.range_mm.data(), s.ranges_mm.data());  // a view, not a copy
+  EXPECT_EQ(beams.range_mm[0], 1000u);
+  EXPECT_EQ(beams.flags[0], 0);
+  EXPECT_EQ(beams.flags[1], kBeamInvalid);
+  EXPECT_EQ(beams.range_mm[2], 2000u);
+  EXPECT_EQ(beams.flags[2], kBeamDazzled);
+  // A partial scan's beams are not those of one sweep: nothing to place.
+  ASSERT_TRUE(decode_scan(scan(CountWord{3, 1, true, 1}.encode(), {1000, 1000, 1000}), MeasuringMode::m8_fields_dazzle, s).ok());
+  EXPECT_TRUE(s.sweep().range_mm.empty());
+}
+
 }  // namespace
 }  // namespace teamscan::lms200

@@ -16,7 +16,6 @@
 #include "tests/support/onboard_config_fixture.hpp"
 #include "drivers/lms200/codec.hpp"
 #include "drivers/lms200/scan.hpp"
-#include "onboard/daemon/lms_scan.hpp"
 
 extern "C" {
 void* __libc_malloc(std::size_t);
@@ -74,10 +73,7 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
   ASSERT_TRUE(config.ok()) << msg;
   auto pipeline = OnboardPipeline::create(config.value());
   ASSERT_TRUE(pipeline.ok());
-  const LaserVariant variant{180, 50};
-
   std::array<std::uint32_t, kMaxBeams> ranges{};
-  std::array<std::uint8_t, kMaxBeams> flags{};
   for (std::size_t i = 0; i < 361; ++i) ranges[i] = 500 + static_cast<std::uint32_t>(i * 17 % 7000);
   // One 361-value telegram as the scanner sends it (mm, measuring mode 0), decoded on every scan.
   std::array<std::uint16_t, 361> words{};
@@ -91,7 +87,6 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
   const std::size_t telegram_len = lms200::build_scan_reply(telegram, cw.encode(), words, std::nullopt);
   ASSERT_GT(telegram_len, 722u);
   lms200::ScanTelegram decoded;
-  std::array<std::uint8_t, kMaxBeams> beam_flags{};
 
   TeamSnapshot team;
   team.count = 9;
@@ -136,14 +131,12 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
         for (std::uint32_t m = 0; m < 8; ++m) malformed.members[m].valid_ns = stamp.ns();
         (void)pipeline->on_team(k % 8 == 1 ? malformed : too_many, stamp);
       }
-      ScanBeams beams{stamp, variant, std::span<const std::uint32_t>(ranges.data(), 361),
-                      std::span<const std::uint8_t>(flags.data(), 361)};
       if (!lms200::decode_scan(std::span<const std::uint8_t>(telegram.data(), telegram_len),
                                lms200::MeasuringMode::m8_fields_dazzle, decoded).ok())
         break;
-      if (!to_scan_beams(decoded, stamp, variant, beam_flags, beams)) break;
-      const OnboardScan& s = pipeline->on_scan(beams);
-      published += s.count;
+      const ScanPoints* s = pipeline->on_scan(decoded.sweep(), stamp);
+      if (s == nullptr) break;
+      published += s->count;
       filtered += pipeline->last_filter_stats().filtered;
     }
     allocations = armed.count();

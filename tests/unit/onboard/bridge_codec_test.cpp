@@ -23,18 +23,18 @@ TEST(DdsCodec, IdlConstantsMatchCapacities) {
 }
 
 TEST(DdsCodec, ScanFieldsCopiedAndTailZeroed) {
-  static OnboardScan in;
+  static ScanPoints in;
   in.robot_id = 7;
   in.seq = 123456;
-  in.stamp_ns = 1'700'000'000'123'456'789;
+  in.stamp = Time::from_ns(1'700'000'000'123'456'789);
   in.origin_x_mm = -1500;
   in.origin_y_mm = 2500;
   in.origin_z_mm = 420;
   in.applied = OdomCorrection{-120, 340, -2'000'000, 12};
   in.count = 3;
-  in.points[0] = OnboardPoint{1, -2, 3, 0, kPointInvalid};
-  in.points[1] = OnboardPoint{-80000, 80000, -1, 200, kPointDirectionFiltered | kPointDazzled};
-  in.points[2] = OnboardPoint{INT32_MAX, INT32_MIN, 0, 400, 0};
+  in.points[0] = ScanPoint{1, -2, 3, 0, kPointInvalid};
+  in.points[1] = ScanPoint{-80000, 80000, -1, 200, kPointDirectionFiltered | kPointDazzled};
+  in.points[2] = ScanPoint{INT32_MAX, INT32_MIN, 0, 400, 0};
   static teamscan_msg_ScanPoints out;
   std::memset(&out, 0xAB, sizeof out);  // stale bytes from a longer sweep
   encode_scan(in, out);
@@ -63,7 +63,7 @@ TEST(DdsCodec, ScanFieldsCopiedAndTailZeroed) {
 }
 
 TEST(DdsCodec, ScanCountAboveCapacityIsClamped) {
-  static OnboardScan in;
+  static ScanPoints in;
   in.robot_id = 1;
   in.count = 999;  // corrupt count from a bug upstream: never read past the array
   static teamscan_msg_ScanPoints out;

@@ -1,6 +1,7 @@
 // Tests of the onboard pipeline: odometry -> pose message, scan -> points -> filter -> scan message,
 // publish modes.
 #include "onboard/core/pipeline.hpp"
+#include "tests/support/pipeline_scan.hpp"
 
 #include <gtest/gtest.h>
 
@@ -63,7 +64,7 @@ TEST(OnboardPipeline, PoseInTheMapFrame) {
 struct Beams {
   std::array<std::uint32_t, 181> range{};
   std::array<std::uint8_t, 181> flags{};
-  ScanBeams at(Time t) const { return {t, LaserVariant{180, 100}, range, flags}; }
+  BeamSpans spans() const { return {range, flags}; }
 };
 
 TEST(OnboardPipeline, ScanFilteredAgainstTheTeamAndPublishedWithFlags) {
@@ -83,7 +84,7 @@ TEST(OnboardPipeline, ScanFilteredAgainstTheTeamAndPublishedWithFlags) {
   Beams b;
   b.range.fill(3000);
   b.flags[0] = kBeamInvalid;
-  const OnboardScan& s = p->on_scan(b.at(kT0 + 60ms));
+  const ScanPoints& s = test::scan_of(*p, b.spans(), kT0 + 60ms);
   EXPECT_EQ(s.robot_id, 1u);
   EXPECT_EQ(s.seq, 1u);
   EXPECT_EQ(s.count, 181);
@@ -140,7 +141,7 @@ TEST(OnboardPipeline, OwnCorrectionMovesThePublishedScanAndTheScanSaysWhichOne) 
   EXPECT_EQ(p->applied_correction().seq, 7u);
   Beams b;
   b.range.fill(3000);
-  const OnboardScan& s = p->on_scan(b.at(kT0 + 60ms));
+  const ScanPoints& s = test::scan_of(*p, b.spans(), kT0 + 60ms);
   EXPECT_EQ(s.applied.x_mm, 100);
   EXPECT_EQ(s.applied.y_mm, 200);
   EXPECT_EQ(s.applied.yaw_urad, 200'000);
@@ -177,7 +178,7 @@ TEST(OnboardPipeline, DirectionFilterUsesTheCorrectedOwnPositionAgainstCorrected
     p->on_team(team_with_correction(corrected ? shift : OdomCorrection{}, kT0 + 50ms, -500, 6000), kT0 + 50ms);
     Beams b;
     b.range.fill(3000);
-    const OnboardScan& s = p->on_scan(b.at(kT0 + 60ms));
+    const ScanPoints& s = test::scan_of(*p, b.spans(), kT0 + 60ms);
     if (corrected) {
       // The sweep's centre beam hits (−0.5, 3), on the line to the teammate: beams within ±6° are in
       // the 7° cone from the corrected apex (−0.5, 0). (Corrected points from the uncorrected apex
@@ -222,8 +223,8 @@ TEST(OnboardPipeline, AnAbsurdCorrectionStepIsRefusedCountedAndTheAppliedOneStay
   EXPECT_EQ(p->applied_correction().seq, 1u);
   Beams b;
   b.range.fill(3000);
-  EXPECT_EQ(p->on_scan(b.at(t)).applied.seq, 1u);
-  EXPECT_EQ(p->last_points().origin_x_mm, 1500);
+  EXPECT_EQ(test::scan_of(*p, b.spans(), t).applied.seq, 1u);
+  EXPECT_EQ(p->last_scan().origin_x_mm, 1500);
   // A plausible step after the refused ones is taken (measured from the applied one).
   EXPECT_TRUE(team({700, -300, 400'000, 4}).ok());  // 0.36 m, 22.9°
   EXPECT_EQ(p->applied_correction().seq, 4u);
@@ -231,8 +232,8 @@ TEST(OnboardPipeline, AnAbsurdCorrectionStepIsRefusedCountedAndTheAppliedOneStay
   // None (a restarted station): back to the identity, whatever the step.
   EXPECT_TRUE(team({}).ok());
   EXPECT_TRUE(p->applied_correction().none());
-  EXPECT_EQ(p->on_scan(b.at(t)).applied.seq, 0u);
-  EXPECT_EQ(p->last_points().origin_x_mm, 1000);
+  EXPECT_EQ(test::scan_of(*p, b.spans(), t).applied.seq, 0u);
+  EXPECT_EQ(p->last_scan().origin_x_mm, 1000);
   EXPECT_EQ(p->counters().corrections_applied, 3u);
   EXPECT_EQ(p->counters().corrections_rejected, 2u);
 }
@@ -255,7 +256,7 @@ TEST(OnboardPipeline, KeptModePublishesOnlyValidUnfilteredPoints) {
   b.flags[0] = kBeamInvalid;
   b.flags[1] = kBeamDazzled;
   b.range[2] = 9000;  // beyond max_range_m = 8
-  const OnboardScan& s = p->on_scan(b.at(kT0 + 60ms));
+  const ScanPoints& s = test::scan_of(*p, b.spans(), kT0 + 60ms);
   EXPECT_EQ(s.count, 181 - 13 - 3);
   for (std::uint16_t i = 0; i < s.count; ++i) EXPECT_EQ(s.points[i].flags, 0) << i;
   EXPECT_EQ(s.points[0].beam, 3);
@@ -268,7 +269,7 @@ TEST(OnboardPipeline, NoTeamYetMarksPointsStale) {
   ASSERT_TRUE(p->on_odometry(kT0, {0, 0, 0}, 0, 0, pose));
   Beams b;
   b.range.fill(2000);
-  const OnboardScan& s = p->on_scan(b.at(kT0 + 10ms));
+  const ScanPoints& s = test::scan_of(*p, b.spans(), kT0 + 10ms);
   for (std::uint16_t i = 0; i < s.count; ++i) EXPECT_EQ(s.points[i].flags, kPointTeamStale) << i;
   EXPECT_FALSE(p->team_fresh(kT0));
 }
@@ -278,11 +279,28 @@ TEST(OnboardPipeline, NoOdometryMeansNoPoseAndNoFilter) {
   ASSERT_TRUE(p.ok());
   Beams b;
   b.range.fill(2000);
-  const OnboardScan& s = p->on_scan(b.at(kT0));
+  const ScanPoints& s = test::scan_of(*p, b.spans(), kT0);
   EXPECT_EQ(s.count, 181);
   EXPECT_EQ(p->counters().scans_without_pose, 1u);
   EXPECT_EQ(p->counters().points_no_pose, 181u);
   for (std::uint16_t i = 0; i < s.count; ++i) EXPECT_EQ(s.points[i].flags, kPointNoPose) << i;
+}
+
+// Only a full sweep of the configured variant (180°/1° here: 181 beams) is placed; anything else is
+// refused and counted, and takes no sequence number.
+TEST(OnboardPipeline, ASweepThatIsNotOneOfTheConfiguredVariantIsRefused) {
+  auto p = OnboardPipeline::create(config());
+  ASSERT_TRUE(p.ok());
+  const std::array<std::uint32_t, 361> range{};
+  const std::array<std::uint8_t, 361> flags{};
+  EXPECT_EQ(p->on_scan(BeamSpans{range, flags}, kT0), nullptr);  // a 0.5° sweep
+  EXPECT_EQ(p->on_scan(BeamSpans{}, kT0), nullptr);              // a partial telegram's sweep()
+  EXPECT_EQ(p->counters().scans_refused, 2u);
+  EXPECT_EQ(p->counters().scans, 0u);
+  Beams b;
+  b.range.fill(2000);
+  EXPECT_EQ(test::scan_of(*p, b.spans(), kT0).seq, 1u);
+  EXPECT_EQ(p->counters().scans, 1u);
 }
 
 }  // namespace

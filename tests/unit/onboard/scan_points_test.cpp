@@ -14,7 +14,7 @@ constexpr LaserVariant k180x1{180, 100};  // 181 beams, one revolution
 struct Scan {
   std::vector<std::uint32_t> range;
   std::vector<std::uint8_t> flags;
-  ScanBeams beams(Time stamp, LaserVariant v = k180x1) const { return {stamp, v, range, flags}; }
+  BeamSpans spans() const { return {range, flags}; }
 };
 
 Scan uniform(std::uint32_t range_mm, std::size_t n = 181) { return {std::vector<std::uint32_t>(n, range_mm), std::vector<std::uint8_t>(n, 0)}; }
@@ -31,7 +31,7 @@ TEST(ScanPoints, IdentityMountBeamAngles) {
   const auto odom = standing_at({});
   const Scan s = uniform(1000);
   ScanPoints out;
-  proj.project(s.beams(Time::from_ns(500'000'000)), odom, out);
+  ASSERT_TRUE(proj.project(s.spans(), Time::from_ns(500'000'000), k180x1, odom, out));
   ASSERT_EQ(out.count, 181);
   // Beam 0 on the right (−90°), beam 90 straight ahead, beam 180 on the left (DESIGN.md).
   EXPECT_EQ(out.points[0].x_mm, 0);
@@ -53,7 +53,7 @@ TEST(ScanPoints, TiltedDownLaserHitsBelowItsCentre) {
   const auto odom = standing_at({});
   const Scan s = uniform(2000);
   ScanPoints out;
-  proj.project(s.beams(Time::from_ns(500'000'000)), odom, out);
+  ASSERT_TRUE(proj.project(s.spans(), Time::from_ns(500'000'000), k180x1, odom, out));
   // Beam 90: 2 m along (cos30°, 0, −sin30°) from (0, 0, 0.5): (1732.05, 0, −500).
   EXPECT_EQ(out.points[90].x_mm, 1732);
   EXPECT_EQ(out.points[90].y_mm, 0);
@@ -76,7 +76,7 @@ TEST(ScanPoints, MountOffsetYawAndRegistration) {
   const auto odom = standing_at({1.0, 2.0, deg_to_rad(90)});
   const Scan s = uniform(1000);
   ScanPoints out;
-  proj.project(s.beams(Time::from_ns(500'000'000)), odom, out);
+  ASSERT_TRUE(proj.project(s.spans(), Time::from_ns(500'000'000), k180x1, odom, out));
   // Beam 90 points along the laser x = robot +y = map −x. Robot frame: (0.2, 1.1, 0.3).
   // Robot facing +y: map = (1 − 1.1, 2 + 0.2) + (10, 0) = (9.9, 2.2).
   EXPECT_EQ(out.points[90].x_mm, 9900);
@@ -94,7 +94,7 @@ TEST(ScanPoints, RotatedRegistration) {
   const auto odom = standing_at({2.0, 0.0, 0.0});
   const Scan s = uniform(1000);
   ScanPoints out;
-  proj.project(s.beams(Time::from_ns(500'000'000)), odom, out);
+  ASSERT_TRUE(proj.project(s.spans(), Time::from_ns(500'000'000), k180x1, odom, out));
   // Odom point (3, 0) -> map (0 − 0, 5 + 3) = (0, 8).
   EXPECT_EQ(out.points[90].x_mm, 0);
   EXPECT_EQ(out.points[90].y_mm, 8000);
@@ -109,7 +109,7 @@ TEST(ScanPoints, RobotMovingDuringTheSweep) {
   ScanProjector proj{Pose3{}, Pose2{}};
   const Scan s = uniform(1000);
   ScanPoints out;
-  proj.project(s.beams(Time::from_ns(500'000'000)), odom, out);
+  ASSERT_TRUE(proj.project(s.spans(), Time::from_ns(500'000'000), k180x1, odom, out));
   // Beam 180: age 0 -> robot at x = 1.0 m, point (1.0, 1.0).
   EXPECT_EQ(out.points[180].x_mm, 1000);
   EXPECT_EQ(out.points[180].y_mm, 1000);
@@ -130,7 +130,7 @@ TEST(ScanPoints, TurningDuringAnInterlacedSweep) {
   ScanProjector proj{Pose3{}, Pose2{}};
   const Scan s = uniform(4000, 361);
   ScanPoints out;
-  proj.project(s.beams(Time::from_ns(50'000'000), LaserVariant{180, 50}), odom, out);
+  ASSERT_TRUE(proj.project(s.spans(), Time::from_ns(50'000'000), LaserVariant{180, 50}, odom, out));
   const double t180 = 0.05 - (1.0 / 75.0) * (1.0 + 90.0 / 360.0);
   EXPECT_EQ(out.points[180].x_mm, static_cast<std::int32_t>(std::lround(4000 * std::cos(t180))));
   EXPECT_EQ(out.points[180].y_mm, static_cast<std::int32_t>(std::lround(4000 * std::sin(t180))));
@@ -150,7 +150,7 @@ TEST(ScanPoints, FlagsInvalidDazzledOutOfRange) {
   s.range[13] = 5001;
   s.range[14] = 5000;
   ScanPoints out;
-  proj.project(s.beams(Time::from_ns(500'000'000)), odom, out);
+  ASSERT_TRUE(proj.project(s.spans(), Time::from_ns(500'000'000), k180x1, odom, out));
   EXPECT_EQ(out.points[10].flags, kPointInvalid);
   EXPECT_EQ(out.points[11].flags, kPointDazzled);
   EXPECT_EQ(out.points[12].flags, kPointInvalid);
@@ -169,7 +169,7 @@ TEST(ScanPoints, NoOdometryFlagsEveryBeam) {
   OdometryHistory<> empty;
   const Scan s = uniform(1000);
   ScanPoints out;
-  proj.project(s.beams(Time::from_ns(500'000'000)), empty, out);
+  ASSERT_TRUE(proj.project(s.spans(), Time::from_ns(500'000'000), k180x1, empty, out));
   EXPECT_FALSE(out.pose_ok);
   EXPECT_EQ(out.unplaced, 181);
   for (std::size_t i = 0; i < out.count; ++i) EXPECT_NE(out.points[i].flags & kPointNoPose, 0) << i;
@@ -183,7 +183,7 @@ TEST(ScanPoints, StaleOdometryOnlyCoversRecentBeams) {
   ScanProjector proj{Pose3{}, Pose2{}, ScanPointsOptions{8182, 100ms}};
   const Scan s = uniform(1000);
   ScanPoints out;
-  proj.project(s.beams(Time::from_ns(113'000'000)), odom, out);
+  ASSERT_TRUE(proj.project(s.spans(), Time::from_ns(113'000'000), k180x1, odom, out));
   EXPECT_FALSE(out.pose_ok);
   // Beam age (180 − i)·37037.04 ns; placed iff age ≥ 3 ms, i.e. 180 − i ≥ 81.000003: i ≤ 98.
   EXPECT_EQ(out.points[98].flags, 0);
@@ -196,13 +196,30 @@ TEST(ScanPoints, VariantChangeRebuildsTable) {
   const auto odom = standing_at({});
   ScanPoints out;
   const Scan a = uniform(1000, 101);
-  proj.project(a.beams(Time::from_ns(500'000'000), LaserVariant{100, 100}), odom, out);
+  ASSERT_TRUE(proj.project(a.spans(), Time::from_ns(500'000'000), LaserVariant{100, 100}, odom, out));
   EXPECT_EQ(out.count, 101);
   EXPECT_EQ(out.points[0].x_mm, static_cast<std::int32_t>(std::lround(1000 * std::cos(deg_to_rad(-50)))));
   const Scan b = uniform(1000, 181);
-  proj.project(b.beams(Time::from_ns(500'000'000)), odom, out);
+  ASSERT_TRUE(proj.project(b.spans(), Time::from_ns(500'000'000), k180x1, odom, out));
   EXPECT_EQ(out.points[0].x_mm, 0);
   EXPECT_EQ(out.points[0].y_mm, -1000);
+}
+
+TEST(ScanPoints, RefusesBeamsThatAreNotOneFullSweepOfTheVariant) {
+  ScanProjector proj{Pose3{}, Pose2{}};
+  const auto odom = standing_at({});
+  ScanPoints out;
+  out.count = 7;  // unchanged by a refusal
+  const Scan short_scan = uniform(1000, 180);
+  EXPECT_FALSE(proj.project(short_scan.spans(), Time::from_ns(500'000'000), k180x1, odom, out));
+  EXPECT_FALSE(proj.project(BeamSpans{}, Time::from_ns(500'000'000), k180x1, odom, out));  // a partial telegram's sweep()
+  Scan mismatched = uniform(1000);
+  mismatched.flags.pop_back();
+  EXPECT_FALSE(proj.project(mismatched.spans(), Time::from_ns(500'000'000), k180x1, odom, out));
+  EXPECT_EQ(out.count, 7);
+  const Scan full = uniform(1000);
+  EXPECT_TRUE(proj.project(full.spans(), Time::from_ns(500'000'000), k180x1, odom, out));
+  EXPECT_EQ(out.count, 181);
 }
 
 TEST(ScanPoints, MetresToMillimetresRoundsAndSaturates) {

@@ -13,6 +13,7 @@
 
 #include "onboard/core/pipeline.hpp"
 #include "tests/support/onboard_config_fixture.hpp"
+#include "tests/support/pipeline_scan.hpp"
 
 namespace teamscan::onboard {
 namespace {
@@ -146,7 +147,7 @@ TEST(TeamValidation, EveryMalformedStateIsRefusedWithItsReason) {
 struct Beams {
   std::array<std::uint32_t, 361> range{};
   std::array<std::uint8_t, 361> flags{};
-  ScanBeams at(Time t) const { return {t, LaserVariant{180, 50}, range, flags}; }
+  BeamSpans spans() const { return {range, flags}; }
 };
 
 // Two pipelines see the same odometry, scans and ground-station team states (20 Hz); the second also
@@ -186,8 +187,8 @@ TEST(TeamValidation, MalformedTeamStatesAt50HzChangeNoDecision) {
       ++sent_bad;
     }
     if (ms % 40 == 13) {  // 75 Hz would be every 13.3 ms; 25 Hz keeps the test fast with the same coverage
-      const OnboardScan& a = clean->on_scan(beams.at(t));
-      const OnboardScan& b = attacked->on_scan(beams.at(t));
+      const ScanPoints& a = test::scan_of(*clean, beams.spans(), t);
+      const ScanPoints& b = test::scan_of(*attacked, beams.spans(), t);
       ASSERT_EQ(a.count, b.count);
       for (std::uint16_t i = 0; i < a.count; ++i) ASSERT_EQ(a.points[i].flags, b.points[i].flags) << "scan at " << ms << " ms, point " << i;
       filtered += clean->last_filter_stats().filtered;

@@ -112,10 +112,10 @@ void feed(FusionStage& stage, const Dataset& d, std::size_t pose_delay = 0,
     scan.origin_z_mm = mm(r.origin.z);
     for (const LabelledPoint& p : d.points) {
       if (p.robot != r.robot || p.scan != r.scan) continue;
-      scan.points[scan.count++] = StoredPoint{mm(p.x), mm(p.y), mm(p.z), p.beam, 0};
+      scan.points[scan.count++] = ScanPoint{mm(p.x), mm(p.y), mm(p.z), p.beam, 0};
     }
     // One beam without an echo: stored by the station, never part of the model.
-    scan.points[scan.count++] = StoredPoint{0, 0, 0, 400, kPointInvalid};
+    scan.points[scan.count++] = ScanPoint{0, 0, 0, 400, kPointInvalid};
     if (robot2_scan_delay > 0 && r.robot == 2) {
       late_scans.push_back(std::make_unique<StoredScan>(scan));
     } else {
@@ -526,7 +526,7 @@ StoredScan small_scan(std::uint32_t robot, std::uint32_t seq, std::int64_t stamp
   s.seq = seq;
   s.stamp_ns = stamp_ns;
   s.recv_realtime_ns = stamp_ns + 1'000'000;
-  for (std::uint16_t b = 0; b < 3; ++b) s.points[s.count++] = StoredPoint{1000 + 10 * b, 2000, 300, b, 0};
+  for (std::uint16_t b = 0; b < 3; ++b) s.points[s.count++] = ScanPoint{1000 + 10 * b, 2000, 300, b, 0};
   return s;
 }
 
@@ -967,9 +967,9 @@ TEST(Fusion, ChangedMapVoxelsAreThoseWithNewPointsSinceTheLastCall) {
   s.robot_id = 1;
   s.seq = 1;
   s.stamp_ns = t0;
-  s.points[s.count++] = StoredPoint{1010, 2010, 310, 0, 0};
-  s.points[s.count++] = StoredPoint{1020, 2020, 320, 1, 0};  // same 0.1 m voxel
-  s.points[s.count++] = StoredPoint{5010, 2010, 310, 2, 0};
+  s.points[s.count++] = ScanPoint{1010, 2010, 310, 0, 0};
+  s.points[s.count++] = ScanPoint{1020, 2020, 320, 1, 0};  // same 0.1 m voxel
+  s.points[s.count++] = ScanPoint{5010, 2010, 310, 2, 0};
   f.add_scan(s);
   std::vector<teamscan_msg_MapVoxel> changed, full;
   f.map_voxels_changed(changed);

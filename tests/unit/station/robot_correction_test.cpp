@@ -18,6 +18,7 @@
 #include "onboard/core/pipeline.hpp"
 #include "teamscan.h"
 #include "tests/support/onboard_config_fixture.hpp"
+#include "tests/support/pipeline_scan.hpp"
 
 namespace teamscan {
 namespace {
@@ -54,7 +55,7 @@ station::PoseObservation observed(const onboard::OnboardPose& p) {
 struct Beams {
   std::array<std::uint32_t, 361> range{};
   std::array<std::uint8_t, 361> flags{};
-  ScanBeams at(Time t) const { return {t, LaserVariant{180, 50}, range, flags}; }
+  BeamSpans spans() const { return {range, flags}; }
 };
 
 TEST(RobotCorrectionLoop, TheRobotAppliesTheStationsCorrectionAndTheStationStoresTheOdometryFrame) {
@@ -117,12 +118,12 @@ TEST(RobotCorrectionLoop, TheRobotAppliesTheStationsCorrectionAndTheStationStore
   beams.flags[8] = kBeamDazzled;
   const Time scan_at = kT0 + 3900ms;
   static teamscan_msg_ScanPoints sample_corrected, sample_plain;
-  onboard::encode_scan(corrected.on_scan(beams.at(scan_at)), sample_corrected);
+  onboard::encode_scan(test::scan_of(corrected, beams.spans(), scan_at), sample_corrected);
   // The robot's corrected position is where the station's tracker puts it (the team's frame).
-  const Pose2 robot_at = corrected.last_points().map_from_robot;
+  const Pose2 robot_at = corrected.last_scan().map_from_robot;
   EXPECT_NEAR(robot_at.x_m, estimates[0].x_m - estimates[0].vx_mps * 0.1, 0.05);
   EXPECT_NEAR(robot_at.y_m, estimates[0].y_m - estimates[0].vy_mps * 0.1, 0.05);
-  onboard::encode_scan(plain.on_scan(beams.at(scan_at)), sample_plain);
+  onboard::encode_scan(test::scan_of(plain, beams.spans(), scan_at), sample_plain);
   EXPECT_EQ(sample_corrected.corr_seq, 1u);
   EXPECT_EQ(sample_corrected.corr_x_mm, 250);
   EXPECT_EQ(sample_plain.corr_seq, 0u);
@@ -153,8 +154,8 @@ TEST(RobotCorrectionLoop, TheRobotAppliesTheStationsCorrectionAndTheStationStore
   ASSERT_EQ(stored.count, reference.count);
   int off_by_one = 0;
   for (std::uint16_t i = 0; i < stored.count; ++i) {
-    const station::StoredPoint& a = stored.points[i];
-    const station::StoredPoint& b = reference.points[i];
+    const ScanPoint& a = stored.points[i];
+    const ScanPoint& b = reference.points[i];
     ASSERT_EQ(a.beam, b.beam);
     ASSERT_EQ(a.z_mm, b.z_mm) << i;
     ASSERT_LE(std::abs(a.x_mm - b.x_mm), 1) << i;  // one rounding on the robot, one at the station

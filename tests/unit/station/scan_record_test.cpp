@@ -38,7 +38,7 @@ TEST(ScanRecord, ExactBytesOfAOnePointRecord) {
   s.origin_z_mm = 0;
   s.applied = OdomCorrection{-2, 1000, -1'570'796, 0x0A0B0C0D};
   s.count = 1;
-  s.points[0] = StoredPoint{-1000, 1000, 7, 400, 5};
+  s.points[0] = ScanPoint{-1000, 1000, 7, 400, 5};
   std::uint8_t buf[kScanRecordMaxBytes];
   const std::size_t n = encode_scan_record(s, buf);
   ASSERT_EQ(n, 8u + 64u + 16u + 4u);
@@ -110,10 +110,10 @@ TEST(ScanRecord, UndoingTheAppliedCorrectionGivesTheOdometryMapFrame) {
   s.origin_y_mm = 1200;
   s.origin_z_mm = 300;
   s.count = 4;
-  s.points[0] = StoredPoint{-2900, 1200, 310, 90, 0};   // odometry-map (1000, 3000)
-  s.points[1] = StoredPoint{0, 0, 0, 91, kPointNoPose};
-  s.points[2] = StoredPoint{-2900, 1200, 310, 92, kPointDirectionFiltered};
-  s.points[3] = StoredPoint{100, 1200, 300, 93, kPointInvalid};  // no echo: at the laser's centre
+  s.points[0] = ScanPoint{-2900, 1200, 310, 90, 0};   // odometry-map (1000, 3000)
+  s.points[1] = ScanPoint{0, 0, 0, 91, kPointNoPose};
+  s.points[2] = ScanPoint{-2900, 1200, 310, 92, kPointDirectionFiltered};
+  s.points[3] = ScanPoint{100, 1200, 300, 93, kPointInvalid};  // no echo: at the laser's centre
   undo_applied_correction(s);
   EXPECT_EQ(s.origin_x_mm, 1000);
   EXPECT_EQ(s.origin_y_mm, 0);
@@ -131,7 +131,7 @@ TEST(ScanRecord, UndoingTheAppliedCorrectionGivesTheOdometryMapFrame) {
   // None applied: nothing moves.
   static StoredScan n;
   n.count = 1;
-  n.points[0] = StoredPoint{-2900, 1200, 310, 90, 0};
+  n.points[0] = ScanPoint{-2900, 1200, 310, 90, 0};
   undo_applied_correction(n);
   EXPECT_EQ(n.points[0].x_mm, -2900);
 }
@@ -152,9 +152,9 @@ std::vector<std::uint8_t> file_with(const std::vector<StoredScan*>& scans) {
 TEST(ScanRecord, RoundTripOfZeroOneAndFullScans) {
   static StoredScan a, b, c;
   a.robot_id = 1; a.seq = 1; a.count = 0;
-  b.robot_id = 2; b.seq = 2; b.count = 1; b.points[0] = StoredPoint{1, 2, 3, 4, 5};
+  b.robot_id = 2; b.seq = 2; b.count = 1; b.points[0] = ScanPoint{1, 2, 3, 4, 5};
   c.robot_id = 32; c.seq = 3; c.count = kMaxBeams;
-  for (std::uint16_t i = 0; i < kMaxBeams; ++i) c.points[i] = StoredPoint{i, -i, i * 2, i, static_cast<std::uint16_t>(i & 15)};
+  for (std::uint16_t i = 0; i < kMaxBeams; ++i) c.points[i] = ScanPoint{i, -i, i * 2, i, static_cast<std::uint16_t>(i & 15)};
   const auto f = file_with({&a, &b, &c});
   std::vector<std::pair<std::uint32_t, std::uint16_t>> got;
   std::int32_t last_z = 0;
@@ -180,7 +180,7 @@ TEST(ScanRecord, RefusedScanKeepsItsReasonAndItsPoints) {
   s.seq = 5;
   s.count = 65535;
   s.rejected = 2;
-  for (std::uint16_t i = 0; i < kMaxBeams; ++i) s.points[i] = StoredPoint{i, 0, 0, i, 0};
+  for (std::uint16_t i = 0; i < kMaxBeams; ++i) s.points[i] = ScanPoint{i, 0, 0, i, 0};
   std::uint8_t buf[kScanRecordMaxBytes];
   const std::size_t n = encode_scan_record(s, buf);
   ASSERT_EQ(n, kScanRecordMaxBytes);

@@ -69,7 +69,7 @@ Feed make_feed(const Dataset& d) {
     s.origin_y_mm = mm(r.origin.y);
     s.origin_z_mm = mm(r.origin.z);
     for (const LabelledPoint& p : d.points)
-      if (p.robot == r.robot && p.scan == r.scan) s.points[s.count++] = StoredPoint{mm(p.x), mm(p.y), mm(p.z), p.beam, 0};
+      if (p.robot == r.robot && p.scan == r.scan) s.points[s.count++] = ScanPoint{mm(p.x), mm(p.y), mm(p.z), p.beam, 0};
     Sample x;
     x.recv_ns = s.recv_realtime_ns;
     x.scan = f.scans.size();
@@ -297,9 +297,9 @@ TEST(SessionReplay, ASilentRobotStaysWhereItWasLastSeenAndItsHitsAreStillRemoved
     s.stamp_ns = t;
     s.recv_realtime_ns = t;
     s.origin_z_mm = 300;
-    s.points[s.count++] = StoredPoint{1750, 0, 150, 0, 0};  // robot 2's front face
-    s.points[s.count++] = StoredPoint{5000, 0, 300, 1, 0};  // the wall
-    s.points[s.count++] = StoredPoint{4000, 0, 300, 2, 0};  // the box
+    s.points[s.count++] = ScanPoint{1750, 0, 150, 0, 0};  // robot 2's front face
+    s.points[s.count++] = ScanPoint{5000, 0, 300, 1, 0};  // the wall
+    s.points[s.count++] = ScanPoint{4000, 0, 300, 2, 0};  // the box
     (*stage)->add_scan(s);
   }
   (*stage)->flush();

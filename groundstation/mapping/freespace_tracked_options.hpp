@@ -1,6 +1,6 @@
-// Options of the methods beyond the paper (issue 7; docs/beyond.md): free-space ray casting and the
-// Kalman-linked robot-body filter. Kept apart from filter.hpp so MethodOptions can hold them without
-// the filter headers including each other.
+// Options of the free-space filter (`freespace`: ray casting) and the tracked filter (`tracked`: the
+// Kalman-linked robot body), the methods beyond the paper (docs/beyond.md). Kept apart from filter.hpp
+// so MethodOptions can hold them without the filter headers including each other.
 #pragma once
 
 #include <cstdint>
@@ -40,7 +40,7 @@ struct FreespaceOptions {
   int guard_neighbours = 26;
 };
 
-// `tracked`: the paper's position and direction filters made one 3-D body test (issue 7): every
+// `tracked`: the paper's position and direction filters made one 3-D body test: every
 // teammate is the Pioneer 3-AT's bounding box (sim/world.cpp make_pioneer3at_body: 626 × 505 mm, laser
 // housing top at ~0.5 m), oriented by its heading, at its Kalman estimate moved to the beam's time,
 // inflated by n·σ of the Kalman position covariance along each box axis and by the heading σ.
