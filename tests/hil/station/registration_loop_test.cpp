@@ -71,7 +71,7 @@ TEST(StationRegistrationLoop, ACorrectionOfScansReleasedByTheClockIsOnTheTeamWit
   // pose topic is keep-last 1).
   std::map<std::pair<std::uint8_t, std::uint32_t>, std::vector<const LabelledPoint*>> points;
   for (const LabelledPoint& p : d.points) points[{p.robot, p.scan}].push_back(&p);
-  static onboard::OnboardScan scan;
+  static ScanPoints scan;
   std::size_t next_odom = 0;
   for (const ScanRecord& r : d.scans) {
     while (next_odom < d.odom.size() && d.odom[next_odom].stamp_ns <= r.stamp_ns) {
@@ -88,13 +88,13 @@ TEST(StationRegistrationLoop, ACorrectionOfScansReleasedByTheClockIsOnTheTeamWit
     }
     scan.robot_id = r.robot;
     scan.seq = r.scan + 1;
-    scan.stamp_ns = r.stamp_ns;
+    scan.stamp = Time::from_ns(r.stamp_ns);
     scan.origin_x_mm = mm(r.origin.x);
     scan.origin_y_mm = mm(r.origin.y);
     scan.origin_z_mm = mm(r.origin.z);
     scan.count = 0;
     for (const LabelledPoint* p : points[{r.robot, r.scan}])
-      scan.points[scan.count++] = onboard::OnboardPoint{mm(p->x), mm(p->y), mm(p->z), p->beam, 0};
+      scan.points[scan.count++] = ScanPoint{mm(p->x), mm(p->y), mm(p->z), p->beam, 0};
     ASSERT_TRUE(robots[r.robot - 1u].publish_scan(scan).ok());
   }
   for (auto& b : robots) ASSERT_TRUE(b.wait_for_scan_acks(from_seconds(20.0)).ok());
