@@ -22,7 +22,7 @@
 #include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/station/config.hpp"
 #include "groundstation/station/fusion.hpp"
-#include "groundstation/station/kalman_team_source.hpp"
+#include "groundstation/station/pose_history_team_source.hpp"
 #include "groundstation/station/station.hpp"
 #include "onboard/bridge/bridge.hpp"
 #include "onboard/core/pipeline.hpp"
@@ -331,7 +331,7 @@ TEST(FusionRegistration, TheTeamCarriesEachRobotsCorrectionToThatRobot) {
   const std::string dir = temp_dir();
   auto stage = FusionStage::create(o, dir);
   ASSERT_TRUE(stage.ok());
-  KalmanTeamSource team{mapping::TrackerOptions{}};
+  PoseHistoryTeamSource team{(*stage)->core().poses()};  // the station's one tracker: the core's history
   CorrectionShare share;
   std::size_t handed_over = 0;
   std::uint64_t last_accepted = 0;
@@ -350,9 +350,8 @@ TEST(FusionRegistration, TheTeamCarriesEachRobotsCorrectionToThatRobot) {
   const registration::RobotCorrection* c = (*stage)->core().registration()->correction(2);
   ASSERT_NE(c, nullptr);
   ASSERT_GT(c->accepted, 3u);
-  // The team source's estimates, fed the robots' odometry (its own clock: the survey's, moved to 2027).
+  // The team source's estimates: the core's tracks, fed by the stage (its own clock: the survey's, moved to 2027).
   constexpr std::int64_t kEpochNs = 1'800'000'000'000'000'000;
-  for (const TrajectorySample& s : d.odom) team.add_pose(pose_observation(s, s.stamp_ns));
   const std::int64_t end_ns = d.odom.back().stamp_ns;
   std::array<TeamMemberEstimate, kMaxRobots> estimates{};
   static teamscan_msg_TeamState wire;
