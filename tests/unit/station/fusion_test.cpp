@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <deque>
@@ -16,6 +17,12 @@
 #include <set>
 #include <thread>
 #include <numeric>
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include "common/dataset/pcd.hpp"
 #include "common/scan_points.hpp"
@@ -789,6 +796,44 @@ TEST(Fusion, ASnapshotInSlicesHoldsEveryPointStoredBeforeItStarted) {
   }
   EXPECT_EQ(first_points, stored_before);
   EXPECT_LT(rows.size(), d.points.size());  // the voxels new since the start wait for the next write
+  std::filesystem::remove_all(dir);
+}
+
+// The writer thread yields to the receive loop (fusion.hpp "Model writes"): the kernel reports it
+// SCHED_IDLE at nice 19, while the loop's thread (this one) keeps its own policy and nice.
+TEST(Fusion, TheWriterThreadRunsIdleClassAndTheLoopKeepsItsPriority) {
+  const Dataset d = survey();
+  const std::string dir = temp_dir();
+  FusionOptions o;
+  o.all_points_pcd = "fused_all.pcd";
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  FusionStage& f = **stage;
+  EXPECT_EQ(f.writer_scheduling().policy, -1);  // no writer thread before the first periodic write
+  int loop_policy = -1;
+  sched_param loop_param{};
+  ASSERT_EQ(pthread_getschedparam(pthread_self(), &loop_policy, &loop_param), 0);
+  errno = 0;
+  const int loop_nice = getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+  ASSERT_EQ(errno, 0);
+  ASSERT_NE(loop_policy, SCHED_IDLE);
+  feed(f, d);
+  f.request_write();
+  f.wait_for_write();  // the writer has written the files, so it has set itself up
+  ASSERT_TRUE(f.poll_write());
+  ASSERT_TRUE(f.last_write().ok);
+  EXPECT_TRUE(f.last_write().on_writer_thread);
+  const ThreadScheduling w = f.writer_scheduling();
+  EXPECT_EQ(w.policy, SCHED_IDLE);
+  EXPECT_EQ(w.nice, 19);
+  // Only the writer moved: the loop's thread is as it was.
+  int policy_after = -1;
+  sched_param param_after{};
+  ASSERT_EQ(pthread_getschedparam(pthread_self(), &policy_after, &param_after), 0);
+  EXPECT_EQ(policy_after, loop_policy);
+  EXPECT_EQ(param_after.sched_priority, loop_param.sched_priority);
+  errno = 0;
+  EXPECT_EQ(getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid))), loop_nice);
   std::filesystem::remove_all(dir);
 }
 
