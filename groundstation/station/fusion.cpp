@@ -367,6 +367,7 @@ void FusionStage::begin_snapshot() {
       writer_tid_.store(current_tid());
       writer_main();
     });
+    writer_handle_ = writer_.native_handle();
   }
   writer_cv_.notify_all();
 }
@@ -377,7 +378,7 @@ ThreadScheduling FusionStage::writer_scheduling() const {
   if (tid == 0) return out;  // not started yet (or still starting)
   sched_param p{};
   int policy = -1;
-  if (::pthread_getschedparam(const_cast<std::thread&>(writer_).native_handle(), &policy, &p) != 0) return out;
+  if (::pthread_getschedparam(writer_handle_, &policy, &p) != 0) return out;
   errno = 0;
   const int nice = ::getpriority(PRIO_PROCESS, static_cast<id_t>(tid));
   if (nice == -1 && errno != 0) return out;

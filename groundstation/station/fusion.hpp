@@ -256,6 +256,7 @@ class FusionStage {
   Time snapshot_started_{};
   ModelWriteReport snapshot_report_;
   std::thread writer_;
+  std::thread::native_handle_type writer_handle_{};  // writer_'s, for writer_scheduling()
   std::atomic<int> writer_tid_{0};  // the writer's kernel thread id, set by it at start
   mutable std::mutex writer_mutex_;
   std::condition_variable writer_cv_;
