@@ -17,8 +17,10 @@
 //
 // The writer thread yields to the receive loop: it runs SCHED_IDLE (and nice 19, should the kernel
 // refuse SCHED_IDLE), so on a CPU it shares with the loop (the station may be pinned to one) it only
-// takes time the loop leaves idle, and a waking loop preempts it at once. It is not pinned away from
-// the loop's CPU: idle time there is its to use, while another CPU may be busy with other processes.
+// takes time the loop leaves idle, and a waking loop preempts it at once (a CPU that is never idle
+// finishes no periodic write until it is: requests coalesce, the queue stays bounded, the shutdown
+// write still completes). It is not pinned away from the loop's CPU: idle time there is its to use,
+// while another CPU may be busy with other processes.
 // The loop never waits for the writer in its per-turn calls (poll_write, request_write): they only
 // try its mutex and come back next turn when the writer holds it (its critical sections are a queue
 // operation each, but an idle-class thread can be preempted inside one).
