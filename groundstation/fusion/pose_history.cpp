@@ -177,4 +177,14 @@ mapping::TeamState PoseHistory::team_at(std::int64_t stamp_ns) const {
   return team;
 }
 
+mapping::TeamState PoseHistory::newest_tracks_at(std::int64_t stamp_ns) const {
+  mapping::TeamState team;
+  team.stamp_ns = stamp_ns;
+  for (std::size_t id = 1; id <= kMaxRobots; ++id) {
+    const Robot& r = robots_[id];
+    if (!r.entries.empty()) team.robots.push_back(r.entries.back().track.predict(stamp_ns));
+  }
+  return team;
+}
+
 }  // namespace teamscan::fusion

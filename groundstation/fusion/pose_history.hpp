@@ -10,6 +10,10 @@
 // until the registration sets it. A correction holds from a stamp on (the stamp of the scan whose match
 // produced it), so a pose's correction is a function of its stamp, not of when it arrived: setting one
 // re-folds the poses stamped at or after it. The corrected poses feed the tracker and the filters.
+//
+// It is the station's one tracker: teamscan/team is published from these tracks (newest_tracks_at,
+// station/pose_history_team_source.hpp), so the team the robots receive and the team the filters use
+// come from the same poses, corrections and Kalman state.
 #pragma once
 
 #include <array>
@@ -57,6 +61,10 @@ class PoseHistory {
   [[nodiscard]] ScanPose scan_pose(std::uint8_t robot, std::int64_t stamp_ns) const;
   // Every robot with a pose at or before `stamp_ns`, its track predicted to `stamp_ns`, by robot id.
   [[nodiscard]] mapping::TeamState team_at(std::int64_t stamp_ns) const;
+  // Every robot's track after its newest pose (whatever its stamp, no decision lag), predicted to
+  // `stamp_ns`, by robot id: the team as the station publishes it now (teamscan/team), from the same
+  // tracks the decisions read.
+  [[nodiscard]] mapping::TeamState newest_tracks_at(std::int64_t stamp_ns) const;
 
   // A robot's correction from a stamp on, as set_map_from_odom set it.
   struct Correction {

@@ -7,6 +7,12 @@
 #include <cmath>
 #include <cstdio>
 
+#include <pthread.h>
+#include <sched.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include "common/clock.hpp"
 #include "common/dataset/dataset.hpp"
 #include "common/point_flags.hpp"
@@ -18,6 +24,22 @@
 #include "teamscan.h"
 
 namespace teamscan::station {
+
+namespace {
+
+int current_tid() { return static_cast<int>(::syscall(SYS_gettid)); }
+
+// The calling thread yields to every other thread of normal priority: nice 19 on its own thread id
+// (Linux: per thread), then SCHED_IDLE (allowed unprivileged: it only lowers the priority). Best
+// effort: a kernel that refuses one keeps the other.
+void yield_to_the_loop() {
+  (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(current_tid()), 19);
+  sched_param p{};
+  p.sched_priority = 0;
+  (void)::pthread_setschedparam(::pthread_self(), SCHED_IDLE, &p);
+}
+
+}  // namespace
 
 FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConfig& k, const RegistrationConfig& reg) {
   FusionOptions o;
@@ -265,8 +287,14 @@ bool FusionStage::advance_snapshot(bool all) {
   while (!done && !out_of_time) {
     fusion::ModelSnapshot part;
     {
-      std::unique_lock<std::mutex> lock(writer_mutex_);
-      if (all) writer_cv_.wait(lock, [&] { return writer_queue_.size() < kMaxQueuedParts; });
+      // In a loop turn the writer's mutex is only tried: held by the writer, the part waits a turn.
+      std::unique_lock<std::mutex> lock(writer_mutex_, std::defer_lock);
+      if (all) {
+        lock.lock();
+        writer_cv_.wait(lock, [&] { return writer_queue_.size() < kMaxQueuedParts; });
+      } else if (!lock.try_lock()) {
+        break;
+      }
       if (writer_queue_.size() >= kMaxQueuedParts) break;
       if (!writer_spare_.empty()) {
         part = std::move(writer_spare_.back());
@@ -301,15 +329,15 @@ bool FusionStage::advance_snapshot(bool all) {
   }
   const Time now = now_monotonic();
   const double took_s = to_seconds(now - t0);
-  {
+  // The loop's figures without the writer's mutex: the writer reads snapshot_report_ only after it took
+  // the write's last part, which is queued below, under the mutex, after these.
+  snapshot_report_.snapshot_s += took_s;
+  snapshot_report_.snapshot_slice_max_s = std::max(snapshot_report_.snapshot_slice_max_s, took_s);
+  if (took) ++snapshot_report_.snapshot_slices;  // a turn that waited for the writer took nothing
+  if (done) {
+    snapshot_report_.snapshot_span_s = to_seconds(now - snapshot_started_);
     std::lock_guard<std::mutex> lock(writer_mutex_);
-    snapshot_report_.snapshot_s += took_s;
-    snapshot_report_.snapshot_slice_max_s = std::max(snapshot_report_.snapshot_slice_max_s, took_s);
-    if (took) ++snapshot_report_.snapshot_slices;  // a turn that waited for the writer took nothing
-    if (done) {
-      snapshot_report_.snapshot_span_s = to_seconds(now - snapshot_started_);
-      writer_queue_.push_back(WriterPart{0, {}, true});  // the write ends: the writer finishes the files
-    }
+    writer_queue_.push_back(WriterPart{0, {}, true});  // the write ends: the writer finishes the files
   }
   writer_cv_.notify_all();
   if (!done) return false;
@@ -333,8 +361,30 @@ void FusionStage::begin_snapshot() {
     writer_busy_ = true;
     writer_begin_ = true;
   }
-  if (!writer_.joinable()) writer_ = std::thread([this] { writer_main(); });
+  if (!writer_.joinable()) {
+    writer_ = std::thread([this] {
+      yield_to_the_loop();
+      writer_tid_.store(current_tid());
+      writer_main();
+    });
+    writer_handle_ = writer_.native_handle();
+  }
   writer_cv_.notify_all();
+}
+
+ThreadScheduling FusionStage::writer_scheduling() const {
+  ThreadScheduling out;
+  const int tid = writer_tid_.load();
+  if (tid == 0) return out;  // not started yet (or still starting)
+  sched_param p{};
+  int policy = -1;
+  if (::pthread_getschedparam(writer_handle_, &policy, &p) != 0) return out;
+  errno = 0;
+  const int nice = ::getpriority(PRIO_PROCESS, static_cast<id_t>(tid));
+  if (nice == -1 && errno != 0) return out;
+  out.policy = policy;
+  out.nice = nice;
+  return out;
 }
 
 void FusionStage::wait_writer_idle() {
@@ -349,14 +399,20 @@ void FusionStage::wait_for_write() {
 
 bool FusionStage::write_in_flight() const {
   if (snapshotting_) return true;
-  std::lock_guard<std::mutex> lock(writer_mutex_);
-  return writer_busy_;
+  // The loop does not wait for the writer: a mutex the writer holds means it is at work.
+  std::unique_lock<std::mutex> lock(writer_mutex_, std::try_to_lock);
+  return !lock.owns_lock() || writer_busy_;
 }
 
 // A finished write of the writer thread into the counters and the callback (the caller's thread).
-bool FusionStage::collect_finished() {
+bool FusionStage::collect_finished(bool wait) {
   {
-    std::lock_guard<std::mutex> lock(writer_mutex_);
+    std::unique_lock<std::mutex> lock(writer_mutex_, std::defer_lock);
+    if (wait) {
+      lock.lock();
+    } else if (!lock.try_lock()) {
+      return false;  // the writer holds it: next turn
+    }
     if (!writer_done_) return false;
     writer_done_ = false;
     last_write_ = writer_report_;
@@ -386,7 +442,7 @@ Status FusionStage::write_model() {
     snapshotting_ = false;
   }
   wait_writer_idle();  // a periodic write being written finishes first
-  (void)collect_finished();
+  (void)collect_finished(true);
   write_pending_ = false;  // this write serves a coalesced request
   const Time t0 = now_monotonic();
   ModelWriteReport report;
@@ -418,13 +474,13 @@ void FusionStage::request_write() {
     write_pending_ = true;
     return;
   }
-  (void)collect_finished();  // its report before the next write's
+  (void)collect_finished(true);  // its report before the next write's (the writer is idle: no wait)
   begin_snapshot();
   (void)advance_snapshot(false);
 }
 
 bool FusionStage::poll_write() {
-  const bool finished = collect_finished();
+  const bool finished = collect_finished(false);
   if (snapshotting_) {
     (void)advance_snapshot(false);
   } else if (write_pending_ && !write_in_flight()) {

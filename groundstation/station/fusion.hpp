@@ -14,9 +14,20 @@
 // that holds the loop); each slice's rows go through a bounded queue to a writer thread that streams
 // them into the files (fusion::ModelFileWriter). One write in flight, a request meanwhile is coalesced
 // into one that follows. write_model() is the synchronous write (shutdown, tests).
+//
+// The writer thread yields to the receive loop: it runs SCHED_IDLE (and nice 19, should the kernel
+// refuse SCHED_IDLE), so on a CPU it shares with the loop (the station may be pinned to one) it only
+// takes time the loop leaves idle, and a waking loop preempts it at once (a CPU that is never idle
+// finishes no periodic write until it is: requests coalesce, the queue stays bounded, the shutdown
+// write still completes). It is not pinned away from the loop's CPU: idle time there is its to use,
+// while another CPU may be busy with other processes.
+// The loop never waits for the writer in its per-turn calls (poll_write, request_write): they only
+// try its mutex and come back next turn when the writer holds it (its critical sections are a queue
+// operation each, but an idle-class thread can be preempted inside one).
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <cstdio>
@@ -111,6 +122,13 @@ struct ModelWriteReport {
   std::uint64_t kept = 0, removed = 0;  // the primary model's
 };
 
+// A thread's scheduling as the kernel reports it (sched(7)): its policy (SCHED_OTHER, SCHED_IDLE, ...) and
+// its nice value.
+struct ThreadScheduling {
+  int policy = -1;
+  int nice = 0;
+};
+
 struct FusionConfig;
 struct KalmanConfig;
 struct RegistrationConfig;
@@ -149,6 +167,9 @@ class FusionStage {
   // write callback); starts a coalesced write if the writer is free.
   bool poll_write();
   [[nodiscard]] bool write_in_flight() const;
+  // The writer thread's scheduling read back from the kernel (pthread_getschedparam, getpriority on its
+  // thread id); `policy` -1 before the first request_write() started it.
+  [[nodiscard]] ThreadScheduling writer_scheduling() const;
   // Finishes a snapshot in progress on this thread and waits for the writer; the report comes with
   // the next poll_write().
   void wait_for_write();
@@ -211,7 +232,8 @@ class FusionStage {
   bool advance_snapshot(bool all);
   void writer_main();
   void wait_writer_idle();
-  bool collect_finished();
+  // `wait`: block on the writer's mutex (the synchronous write); else only try it (the loop's turn).
+  bool collect_finished(bool wait);
   void finish_write();
 
   FusionOptions options_;
@@ -226,8 +248,8 @@ class FusionStage {
   bool replaying_ = false;  // replay_session(): no latency samples (they are not this run's)
   bool resume_ = false;     // the first live sample after a replay resumes the core's arrival clock
   // The writer thread (started by the first request_write()). Guarded by writer_mutex_: the queue, the
-  // spare parts (their capacity reused), the flags, writer_report_ and snapshot_report_'s reads by the
-  // writer (the loop writes it only while holding the mutex or before the write's first part).
+  // spare parts (their capacity reused), the flags and writer_report_. snapshot_report_ is the loop's
+  // until it queues the write's last part (under the mutex); the writer reads it only after taking it.
   ModelWriteReport last_write_;
   std::function<void(const ModelWriteReport&)> on_write_;
   bool write_pending_ = false;  // a request coalesced while one was in flight (loop thread only)
@@ -236,6 +258,8 @@ class FusionStage {
   Time snapshot_started_{};
   ModelWriteReport snapshot_report_;
   std::thread writer_;
+  std::thread::native_handle_type writer_handle_{};  // writer_'s, for writer_scheduling()
+  std::atomic<int> writer_tid_{0};  // the writer's kernel thread id, set by it at start
   mutable std::mutex writer_mutex_;
   std::condition_variable writer_cv_;
   std::deque<WriterPart> writer_queue_;

@@ -26,7 +26,7 @@
 #include "groundstation/station/station.hpp"
 #include "dds/notify.hpp"
 #include "groundstation/station/fusion.hpp"
-#include "groundstation/station/kalman_team_source.hpp"
+#include "groundstation/station/pose_history_team_source.hpp"
 #include "groundstation/station/team_source.hpp"
 #include "groundstation/station/view_feeder.hpp"
 #include "groundstation/view/server.hpp"
@@ -133,11 +133,33 @@ int main(int argc, char** argv) {
   if (heap == HeapPages::Huge) log(kInfo, "heap on transparent huge pages (glibc.malloc.hugetlb=1)");
   else if (heap == HeapPages::OperatorSet) log(kInfo, std::string("heap pages as GLIBC_TUNABLES says: ") + std::getenv("GLIBC_TUNABLES"));
   else log(kWarning, "heap on 4 KiB pages (the re-execution with glibc.malloc.hugetlb=1 failed: " + heap_why + ")");
-  LastPoseTeamSource last_pose(cfg.last_pose);
-  TeamSource* team = &last_pose;
-  KalmanTeamSource kalman(tracker_options(cfg.kalman), cfg.last_pose.default_body);
-  if (cfg.team_source == TeamSourceKind::kKalman) team = &kalman;
-  log(kInfo, std::string("team source: ") + (team == &last_pose ? "last pose" : "Kalman tracker"));
+  // The fusion stage first: with it on, teamscan/team is published from its core's pose history, the
+  // station's one tracker (the same tracks the filters use). Its session replay comes after the station
+  // has subscribed (below).
+  std::unique_ptr<FusionStage> fusion;
+  if (cfg.fusion.enabled) {
+    auto created = FusionStage::create(fusion_options_from_config(cfg.fusion, cfg.kalman, cfg.registration), store->dir());
+    if (!created) {
+      log(kErr, created.error().what);
+      return 1;
+    }
+    fusion = std::move(created.value());
+  }
+  std::unique_ptr<TeamSource> team_source;
+  if (cfg.team_source == TeamSourceKind::kLastPose) {
+    team_source = std::make_unique<LastPoseTeamSource>(cfg.last_pose);
+  } else if (fusion) {
+    team_source = std::make_unique<PoseHistoryTeamSource>(fusion->core().poses(), cfg.last_pose.default_body);
+  } else {
+    fusion::PoseHistoryOptions history;
+    history.tracker = tracker_options(cfg.kalman);
+    team_source = std::make_unique<PoseHistoryTeamSource>(history, cfg.last_pose.default_body);
+  }
+  TeamSource* const team = team_source.get();
+  log(kInfo, std::string("team source: ") +
+                 (cfg.team_source == TeamSourceKind::kLastPose ? "last pose"
+                  : fusion ? "Kalman tracks of the fusion core's pose history"
+                           : "Kalman tracks of a pose history (fusion off)"));
   auto station = Station::create(cfg.station, *store, *team);
   if (!station) {
     log(kErr, station.error().what);
@@ -161,16 +183,9 @@ int main(int argc, char** argv) {
   }
   // The live fusion stage runs from the hooks, after each sample is stored (storage first: a failing
   // fusion stage never costs a received sample; the station counts the failure and goes on).
-  std::unique_ptr<FusionStage> fusion;
   std::vector<teamscan_msg_MapVoxel> map_voxels;
   CorrectionShare corrections;  // each robot's new registration correction to the team source
-  if (cfg.fusion.enabled) {
-    auto created = FusionStage::create(fusion_options_from_config(cfg.fusion, cfg.kalman, cfg.registration), store->dir());
-    if (!created) {
-      log(kErr, created.error().what);
-      return 1;
-    }
-    fusion = std::move(created.value());
+  if (fusion) {
     // A restart on the same session folder: the core is rebuilt from everything stored so far (the same
     // code, arrival order), so it decides as before; the robots' DDS history then fills the outage.
     store->sync();
@@ -186,8 +201,9 @@ int main(int argc, char** argv) {
       log(kInfo, text);
       store->log_event(now_realtime(), text);
     }
-    // With the registration on, each robot's new correction goes to the team source, so teamscan/team
-    // carries the corrected poses and the correction (docs/registration.md).
+    // With the registration on, the core's pose history corrects the poses teamscan/team is published
+    // from; each robot's correction in force (a match, or the drift rates' extrapolation since one) goes
+    // to the team source in wire form when it changes, so the members carry it too (docs/registration.md).
     corrections.share(fusion->core(), *team, now_realtime());  // after the session replay
     // The hooks outlive this block; what they refer to lives as long as this function.
     st.add_pose_hook([&fusion, &corrections, team](const PoseObservation& p) {

@@ -1,7 +1,8 @@
 // Where teamscan/team comes from: the ground station feeds every received pose into a TeamSource and
-// publishes its estimates at a fixed rate (DESIGN.md "DDS topics", issue 5 "Tracker"). The Kalman
-// tracker of groundstation/mapping/ implements this interface; LastPoseTeamSource is the simple
-// stand-in (last pose, extrapolated, with a covariance that grows with the pose's age).
+// publishes its estimates at a fixed rate (DESIGN.md "DDS topics", issue 5 "Tracker"). The station's
+// one Kalman tracker, the fusion core's pose history, implements it (pose_history_team_source.hpp);
+// LastPoseTeamSource is the simple stand-in (last pose, extrapolated, with a covariance that grows
+// with the pose's age).
 #pragma once
 
 #include <array>

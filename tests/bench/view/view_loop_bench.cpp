@@ -28,7 +28,7 @@
 
 #include "common/clock.hpp"
 #include "groundstation/station/fusion.hpp"
-#include "groundstation/station/kalman_team_source.hpp"
+#include "groundstation/station/pose_history_team_source.hpp"
 #include "groundstation/station/latency_histogram.hpp"
 #include "groundstation/station/view_feeder.hpp"
 #include "groundstation/view/server.hpp"
@@ -143,7 +143,7 @@ void run(const Feed& f, bool with_view, double speed, const char* method) {
   fo.latency_csv.clear();
   auto stage = FusionStage::create(fo, "/tmp");
   FusionStage& fusion = **stage;
-  KalmanTeamSource team(fo.core.tracker);
+  PoseHistoryTeamSource team(fusion.core().poses());  // the station's one tracker: the core's history
   std::array<RobotRecord, kMaxRobots + 1> records{};
   for (std::uint32_t i = 0; i <= kMaxRobots; ++i) records[i].robot_id = i;
 

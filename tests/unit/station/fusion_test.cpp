@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <deque>
@@ -17,12 +18,18 @@
 #include <thread>
 #include <numeric>
 
+#include <pthread.h>
+#include <sched.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include "common/dataset/pcd.hpp"
 #include "common/scan_points.hpp"
 #include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/station/config.hpp"
 #include "groundstation/station/fusion.hpp"
-#include "groundstation/station/kalman_team_source.hpp"
+#include "groundstation/station/pose_history_team_source.hpp"
 #include "groundstation/station/station.hpp"
 #include "onboard/bridge/bridge.hpp"
 #include "onboard/core/pipeline.hpp"
@@ -334,15 +341,7 @@ TEST(FusionRegistration, TheTeamCarriesTheCorrectionTheCoreAppliesAtThePublicati
   const std::string dir = temp_dir();
   auto stage = FusionStage::create(o, dir);
   ASSERT_TRUE(stage.ok());
-  KalmanTeamSource team{mapping::TrackerOptions{}};
-  // The team source knows both robots from their first poses (an estimate lists only tracked robots).
-  for (std::uint8_t id : {1, 2}) {
-    for (const TrajectorySample& s : d.odom) {
-      if (s.robot != id) continue;
-      team.add_pose(pose_observation(s, s.stamp_ns));
-      break;
-    }
-  }
+  PoseHistoryTeamSource team{(*stage)->core().poses()};  // the station's one tracker: the core's history
   CorrectionShare share;
   const onboard::TeamCheckLimits limits;
   std::array<TeamMemberEstimate, kMaxRobots> estimates{};
@@ -404,9 +403,9 @@ TEST(FusionRegistration, TheTeamCarriesTheCorrectionTheCoreAppliesAtThePublicati
   EXPECT_LT(largest_step_mm, 120.0);     // within the registration's own step bound (12 cm at these σ)
   EXPECT_GT(std::abs(published.x_mm) + std::abs(published.y_mm), 20);  // the drift was corrected (≈ 10 cm by 12 s)
 
-  // The last team state on the wire, to the drifting robot's pipeline (its own clock: moved to 2027).
+  // The last team state on the wire (the core's tracks), to the drifting robot's pipeline (its own clock:
+  // the survey's, moved to 2027).
   constexpr std::int64_t kEpochNs = 1'800'000'000'000'000'000;
-  for (const TrajectorySample& s : d.odom) team.add_pose(pose_observation(s, s.stamp_ns));
   const std::int64_t end_ns = d.odom.back().stamp_ns;
   static teamscan_msg_TeamState wire;
   wire.count = static_cast<std::uint8_t>(team.estimate(Time::from_ns(end_ns), estimates));
@@ -838,6 +837,44 @@ TEST(Fusion, ASnapshotInSlicesHoldsEveryPointStoredBeforeItStarted) {
   }
   EXPECT_EQ(first_points, stored_before);
   EXPECT_LT(rows.size(), d.points.size());  // the voxels new since the start wait for the next write
+  std::filesystem::remove_all(dir);
+}
+
+// The writer thread yields to the receive loop (fusion.hpp "Model writes"): the kernel reports it
+// SCHED_IDLE at nice 19, while the loop's thread (this one) keeps its own policy and nice.
+TEST(Fusion, TheWriterThreadRunsIdleClassAndTheLoopKeepsItsPriority) {
+  const Dataset d = survey();
+  const std::string dir = temp_dir();
+  FusionOptions o;
+  o.all_points_pcd = "fused_all.pcd";
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  FusionStage& f = **stage;
+  EXPECT_EQ(f.writer_scheduling().policy, -1);  // no writer thread before the first periodic write
+  int loop_policy = -1;
+  sched_param loop_param{};
+  ASSERT_EQ(pthread_getschedparam(pthread_self(), &loop_policy, &loop_param), 0);
+  errno = 0;
+  const int loop_nice = getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+  ASSERT_EQ(errno, 0);
+  ASSERT_NE(loop_policy, SCHED_IDLE);
+  feed(f, d);
+  f.request_write();
+  f.wait_for_write();  // the writer has written the files, so it has set itself up
+  ASSERT_TRUE(f.poll_write());
+  ASSERT_TRUE(f.last_write().ok);
+  EXPECT_TRUE(f.last_write().on_writer_thread);
+  const ThreadScheduling w = f.writer_scheduling();
+  EXPECT_EQ(w.policy, SCHED_IDLE);
+  EXPECT_EQ(w.nice, 19);
+  // Only the writer moved: the loop's thread is as it was.
+  int policy_after = -1;
+  sched_param param_after{};
+  ASSERT_EQ(pthread_getschedparam(pthread_self(), &policy_after, &param_after), 0);
+  EXPECT_EQ(policy_after, loop_policy);
+  EXPECT_EQ(param_after.sched_priority, loop_param.sched_priority);
+  errno = 0;
+  EXPECT_EQ(getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid))), loop_nice);
   std::filesystem::remove_all(dir);
 }
 

@@ -11,7 +11,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "groundstation/station/kalman_team_source.hpp"
+#include "groundstation/station/pose_history_team_source.hpp"
 #include "groundstation/station/sample_validation.hpp"
 #include "groundstation/station/station.hpp"
 #include "onboard/bridge/bridge.hpp"
@@ -61,7 +61,7 @@ struct Beams {
 TEST(RobotCorrectionLoop, TheRobotAppliesTheStationsCorrectionAndTheStationStoresTheOdometryFrame) {
   onboard::OnboardPipeline corrected = make_robot();
   onboard::OnboardPipeline plain = make_robot();  // the same robot that never applies a correction
-  station::KalmanTeamSource team{mapping::TrackerOptions{}};
+  station::PoseHistoryTeamSource team{fusion::PoseHistoryOptions{}};  // the one tracker, its own history (no fusion stage here)
 
   // Robot 1 drives a 5 m arc at 0.5 m/s (0.1 rad/s), odometry at 10 Hz for 4 s; robot 2 stands still.
   onboard::OnboardPose pose;
