@@ -98,6 +98,11 @@ class PoseHistory {
     std::vector<Correction> corrections;  // from_stamp order
   };
   [[nodiscard]] const Entry* at_or_before(const Robot& r, std::int64_t stamp_ns) const;
+  [[nodiscard]] const Entry* at_or_after(const Robot& r, std::int64_t stamp_ns) const;
+  // A scan between two poses further apart than this (a gap in the odometry, not the next 10 Hz SIP) is
+  // placed from the pose before it, as past the newest pose.
+  static constexpr std::int64_t kMaxInterpolationGapNs = 250'000'000;
+  [[nodiscard]] static Pose2 between(const Robot& r, const Entry* a, const Entry* b, std::int64_t stamp_ns);
   [[nodiscard]] static Pose2 correction_at(const Robot& r, std::int64_t stamp_ns);
   // Recomputes the map poses and tracks of the entries from index `from` on.
   void refold(Robot& r, std::size_t from, std::uint8_t robot) const;
