@@ -1,10 +1,13 @@
 // The one place that decides a scan's pose and the team's state at a time (DESIGN.md "groundstation/
 // fusion"): every robot's odometry poses in stamp order, each with the Kalman track as it stood right
-// after that pose. A scan's own pose is its robot's newest pose at or before the scan's stamp less the
-// decision lag (TrackerOptions::team_lag_s, 0 by default), moved on with the pose's velocity; the team at
-// a time t is every robot's track after its newest pose at or before t − lag, predicted to t. Both are
-// functions of the poses stamped ≤ t − lag only, so they come out the same whether the poses arrived
-// before or after the scan (live, arrival order) or in time order (offline).
+// after that pose. A scan's own pose lies between its robot's poses around the scan's stamp (a parabola
+// through them and the pose before) when the later one is the pose that releases the scan or older
+// (the robot's first pose at or after the stamp less the decision lag, TrackerOptions::team_lag_s, 0 by
+// default) and within 0.25 s of the earlier; otherwise it is the newest pose at or before the stamp less
+// the lag, moved on with the pose's velocity. The team at a time t is every robot's track after its
+// newest pose at or before t − lag, predicted to t. Both are functions of the poses stamped up to the
+// releasing pose, so they come out the same whether the poses arrived before or after the scan (live,
+// arrival order) or in time order (offline).
 //
 // Each robot's odometry is corrected into the map frame by its `map_from_odom` (x, y, yaw): identity
 // until the registration sets it. A correction holds from a stamp on (the stamp of the scan whose match
@@ -51,8 +54,9 @@ class PoseHistory {
   // false: ignored (duplicate, robot id out of range, non-finite).
   bool add(const PoseInput& pose);
 
-  // The robot's map pose at `stamp_ns`: newest pose at or before (else the oldest kept), moved on
-  // with its speed and yaw rate, corrected by map_from_odom. No pose: nullopt-like `found = false`.
+  // The robot's map pose at `stamp_ns` (between the poses around it, else moved on from the newest at or
+  // before the cutoff, else from the oldest kept: see the top), corrected by map_from_odom. No pose:
+  // `found = false`.
   struct ScanPose {
     bool found = false;
     Pose2 map_from_robot;
@@ -113,6 +117,11 @@ class PoseHistory {
   };
   [[nodiscard]] const Entry* at_or_before(const Robot& r, std::int64_t stamp_ns) const;
   [[nodiscard]] static const Correction* in_force(const Robot& r, std::int64_t stamp_ns);
+  [[nodiscard]] const Entry* at_or_after(const Robot& r, std::int64_t stamp_ns) const;
+  // A scan between two poses further apart than this (a gap in the odometry, not the next 10 Hz SIP) is
+  // placed from the pose before it, as past the newest pose.
+  static constexpr std::int64_t kMaxInterpolationGapNs = 250'000'000;
+  [[nodiscard]] static Pose2 between(const Robot& r, const Entry* a, const Entry* b, std::int64_t stamp_ns);
   [[nodiscard]] static Pose2 correction_at(const Robot& r, std::int64_t stamp_ns);
   // Recomputes the map poses and tracks of the entries from index `from` on.
   void refold(Robot& r, std::size_t from, std::uint8_t robot) const;

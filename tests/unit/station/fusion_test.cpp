@@ -440,6 +440,35 @@ TEST(FusionRegistration, TheTeamCarriesTheCorrectionTheCoreAppliesAtThePublicati
 
 // A correction holds from a stamp on, whatever was added before it: the poses stamped at or after it
 // are corrected (and their tracks folded again) whether they arrived before or after the correction.
+// A scan's own pose between its robot's poses: a heading quadratic in time (a turn speeding up) is met
+// exactly by the parabola through the pose before and the two around the scan, once the later one is
+// there; before it arrives (or across a gap in the odometry) the last pose is moved on with its rate.
+TEST(PoseHistoryScanPose, BetweenThePosesOnceTheNextIsThereElseMovedOn) {
+  fusion::PoseHistory h(fusion::PoseHistoryOptions{});
+  auto theta = [](double t) { return 2.0 * t * t; };  // the rate grows from 0 to 0.8 rad/s in 0.2 s
+  auto pose = [&](double t, std::int64_t stamp_ns) {
+    return fusion::PoseInput{1, stamp_ns, stamp_ns, Pose2{t, 0.0, theta(t)}, 1.0, 4.0 * t};
+  };
+  ASSERT_TRUE(h.add(pose(0.0, 0)));
+  ASSERT_TRUE(h.add(pose(0.1, 100'000'000)));
+  const std::int64_t scan_ns = 150'000'000;
+  // Only the pose before: moved on from 0.1 s with its rate 0.4 rad/s.
+  const auto moved_on = h.scan_pose(1, scan_ns);
+  ASSERT_TRUE(moved_on.found);
+  EXPECT_NEAR(moved_on.odom.theta_rad, theta(0.1) + 0.4 * 0.05, 1e-12);
+  // The next pose there: between, exact for a quadratic heading and position.
+  ASSERT_TRUE(h.add(pose(0.2, 200'000'000)));
+  const auto between = h.scan_pose(1, scan_ns);
+  EXPECT_NEAR(between.odom.theta_rad, theta(0.15), 1e-12);
+  EXPECT_NEAR(between.odom.x_m, 0.15, 1e-12);
+  EXPECT_NEAR(between.map_from_robot.theta_rad, theta(0.15), 1e-12);
+  // A gap in the odometry (the next pose 0.5 s later): moved on from the pose before, as without it.
+  ASSERT_TRUE(h.add(pose(0.7, 700'000'000)));
+  const auto across_gap = h.scan_pose(1, 400'000'000);
+  EXPECT_NEAR(across_gap.odom.theta_rad, theta(0.2) + 0.8 * 0.2, 1e-12);
+  EXPECT_NEAR(across_gap.odom.x_m, 0.2 + std::cos(theta(0.2)) * 0.2, 1e-12);
+}
+
 TEST(PoseHistoryCorrection, AppliesByStampNotByArrival) {
   const Pose2 c{0.1, -0.05, 0.02};
   auto pose = [](std::int64_t k) {
