@@ -2,9 +2,10 @@
 // live map, hash tables) are read at random, a cache miss per voxel; on 4 KiB pages each miss is also a
 // TLB miss (dearer still under a hypervisor's nested paging) and every page of a growing map is a page
 // fault. glibc (≥ 2.35) backs malloc's memory with THP when the tunable glibc.malloc.hugetlb=1 is set,
-// but reads tunables only when a process starts: the station sets it and re-executes itself, once,
-// first thing in main. Measured (docs/groundstation.md "Huge pages"): the core's CPU per scan −35 %, the
-// page faults of a growing map ÷ 18. An operator's own setting of the tunable (either value) is kept.
+// but reads tunables only when a process starts: the station sets it (with a 32 MiB mmap threshold and a
+// 512 MiB trim threshold, so large blocks are reused rather than faulted in afresh) and re-executes
+// itself, once, first thing in main. Measured in docs/groundstation.md "Huge pages". An operator's own
+// setting of glibc.malloc.hugetlb (either value) is kept, and then nothing is added.
 #pragma once
 
 #include <string>
@@ -22,8 +23,8 @@ enum class HeapPages {
 // The re-executed process returns Huge.
 HeapPages use_huge_page_heap(char** argv, std::string* why = nullptr);
 
-// The GLIBC_TUNABLES value that adds hugetlb=1 to `existing` (null or empty: none), or "" if `existing`
-// already names glibc.malloc.hugetlb. Pure: the rule itself, for the tests.
+// The GLIBC_TUNABLES value that adds hugetlb=1 and its two companions to `existing` (null or empty:
+// none), or "" if `existing` already names glibc.malloc.hugetlb. Pure: the rule itself, for the tests.
 std::string tunables_with_huge_pages(const char* existing);
 
 }  // namespace teamscan::station

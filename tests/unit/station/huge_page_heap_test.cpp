@@ -13,9 +13,10 @@ namespace teamscan::station {
 namespace {
 
 TEST(HugePageHeap, TheTunableIsAddedToWhatIsThereUnlessItIsNamed) {
-  EXPECT_EQ(tunables_with_huge_pages(nullptr), "glibc.malloc.hugetlb=1");
-  EXPECT_EQ(tunables_with_huge_pages(""), "glibc.malloc.hugetlb=1");
-  EXPECT_EQ(tunables_with_huge_pages("glibc.malloc.check=0"), "glibc.malloc.check=0:glibc.malloc.hugetlb=1");
+  const std::string ours = "glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=33554432:glibc.malloc.trim_threshold=536870912";
+  EXPECT_EQ(tunables_with_huge_pages(nullptr), ours);
+  EXPECT_EQ(tunables_with_huge_pages(""), ours);
+  EXPECT_EQ(tunables_with_huge_pages("glibc.malloc.check=0"), "glibc.malloc.check=0:" + ours);
   EXPECT_EQ(tunables_with_huge_pages("glibc.malloc.hugetlb=0"), "");
   EXPECT_EQ(tunables_with_huge_pages("glibc.malloc.check=0:glibc.malloc.hugetlb=2"), "");
 }
@@ -41,7 +42,8 @@ TEST(HugePageHeap, TheProcessReexecutesOnceWithTheTunableAndTheSamePid) {
   ASSERT_EQ(lines[0].rfind("start pid=", 0), 0u);
   EXPECT_EQ(lines[1], lines[0]) << "two executions of one process (the PID stays)";
   const std::string pid = lines[0].substr(std::string{"start "}.size());
-  EXPECT_EQ(lines[2], "result=Huge " + pid + " tunables=glibc.malloc.check=0:glibc.malloc.hugetlb=1 marker=unset why=");
+  EXPECT_EQ(lines[2], "result=Huge " + pid + " tunables=glibc.malloc.check=0:" + tunables_with_huge_pages(nullptr) +
+                          " marker=unset why=");
   for (const auto& l : lines) std::printf("probe: %s\n", l.c_str());  // AnonHugePages: informative only
 }
 
