@@ -31,6 +31,7 @@
 #include "teamscan.h"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 #include "tests/hil/station/process.hpp"
+#include "tests/hil/station/robot_bridges.hpp"
 #include "tests/support/test_domain.hpp"
 
 namespace teamscan {
@@ -86,18 +87,6 @@ std::size_t csv_rows(const std::string& path) {
 struct Robots {
   std::vector<onboard::DdsBridge> bridges;
 };
-
-// Robots 1 and 2's DDS bridges on the test's domain (as their daemons would publish).
-void start_robots(Robots& robots) {
-  for (std::uint32_t id : {1u, 2u}) {
-    onboard::DdsBridgeOptions o;
-    o.robot_id = id;
-    o.domain_id = test::test_domain_id();
-    auto b = onboard::DdsBridge::create(o);
-    ASSERT_TRUE(b.ok()) << b.error().what;
-    robots.bridges.push_back(std::move(b.value()));
-  }
-}
 
 // Publishes the survey in time order: each robot's odometry pose at the stamp, then its scan. Pose seqs
 // and the rows awaited in poses.csv count on from `poses_before` (a survey published in parts).
@@ -218,7 +207,8 @@ TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
 
   MapViewer viewer;
   Robots robots;
-  start_robots(robots);
+  test::start_robot_bridges(robots.bridges);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
   ASSERT_FALSE(::testing::Test::HasFatalFailure());
   test::ChildProcess gs({TEAMSCAN_GROUNDSTATION, "--config", config, "--session-dir", session, "--domain",
                          test::test_domain_arg()});
@@ -368,7 +358,8 @@ TEST(LiveFusionCompared, EveryMethodsModelEqualsEvalOfTheSessionAcrossARestart) 
   ASSERT_FALSE(second.scans.empty());
 
   Robots robots;
-  start_robots(robots);
+  test::start_robot_bridges(robots.bridges);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
   ASSERT_FALSE(::testing::Test::HasFatalFailure());
   auto start_station = [&] {
     return std::make_unique<test::ChildProcess>(std::vector<std::string>{

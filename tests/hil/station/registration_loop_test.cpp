@@ -20,6 +20,7 @@
 #include "onboard/bridge/bridge.hpp"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 #include "tests/hil/station/process.hpp"
+#include "tests/hil/station/robot_bridges.hpp"
 #include "tests/support/odometry_drift.hpp"
 #include "tests/support/test_domain.hpp"
 
@@ -51,14 +52,8 @@ TEST(StationRegistrationLoop, ACorrectionOfScansReleasedByTheClockIsOnTheTeamWit
       << "[ros2]\nenabled = false\n[view]\nlisten = \"\"\n";
   }
   std::vector<onboard::DdsBridge> robots;
-  for (std::uint32_t id : {1u, 2u}) {
-    onboard::DdsBridgeOptions o;
-    o.robot_id = id;
-    o.domain_id = test::test_domain_id();
-    auto b = onboard::DdsBridge::create(o);
-    ASSERT_TRUE(b.ok()) << b.error().what;
-    robots.push_back(std::move(b.value()));
-  }
+  test::start_robot_bridges(robots);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
   test::ChildProcess gs({TEAMSCAN_GROUNDSTATION, "--config", config, "--session-dir", session, "--domain", test::test_domain_arg()});
   for (auto& b : robots) {
     const auto deadline = std::chrono::steady_clock::now() + 15s;

@@ -31,6 +31,7 @@
 #include "dds/topics.hpp"
 #include "teamscan.h"
 #include "tests/hil/station/process.hpp"
+#include "tests/hil/station/robot_bridges.hpp"
 #include "tests/support/test_domain.hpp"
 
 namespace teamscan {
@@ -149,14 +150,8 @@ TEST(StationRos2, MapCloudTfAndOdometryReachRmwLikeReaders) {
       rmw_reader(ros, &nav_msgs_msg_dds__Odometry__desc, dds::ros2::odometry_topic(2), false, 10)};
 
   std::vector<onboard::DdsBridge> robots;
-  for (std::uint32_t id : {1u, 2u}) {
-    onboard::DdsBridgeOptions o;
-    o.robot_id = id;
-    o.domain_id = test::test_domain_id();
-    auto b = onboard::DdsBridge::create(o);
-    ASSERT_TRUE(b.ok()) << b.error().what;
-    robots.push_back(std::move(b.value()));
-  }
+  test::start_robot_bridges(robots);
+  ASSERT_FALSE(::testing::Test::HasFatalFailure());
   test::ChildProcess gs({TEAMSCAN_GROUNDSTATION, "--config", config, "--session-dir", session, "--domain",
                          test::test_domain_arg()});
   for (auto& b : robots) {
