@@ -354,6 +354,46 @@ TEST(TrackedFilter, TeammatesAreMovedToEachBeamsTime) {
   EXPECT_EQ(classify_tracked(o, team_with(2, {0, 0}, 0.0, 0.01, {1.0, 0.0}), pts), (std::vector<std::uint8_t>{0, 1}));
 }
 
+// box_reach_m bounds every point box_contains accepts (point_bits skips a teammate whose reach misses
+// the scan's footprint): random boxes (headings, covariances, velocities, height profile on and off)
+// and points around them; no accepted point lies beyond the reach, and the bound is not loose by more
+// than the velocity's share.
+TEST(TrackedFilter, EveryPointABoxContainsLiesWithinItsReach) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::size_t inside = 0;
+  double nearest_slack_m = 1e9;
+  for (int b = 0; b < 200; ++b) {
+    TrackedOptions o;
+    o.sweep_s = 0.05 + 0.05 * (u(rng) + 1.0);
+    o.height_profile = b % 2 == 0;
+    RobotEstimate r;
+    r.robot = 2;
+    r.valid = true;
+    r.position_m = {3.0 * u(rng), 3.0 * u(rng)};
+    r.velocity_mps = {u(rng), u(rng)};
+    r.heading_rad = 3.14159 * u(rng);
+    r.position_cov_m2 = Eigen::Matrix2d::Identity() * (0.0001 + 0.01 * (u(rng) + 1.0));
+    BodyBox box = body_box(r, o);
+    box.sensor_m = {r.position_m.x + 2.0, r.position_m.y, 0.4};
+    const double reach_m = box_reach_m(box, o.sweep_s);
+    double farthest_m = 0.0;
+    for (int i = 0; i < 4000; ++i) {
+      const MapPoint p{static_cast<float>(box.centre_m.x + 1.5 * u(rng)), static_cast<float>(box.centre_m.y + 1.5 * u(rng)),
+                       static_cast<float>(0.3 + 0.4 * u(rng))};
+      const double dt_s = -o.sweep_s * 0.5 * (u(rng) + 1.0);
+      if (!box_contains(box, p, dt_s)) continue;
+      ++inside;
+      const double d = std::hypot(p.x - box.centre_m.x, p.y - box.centre_m.y);
+      ASSERT_LE(d, reach_m) << "box " << b;
+      farthest_m = std::max(farthest_m, d);
+    }
+    if (farthest_m > 0.0) nearest_slack_m = std::min(nearest_slack_m, reach_m - farthest_m);
+  }
+  EXPECT_GT(inside, 10'000u);          // the boxes were hit, the bound was tested
+  EXPECT_LT(nearest_slack_m, 0.15);   // and it is close to the points it bounds
+}
+
 TEST(TrackedFilter, InvalidTracksAndNoTeamRemoveNothing) {
   TrackedOptions o;
   TeamState team = team_with(2, {0, 0}, 0.0, 0.01);
