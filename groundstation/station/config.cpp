@@ -56,10 +56,11 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.number_in(station, "station", "status_interval_s", status_s, 0.0, 3600.0);
 
   const toml::table* dds = r.section("dds", false);
-  r.only(dds, "dds", {"domain_id", "scan_history_depth", "take_batch"});
+  r.only(dds, "dds", {"domain_id", "scan_history_depth", "take_batch", "batch_receive_threads"});
   r.integer_in(dds, "dds", "domain_id", domain, -1, 232);
   r.integer_in(dds, "dds", "scan_history_depth", depth, 1, 100000);
   r.integer_in(dds, "dds", "take_batch", batch, 1, 4096);
+  r.boolean(dds, "dds", "batch_receive_threads", c.station.batch_receive_threads);
 
   const toml::table* team = r.section("team", false);
   r.only(team, "team", {"publish_rate_hz", "liveliness_lease_s", "silence_timeout_s", "body", "last_pose", "source",

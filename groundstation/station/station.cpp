@@ -11,6 +11,7 @@
 
 #include "common/clock.hpp"
 #include "dds/participant.hpp"
+#include "dds/receive_threads.hpp"
 #include "dds/qos.hpp"
 #include "dds/security/credentials.hpp"
 #include "dds/take.hpp"
@@ -161,6 +162,11 @@ Result<std::unique_ptr<Station>> Station::create(const StationOptions& options, 
   Result<dds::Participant> participant = dds::Participant::create(options.domain_id, options.pki_dir.empty() ? nullptr : options.pki_dir.c_str());
   if (!participant.ok()) return Error{participant.error().what, 0, participant.error().detail};
   d.participant = std::move(participant.value());
+  if (options.batch_receive_threads) {
+    const dds::ReceiveThreads rt = dds::batch_receive_threads();
+    st->event("DDS receive threads: " + std::to_string(rt.batched) + " of " + std::to_string(rt.found) +
+              " set to SCHED_BATCH (they take queued packets at the loop's next tick or wait, not one preemption per packet)");
+  }
 
   dds_listener_t* listener = dds_create_listener(st.get());
   dds_lset_liveliness_changed(listener, liveliness_listener);
