@@ -60,27 +60,7 @@ FreeCell FreespaceGrid::cell(VoxelKey key, Lookup& lookup) const {
 }
 
 FreeCell& FreespaceGrid::touch(VoxelKey k) {
-  const std::int32_t bx = k.x >> kBlockBits, by = k.y >> kBlockBits, bz = k.z >> kBlockBits;
-  if (bx != cached_bx_ || by != cached_by_ || bz != cached_bz_ || cached_block_ == nullptr) {
-    const std::uint64_t bk = block_key(k);
-    bool inserted = false;
-    std::uint32_t& index = block_index_.get_or_insert(bk, 0, &inserted);
-    if (inserted) {
-      if (blocks_ % kBlocksPerPage == 0) {
-        // FreeCell is all zero bytes when empty: calloc's pages are the blocks' initial state.
-        auto* page = static_cast<Block*>(std::calloc(kBlocksPerPage, sizeof(Block)));
-        if (page == nullptr) throw std::bad_alloc();
-        pages_.emplace_back(page);
-      }
-      index = blocks_++;
-    }
-    cached_block_key_ = bk;
-    cached_block_ = &block(index);
-    cached_bx_ = bx;
-    cached_by_ = by;
-    cached_bz_ = bz;
-  }
-  FreeCell& c = (*cached_block_)[offset_in_block(k)];
+  FreeCell& c = *cell_in_block(k);
   if (c.hits == 0 && c.free == 0) ++voxels_;
   return c;
 }
@@ -122,13 +102,64 @@ void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> 
     FreeCell& c = touch(k);
     if (c.hits != kSaturate) ++c.hits;
   }
-  for (const MapPoint& p : points) cast_ray(origin_m, p);
+  cast_rays(origin_m, points);
 }
 
 void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
+  const std::size_t n = ray_cells(origin_m, hit, ray_[0]);
+  mark_free({ray_[0].data(), n});
+}
+
+void FreespaceGrid::cast_rays(const Vec3& origin_m, std::span<const MapPoint> points) {
+  // A ray's cells are mostly not in the cache (the grid is hundreds of MiB at 32 robots, and 31 other
+  // robots' scans came between this robot's two): walked one by one, every cell is a miss that waits
+  // for memory. Found one ray ahead and prefetched, the misses of a ray overlap each other.
+  std::size_t pending = 0;
+  int ahead = 0;
+  for (const MapPoint& p : points) {
+    const std::size_t n = ray_cells(origin_m, p, ray_[ahead]);
+    mark_free({ray_[1 - ahead].data(), pending});
+    pending = n;
+    ahead = 1 - ahead;
+  }
+  mark_free({ray_[1 - ahead].data(), pending});
+}
+
+void FreespaceGrid::mark_free(std::span<FreeCell* const> cells) {
+  for (FreeCell* c : cells) {
+    if (c->hits == 0 && c->free == 0) ++voxels_;
+    if (c->free != kSaturate) ++c->free;
+  }
+}
+
+FreeCell* FreespaceGrid::cell_in_block(VoxelKey k) {
+  const std::int32_t bx = k.x >> kBlockBits, by = k.y >> kBlockBits, bz = k.z >> kBlockBits;
+  if (bx != cached_bx_ || by != cached_by_ || bz != cached_bz_ || cached_block_ == nullptr) {
+    const std::uint64_t bk = block_key(k);
+    bool inserted = false;
+    std::uint32_t& index = block_index_.get_or_insert(bk, 0, &inserted);
+    if (inserted) {
+      if (blocks_ % kBlocksPerPage == 0) {
+        // FreeCell is all zero bytes when empty: calloc's pages are the blocks' initial state.
+        auto* page = static_cast<Block*>(std::calloc(kBlocksPerPage, sizeof(Block)));
+        if (page == nullptr) throw std::bad_alloc();
+        pages_.emplace_back(page);
+      }
+      index = blocks_++;
+    }
+    cached_block_key_ = bk;
+    cached_block_ = &block(index);
+    cached_bx_ = bx;
+    cached_by_ = by;
+    cached_bz_ = bz;
+  }
+  return &(*cached_block_)[offset_in_block(k)];
+}
+
+std::size_t FreespaceGrid::ray_cells(const Vec3& origin_m, const MapPoint& hit, std::vector<FreeCell*>& cells) {
   const double dx = hit.x - origin_m.x, dy = hit.y - origin_m.y, dz = hit.z - origin_m.z;
   const double range = std::sqrt(dx * dx + dy * dy + dz * dz);
-  if (!(range >= options_.min_range_m) || range > options_.max_range_m) return;
+  if (!(range >= options_.min_range_m) || range > options_.max_range_m) return 0;
   // Where the ray stops: end_margin short of the hit, further for grazing rays (see the options).
   const double sin_elev = std::abs(dz) / range;
   double stop_short = options_.end_margin_m;
@@ -137,7 +168,7 @@ void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
   else
     stop_short = std::max(stop_short, options_.grazing_cap_m);
   const double t0 = options_.min_range_m / range, t1 = (range - stop_short) / range;
-  if (!(t1 > t0)) return;
+  if (!(t1 > t0)) return 0;
 
   // Segment in grid units (voxel size 1, z from the grid origin).
   const double r = inverse_resolution_;
@@ -150,7 +181,7 @@ void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
              static_cast<std::int32_t>(std::floor(sz))};
   const VoxelKey end{static_cast<std::int32_t>(std::floor(ex)), static_cast<std::int32_t>(std::floor(ey)),
                      static_cast<std::int32_t>(std::floor(ez))};
-  if (!in_range(k) || !in_range(end)) return;
+  if (!in_range(k) || !in_range(end)) return 0;
   constexpr double kInf = std::numeric_limits<double>::infinity();
   // Per axis: the step, the parameter t (0..1 along the segment) of the next boundary, and the t
   // between boundaries (Amanatides–Woo tMax / tDelta).
@@ -177,7 +208,7 @@ void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
   // The voxel count is bounded by the Manhattan distance between the end voxels.
   const std::int64_t n = std::int64_t{1} + std::abs(std::int64_t{end.x} - k.x) + std::abs(std::int64_t{end.y} - k.y) +
                          std::abs(std::int64_t{end.z} - k.z);
-  traversed_ += static_cast<std::uint64_t>(n);
+  if (cells.size() < static_cast<std::size_t>(n)) cells.resize(static_cast<std::size_t>(n));
   // The walk keeps a pointer into the current 16³ block and the voxel's offsets within it: a step
   // moves the pointer by the axis' stride, and only a step out of the block (an offset leaving 0..15)
   // looks the next block up. The axis is chosen as Amanatides–Woo do (x on ties, then y), by index,
@@ -186,13 +217,12 @@ void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
   std::int32_t key[3] = {k.x, k.y, k.z};
   std::int32_t offset[3] = {k.x & kBlockMask, k.y & kBlockMask, k.z & kBlockMask};
   constexpr std::ptrdiff_t kStride[3] = {1, std::ptrdiff_t{1} << kBlockBits, std::ptrdiff_t{1} << (2 * kBlockBits)};
-  FreeCell* c = &touch(k);
+  FreeCell* c = cell_in_block(k);
+  std::size_t count = 0;
   for (std::int64_t i = 0;;) {
-    if (c->free != kSaturate) ++c->free;
-    if (key[0] == end.x && key[1] == end.y && key[2] == end.z) {
-      traversed_ -= static_cast<std::uint64_t>(n - 1 - i);  // stopped early: count only the visited
-      break;
-    }
+    __builtin_prefetch(c, 1);
+    cells[count++] = c;
+    if (key[0] == end.x && key[1] == end.y && key[2] == end.z) break;  // stopped early: only the visited
     if (++i >= n) break;
     const int a = (t_max[0] <= t_max[1] && t_max[0] <= t_max[2]) ? 0 : (t_max[1] <= t_max[2] ? 1 : 2);
     key[a] += step[a];
@@ -200,12 +230,13 @@ void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
     offset[a] += step[a];
     if (static_cast<std::uint32_t>(offset[a]) > static_cast<std::uint32_t>(kBlockMask)) {
       offset[a] &= kBlockMask;
-      c = &touch({key[0], key[1], key[2]});
+      c = cell_in_block({key[0], key[1], key[2]});
     } else {
       c += step[a] * kStride[a];
-      if (c->hits == 0 && c->free == 0) ++voxels_;
     }
   }
+  traversed_ += count;
+  return count;
 }
 
 FilterParams FreespaceFilter::params() const {

@@ -34,6 +34,9 @@ class FreespaceGrid {
   void insert_scan(const Vec3& origin_m, std::span<const MapPoint> points);
   // Marks the voxels of one ray (origin → hit, shortened as the options say) as passed.
   void cast_ray(const Vec3& origin_m, const MapPoint& hit);
+  // The same for every point of a scan, software-pipelined (see ray_cells): the cells of ray i are
+  // found and prefetched while ray i − 1's are counted. Counts as cast_ray per point, in any order.
+  void cast_rays(const Vec3& origin_m, std::span<const MapPoint> points);
   [[nodiscard]] FreeCell cell(VoxelKey key) const;
   // The last block looked up: the points of one scan are near each other, so classify() pays the
   // block index's hash once per block, not once per point (as cast_ray does).
@@ -73,6 +76,11 @@ class FreespaceGrid {
     return VoxelMap::pack({k.x >> kBlockBits, k.y >> kBlockBits, k.z >> kBlockBits});
   }
   FreeCell& touch(VoxelKey k);  // creates the block if needed
+  FreeCell* cell_in_block(VoxelKey k);  // touch() without reading the cell (it may not be cached yet)
+  // The cells one ray marks, in walk order, each prefetched for writing, into `cells` (resized as
+  // needed); returns how many. The walk: cast_ray's (Amanatides–Woo, x on ties, then y).
+  std::size_t ray_cells(const Vec3& origin_m, const MapPoint& hit, std::vector<FreeCell*>& cells);
+  void mark_free(std::span<FreeCell* const> cells);  // +1 free (saturating), counting new voxels
   // Blocks live in pages of kBlocksPerPage, zeroed by calloc (fresh pages from the kernel, not memset):
   // a new block never moves the others (no copy of the grid as it grows, pointers into it stay valid).
   static constexpr std::size_t kBlocksPerPage = 64;  // 1 MiB
@@ -93,6 +101,7 @@ class FreespaceGrid {
   std::int32_t cached_bx_ = INT32_MIN, cached_by_ = INT32_MIN, cached_bz_ = INT32_MIN;
   std::size_t voxels_ = 0;
   std::uint64_t traversed_ = 0;
+  std::vector<FreeCell*> ray_[2];  // cast_rays' two rays in flight
 };
 
 class FreespaceFilter final : public Filter {
