@@ -59,12 +59,6 @@ FreeCell FreespaceGrid::cell(VoxelKey key, Lookup& lookup) const {
   return lookup.block >= 0 ? block(static_cast<std::uint32_t>(lookup.block))[offset_in_block(key)] : FreeCell{};
 }
 
-FreeCell& FreespaceGrid::touch(VoxelKey k) {
-  FreeCell& c = *cell_in_block(k);
-  if (c.hits == 0 && c.free == 0) ++voxels_;
-  return c;
-}
-
 bool FreespaceGrid::void_voxel(VoxelKey k, Lookup& lookup) const {
   const FreeCell c = cell(k, lookup);
   const double need = std::max(static_cast<double>(options_.min_free), options_.free_per_hit * static_cast<double>(c.hits));
@@ -92,6 +86,8 @@ bool FreespaceGrid::transient(const MapPoint& p, Lookup& lookup) const {
 }
 
 void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> points) {
+  std::vector<FreeCell*>& hits = ray_[0];
+  hits.clear();
   for (const MapPoint& p : points) {
     const double dx = p.x - origin_m.x, dy = p.y - origin_m.y, dz = p.z - origin_m.z;
     const double range = std::sqrt(dx * dx + dy * dy + dz * dz);
@@ -99,8 +95,14 @@ void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> 
     if (!(range >= options_.min_range_m)) continue;
     const VoxelKey k = key_of(p.x, p.y, p.z);
     if (!in_range(k)) continue;
-    FreeCell& c = touch(k);
-    if (c.hits != kSaturate) ++c.hits;
+    // Found and prefetched first, counted below: the hit voxels' misses overlap as the rays' do.
+    FreeCell* c = cell_in_block(k);
+    __builtin_prefetch(c, 1);
+    hits.push_back(c);
+  }
+  for (FreeCell* c : hits) {
+    if (c->hits == 0 && c->free == 0) ++voxels_;
+    if (c->hits != kSaturate) ++c->hits;
   }
   cast_rays(origin_m, points);
 }

@@ -75,8 +75,9 @@ class FreespaceGrid {
   [[nodiscard]] static std::uint64_t block_key(VoxelKey k) {
     return VoxelMap::pack({k.x >> kBlockBits, k.y >> kBlockBits, k.z >> kBlockBits});
   }
-  FreeCell& touch(VoxelKey k);  // creates the block if needed
-  FreeCell* cell_in_block(VoxelKey k);  // touch() without reading the cell (it may not be cached yet)
+  // The cell of voxel k, its block created if needed; the cell is not read (it may not be cached yet:
+  // callers prefetch it and count it later).
+  FreeCell* cell_in_block(VoxelKey k);
   // The cells one ray marks, in walk order, each prefetched for writing, into `cells` (resized as
   // needed); returns how many. The walk: cast_ray's (Amanatides–Woo, x on ties, then y).
   std::size_t ray_cells(const Vec3& origin_m, const MapPoint& hit, std::vector<FreeCell*>& cells);

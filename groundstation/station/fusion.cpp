@@ -242,10 +242,8 @@ void FusionStage::on_release(const fusion::FusedScan& f) {
   if (replaying_) ++counters_.replayed_scans;
   const std::span<const mapping::MapPoint> points = f.view->points;
   counters_.points += points.size();
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    map_.add(points[i], f.removed[i] != 0);
-    if (f.removed[i]) ++counters_.live_removed;
-  }
+  map_.add_all(points, f.removed);
+  for (std::uint8_t r : f.removed) counters_.live_removed += r != 0 ? 1 : 0;
   if (replaying_) return;
   // The scan is now decided and in the fused map: its latency from the end of its sweep. Both stamps
   // are CLOCK_REALTIME (the robots' clocks are NTP-disciplined, DESIGN.md "Frames, units, time").
