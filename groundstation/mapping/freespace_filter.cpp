@@ -216,25 +216,52 @@ std::size_t FreespaceGrid::ray_cells(const Vec3& origin_m, const MapPoint& hit, 
   // looks the next block up. The axis is chosen as Amanatides–Woo do (x on ties, then y), by index,
   // so the visited voxels and the counts are those of the plain per-voxel walk (test
   // FreespaceGrid.TheBlockWalkCountsLikeAPlainPerVoxelWalk).
-  std::int32_t key[3] = {k.x, k.y, k.z};
-  std::int32_t offset[3] = {k.x & kBlockMask, k.y & kBlockMask, k.z & kBlockMask};
-  constexpr std::ptrdiff_t kStride[3] = {1, std::ptrdiff_t{1} << kBlockBits, std::ptrdiff_t{1} << (2 * kBlockBits)};
+  // One branch per axis, so that the walk's state stays in registers (indexing small arrays by the
+  // chosen axis kept it on the stack: a store-to-load round trip on every step).
+  std::int32_t kx = k.x, ky = k.y, kz = k.z;
+  std::int32_t ox = k.x & kBlockMask, oy = k.y & kBlockMask, oz = k.z & kBlockMask;
+  double tx = t_max[0], ty = t_max[1], tz = t_max[2];
+  const double dtx = t_delta[0], dty = t_delta[1], dtz = t_delta[2];
+  const std::int32_t stx = step[0], sty = step[1], stz = step[2];
+  const std::ptrdiff_t cx = stx, cy = sty * (std::ptrdiff_t{1} << kBlockBits), cz = stz * (std::ptrdiff_t{1} << (2 * kBlockBits));
+  constexpr auto kOut = [](std::int32_t o) { return static_cast<std::uint32_t>(o) > static_cast<std::uint32_t>(kBlockMask); };
   FreeCell* c = cell_in_block(k);
   std::size_t count = 0;
   for (std::int64_t i = 0;;) {
     __builtin_prefetch(c, 1);
     cells[count++] = c;
-    if (key[0] == end.x && key[1] == end.y && key[2] == end.z) break;  // stopped early: only the visited
+    if (kx == end.x && ky == end.y && kz == end.z) break;  // stopped early: only the visited
     if (++i >= n) break;
-    const int a = (t_max[0] <= t_max[1] && t_max[0] <= t_max[2]) ? 0 : (t_max[1] <= t_max[2] ? 1 : 2);
-    key[a] += step[a];
-    t_max[a] += t_delta[a];
-    offset[a] += step[a];
-    if (static_cast<std::uint32_t>(offset[a]) > static_cast<std::uint32_t>(kBlockMask)) {
-      offset[a] &= kBlockMask;
-      c = cell_in_block({key[0], key[1], key[2]});
+    if (tx <= ty && tx <= tz) {
+      kx += stx;
+      tx += dtx;
+      ox += stx;
+      if (kOut(ox)) {
+        ox &= kBlockMask;
+        c = cell_in_block({kx, ky, kz});
+      } else {
+        c += cx;
+      }
+    } else if (ty <= tz) {
+      ky += sty;
+      ty += dty;
+      oy += sty;
+      if (kOut(oy)) {
+        oy &= kBlockMask;
+        c = cell_in_block({kx, ky, kz});
+      } else {
+        c += cy;
+      }
     } else {
-      c += step[a] * kStride[a];
+      kz += stz;
+      tz += dtz;
+      oz += stz;
+      if (kOut(oz)) {
+        oz &= kBlockMask;
+        c = cell_in_block({kx, ky, kz});
+      } else {
+        c += cz;
+      }
     }
   }
   traversed_ += count;
