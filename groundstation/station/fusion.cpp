@@ -71,6 +71,7 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   if (f.latency_log) o.latency_log_csv = "fused_latency.csv";
   o.compare_methods = f.compare_methods;
   o.write_slice_ms = f.write_slice_ms;
+  o.writer_cpus = f.writer_cpus;
   return o;
 }
 
@@ -362,6 +363,13 @@ void FusionStage::begin_snapshot() {
   if (!writer_.joinable()) {
     writer_ = std::thread([this] {
       yield_to_the_loop();
+      if (!options_.writer_cpus.empty()) {
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        for (int cpu : options_.writer_cpus)
+          if (cpu >= 0 && cpu < CPU_SETSIZE) CPU_SET(static_cast<std::size_t>(cpu), &set);
+        writer_affinity_error_.store(::pthread_setaffinity_np(::pthread_self(), sizeof set, &set));
+      }
       writer_tid_.store(current_tid());
       writer_main();
     });
@@ -382,6 +390,13 @@ ThreadScheduling FusionStage::writer_scheduling() const {
   if (nice == -1 && errno != 0) return out;
   out.policy = policy;
   out.nice = nice;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (::pthread_getaffinity_np(writer_handle_, sizeof set, &set) == 0) {
+    for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
+      if (CPU_ISSET(static_cast<std::size_t>(cpu), &set)) out.cpus.push_back(cpu);
+  }
+  out.affinity_error = writer_affinity_error_.load();
   return out;
 }
 
