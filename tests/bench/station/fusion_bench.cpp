@@ -103,7 +103,8 @@ BENCHMARK_CAPTURE(BM_LiveScans, position, "position", 0.1)->Unit(benchmark::kMil
 // template driving its own 12 m cell (station_feeder's layout), scans interleaved robot by robot, poses at
 // 10 Hz, arrival = stamp, the capacity run's decision lag (0.15 s). Every scan grows the maps, as in the
 // first lap of a 32-robot survey: the CPU per scan here is the station loop's share of
-// run_capacity.sh's cpu_ms_per_scan, repeatable on a loaded machine (counter cpu_us_per_scan).
+// run_capacity.sh's cpu_ms_per_scan, repeatable on a loaded machine (counter cpu_us_per_scan); the third
+// argument turns the scan-to-map registration on (counter matches: the registration's accepted ones).
 struct TeamFeed {
   std::vector<PoseObservation> poses;
   std::vector<StoredScan> scans;  // in arrival order, poses interleaved by stamp (pose_before[i])
@@ -189,10 +190,11 @@ const TeamFeed& team_feed(int robots, double seconds) {
 
 void BM_LiveScansTeam(benchmark::State& state) {
   const TeamFeed& f = team_feed(static_cast<int>(state.range(0)), static_cast<double>(state.range(1)));
-  double cpu_s = 0;
+  double cpu_s = 0, corrections = 0;
   for (auto _ : state) {
     FusionOptions o;
     o.core.tracker.team_lag_s = 0.15;
+    o.core.registration = state.range(2) != 0;
     auto stage = FusionStage::create(o, "/tmp");
     timespec c0{}, c1{};
     ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
@@ -204,13 +206,16 @@ void BM_LiveScansTeam(benchmark::State& state) {
     (*stage)->flush();
     ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
     cpu_s += static_cast<double>(c1.tv_sec - c0.tv_sec) + 1e-9 * static_cast<double>(c1.tv_nsec - c0.tv_nsec);
+    corrections = static_cast<double>((*stage)->core().counters().registration_corrections);
     benchmark::DoNotOptimize((*stage)->counters().live_removed);
   }
   const double scans = static_cast<double>(f.scans.size() * state.iterations());
   state.counters["scans"] = static_cast<double>(f.scans.size());
   state.counters["cpu_us_per_scan"] = 1e6 * cpu_s / scans;
+  state.counters["corrections"] = static_cast<double>(corrections);
 }
-BENCHMARK(BM_LiveScansTeam)->Args({32, 10})->Iterations(1)->Unit(benchmark::kMillisecond);
+// Args: robots, seconds of robot time, registration (0 off, 1 on: docs/registration.md "Cost").
+BENCHMARK(BM_LiveScansTeam)->Args({32, 10, 0})->Args({32, 10, 1})->Iterations(1)->Unit(benchmark::kMillisecond);
 
 // best with the paper's five methods decided side by side: six cores on the same input.
 void BM_LiveScansCompared(benchmark::State& state) {
