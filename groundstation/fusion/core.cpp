@@ -2,6 +2,7 @@
 #include "groundstation/fusion/core.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -206,23 +207,31 @@ void FusionCore::register_scan(const HeldScan& s) {
   }
   registration_points_.clear();
   registration_usable_.clear();
+  registration_corrected_.clear();
+  mapping::PointBounds footprint;  // of the usable points, as box_contains sees them (floats)
   for (std::size_t i = 0; i < s.points.size(); ++i) {
     const mapping::MapPoint& p = s.points[i];
     registration_points_.push_back({p.x, p.y, p.z});
     const std::uint16_t flags = i < s.flags.size() ? s.flags[i] : 0;
-    bool usable = (flags & (point_flags::kInvalid | point_flags::kDirectionFiltered)) == 0;
-    if (usable && !boxes.empty()) {
-      const Vec3 q = registration::corrected(correction, registration_points_.back());
-      const mapping::MapPoint mp{static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z)};
+    const bool usable = (flags & (point_flags::kInvalid | point_flags::kDirectionFiltered)) == 0;
+    registration_usable_.push_back(usable ? 1 : 0);
+    const Vec3 q = registration::corrected(correction, registration_points_.back());
+    registration_corrected_.push_back({static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z)});
+    if (usable) footprint.add(registration_corrected_.back());
+  }
+  // Only the teammates whose box can reach the scan's footprint are tested point by point (the tracked
+  // filter's cull).
+  std::erase_if(boxes, [&](const mapping::BodyBox& b) { return !mapping::box_may_reach(b, footprint, 0.0); });
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    if (registration_usable_[i] != 0) {
       for (const mapping::BodyBox& b : boxes) {
-        if (mapping::box_contains(b, mp, 0.0)) {
-          usable = false;
+        if (mapping::box_contains(b, registration_corrected_[i], 0.0)) {
+          registration_usable_[i] = 0;
           break;
         }
       }
     }
-    if (!usable) ++counters_.registration_masked_points;
-    registration_usable_.push_back(usable ? 1 : 0);
+    if (registration_usable_[i] == 0) ++counters_.registration_masked_points;
   }
   const registration::RobotCorrection& c =
       registration_->add_scan(s.view.robot, s.view.stamp_ns, own.odom, registration_points_, registration_usable_);

@@ -239,6 +239,7 @@ class FusionCore {
   std::vector<HeldScan> releasing_;
   std::vector<Vec3> registration_points_;
   std::vector<std::uint8_t> registration_usable_;
+  std::vector<mapping::MapPoint> registration_corrected_;  // register_scan's points in the corrected frame
   CoreCounters counters_;
 };
 

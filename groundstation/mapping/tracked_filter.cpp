@@ -73,6 +73,14 @@ double box_reach_m(const BodyBox& b, double sweep_s) {
   return r + std::hypot(b.velocity_mps.x, b.velocity_mps.y) * std::abs(sweep_s) + 1e-6;
 }
 
+bool box_may_reach(const BodyBox& b, const PointBounds& points, double sweep_s) {
+  if (!(points.lo_x <= points.hi_x)) return false;  // no points (or none finite in x, y)
+  const double reach_m = box_reach_m(b, sweep_s);
+  const double gap_x = std::max({0.0, points.lo_x - b.centre_m.x, b.centre_m.x - points.hi_x});
+  const double gap_y = std::max({0.0, points.lo_y - b.centre_m.y, b.centre_m.y - points.hi_y});
+  return gap_x * gap_x + gap_y * gap_y <= reach_m * reach_m;
+}
+
 bool box_contains(const BodyBox& b, const MapPoint& p, double dt_s) {
   if (p.z < b.z_min_m || p.z > b.z_max_m) return false;
   const double dx = p.x - (b.centre_m.x + b.velocity_mps.x * dt_s);
@@ -114,16 +122,10 @@ void TrackedFilter::point_bits(const ScanView& scan, std::span<std::uint8_t> rem
   const RobotEstimate* self = scan.team->find(scan.robot);
   // The scan's footprint (x, y bounds): a teammate whose box cannot reach it is skipped without testing
   // its points (with 32 robots most teammates are rooms away; the decisions are the same).
-  double lo_x = INFINITY, lo_y = INFINITY, hi_x = -INFINITY, hi_y = -INFINITY;
-  for (const MapPoint& p : scan.points) {
-    lo_x = std::min(lo_x, static_cast<double>(p.x));
-    hi_x = std::max(hi_x, static_cast<double>(p.x));
-    lo_y = std::min(lo_y, static_cast<double>(p.y));
-    hi_y = std::max(hi_y, static_cast<double>(p.y));
-  }
+  PointBounds footprint;
+  for (const MapPoint& p : scan.points) footprint.add(p);
   for (const RobotEstimate& other : scan.team->robots) {
     if (other.robot == scan.robot || !other.valid) continue;
-    if (!(lo_x <= hi_x)) break;  // no points (or none finite in x, y: none can be in a box)
     Eigen::Matrix2d extra = Eigen::Matrix2d::Zero();
     if (options_.include_drift && self != nullptr && self->valid) {
       const double range_m = std::hypot(other.position_m.x - scan.origin_m.x, other.position_m.y - scan.origin_m.y);
@@ -132,10 +134,7 @@ void TrackedFilter::point_bits(const ScanView& scan, std::span<std::uint8_t> rem
     }
     BodyBox box = body_box(other, options_, extra);
     box.sensor_m = scan.origin_m;
-    const double reach_m = box_reach_m(box, options_.sweep_s);
-    const double gap_x = std::max({0.0, lo_x - box.centre_m.x, box.centre_m.x - hi_x});
-    const double gap_y = std::max({0.0, lo_y - box.centre_m.y, box.centre_m.y - hi_y});
-    if (gap_x * gap_x + gap_y * gap_y > reach_m * reach_m) continue;
+    if (!box_may_reach(box, footprint, options_.sweep_s)) continue;
     for (std::size_t i = 0; i < scan.points.size(); ++i) {
       if (removed[i]) continue;
       // The teammates are interpolated to each beam's time within the sweep (TrackedOptions::sweep_s).

@@ -4,6 +4,7 @@
 // Kalman position covariance at the scan's time along each box axis and by the heading uncertainty.
 #pragma once
 
+#include <limits>
 #include <algorithm>
 
 #include "groundstation/mapping/freespace_tracked_options.hpp"
@@ -42,6 +43,19 @@ struct BodyBox {
 // How far from box.centre_m (in x, y) a point box_contains accepts can lie, for |dt_s| ≤ sweep_s: a
 // bound, so a scan whose points are all further away needs no test.
 [[nodiscard]] double box_reach_m(const BodyBox& box, double sweep_s);
+// The x, y bounds of a set of points (empty: lo > hi), and whether a box may contain one of them
+// (box_reach_m against the bounds): false means no point of the set needs a box_contains test.
+struct PointBounds {
+  double lo_x = std::numeric_limits<double>::infinity(), hi_x = -std::numeric_limits<double>::infinity();
+  double lo_y = std::numeric_limits<double>::infinity(), hi_y = -std::numeric_limits<double>::infinity();
+  void add(const MapPoint& p) {
+    lo_x = std::min(lo_x, static_cast<double>(p.x));
+    hi_x = std::max(hi_x, static_cast<double>(p.x));
+    lo_y = std::min(lo_y, static_cast<double>(p.y));
+    hi_y = std::max(hi_y, static_cast<double>(p.y));
+  }
+};
+[[nodiscard]] bool box_may_reach(const BodyBox& box, const PointBounds& points, double sweep_s);
 
 class TrackedFilter final : public Filter {
  public:
