@@ -457,14 +457,20 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
                  "Registration: each robot's odometry prior from FILE (`teamscan calibrate`'s output, or a station config: "
                  "its [registration] priors; docs/registration.md)")
       ->check(CLI::ExistingFile);
+  const registration::OdometryPrior d;  // the registration's defaults: no drift known
   app.add_option("--prior-scale-percent", a->prior_scale_percent,
-                 "Registration: every robot's odometry distance scale starts here (%; negative: the odometry over-reports; "
-                 "default 0; [registration] scale_percent)");
-  app.add_option("--prior-scale-sigma-percent", a->prior_scale_sigma_percent, "… and its σ (%, default 3)");
-  app.add_option("--prior-drift-deg-per-m", a->prior_drift_deg_per_m, "Registration: heading drift prior (deg/m, default 0)");
-  app.add_option("--prior-drift-sigma-deg-per-m", a->prior_drift_sigma_deg_per_m, "… and its σ (deg/m, default 0.57)");
-  app.add_option("--prior-turn-percent", a->prior_turn_percent, "Registration: turn scale prior (%, default 0)");
-  app.add_option("--prior-turn-sigma-percent", a->prior_turn_sigma_percent, "… and its σ (%, default 3)");
+                 "Registration: every robot's odometry distance scale starts here (%; negative: the odometry over-reports "
+                 "the distance; default " + number(100.0 * d.scale) + "; [registration] scale_percent)");
+  app.add_option("--prior-scale-sigma-percent", a->prior_scale_sigma_percent,
+                 "… and its σ (%, default " + number(100.0 * d.sigma_scale) + ")");
+  app.add_option("--prior-drift-deg-per-m", a->prior_drift_deg_per_m,
+                 "Registration: the heading drift's prior (deg/m, default " + number(rad_to_deg(d.drift_rad_per_m)) + ")");
+  app.add_option("--prior-drift-sigma-deg-per-m", a->prior_drift_sigma_deg_per_m,
+                 "… and its σ (deg/m, default " + number(rad_to_deg(d.sigma_drift_rad_per_m)) + ")");
+  app.add_option("--prior-turn-percent", a->prior_turn_percent,
+                 "Registration: the turn scale's prior (%, default " + number(100.0 * d.turn) + ")");
+  app.add_option("--prior-turn-sigma-percent", a->prior_turn_sigma_percent,
+                 "… and its σ (%, default " + number(100.0 * d.sigma_turn) + ")");
   app.add_option("--seed", a->seed, "RANSAC seed (the report is deterministic for a seed)")->capture_default_str();
   app.add_option("--json", a->json_path, "Write the JSON report to FILE");
   app.add_option("--out", a->out_dir, "Write report.md and report.json (and pictures) into REPORTDIR");
