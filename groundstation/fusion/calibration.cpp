@@ -59,9 +59,9 @@ Calibration calibrate_drive(const Dataset& drive, const CalibrationOptions& opti
     rc.matches = c.matches;
     rc.accepted = c.accepted;
     rc.drives = 1;
-    rc.filter_sigma = {c.scale, std::sqrt(c.rate_covariance(0, 0)), c.drift_rad_per_m, std::sqrt(c.rate_covariance(1, 1)),
+    rc.estimate = {c.scale, std::sqrt(c.rate_covariance(0, 0)), c.drift_rad_per_m, std::sqrt(c.rate_covariance(1, 1)),
                        c.turn, std::sqrt(c.rate_covariance(2, 2))};
-    rc.rates = floored(rc.filter_sigma, options.min_sigma);
+    rc.rates = floored(rc.estimate, options.min_sigma);
     rc.calibrated = options.registration.estimate_rates && rc.path_m >= options.min_path_m &&
                     rc.accepted >= options.min_accepted;
     out.robots.push_back(rc);
@@ -88,14 +88,14 @@ Calibration combine_drives(const std::vector<Calibration>& drives, const Calibra
     rc.drives = static_cast<std::uint32_t>(used.size());
     rc.calibrated = !used.empty();
     if (used.empty()) {
-      rc.rates = rc.filter_sigma = seen.front()->filter_sigma;
+      rc.rates = rc.estimate = seen.front()->estimate;
       out.robots.push_back(rc);
       continue;
     }
     for (std::size_t i = 0; i < 3; ++i) {
       double sum_w = 0, sum_wx = 0;
       for (const RobotCalibration* r : used) {
-        OdometryPrior p = r->filter_sigma;
+        OdometryPrior p = r->estimate;
         const double w = 1.0 / (*sigmas(p)[i] * *sigmas(p)[i]);
         sum_w += w;
         sum_wx += w * *values(p)[i];
@@ -103,14 +103,14 @@ Calibration combine_drives(const std::vector<Calibration>& drives, const Calibra
       const double mean = sum_wx / sum_w;
       double spread = 0;  // the weighted variance of the drives about the mean (0 for one drive)
       for (const RobotCalibration* r : used) {
-        OdometryPrior p = r->filter_sigma;
+        OdometryPrior p = r->estimate;
         const double w = 1.0 / (*sigmas(p)[i] * *sigmas(p)[i]);
         spread += w * (*values(p)[i] - mean) * (*values(p)[i] - mean) / sum_w;
       }
-      *values(rc.filter_sigma)[i] = mean;
-      *sigmas(rc.filter_sigma)[i] = std::sqrt(1.0 / sum_w + spread);
+      *values(rc.estimate)[i] = mean;
+      *sigmas(rc.estimate)[i] = std::sqrt(1.0 / sum_w + spread);
     }
-    rc.rates = floored(rc.filter_sigma, options.min_sigma);
+    rc.rates = floored(rc.estimate, options.min_sigma);
     out.robots.push_back(rc);
   }
   return out;
@@ -128,18 +128,18 @@ std::string calibration_toml(const Calibration& calibration, const std::string& 
       continue;
     }
     const OdometryPrior& p = r.rates;
-    const OdometryPrior& f = r.filter_sigma;
+    const OdometryPrior& f = r.estimate;
     o << "\n[[registration.robot]]   # " << basis << "\n"
       << "id = " << int{r.robot} << "\n"
       << "scale_percent = " << format("%.4g", 100.0 * p.scale) << "\n"
       << "scale_sigma_percent = " << format("%.4g", 100.0 * p.sigma_scale)
-      << format("   # the filter's: %.3g", 100.0 * f.sigma_scale) << "\n"
+      << format("   # before the floor: %.3g", 100.0 * f.sigma_scale) << "\n"
       << "drift_deg_per_m = " << format("%.4g", rad_to_deg(p.drift_rad_per_m)) << "\n"
       << "drift_sigma_deg_per_m = " << format("%.4g", rad_to_deg(p.sigma_drift_rad_per_m))
-      << format("   # the filter's: %.3g", rad_to_deg(f.sigma_drift_rad_per_m)) << "\n"
+      << format("   # before the floor: %.3g", rad_to_deg(f.sigma_drift_rad_per_m)) << "\n"
       << "turn_percent = " << format("%.4g", 100.0 * p.turn) << "\n"
       << "turn_sigma_percent = " << format("%.4g", 100.0 * p.sigma_turn)
-      << format("   # the filter's: %.3g", 100.0 * f.sigma_turn) << "\n";
+      << format("   # before the floor: %.3g", 100.0 * f.sigma_turn) << "\n";
   }
   return o.str();
 }

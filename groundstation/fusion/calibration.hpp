@@ -36,7 +36,7 @@ struct RobotCalibration {
   std::uint8_t robot = 0;
   bool calibrated = false;         // enough path and matches (CalibrationOptions::min_*)
   registration::OdometryPrior rates;  // value and σ of each rate (σ at least min_sigma)
-  registration::OdometryPrior filter_sigma;  // the filter's own σ (values unused), before the floor
+  registration::OdometryPrior estimate;  // the filter's values and σ at the end (drives: combined), before the floor
   double path_m = 0;               // driven (odometry)
   std::uint64_t matches = 0, accepted = 0;
   std::uint32_t drives = 0;        // calibration drives it was seen on

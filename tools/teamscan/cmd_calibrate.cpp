@@ -49,9 +49,9 @@ int run_calibrate(const CalibrateArgs& a) {
     for (const mapping::RobotCalibration& r : drives.back().robots)
       std::fprintf(stderr, "  robot %d: scale %+.3f %%, drift %+.4f deg/m, turn %+.3f %% (σ %.3f %%, %.4f deg/m, %.3f %%), "
                            "%llu of %llu matches, %.1f m%s\n",
-                   int{r.robot}, 100.0 * r.filter_sigma.scale, rad_to_deg(r.filter_sigma.drift_rad_per_m),
-                   100.0 * r.filter_sigma.turn, 100.0 * r.filter_sigma.sigma_scale,
-                   rad_to_deg(r.filter_sigma.sigma_drift_rad_per_m), 100.0 * r.filter_sigma.sigma_turn,
+                   int{r.robot}, 100.0 * r.estimate.scale, rad_to_deg(r.estimate.drift_rad_per_m),
+                   100.0 * r.estimate.turn, 100.0 * r.estimate.sigma_scale,
+                   rad_to_deg(r.estimate.sigma_drift_rad_per_m), 100.0 * r.estimate.sigma_turn,
                    static_cast<unsigned long long>(r.accepted), static_cast<unsigned long long>(r.matches), r.path_m,
                    r.calibrated ? "" : " (not calibrated: too little path or too few matches)");
   }

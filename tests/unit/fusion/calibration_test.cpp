@@ -64,8 +64,8 @@ RobotCalibration drive_of(std::uint8_t robot, double scale, double sigma, bool c
   RobotCalibration r;
   r.robot = robot;
   r.calibrated = calibrated;
-  r.filter_sigma = {scale, sigma, 0.001, 0.001, 0.0, 0.01};
-  r.rates = r.filter_sigma;
+  r.estimate = {scale, sigma, 0.001, 0.001, 0.0, 0.01};
+  r.rates = r.estimate;
   r.path_m = 50;
   r.matches = 100;
   r.accepted = 90;
