@@ -603,7 +603,8 @@ std::string report_json(const EvalReport& r, const std::string& command) {
       o << (i ? ", " : "") << "{\"robot\": " << int(c.robot) << ", \"matches\": " << c.matches << ", \"accepted\": " << c.accepted
         << ", \"degenerate\": " << c.degenerate << ", \"standing_still\": " << c.standing_still << ", \"first_lap\": " << c.first_lap
         << ", \"rejected_overlap\": " << c.rejected_overlap << ", \"rejected_fit\": " << c.rejected_fit
-        << ", \"rejected_step\": " << c.rejected_step << ", \"too_few_features\": " << c.too_few_features << "}";
+        << ", \"rejected_step\": " << c.rejected_step << ", \"too_few_features\": " << c.too_few_features
+        << ", \"scale\": " << c.scale << ", \"drift_rad_per_m\": " << c.drift_rad_per_m << ", \"turn\": " << c.turn << "}";
     }
     o << "]},\n";
   }
@@ -660,11 +661,14 @@ std::string report_markdown(const EvalReport& r, const std::string& command) {
     o << ".\n";
   }
   if (r.registration.enabled) {
-    o << "\n| robot | matches | accepted | degenerate | standing still | first lap | too few features | rejected overlap / fit / step |\n";
-    o << "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+    // The drift rates at the end (the odometry prior they started from: docs/registration.md "Odometry prior and calibration").
+    o << "\n| robot | matches | accepted | degenerate | standing still | first lap | too few features | rejected overlap / fit / step "
+         "| rates at the end: scale % / drift °/m / turn % |\n";
+    o << "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
     for (const registration::RobotCorrection& c : r.registration.robots)
       o << "| " << int(c.robot) << " | " << c.matches << " | " << c.accepted << " | " << c.degenerate << " | " << c.standing_still
-        << " | " << c.first_lap << " | " << c.too_few_features << " | " << c.rejected_overlap << " / " << c.rejected_fit << " / " << c.rejected_step << " |\n";
+        << " | " << c.first_lap << " | " << c.too_few_features << " | " << c.rejected_overlap << " / " << c.rejected_fit << " / " << c.rejected_step
+        << " | " << md(100.0 * c.scale, 3) << " / " << md(rad_to_deg(c.drift_rad_per_m), 4) << " / " << md(100.0 * c.turn, 3) << " |\n";
     o << "\nPoints kept out of the match (onboard-flagged, inside a teammate's tracked body): " << r.registration.masked_points << ".\n";
   }
   const Table1& t = r.table1;

@@ -27,6 +27,28 @@ RegistrationOptions planar_scan_options(RegistrationOptions o) {
   return o;
 }
 
+std::string prior_error(const OdometryPrior& p) {
+  auto finite = [](double v) { return std::isfinite(v); };
+  if (!finite(p.scale) || !finite(p.sigma_scale) || !finite(p.drift_rad_per_m) || !finite(p.sigma_drift_rad_per_m) ||
+      !finite(p.turn) || !finite(p.sigma_turn))
+    return "every rate and σ must be finite";
+  // A distance or turn scale of ±50 % is no odometry; 0.2 rad/m (11°/m) is a base that cannot drive straight.
+  if (!(std::abs(p.scale) < 0.5)) return "the scale must be within ±50 %";
+  if (!(p.sigma_scale > 0.0 && p.sigma_scale <= 0.5)) return "the scale's σ must be in (0, 50 %]";
+  if (!(std::abs(p.drift_rad_per_m) <= 0.2)) return "the heading drift must be within ±0.2 rad/m (11.5°/m)";
+  if (!(p.sigma_drift_rad_per_m > 0.0 && p.sigma_drift_rad_per_m <= 0.2))
+    return "the heading drift's σ must be in (0, 0.2 rad/m]";
+  if (!(std::abs(p.turn) < 0.5)) return "the turn scale must be within ±50 %";
+  if (!(p.sigma_turn > 0.0 && p.sigma_turn <= 0.5)) return "the turn scale's σ must be in (0, 50 %]";
+  return {};
+}
+
+const OdometryPrior& RegistrationOptions::prior_of(std::uint8_t robot) const {
+  for (const RobotPrior& rp : robot_priors)
+    if (rp.robot == robot) return rp.prior;
+  return prior;
+}
+
 namespace {
 SurfaceOptions with_cap(SurfaceOptions o, std::uint32_t cap) {
   o.voxel_cap = cap;
@@ -59,12 +81,18 @@ const RobotCorrection& Registration::add_scan(std::uint8_t robot, std::int64_t s
     const double sm = options_.initial_sigma_m, sr = options_.initial_sigma_rad;
     r.covariance = Matrix6::Zero();
     r.covariance.diagonal().head<3>() = Eigen::Vector3d{sm * sm, sm * sm, sr * sr};
-    if (options_.estimate_rates)
+    if (options_.estimate_rates) {
+      // The robot's prior: the rates' starting values and σ (its calibration, or the team's default).
+      const OdometryPrior& prior = options_.prior_of(robot);
+      r.c.scale = prior.scale;
+      r.c.drift_rad_per_m = prior.drift_rad_per_m;
+      r.c.turn = prior.turn;
       r.covariance.diagonal().tail<3>() =
-          Eigen::Vector3d{options_.initial_sigma_scale * options_.initial_sigma_scale,
-                          options_.initial_sigma_drift_rad_per_m * options_.initial_sigma_drift_rad_per_m,
-                          options_.initial_sigma_turn * options_.initial_sigma_turn};
+          Eigen::Vector3d{prior.sigma_scale * prior.sigma_scale, prior.sigma_drift_rad_per_m * prior.sigma_drift_rad_per_m,
+                          prior.sigma_turn * prior.sigma_turn};
+    }
     r.c.covariance = r.covariance.topLeftCorner<3, 3>();
+    r.c.rate_covariance = r.covariance.bottomRightCorner<3, 3>();
     r.c.pivot_m = r.c.map_from_odom.apply({odom_pose.x_m, odom_pose.y_m});
   } else if (!r.window.empty() && stamp_ns < r.window.back().stamp_ns) {
     ++rejected_scans_;  // out of order: the window is a time window
@@ -129,6 +157,7 @@ void Registration::predict(Robot& r, const Pose2& odom_pose) {
     r.covariance(5, 5) += options_.rate_walk_turn2_per_m * ds;
   }
   r.c.covariance = r.covariance.topLeftCorner<3, 3>();
+  r.c.rate_covariance = r.covariance.bottomRightCorner<3, 3>();
 }
 
 void Registration::retire(Robot& r, std::int64_t now_ns) {
@@ -228,6 +257,7 @@ void Registration::fuse(Robot& r, const MatchResult& m) {
   updated = 0.5 * (updated + updated.transpose());
   r.covariance = pivot_jacobian(m.pivot_m, r.c.pivot_m) * updated * pivot_jacobian(m.pivot_m, r.c.pivot_m).transpose();
   r.c.covariance = r.covariance.topLeftCorner<3, 3>();
+  r.c.rate_covariance = r.covariance.bottomRightCorner<3, 3>();
   // The window's scans were off by the same: they move with it (their change relative to now stays
   // the rates' extrapolation).
   const Pose2 moved = r.c.map_from_odom * before.inverse();

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <deque>
 #include <span>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -30,6 +31,28 @@
 #include "groundstation/registration/surface_grid.hpp"
 
 namespace teamscan::registration {
+
+// What a robot's odometry drift rates (RobotCorrection::scale, drift_rad_per_m, turn) start from, each
+// with its σ: the filter's prior. Default: no drift known, σ wide enough for a skid-steer base
+// (3 % of the distance, 0.6°/m, 3 % of the turn). A calibrated base starts from its calibration.
+struct OdometryPrior {
+  double scale = 0.0;
+  double sigma_scale = 0.03;
+  double drift_rad_per_m = 0.0;
+  double sigma_drift_rad_per_m = 0.01;
+  double turn = 0.0;
+  double sigma_turn = 0.03;
+};
+
+// Empty when the prior can be a robot's, else why not, naming the rate: every value finite, every σ
+// > 0, |scale| and |turn| below 50 % (and their σ at most 50 %), |drift| and its σ at most 0.2 rad/m.
+[[nodiscard]] std::string prior_error(const OdometryPrior& prior);
+
+// A robot's own prior (its calibration), in place of RegistrationOptions::prior.
+struct RobotPrior {
+  std::uint8_t robot = 0;  // 1..kMaxRobots
+  OdometryPrior prior;
+};
 
 struct RegistrationOptions {
   SurfaceOptions surface;            // reference and window grids
@@ -62,13 +85,17 @@ struct RegistrationOptions {
   // base drifts by the metre, so a constant offset falls behind), and a window's scans are matched in
   // the frame the rates put them in. Off: the correction is held between matches.
   bool estimate_rates = true;
-  double initial_sigma_scale = 0.03;            // 3 % of the distance
-  double initial_sigma_drift_rad_per_m = 0.01;  // 0.6°/m
-  double initial_sigma_turn = 0.03;             // 3 % of the turn
+  // What the rates start from: every robot's prior, unless it has its own (a calibrated base:
+  // `teamscan calibrate`, docs/registration.md "Odometry prior and calibration").
+  OdometryPrior prior;
+  std::vector<RobotPrior> robot_priors;  // at most one per robot
   // The rates may change slowly (floor, load): their σ² grows per metre driven.
   double rate_walk_scale2_per_m = 1e-6;
   double rate_walk_drift2_per_m = 1e-8;
   double rate_walk_turn2_per_m = 1e-6;
+
+  // The prior `robot` starts from: its own (robot_priors) or the team's.
+  [[nodiscard]] const OdometryPrior& prior_of(std::uint8_t robot) const;
 };
 
 // The policy for horizontal 2-D lasers (every point at the mount's height: an imported CARMEN log),
@@ -90,6 +117,7 @@ struct RobotCorrection {
   // odometry poses is the odometry's increment (dx, dy, dθ) made (dx, dy)·(1 + scale),
   // dθ·(1 + turn) + drift_rad_per_m·√(dx² + dy²).
   double scale = 0, drift_rad_per_m = 0, turn = 0;
+  Eigen::Matrix3d rate_covariance = Eigen::Matrix3d::Zero();  // (scale, drift, turn)
   bool matched = false;                                 // this scan's match was accepted (a measurement)
   std::uint64_t matches = 0, accepted = 0, degenerate = 0, standing_still = 0, first_lap = 0;
   std::uint64_t rejected_overlap = 0, rejected_fit = 0, rejected_step = 0, too_few_features = 0;

@@ -8,6 +8,7 @@
 
 #include <toml++/toml.h>
 
+#include "common/capacities.hpp"
 #include "common/toml_reader.hpp"
 #include "common/units.hpp"
 #include "groundstation/view/requests.hpp"
@@ -25,6 +26,73 @@ mapping::TrackerOptions tracker_options(const KalmanConfig& k) {
   o.drift_heading_rad_per_rad = k.drift_deg_per_deg;  // deg/deg = rad/rad
   return o;
 }
+
+namespace {
+
+// The odometry-prior keys of [registration] or of one [[registration.robot]] table onto `prior` (absent
+// keys keep its values), in the config's units (percent, degrees per metre), checked as a whole
+// (registration::prior_error).
+void read_prior(TomlReader& r, const toml::table* t, const std::string& sect, registration::OdometryPrior& prior) {
+  if (t == nullptr) return;
+  registration::OdometryPrior p = prior;
+  const char* s = sect.c_str();
+  double v = 0;
+  if (r.number(t, s, "scale_percent", v, false)) p.scale = 0.01 * v;
+  if (r.number(t, s, "scale_sigma_percent", v, false)) p.sigma_scale = 0.01 * v;
+  if (r.number(t, s, "drift_deg_per_m", v, false)) p.drift_rad_per_m = deg_to_rad(v);
+  if (r.number(t, s, "drift_sigma_deg_per_m", v, false)) p.sigma_drift_rad_per_m = deg_to_rad(v);
+  if (r.number(t, s, "turn_percent", v, false)) p.turn = 0.01 * v;
+  if (r.number(t, s, "turn_sigma_percent", v, false)) p.sigma_turn = 0.01 * v;
+  if (r.failed()) return;
+  const std::string why = registration::prior_error(p);
+  if (!why.empty()) {
+    r.fail(sect, why, t);
+    return;
+  }
+  prior = p;
+}
+
+// The keys of an odometry prior, in [registration] and in each [[registration.robot]] (one list for both).
+#define TEAMSCAN_PRIOR_KEYS "scale_percent", "scale_sigma_percent", "drift_deg_per_m", "drift_sigma_deg_per_m", \
+                            "turn_percent", "turn_sigma_percent"
+
+// [registration]'s odometry priors: the team's default, then each [[registration.robot]] table (an id
+// 1..kMaxRobots, once) on top of it.
+void read_priors(TomlReader& r, const toml::table* reg, registration::RegistrationOptions& o) {
+  if (reg == nullptr) return;
+  read_prior(r, reg, "registration", o.prior);
+  const toml::node* robots = r.node(reg, "robot");
+  if (robots == nullptr || r.failed()) return;
+  const toml::array* list = robots->as_array();
+  if (list == nullptr || !list->is_array_of_tables()) {
+    r.fail("registration.robot", "must be [[registration.robot]] tables", robots);
+    return;
+  }
+  std::vector<registration::RobotPrior> priors;
+  for (const toml::node& n : *list) {
+    const toml::table* t = n.as_table();
+    r.only(t, "registration.robot", {"id", TEAMSCAN_PRIOR_KEYS});
+    std::int64_t id = 0;
+    if (!r.integer(t, "registration.robot", "id", id, true)) return;
+    if (id < 1 || id > static_cast<std::int64_t>(kMaxRobots)) {
+      r.fail("registration.robot.id", "must be in [1, " + std::to_string(kMaxRobots) + "], got " + std::to_string(id),
+             r.node(t, "id"));
+      return;
+    }
+    for (const registration::RobotPrior& p : priors)
+      if (p.robot == id) {
+        r.fail("registration.robot.id", std::to_string(id) + " is listed twice", r.node(t, "id"));
+        return;
+      }
+    registration::RobotPrior rp{static_cast<std::uint8_t>(id), o.prior};
+    read_prior(r, t, "registration.robot (id " + std::to_string(id) + ")", rp.prior);
+    if (r.failed()) return;
+    priors.push_back(rp);
+  }
+  o.robot_priors = std::move(priors);
+}
+
+}  // namespace
 
 bool parse_groundstation_config(const std::string& toml_text, const std::string& source_name, GroundStationConfig& out,
                                 ConfigError& error) {
@@ -130,7 +198,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   f.max_points_per_voxel = static_cast<std::uint32_t>(max_per_voxel);
   r.boolean(fusion, "fusion", "registration", f.registration);
   const toml::table* reg = r.section("registration", false);
-  r.only(reg, "registration", {"enabled", "window_s", "match_every_s", "min_map_features"});
+  r.only(reg, "registration", {"enabled", "window_s", "match_every_s", "min_map_features", "robot", TEAMSCAN_PRIOR_KEYS});
   if (reg != nullptr) {
     f.registration = true;
     r.boolean(reg, "registration", "enabled", f.registration);
@@ -140,6 +208,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   std::int64_t min_features = c.registration.min_map_features;
   r.integer_in(reg, "registration", "min_map_features", min_features, 0, 1'000'000);
   c.registration.min_map_features = static_cast<std::uint32_t>(min_features);
+  read_priors(r, reg, c.registration);
 
   Ros2Config& ros = c.ros2;
   double cloud_s = to_seconds(ros.map_interval);
@@ -250,6 +319,18 @@ bool load_groundstation_config(const std::string& path, GroundStationConfig& out
   std::stringstream ss;
   ss << in.rdbuf();
   return parse_groundstation_config(ss.str(), path, out, error);
+}
+
+#undef TEAMSCAN_PRIOR_KEYS
+
+bool load_registration_priors(const std::string& path, registration::RegistrationOptions& options, ConfigError& error) {
+  GroundStationConfig c;
+  c.registration.prior = options.prior;
+  c.registration.robot_priors = options.robot_priors;
+  if (!load_groundstation_config(path, c, error)) return false;
+  options.prior = c.registration.prior;
+  options.robot_priors = c.registration.robot_priors;
+  return true;
 }
 
 }  // namespace teamscan::station

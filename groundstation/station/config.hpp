@@ -66,13 +66,11 @@ struct FusionConfig {
   bool registration = false;
 };
 
-// [registration]: its presence turns the registration on (unless `enabled = false`); the keys tune it
-// (groundstation/registration RegistrationOptions, same defaults).
-struct RegistrationConfig {
-  double window_s = 3.0;             // a robot's recent points matched as one rigid piece
-  double match_every_s = 0.5;        // at most one match per robot this often
-  std::uint32_t min_map_features = 60;  // the first lap: no match before the reference has this many
-};
+// [registration]: its presence turns the registration on (unless `enabled = false`); its keys set the
+// registration's options, whose defaults live in registration::RegistrationOptions (the one place): the
+// matching cadence and each robot's odometry prior (the team's default in [registration], a calibrated
+// robot's in a [[registration.robot]] table: docs/registration.md "Odometry prior and calibration").
+struct RegistrationConfig : registration::RegistrationOptions {};
 
 // [ros2]: the fused map and the tracked robots on ROS 2 wire names (ros2_publisher.hpp, docs/ros2.md).
 // On by default: RViz2 and Foxglove see the survey without a ROS 2 install on the station, and the cost
@@ -117,5 +115,11 @@ struct ConfigError {
 [[nodiscard]] bool parse_groundstation_config(const std::string& toml_text, const std::string& source_name,
                                               GroundStationConfig& out, ConfigError& error);
 [[nodiscard]] bool load_groundstation_config(const std::string& path, GroundStationConfig& out, ConfigError& error);
+
+// The odometry priors of a station config or of a calibration fragment (`teamscan calibrate`'s output:
+// [[registration.robot]] tables) read onto `options` (`teamscan eval --calibration FILE`): the file is
+// parsed and checked as a station config, and only its [registration] priors are taken.
+[[nodiscard]] bool load_registration_priors(const std::string& path, registration::RegistrationOptions& options,
+                                            ConfigError& error);
 
 }  // namespace teamscan::station

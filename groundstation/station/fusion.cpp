@@ -63,9 +63,7 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   o.core.model_resolution_m = f.model_resolution_m;
   o.core.max_points_per_voxel = f.max_points_per_voxel;
   o.core.registration = f.registration;
-  o.core.registration_options.window_s = reg.window_s;
-  o.core.registration_options.match_every_s = reg.match_every_s;
-  o.core.registration_options.min_map_features = reg.min_map_features;
+  o.core.registration_options = reg;  // the [registration] keys on the registration's defaults
   o.map_resolution_m = f.map_resolution_m;
   if (f.write_all_points) o.all_points_pcd = "fused_all.pcd";
   if (f.latency_log) o.latency_log_csv = "fused_latency.csv";

@@ -66,6 +66,8 @@ std::string station_config(const StationConfigInput& in) {
   o << "\n[ros2]\nenabled = " << (in.ros2 ? "true" : "false") << "\n";
   // The browser view only when asked for (--view PORT): loopback only.
   o << "\n[view]\nlisten = \"" << (in.view_port ? "127.0.0.1:" + std::to_string(*in.view_port) : std::string{}) << "\"\n";
+  // Each robot's odometry prior (docs/registration.md "Odometry prior and calibration"): its tables last.
+  if (in.registration && !in.calibration_toml.empty()) o << "\n" << in.calibration_toml << "\n";
   return o.str();
 }
 

@@ -22,6 +22,7 @@
 #include "common/dataset/dataset.hpp"
 #include "common/dataset/pcd.hpp"
 #include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/station/config.hpp"
 #include "sim/live.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulator.hpp"
@@ -147,10 +148,26 @@ int run_demo(const DemoOptions& a) {
   const sim::TeamWorld team{scenario};
   const double duration_s = a.duration_s.value_or(scenario.duration_s.value_or(team.finish_s()));
   // Registration: as asked, else on exactly when the robots' odometry drifts (docs/demo.md "Registration").
-  const bool registration = a.registration.value_or(scenario_drifts(scenario));
+  // A calibration (--calibration) turns it on too: its priors are the registration's.
+  const bool registration = a.registration.value_or(!a.calibration_path.empty() || scenario_drifts(scenario));
   const char* registration_why = a.registration ? (registration ? "on (--registration)" : "off (--no-registration)")
+                                 : !a.calibration_path.empty() ? "on (--calibration)"
                                  : registration ? "on: the scenario's robots drift"
                                                 : "off: the scenario's robots do not drift";
+  // Each robot's odometry prior: checked as the station will read it, then appended to its config.
+  registration::RegistrationOptions priors;
+  std::string calibration_toml;
+  if (!a.calibration_path.empty()) {
+    station::ConfigError error;
+    if (!station::load_registration_priors(a.calibration_path, priors, error)) {
+      std::fprintf(stderr, "teamscan demo: --calibration %s\n", error.message.c_str());
+      return 2;
+    }
+    std::ifstream in(a.calibration_path);
+    std::ostringstream text;
+    text << in.rdbuf();
+    calibration_toml = text.str();
+  }
 
   // Loopback DDS, never the default config (DDS_SYSTEMD.md; the children inherit the environment).
   std::string dds = a.dds_config;
@@ -233,7 +250,7 @@ int run_demo(const DemoOptions& a) {
   std::vector<Child> children;
   write_text(out + "/config/groundstation.toml",
              station_config({out, domain, a.station_method, station_compare_methods(a), a.write_interval_s, a.station_ros2, a.view_port,
-                             registration}));
+                             registration, calibration_toml}));
   const std::vector<std::string> station_argv = with(
       {station_bin, "--config", out + "/config/groundstation.toml", "--session-dir", session, "--domain", std::to_string(domain)},
       pki_args("station"));
@@ -429,6 +446,8 @@ int run_demo(const DemoOptions& a) {
   // With the station's registration on, the offline and live evaluations run with it too
   // (`teamscan eval --registration`): the station's corrected model is compared with corrected evals.
   eo.registration = registration;
+  eo.registration_options.prior = priors.prior;
+  eo.registration_options.robot_priors = priors.robot_priors;
   // The station's own method is always evaluated offline too, so its live model has its comparison.
   if (std::none_of(eo.methods.begin(), eo.methods.end(),
                    [&](const mapping::MethodSpec& m) { return m.method == a.station_method; })) {

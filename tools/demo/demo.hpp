@@ -62,6 +62,9 @@ struct DemoOptions {
   // `teamscan eval` runs (--registration); unset: on when the scenario's robots drift
   // (scenario_drifts), docs/demo.md "Registration".
   std::optional<bool> registration;
+  // Each robot's odometry prior for the registration (`teamscan calibrate`'s output): appended to the
+  // station's config and taken by the demo's evaluations; empty: none (docs/registration.md).
+  std::string calibration_path;
 };
 
 // Whether a scenario's odometry drifts: a robot with a skid-steer term in its [robot.odometry]

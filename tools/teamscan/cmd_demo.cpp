@@ -74,6 +74,11 @@ const SubcommandRegistration kDemo{
        auto* reg_off = app.add_flag_callback("--no-registration", [a] { a->registration = false; },
                                              "Odometry alone, also for a scenario whose robots drift");
        reg_on->excludes(reg_off);
+       app.add_option("--calibration", a->calibration_path,
+                      "Each robot's odometry prior for the registration (`teamscan calibrate`'s output): appended to "
+                      "the station's config, taken by the demo's evaluations (docs/registration.md)")
+           ->check(CLI::ExistingFile)
+           ->excludes(reg_off);
        return [a] { return demo::run_demo(*a); };
      }}};
 

@@ -12,7 +12,9 @@
 #include <vector>
 
 #include "common/dataset/dataset.hpp"
+#include "common/units.hpp"
 #include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/station/config.hpp"
 #include "groundstation/station/session_replay.hpp"
 #include "tools/teamscan/subcommand.hpp"
 #if __has_include("tools/render/render.hpp")
@@ -40,6 +42,13 @@ struct EvalArgs {
   // for an imported 2-D log, RegistrationOptions{} else).
   std::optional<double> registration_window_s;
   std::optional<int> registration_min_correspondences;
+  // The odometry prior the registration's rates start from (docs/registration.md "Odometry prior and
+  // calibration"): a calibration (`teamscan calibrate`'s output, or a station config: its
+  // [registration] priors), then the team's default from the flags, in the config's units.
+  std::string calibration_path;
+  std::optional<double> prior_scale_percent, prior_scale_sigma_percent;
+  std::optional<double> prior_drift_deg_per_m, prior_drift_sigma_deg_per_m;
+  std::optional<double> prior_turn_percent, prior_turn_sigma_percent;
   std::string json_path;
   std::string out_dir;
   // Named interpretations of the paper (PAPER_NOTES.md), defaults as there.
@@ -104,6 +113,13 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.registration && !a.no_registration) o << " --registration";
   if (a.registration_window_s) o << " --registration-window " << number(*a.registration_window_s);
   if (a.registration_min_correspondences) o << " --registration-min-correspondences " << *a.registration_min_correspondences;
+  if (!a.calibration_path.empty()) o << " --calibration " << a.calibration_path;
+  if (a.prior_scale_percent) o << " --prior-scale-percent " << number(*a.prior_scale_percent);
+  if (a.prior_scale_sigma_percent) o << " --prior-scale-sigma-percent " << number(*a.prior_scale_sigma_percent);
+  if (a.prior_drift_deg_per_m) o << " --prior-drift-deg-per-m " << number(*a.prior_drift_deg_per_m);
+  if (a.prior_drift_sigma_deg_per_m) o << " --prior-drift-sigma-deg-per-m " << number(*a.prior_drift_sigma_deg_per_m);
+  if (a.prior_turn_percent) o << " --prior-turn-percent " << number(*a.prior_turn_percent);
+  if (a.prior_turn_sigma_percent) o << " --prior-turn-sigma-percent " << number(*a.prior_turn_sigma_percent);
   if (a.frequency_k != d.frequency_k) o << " --k " << number(a.frequency_k);
   if (a.grid_origin_z_m != d.grid_origin_z_m) o << " --grid-origin-z " << number(a.grid_origin_z_m);
   if (a.sigma_m != d.sigma_m) o << " --sigma " << number(a.sigma_m);
@@ -231,7 +247,40 @@ std::string describe(const Error& e) {
   return s;
 }
 
+// The odometry priors of --calibration and the --prior-* flags on the registration's defaults; false
+// (with the reason on stderr) for a file that does not parse or a prior that cannot be a robot's.
+bool odometry_priors(const EvalArgs& a, registration::RegistrationOptions& o) {
+  const bool flags = a.prior_scale_percent || a.prior_scale_sigma_percent || a.prior_drift_deg_per_m ||
+                     a.prior_drift_sigma_deg_per_m || a.prior_turn_percent || a.prior_turn_sigma_percent;
+  if ((flags || !a.calibration_path.empty()) && !(a.registration && !a.no_registration)) {
+    std::fprintf(stderr, "teamscan eval: --calibration and --prior-* set the registration's odometry prior: they need --registration\n");
+    return false;
+  }
+  if (!a.calibration_path.empty()) {
+    station::ConfigError error;
+    if (!station::load_registration_priors(a.calibration_path, o, error)) {
+      std::fprintf(stderr, "teamscan eval: --calibration %s\n", error.message.c_str());
+      return false;
+    }
+  }
+  registration::OdometryPrior& p = o.prior;
+  if (a.prior_scale_percent) p.scale = 0.01 * *a.prior_scale_percent;
+  if (a.prior_scale_sigma_percent) p.sigma_scale = 0.01 * *a.prior_scale_sigma_percent;
+  if (a.prior_drift_deg_per_m) p.drift_rad_per_m = deg_to_rad(*a.prior_drift_deg_per_m);
+  if (a.prior_drift_sigma_deg_per_m) p.sigma_drift_rad_per_m = deg_to_rad(*a.prior_drift_sigma_deg_per_m);
+  if (a.prior_turn_percent) p.turn = 0.01 * *a.prior_turn_percent;
+  if (a.prior_turn_sigma_percent) p.sigma_turn = 0.01 * *a.prior_turn_sigma_percent;
+  const std::string why = registration::prior_error(p);
+  if (!why.empty()) {
+    std::fprintf(stderr, "teamscan eval: --prior-*: %s\n", why.c_str());
+    return false;
+  }
+  return true;
+}
+
 int run_eval(const EvalArgs& a) {
+  registration::RegistrationOptions priors;  // only its prior and robot_priors are used
+  if (!odometry_priors(a, priors)) return 2;
   MethodOptions base;
   base.frequency.k = a.frequency_k;
   base.frequency.grid_origin_z_m = base.visibility.grid_origin_z_m = base.combined_grid_origin_z_m = a.grid_origin_z_m;
@@ -314,6 +363,8 @@ int run_eval(const EvalArgs& a) {
       options.registration_options.window_s = *a.registration_window_s;
       options.registration_options.window_m = 0.0;  // the window asked for, in time alone
     }
+    options.registration_options.prior = priors.prior;
+    options.registration_options.robot_priors = priors.robot_priors;
     if (a.registration_min_correspondences)
       options.registration_options.match.min_correspondences = static_cast<std::size_t>(*a.registration_min_correspondences);
     EvalReport report = mapping::evaluate(dataset.value(), options);
@@ -402,6 +453,24 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
   app.add_option("--registration-min-correspondences", a->registration_min_correspondences,
                  "Registration: a match needs at least this many features with a correspondence (default 25)")
       ->check(CLI::Range(3, 100000));
+  app.add_option("--calibration", a->calibration_path,
+                 "Registration: each robot's odometry prior from FILE (`teamscan calibrate`'s output, or a station config: "
+                 "its [registration] priors; docs/registration.md)")
+      ->check(CLI::ExistingFile);
+  const registration::OdometryPrior d;  // the registration's defaults: no drift known
+  app.add_option("--prior-scale-percent", a->prior_scale_percent,
+                 "Registration: every robot's odometry distance scale starts here (%; negative: the odometry over-reports "
+                 "the distance; default " + number(100.0 * d.scale) + "; [registration] scale_percent)");
+  app.add_option("--prior-scale-sigma-percent", a->prior_scale_sigma_percent,
+                 "… and its σ (%, default " + number(100.0 * d.sigma_scale) + ")");
+  app.add_option("--prior-drift-deg-per-m", a->prior_drift_deg_per_m,
+                 "Registration: the heading drift's prior (deg/m, default " + number(rad_to_deg(d.drift_rad_per_m)) + ")");
+  app.add_option("--prior-drift-sigma-deg-per-m", a->prior_drift_sigma_deg_per_m,
+                 "… and its σ (deg/m, default " + number(rad_to_deg(d.sigma_drift_rad_per_m)) + ")");
+  app.add_option("--prior-turn-percent", a->prior_turn_percent,
+                 "Registration: the turn scale's prior (%, default " + number(100.0 * d.turn) + ")");
+  app.add_option("--prior-turn-sigma-percent", a->prior_turn_sigma_percent,
+                 "… and its σ (%, default " + number(100.0 * d.sigma_turn) + ")");
   app.add_option("--seed", a->seed, "RANSAC seed (the report is deterministic for a seed)")->capture_default_str();
   app.add_option("--json", a->json_path, "Write the JSON report to FILE");
   app.add_option("--out", a->out_dir, "Write report.md and report.json (and pictures) into REPORTDIR");

@@ -96,6 +96,26 @@ TEST(DemoConfig, StationRegistrationSectionTurnsItOn) {
   EXPECT_EQ(o.core.registration_options.min_map_features, registration::RegistrationOptions{}.min_map_features);
 }
 
+// --calibration: the calibration's [[registration.robot]] tables follow the station config's sections
+// and reach the registration's options, as the station reads them.
+TEST(DemoConfig, StationConfigCarriesTheCalibration) {
+  StationConfigInput in;
+  in.session_root = "/tmp/demo-out";
+  in.registration = true;
+  in.calibration_toml = "# teamscan calibrate\n[[registration.robot]]\nid = 2\nscale_percent = -1.9\nscale_sigma_percent = 0.6\n";
+  const std::string text = station_config(in);
+  station::GroundStationConfig c;
+  station::ConfigError e;
+  ASSERT_TRUE(station::parse_groundstation_config(text, "groundstation.toml", c, e)) << e.message << "\n" << text;
+  const station::FusionOptions o = station::fusion_options_from_config(c.fusion, c.kalman, c.registration);
+  EXPECT_TRUE(o.core.registration);
+  EXPECT_DOUBLE_EQ(o.core.registration_options.prior_of(2).scale, -0.019);
+  EXPECT_DOUBLE_EQ(o.core.registration_options.prior_of(2).sigma_scale, 0.006);
+  EXPECT_EQ(o.core.registration_options.prior_of(1).scale, 0.0);
+  in.registration = false;  // no registration, no priors
+  EXPECT_EQ(station_config(in).find("registration.robot"), std::string::npos);
+}
+
 TEST(DemoConfig, StationRos2OffAndViewOnLoopback) {
   StationConfigInput in;
   in.session_root = "/tmp/demo-out";

@@ -8,6 +8,7 @@
 #include <sstream>
 #include <string>
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "common/dataset/dataset.hpp"
@@ -76,6 +77,39 @@ TEST_F(Cli, EvalRejectsBadArgumentsAndBadFolders) {
   EXPECT_NE(run("eval " + dir_ + "/ds --half-angle 75"), 0);
   std::filesystem::create_directories(dir_ + "/empty");
   EXPECT_NE(run("eval " + dir_ + "/empty"), 0);
+}
+
+// `teamscan calibrate` writes the odometry priors that `teamscan eval --calibration` takes (a robot's
+// rates start from them: eval's robot table shows where they end); bad priors are refused with exit 2.
+TEST_F(Cli, CalibrateWritesPriorsThatEvalTakesAndBadPriorsAreRefused) {
+  auto exit_code = [](int status) { return WIFEXITED(status) ? WEXITSTATUS(status) : -1; };
+  ASSERT_EQ(run("calibrate " + dir_ + "/ds --min-path 0 --min-accepted 0 --out " + dir_ + "/calib.toml"), 0)
+      << slurp(dir_ + "/stderr.txt");
+  const std::string calib = slurp(dir_ + "/calib.toml");
+  EXPECT_NE(calib.find("\nid = 1\n"), std::string::npos) << calib;
+  EXPECT_NE(calib.find("scale_sigma_percent = "), std::string::npos) << calib;
+  ASSERT_EQ(run("eval " + dir_ + "/ds --method position --registration --calibration " + dir_ + "/calib.toml"), 0)
+      << slurp(dir_ + "/stderr.txt");
+  EXPECT_NE(slurp(dir_ + "/stdout.txt").find("--registration --calibration " + dir_ + "/calib.toml"), std::string::npos);
+  // A prior far from the truth (this survey has exact odometry) shows in the rates at the end.
+  ASSERT_EQ(run("eval " + dir_ + "/ds --method position --registration --prior-scale-percent -20 --prior-scale-sigma-percent 0.01"), 0)
+      << slurp(dir_ + "/stderr.txt");
+  EXPECT_NE(slurp(dir_ + "/stdout.txt").find("| -20.0"), std::string::npos) << slurp(dir_ + "/stdout.txt");
+
+  EXPECT_EQ(exit_code(run("eval " + dir_ + "/ds --registration --prior-scale-sigma-percent 0")), 2);
+  EXPECT_NE(slurp(dir_ + "/stderr.txt").find("the scale's σ must be in (0, 50 %]"), std::string::npos) << slurp(dir_ + "/stderr.txt");
+  EXPECT_EQ(exit_code(run("eval " + dir_ + "/ds --registration --prior-turn-percent nan")), 2);
+  EXPECT_EQ(exit_code(run("eval " + dir_ + "/ds --registration --prior-scale-percent 60")), 2);
+  EXPECT_EQ(exit_code(run("eval " + dir_ + "/ds --prior-scale-percent -2")), 2);  // without --registration
+  EXPECT_NE(slurp(dir_ + "/stderr.txt").find("need --registration"), std::string::npos);
+  {
+    std::ofstream bad(dir_ + "/bad.toml");
+    bad << "[[registration.robot]]\nid = 1\nscale_sigma_percent = -1\n";
+  }
+  EXPECT_EQ(exit_code(run("eval " + dir_ + "/ds --registration --calibration " + dir_ + "/bad.toml")), 2);
+  EXPECT_NE(slurp(dir_ + "/stderr.txt").find("registration.robot (id 1): the scale's σ"), std::string::npos)
+      << slurp(dir_ + "/stderr.txt");
+  EXPECT_NE(run("calibrate " + dir_ + "/nosuchdir"), 0);
 }
 
 TEST_F(Cli, ExportWritesTheDynamicMapLayoutThatReadsBack) {

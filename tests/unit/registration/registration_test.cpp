@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include <Eigen/LU>
 
@@ -317,6 +318,100 @@ TEST(Registration, EstimatesTheDriftRatesAndExtrapolatesBetweenMatches) {
   EXPECT_LT(rates.mean_error_m, 0.5 * held.mean_error_m) << held.mean_error_m;
   EXPECT_LT(rates.mean_error_deg, 0.5 * held.mean_error_deg) << held.mean_error_deg;
   EXPECT_LT(rates.mean_error_m, 0.015);
+}
+
+}  // namespace
+}  // namespace teamscan::registration
+
+namespace teamscan::registration {
+namespace {
+
+// The odometry prior: robot 1 has its own (a calibrated base: 2 % slip), robot 2 the team's default.
+// Both drive 1 m straight by odometry before any match is possible (no reference yet): the first
+// predictions are the prior's, robot 1's correction takes 2 % of the distance back, robot 2's is held.
+TEST(Registration, EachRobotsRatesStartFromItsPriorAndTheFirstPredictionUsesIt) {
+  RegistrationOptions o;
+  o.prior.sigma_scale = 0.02;  // the team's default: no drift known, σ 2 %
+  OdometryPrior calibrated;
+  calibrated.scale = -0.02;
+  calibrated.sigma_scale = 0.004;
+  calibrated.drift_rad_per_m = deg_to_rad(0.1);
+  calibrated.sigma_drift_rad_per_m = deg_to_rad(0.05);
+  calibrated.turn = 0.01;
+  calibrated.sigma_turn = 0.005;
+  o.robot_priors.push_back({1, calibrated});
+  EXPECT_EQ(&o.prior_of(1), &o.robot_priors.front().prior);
+  EXPECT_EQ(&o.prior_of(2), &o.prior);
+  Registration reg{o};
+  const std::vector<Vec3> none;
+  for (std::uint8_t robot : {1, 2}) {
+    (void)reg.add_scan(robot, 0, Pose2{}, none, {});
+    const RobotCorrection& start = *reg.correction(robot);
+    const OdometryPrior& p = o.prior_of(robot);
+    EXPECT_EQ(start.scale, p.scale);
+    EXPECT_EQ(start.drift_rad_per_m, p.drift_rad_per_m);
+    EXPECT_EQ(start.turn, p.turn);
+    EXPECT_DOUBLE_EQ(std::sqrt(start.rate_covariance(0, 0)), p.sigma_scale);
+    EXPECT_DOUBLE_EQ(std::sqrt(start.rate_covariance(1, 1)), p.sigma_drift_rad_per_m);
+    EXPECT_DOUBLE_EQ(std::sqrt(start.rate_covariance(2, 2)), p.sigma_turn);
+  }
+  // 1 m straight ahead in 10 steps, then a quarter turn on the spot.
+  for (int k = 1; k <= 10; ++k)
+    for (std::uint8_t robot : {1, 2}) (void)reg.add_scan(robot, k * 100'000'000LL, Pose2{0.1 * k, 0.0, 0.0}, none, {});
+  const RobotCorrection& r1 = *reg.correction(1);
+  const RobotCorrection& r2 = *reg.correction(2);
+  EXPECT_EQ(r1.matches + r2.matches, 0u);  // no reference: the prior alone moved them
+  // Each 10 cm step of odometry is 9.8 cm along the heading so far, which then turns by 0.1°/m · 9.8 cm.
+  double x = 0, y = 0, heading = 0;
+  for (int k = 0; k < 10; ++k) {
+    x += 0.098 * std::cos(heading);
+    y += 0.098 * std::sin(heading);
+    heading += deg_to_rad(0.1) * 0.1;
+  }
+  const Vec2 at1 = r1.map_from_odom.apply({1.0, 0.0});
+  EXPECT_NEAR(at1.x, x, 1e-9);  // 2 % of 1 m taken back
+  EXPECT_NEAR(at1.y, y, 1e-9);  // the heading drift bends the path
+  EXPECT_GT(y, 5e-4);
+  EXPECT_NEAR(r1.map_from_odom.theta_rad, heading, 1e-9);
+  const Vec2 at2 = r2.map_from_odom.apply({1.0, 0.0});
+  EXPECT_EQ(at2.x, 1.0);  // the default prior: held exactly
+  EXPECT_EQ(r2.map_from_odom.theta_rad, 0.0);
+  // The prior's σ grows the correction's along-track uncertainty by σ_scale · distance.
+  EXPECT_LT(r1.covariance(0, 0), r2.covariance(0, 0));
+  (void)reg.add_scan(1, 1'100'000'000LL, Pose2{1.0, 0.0, kPi / 2}, none, {});
+  EXPECT_NEAR(reg.correction(1)->map_from_odom.theta_rad, heading + 0.01 * kPi / 2, 1e-9);  // +1 % of the turn
+}
+
+TEST(Registration, PriorErrorRefusesWhatCannotBeARobotsOdometry) {
+  EXPECT_EQ(prior_error(OdometryPrior{}), "");
+  OdometryPrior ok;
+  ok.scale = -0.2;
+  ok.drift_rad_per_m = -0.1;
+  ok.turn = 0.3;
+  EXPECT_EQ(prior_error(ok), "");
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  auto with = [](double OdometryPrior::*field, double v) {
+    OdometryPrior p;
+    p.*field = v;
+    return prior_error(p);
+  };
+  for (double OdometryPrior::*f : {&OdometryPrior::scale, &OdometryPrior::sigma_scale, &OdometryPrior::drift_rad_per_m,
+                                   &OdometryPrior::sigma_drift_rad_per_m, &OdometryPrior::turn, &OdometryPrior::sigma_turn}) {
+    EXPECT_NE(with(f, nan), "");
+    EXPECT_NE(with(f, inf), "");
+    EXPECT_NE(with(f, -inf), "");
+  }
+  for (double OdometryPrior::*f : {&OdometryPrior::sigma_scale, &OdometryPrior::sigma_drift_rad_per_m, &OdometryPrior::sigma_turn}) {
+    EXPECT_NE(with(f, 0.0), "");
+    EXPECT_NE(with(f, -0.01), "");
+  }
+  EXPECT_NE(with(&OdometryPrior::scale, 0.5), "");
+  EXPECT_NE(with(&OdometryPrior::scale, -0.9), "");
+  EXPECT_NE(with(&OdometryPrior::turn, -0.5), "");
+  EXPECT_NE(with(&OdometryPrior::drift_rad_per_m, 0.25), "");
+  EXPECT_NE(with(&OdometryPrior::sigma_scale, 0.6), "");
+  EXPECT_NE(with(&OdometryPrior::scale, 0.5).find("scale"), std::string::npos);
+  EXPECT_NE(with(&OdometryPrior::sigma_turn, 0.0).find("turn"), std::string::npos);
 }
 
 }  // namespace

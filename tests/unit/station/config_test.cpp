@@ -3,7 +3,9 @@
 
 #include <cstdlib>
 
+#include "common/units.hpp"
 #include "groundstation/station/config.hpp"
+#include "groundstation/station/fusion.hpp"
 
 namespace teamscan::station {
 namespace {
@@ -138,6 +140,85 @@ TEST(GroundStationConfig, BadInputNamesTheKey) {
     ConfigError e;
     EXPECT_FALSE(parse_groundstation_config(b.text, "t.toml", c, e)) << b.text;
     EXPECT_NE(e.message.find(b.key_in_message), std::string::npos) << e.message;
+  }
+}
+
+}  // namespace
+}  // namespace teamscan::station
+
+namespace teamscan::station {
+namespace {
+
+// [registration]'s odometry priors: the team's default in the section, a robot's own in a
+// [[registration.robot]] table (keys it does not set: the default's), in percent and degrees per metre.
+TEST(GroundStationConfig, RegistrationPriorsDefaultAndPerRobot) {
+  GroundStationConfig c;
+  ConfigError e;
+  const registration::OdometryPrior d;  // the registration's own defaults: no prior keys, no change
+  ASSERT_TRUE(parse_groundstation_config("[registration]\nwindow_s = 2.0\n", "t.toml", c, e)) << e.message;
+  EXPECT_EQ(c.registration.prior.scale, d.scale);
+  EXPECT_EQ(c.registration.prior.sigma_scale, d.sigma_scale);
+  EXPECT_TRUE(c.registration.robot_priors.empty());
+  const char* text =
+      "[registration]\nscale_percent = -1.0\nscale_sigma_percent = 2.0\n"
+      "[[registration.robot]]\nid = 3\nscale_percent = -1.96\nscale_sigma_percent = 0.5\ndrift_deg_per_m = -0.25\n"
+      "drift_sigma_deg_per_m = 0.1\nturn_percent = 0.5\nturn_sigma_percent = 1.0\n"
+      "[[registration.robot]]\nid = 1\nturn_percent = -0.4\n";
+  c = GroundStationConfig{};
+  ASSERT_TRUE(parse_groundstation_config(text, "t.toml", c, e)) << e.message;
+  const registration::RegistrationOptions& o = c.registration;
+  EXPECT_DOUBLE_EQ(o.prior.scale, -0.01);
+  EXPECT_DOUBLE_EQ(o.prior.sigma_scale, 0.02);
+  EXPECT_EQ(o.prior.drift_rad_per_m, d.drift_rad_per_m);
+  ASSERT_EQ(o.robot_priors.size(), 2u);
+  const registration::OdometryPrior& r3 = o.prior_of(3);
+  EXPECT_DOUBLE_EQ(r3.scale, -0.0196);
+  EXPECT_DOUBLE_EQ(r3.sigma_scale, 0.005);
+  EXPECT_DOUBLE_EQ(r3.drift_rad_per_m, deg_to_rad(-0.25));
+  EXPECT_DOUBLE_EQ(r3.sigma_drift_rad_per_m, deg_to_rad(0.1));
+  EXPECT_DOUBLE_EQ(r3.turn, 0.005);
+  EXPECT_DOUBLE_EQ(r3.sigma_turn, 0.01);
+  const registration::OdometryPrior& r1 = o.prior_of(1);  // its turn, the default's rest
+  EXPECT_DOUBLE_EQ(r1.turn, -0.004);
+  EXPECT_DOUBLE_EQ(r1.scale, -0.01);
+  EXPECT_DOUBLE_EQ(r1.sigma_scale, 0.02);
+  EXPECT_EQ(&o.prior_of(2), &o.prior);
+  // They reach the fusion core's registration.
+  const FusionOptions f = fusion_options_from_config(c.fusion, c.kalman, c.registration);
+  EXPECT_TRUE(f.core.registration);
+  EXPECT_DOUBLE_EQ(f.core.registration_options.prior_of(3).scale, -0.0196);
+  EXPECT_DOUBLE_EQ(f.core.registration_options.window_s, registration::RegistrationOptions{}.window_s);
+}
+
+TEST(GroundStationConfig, BadRegistrationPriorsAreRefusedNamingThem) {
+  struct Case {
+    const char* text;
+    const char* starts;
+  };
+  const Case cases[] = {
+      {"[registration]\nscale_percent = nan\n", "registration.scale_percent: must be finite"},
+      {"[registration]\nscale_sigma_percent = inf\n", "registration.scale_sigma_percent: must be finite"},
+      {"[registration]\nscale_sigma_percent = 0\n", "registration: the scale's σ"},
+      {"[registration]\ndrift_sigma_deg_per_m = -0.1\n", "registration: the heading drift's σ"},
+      {"[registration]\nscale_percent = -60\n", "registration: the scale must be within"},
+      {"[registration]\nturn_percent = 75\n", "registration: the turn scale must be within"},
+      {"[registration]\ndrift_deg_per_m = 20\n", "registration: the heading drift must be within"},
+      {"[registration]\nscale_percent = \"-1\"\n", "registration.scale_percent: must be a number"},
+      {"[[registration.robot]]\nid = 2\nturn_sigma_percent = 0\n", "registration.robot (id 2): the turn scale's σ"},
+      {"[[registration.robot]]\nid = 2\nscale_percent = inf\n", "registration.robot (id 2).scale_percent: must be finite"},
+      {"[[registration.robot]]\nscale_percent = -1\n", "registration.robot.id: missing"},
+      {"[[registration.robot]]\nid = 0\n", "registration.robot.id: must be in [1, 32]"},
+      {"[[registration.robot]]\nid = 33\n", "registration.robot.id: must be in [1, 32]"},
+      {"[[registration.robot]]\nid = 1\n[[registration.robot]]\nid = 1\n", "registration.robot.id: 1 is listed twice"},
+      {"[[registration.robot]]\nid = 1\nslip = 2\n", "registration.robot.slip: unknown key"},
+      {"[registration]\nrobot = 3\n", "registration.robot: must be [[registration.robot]] tables"},
+  };
+  for (const Case& k : cases) {
+    GroundStationConfig c;
+    ConfigError e;
+    EXPECT_FALSE(parse_groundstation_config(k.text, "t.toml", c, e)) << k.text;
+    EXPECT_EQ(e.message.rfind(k.starts, 0), 0u) << k.text << " -> " << e.message;
+    EXPECT_TRUE(c.registration.robot_priors.empty());  // nothing taken from a refused config
   }
 }
 

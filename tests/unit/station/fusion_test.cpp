@@ -715,6 +715,26 @@ TEST(FusionConfig, RegistrationIsOffByDefaultAndOnByKeyOrSection) {
   EXPECT_FALSE(parse_groundstation_config("[registration]\nmagic = 1\n", "t.toml", off, e));
 }
 
+// The station's [registration] odometry priors (a calibration's [[registration.robot]] tables) reach the
+// registration its fusion core runs: robot 2 starts from its own, the others from the default.
+TEST(FusionConfig, TheOdometryPriorsReachTheCoresRegistration) {
+  GroundStationConfig c;
+  ConfigError e;
+  ASSERT_TRUE(parse_groundstation_config("[registration]\nscale_sigma_percent = 1.5\n[[registration.robot]]\nid = 2\n"
+                                         "scale_percent = -1.5\ndrift_deg_per_m = 0.2\n",
+                                         "t.toml", c, e))
+      << e.message;
+  auto stage = FusionStage::create(fusion_options_from_config(c.fusion, c.kalman, c.registration), temp_dir());
+  ASSERT_TRUE(stage.ok());
+  const registration::Registration* reg = (*stage)->core().registration();
+  ASSERT_NE(reg, nullptr);
+  EXPECT_DOUBLE_EQ(reg->options().prior_of(2).scale, -0.015);
+  EXPECT_DOUBLE_EQ(reg->options().prior_of(2).drift_rad_per_m, 0.2 * M_PI / 180.0);
+  EXPECT_DOUBLE_EQ(reg->options().prior_of(2).sigma_scale, 0.015);  // the default's σ, not set for robot 2
+  EXPECT_DOUBLE_EQ(reg->options().prior_of(1).scale, 0.0);
+  EXPECT_DOUBLE_EQ(reg->options().prior_of(1).sigma_scale, 0.015);
+}
+
 TEST(FusionConfig, BadValuesNameTheirKey) {
   GroundStationConfig c;
   ConfigError e;
