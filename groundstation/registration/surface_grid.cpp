@@ -34,6 +34,7 @@ bool SurfaceGrid::add(const Vec3& p) {
   v.sum += d;
   v.scatter += d * d.transpose();
   ++v.n;
+  v.verdict = Verdict::kStale;
   ++points_;
   return true;
 }
@@ -79,6 +80,15 @@ void SurfaceGrid::features(std::vector<LineFeature>& out) const {
     const double n = v.n;
     const Eigen::Vector3d mean_rel = v.sum / n;
     const Eigen::Matrix3d cov = v.scatter / n - mean_rel * mean_rel.transpose();
+    if (!options_.planar_scans && v.verdict != Verdict::kStale) {
+      // The verdict of the last call (the voxel has not changed since): no eigen-decomposition.
+      const Eigen::Vector3d mean = v.origin + mean_rel;
+      if (v.verdict == Verdict::kSurface)
+        candidates.push_back({key >> 21, {mean.x(), mean.y(), v.surface_nx, v.surface_ny, static_cast<float>(n)}});
+      else if (v.verdict == Verdict::kStripe)
+        stripes.push_back({key >> 21, n, mean, cov * n});
+      return;
+    }
     if (options_.planar_scans) {
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es2;
       es2.computeDirect(cov.topLeftCorner<2, 2>());
@@ -90,13 +100,22 @@ void SurfaceGrid::features(std::vector<LineFeature>& out) const {
       return;
     }
     const Eigen::Vector3d mean = v.origin + mean_rel;
-    if (vertical_surface(key >> 21, cov, mean, n) || !options_.pool_stripes) return;
+    v.verdict = Verdict::kNone;
+    if (vertical_surface(key >> 21, cov, mean, n)) {
+      v.verdict = Verdict::kSurface;
+      v.surface_nx = candidates.back().f.nx;
+      v.surface_ny = candidates.back().f.ny;
+      return;
+    }
+    if (!options_.pool_stripes) return;
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
     es.computeDirect(cov);
     const Eigen::Vector3d ev = es.eigenvalues();
     const Eigen::Vector3d along = es.eigenvectors().col(2);
-    if (ev(1) < min_extent2 && ev(2) >= min_extent2 && std::abs(along.z()) <= options_.max_stripe_slope)
+    if (ev(1) < min_extent2 && ev(2) >= min_extent2 && std::abs(along.z()) <= options_.max_stripe_slope) {
       stripes.push_back({key >> 21, n, mean, cov * n});
+      v.verdict = Verdict::kStripe;
+    }
   });
   if (!stripes.empty()) {
     std::sort(stripes.begin(), stripes.end(), [](const Stripe& a, const Stripe& b) { return a.column < b.column; });

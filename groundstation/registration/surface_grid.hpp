@@ -51,14 +51,21 @@ class SurfaceGrid {
   void clear();
   // The line features: one per vertical-surface voxel column (voxels of one column whose normals
   // agree are merged; a corner column may give two).
+  // Each voxel's verdict is kept for the next call (Voxel::verdict, a cache: not thread-safe).
   void features(std::vector<LineFeature>& out) const;
   [[nodiscard]] std::size_t voxels() const { return voxels_.size(); }
   [[nodiscard]] std::uint64_t points() const { return points_; }
   [[nodiscard]] const SurfaceOptions& options() const { return options_; }
 
  private:
+  // What features() made of a voxel the last time, kept until a point is added to it: a voxel's
+  // verdict needs an eigen-decomposition, and between two rebuilds of a team's reference only the
+  // voxels the retired scans touched change (a full one, voxel_cap points, never changes again).
+  enum class Verdict : std::uint8_t { kStale, kNone, kSurface, kStripe };
   struct Voxel {
     std::uint32_t n = 0;
+    mutable Verdict verdict = Verdict::kStale;
+    mutable double surface_nx = 0, surface_ny = 0;  // kSurface: the unit normal in the floor plane
     Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // first point: sums are taken relative to it
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
