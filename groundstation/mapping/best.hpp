@@ -31,6 +31,7 @@ class BestFilter final : public Filter {
               std::span<std::uint8_t> removed) const override;
   void reset() override { freespace_.reset(); }
   [[nodiscard]] std::size_t memory_bytes() const override { return freespace_.memory_bytes(); }
+  [[nodiscard]] const FreespaceGrid& grid() const { return freespace_.grid(); }
 
  private:
   TrackedFilter core_;   // box without the drift band

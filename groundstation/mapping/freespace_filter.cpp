@@ -87,7 +87,8 @@ FreeCell& FreespaceGrid::touch(VoxelKey k) {
 
 bool FreespaceGrid::void_voxel(VoxelKey k, Lookup& lookup) const {
   const FreeCell c = cell(k, lookup);
-  const double need = std::max(static_cast<double>(options_.min_free), options_.free_per_hit * static_cast<double>(c.hits));
+  const double need = std::max(static_cast<double>(options_.min_free), options_.free_per_hit * static_cast<double>(c.hits) /
+                                  (options_.stride_hits_cast_only ? 1.0 : static_cast<double>(options_.ray_stride)));
   return c.free > 0 && static_cast<double>(c.free) >= need;
 }
 
@@ -111,8 +112,11 @@ bool FreespaceGrid::transient(const MapPoint& p, Lookup& lookup) const {
   return true;
 }
 
-void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> points) {
-  for (const MapPoint& p : points) {
+void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> points, std::uint32_t scan) {
+  const std::size_t stride = std::max<std::uint32_t>(1, options_.ray_stride);
+  const std::size_t first = scan % stride;
+  for (std::size_t i = options_.stride_hits_cast_only ? first : 0; i < points.size(); i += options_.stride_hits_cast_only ? stride : 1) {
+    const MapPoint& p = points[i];
     const double dx = p.x - origin_m.x, dy = p.y - origin_m.y, dz = p.z - origin_m.z;
     const double range = std::sqrt(dx * dx + dy * dy + dz * dz);
     // ANCHORS.md §6.2: a return at the sensor is an ego point, not a surface; it marks nothing.
@@ -122,7 +126,7 @@ void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> 
     FreeCell& c = touch(k);
     if (c.hits != kSaturate) ++c.hits;
   }
-  for (const MapPoint& p : points) cast_ray(origin_m, p);
+  for (std::size_t i = first; i < points.size(); i += stride) cast_ray(origin_m, points[i]);
 }
 
 void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {

@@ -31,7 +31,7 @@ class FreespaceGrid {
   explicit FreespaceGrid(const FreespaceOptions& options);
   [[nodiscard]] VoxelKey key_of(double x, double y, double z) const;
   // Folds one scan in: every point's voxel +1 hit, every ray's traversed voxels +1 free.
-  void insert_scan(const Vec3& origin_m, std::span<const MapPoint> points);
+  void insert_scan(const Vec3& origin_m, std::span<const MapPoint> points, std::uint32_t scan = 0);
   // Marks the voxels of one ray (origin → hit, shortened as the options say) as passed.
   void cast_ray(const Vec3& origin_m, const MapPoint& hit);
   [[nodiscard]] FreeCell cell(VoxelKey key) const;
@@ -53,6 +53,10 @@ class FreespaceGrid {
     return void_voxel(k, lookup);
   }
   [[nodiscard]] bool void_voxel(VoxelKey k, Lookup& lookup) const;
+  // EXPERIMENT: the free passes a rule compares (scaled by the stride when hits count every point).
+  [[nodiscard]] double free_passes(FreeCell c) const {
+    return options_.stride_hits_cast_only ? static_cast<double>(c.free) : static_cast<double>(c.free) * static_cast<double>(options_.ray_stride);
+  }
   [[nodiscard]] std::size_t voxels() const { return voxels_; }
   [[nodiscard]] std::uint64_t traversed() const { return traversed_; }
   [[nodiscard]] std::size_t memory_bytes() const {
@@ -101,7 +105,7 @@ class FreespaceFilter final : public Filter {
   [[nodiscard]] std::string method() const override { return "freespace"; }
   [[nodiscard]] FilterParams params() const override;
   void point_bits(const ScanView&, std::span<std::uint8_t> bits) const override { std::fill(bits.begin(), bits.end(), 0); }
-  void insert(const ScanView& scan, std::span<const std::uint8_t>) override { grid_.insert_scan(scan.origin_m, scan.points); }
+  void insert(const ScanView& scan, std::span<const std::uint8_t>) override { grid_.insert_scan(scan.origin_m, scan.points, scan.scan); }
   void decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
               std::span<std::uint8_t> removed) const override;
   void reset() override { grid_.clear(); }

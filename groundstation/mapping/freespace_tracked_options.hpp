@@ -38,6 +38,11 @@ struct FreespaceOptions {
   // 6: face neighbours only; 26: also edge and corner neighbours (a table edge at a yaw to the grid
   // is a staircase of voxels whose solid neighbours are often diagonal).
   int guard_neighbours = 26;
+  // EXPERIMENT: every ray_stride-th point of a scan casts its ray (phase: scan number mod stride).
+  std::uint32_t ray_stride = 1;
+  // EXPERIMENT: true: only the cast points count hits (rule unchanged); false: every point counts a
+  // hit and the rules compare free · stride with the per-hit demand.
+  bool stride_hits_cast_only = false;
 };
 
 // `tracked`: the paper's position and direction filters made one 3-D body test: every

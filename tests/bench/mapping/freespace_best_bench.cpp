@@ -15,6 +15,7 @@
 #include <ctime>
 
 #include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/mapping/best.hpp"
 #include "groundstation/mapping/freespace_filter.hpp"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 
@@ -62,7 +63,13 @@ void add_scores(benchmark::State& state, const std::string& prefix, const std::v
 
 void BM_BestLive(benchmark::State& state) {
   const PreparedDataset& p = prepared();
-  auto best = make_filter("best", MethodOptions{});
+  MethodOptions m;
+  m.best_freespace.ray_stride = static_cast<std::uint32_t>(state.range(0));
+  m.best_freespace.stride_hits_cast_only = state.range(1) != 0;
+  m.best_freespace.resolution_m = static_cast<double>(state.range(2)) / 1000.0;
+  m.best_freespace.grid_origin_z_m = -m.best_freespace.resolution_m / 2.0;
+  BestFilter best_filter(m.tracked, m.best_freespace, m.best_drift_band_free_per_hit);
+  Filter* best = &best_filter;
   double total_s = 0;
   std::vector<std::uint8_t> removed;
   for (auto _ : state) {
@@ -75,9 +82,11 @@ void BM_BestLive(benchmark::State& state) {
   state.counters["points"] = static_cast<double>(p.points.size());
   state.counters["pts_per_s"] = pts_per_s;
   state.counters["x_32robots_75Hz_361"] = pts_per_s / kTeamLoadPointsPerS;
+  state.counters["walked_per_scan"] = static_cast<double>(best_filter.grid().traversed()) / static_cast<double>(p.scans.size());
+  state.counters["grid_MiB"] = static_cast<double>(best_filter.memory_bytes()) / (1024.0 * 1024.0);
   add_scores(state, "best_live", removed);
 }
-BENCHMARK(BM_BestLive)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_BestLive)->ArgNames({"stride", "cast_hits", "res_mm"})->Args({1, 0, 50})->Args({2, 0, 50})->Args({3, 0, 50})->Args({2, 1, 50})->Args({1, 0, 100})->Unit(benchmark::kMillisecond)->Iterations(1);
 
 void BM_TrackedLive(benchmark::State& state) {
   const PreparedDataset& p = prepared();
