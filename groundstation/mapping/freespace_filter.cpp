@@ -23,7 +23,9 @@ bool in_range(VoxelKey k) {
 }  // namespace
 
 FreespaceGrid::FreespaceGrid(const FreespaceOptions& options)
-    : options_{options}, inverse_resolution_{1.0 / options.resolution_m} {}
+    : options_{options},
+      inverse_resolution_{1.0 / options.resolution_m},
+      ray_stride_{static_cast<double>(std::max<std::uint32_t>(1, options.ray_stride))} {}
 
 VoxelKey FreespaceGrid::key_of(double x, double y, double z) const {
   return {static_cast<std::int32_t>(std::floor(x * inverse_resolution_)),
@@ -87,9 +89,7 @@ FreeCell& FreespaceGrid::touch(VoxelKey k) {
 
 bool FreespaceGrid::void_voxel(VoxelKey k, Lookup& lookup) const {
   const FreeCell c = cell(k, lookup);
-  const double need = std::max(static_cast<double>(options_.min_free), options_.free_per_hit * static_cast<double>(c.hits) /
-                                  (options_.stride_hits_cast_only ? 1.0 : static_cast<double>(options_.ray_stride)));
-  return c.free > 0 && static_cast<double>(c.free) >= need;
+  return c.free > 0 && std::uint32_t{c.free} >= options_.min_free && rays_through(c) >= options_.free_per_hit * static_cast<double>(c.hits);
 }
 
 bool FreespaceGrid::transient(const MapPoint& p, Lookup& lookup) const {
@@ -113,10 +113,7 @@ bool FreespaceGrid::transient(const MapPoint& p, Lookup& lookup) const {
 }
 
 void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> points, std::uint32_t scan) {
-  const std::size_t stride = std::max<std::uint32_t>(1, options_.ray_stride);
-  const std::size_t first = scan % stride;
-  for (std::size_t i = options_.stride_hits_cast_only ? first : 0; i < points.size(); i += options_.stride_hits_cast_only ? stride : 1) {
-    const MapPoint& p = points[i];
+  for (const MapPoint& p : points) {
     const double dx = p.x - origin_m.x, dy = p.y - origin_m.y, dz = p.z - origin_m.z;
     const double range = std::sqrt(dx * dx + dy * dy + dz * dz);
     // ANCHORS.md §6.2: a return at the sensor is an ego point, not a surface; it marks nothing.
@@ -126,7 +123,8 @@ void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> 
     FreeCell& c = touch(k);
     if (c.hits != kSaturate) ++c.hits;
   }
-  for (std::size_t i = first; i < points.size(); i += stride) cast_ray(origin_m, points[i]);
+  const std::size_t stride = static_cast<std::size_t>(ray_stride_);
+  for (std::size_t i = scan % stride; i < points.size(); i += stride) cast_ray(origin_m, points[i]);
 }
 
 void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
@@ -218,7 +216,8 @@ FilterParams FreespaceFilter::params() const {
           {"end_margin_m", options_.end_margin_m},   {"clearance_m", options_.clearance_m},
           {"grazing_cap_m", options_.grazing_cap_m}, {"min_free", static_cast<double>(options_.min_free)},
           {"free_per_hit", options_.free_per_hit},   {"solid_neighbour_guard", options_.solid_neighbour_guard ? 1.0 : 0.0},
-          {"guard_neighbours", static_cast<double>(options_.guard_neighbours)}};
+          {"guard_neighbours", static_cast<double>(options_.guard_neighbours)},
+          {"ray_stride", static_cast<double>(std::max<std::uint32_t>(1, options_.ray_stride))}};
 }
 
 void FreespaceFilter::decide(std::span<const MapPoint> points, std::span<const std::uint8_t>,

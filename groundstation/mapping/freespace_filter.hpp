@@ -30,7 +30,8 @@ class FreespaceGrid {
  public:
   explicit FreespaceGrid(const FreespaceOptions& options);
   [[nodiscard]] VoxelKey key_of(double x, double y, double z) const;
-  // Folds one scan in: every point's voxel +1 hit, every ray's traversed voxels +1 free.
+  // Folds one scan in: every point's voxel +1 hit, every cast ray's traversed voxels +1 free. The rays
+  // cast are every ray_stride-th from point (scan mod ray_stride) (FreespaceOptions::ray_stride).
   void insert_scan(const Vec3& origin_m, std::span<const MapPoint> points, std::uint32_t scan = 0);
   // Marks the voxels of one ray (origin → hit, shortened as the options say) as passed.
   void cast_ray(const Vec3& origin_m, const MapPoint& hit);
@@ -53,10 +54,9 @@ class FreespaceGrid {
     return void_voxel(k, lookup);
   }
   [[nodiscard]] bool void_voxel(VoxelKey k, Lookup& lookup) const;
-  // EXPERIMENT: the free passes a rule compares (scaled by the stride when hits count every point).
-  [[nodiscard]] double free_passes(FreeCell c) const {
-    return options_.stride_hits_cast_only ? static_cast<double>(c.free) : static_cast<double>(c.free) * static_cast<double>(options_.ray_stride);
-  }
+  // The rays that crossed the voxel, as the per-hit rules count them: each cast pass stands for
+  // ray_stride rays of its scan (FreespaceOptions::ray_stride).
+  [[nodiscard]] double rays_through(FreeCell c) const { return static_cast<double>(c.free) * ray_stride_; }
   [[nodiscard]] std::size_t voxels() const { return voxels_; }
   [[nodiscard]] std::uint64_t traversed() const { return traversed_; }
   [[nodiscard]] std::size_t memory_bytes() const {
@@ -87,6 +87,7 @@ class FreespaceGrid {
 
   FreespaceOptions options_;
   double inverse_resolution_;
+  double ray_stride_;  // max(1, options_.ray_stride)
   FlatKeyMap<std::uint32_t> block_index_;  // block key -> block index (block())
   std::vector<std::unique_ptr<Block[], FreePage>> pages_;
   std::uint32_t blocks_ = 0;

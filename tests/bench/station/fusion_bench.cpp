@@ -72,13 +72,15 @@ void run_feed(FusionStage& stage, const Feed& f) {
   }
 }
 
-void BM_LiveScans(benchmark::State& state, const char* method, double resolution_m) {
+// best_ray_stride: best's free-space part casts every Nth ray (MethodOptions::best_freespace; 0: the default).
+void BM_LiveScans(benchmark::State& state, const char* method, double resolution_m, std::uint32_t best_ray_stride = 0) {
   const Feed& f = feed();
   std::uint64_t points = 0;
   for (auto _ : state) {
     FusionOptions o;
     o.core.method = method;
     o.core.methods.frequency.resolution_m = o.core.methods.visibility.resolution_m = o.core.methods.combined_resolution_m = resolution_m;
+    if (best_ray_stride > 0) o.core.methods.best_freespace.ray_stride = best_ray_stride;
     auto stage = FusionStage::create(o, "/tmp");
     run_feed(**stage, f);
     (*stage)->flush();
@@ -90,6 +92,7 @@ void BM_LiveScans(benchmark::State& state, const char* method, double resolution
   state.counters["points_per_s"] = benchmark::Counter(static_cast<double>(points), benchmark::Counter::kIsRate);
 }
 BENCHMARK_CAPTURE(BM_LiveScans, best, "best", 0.1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_LiveScans, best_every_ray, "best", 0.1, 1u)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, combined_0_1m, "combined", 0.1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, visibility_0_05m, "visibility", 0.05)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, frequency_0_05m, "frequency", 0.05)->Unit(benchmark::kMillisecond);
