@@ -87,6 +87,28 @@ void BM_BestLive(benchmark::State& state) {
 // "A cheaper free-space walk"); walked_per_scan: voxels its rays walked per scan, grid_MiB: its grid.
 BENCHMARK(BM_BestLive)->ArgName("ray_stride")->Arg(1)->Arg(2)->Arg(3)->Unit(benchmark::kMillisecond)->Iterations(1);
 
+// How much of a scan's walk is shared between its own rays (docs/beyond.md "A cheaper free-space
+// walk"): voxels walked per scan against the distinct voxels they are, each scan cast alone into an
+// empty grid with every ray. "One free count per voxel per scan" would count only the distinct ones.
+void BM_ScanVoxelSharing(benchmark::State& state) {
+  const PreparedDataset& p = prepared();
+  std::uint64_t walked = 0, distinct = 0;
+  for (auto _ : state) {
+    FreespaceGrid g(MethodOptions{}.best_freespace);
+    for (std::size_t s = 0; s < p.scans.size(); ++s) {
+      const ScanView v = p.view(s);
+      g.clear();
+      for (const MapPoint& q : v.points) g.cast_ray(v.origin_m, q);
+      walked += g.traversed();
+      distinct += g.voxels();
+    }
+  }
+  const double scans = static_cast<double>(p.scans.size() * state.iterations());
+  state.counters["walked_per_scan"] = static_cast<double>(walked) / scans;
+  state.counters["distinct_per_scan"] = static_cast<double>(distinct) / scans;
+}
+BENCHMARK(BM_ScanVoxelSharing)->Unit(benchmark::kMillisecond)->Iterations(1);
+
 void BM_TrackedLive(benchmark::State& state) {
   const PreparedDataset& p = prepared();
   auto f = make_filter("tracked", MethodOptions{});
