@@ -119,6 +119,27 @@ class TomlReader {
     return true;
   }
 
+  // An array of integers, each in [lo, hi] (may be empty); `out` keeps its value when absent or wrong.
+  bool integers_in(const toml::table* t, const char* sect, const char* key, std::vector<std::int64_t>& out,
+                   std::int64_t lo, std::int64_t hi) {
+    const toml::node* n = find(t, sect, key, false);
+    if (n == nullptr) return false;
+    const auto* a = n->as_array();
+    if (a == nullptr) return fail(name(sect, key), "must be an array of integers", n);
+    std::vector<std::int64_t> v;
+    for (const toml::node& e : *a) {
+      const auto* i = e.as_integer();
+      if (i == nullptr) return fail(name(sect, key), "must be an array of integers", &e);
+      if (i->get() < lo || i->get() > hi) {
+        return fail(name(sect, key), "each must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
+                                         std::to_string(i->get()), &e);
+      }
+      v.push_back(i->get());
+    }
+    out = std::move(v);
+    return true;
+  }
+
   // An optional number in (lo, hi] ([lo, hi] if lo_closed); `out` keeps its value when absent or wrong.
   bool number_in(const toml::table* t, const char* sect, const char* key, double& out, double lo, double hi,
                  bool lo_closed = false) {

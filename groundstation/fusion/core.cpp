@@ -284,16 +284,17 @@ void FusionCore::release(HeldScan& s, bool forced) {
 }
 
 void FusionCore::store(const HeldScan& s) {
+  model_points_.resize(s.points.size());
   for (std::size_t i = 0; i < s.points.size(); ++i) {
-    ModelPoint m;
+    ModelPoint& m = model_points_[i];
     m.p = s.points[i];
     m.seq = s.view.scan;
     m.beam = i < s.beams.size() ? s.beams[i] : static_cast<std::uint16_t>(i);
     m.robot = s.view.robot & 0x7Fu;
     m.bits = bits_[i];
     m.removed_at_release = removed_[i] != 0 ? 1 : 0;
-    if (model_.add(m)) ++counters_.stored_points;
   }
+  counters_.stored_points += model_.add_all(model_points_);
   counters_.capped_points = model_.capped_points();
 }
 

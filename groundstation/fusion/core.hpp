@@ -235,6 +235,7 @@ class FusionCore {
   std::unique_ptr<registration::Registration> registration_;
   // Scratch of a release.
   std::vector<std::uint8_t> bits_, removed_;
+  std::vector<ModelPoint> model_points_;  // store()'s scratch
   std::vector<HeldScan> releasing_;
   std::vector<Vec3> registration_points_;
   std::vector<std::uint8_t> registration_usable_;

@@ -19,14 +19,48 @@ std::uint32_t ModelStore::new_chunk() {
   return chunks_++;
 }
 
-bool ModelStore::add(const ModelPoint& m) {
-  if (cap_ == 0) return false;
-  if (!std::isfinite(m.p.x) || !std::isfinite(m.p.y) || !std::isfinite(m.p.z)) return false;
+std::uint64_t ModelStore::key_of(const ModelPoint& m) const {
+  if (!std::isfinite(m.p.x) || !std::isfinite(m.p.y) || !std::isfinite(m.p.z)) return kNoKey;
   auto index = [&](float v) {
     const double k = std::floor(static_cast<double>(v) * inverse_resolution_);
     return static_cast<std::int32_t>(std::clamp(k, -double(mapping::VoxelMap::kIndexLimit), double(mapping::VoxelMap::kIndexLimit - 1)));
   };
-  const std::uint64_t key = mapping::VoxelMap::pack({index(m.p.x), index(m.p.y), index(m.p.z)});
+  return mapping::VoxelMap::pack({index(m.p.x), index(m.p.y), index(m.p.z)});
+}
+
+bool ModelStore::add(const ModelPoint& m) {
+  if (cap_ == 0) return false;
+  return add_keyed(m, key_of(m));
+}
+
+std::size_t ModelStore::add_all(std::span<const ModelPoint> points) {
+  if (cap_ == 0) return 0;
+  const std::size_t n = points.size();
+  batch_keys_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    batch_keys_[i] = key_of(points[i]);
+    if (batch_keys_[i] != kNoKey && batch_keys_[i] != (i > 0 ? batch_keys_[i - 1] : last_key_)) index_.prefetch(batch_keys_[i]);
+  }
+  // The records of the voxels that are already there, and their last chunks (new voxels are added by
+  // add_keyed in order, so the numbering is add()'s).
+  batch_slots_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t* at = batch_keys_[i] == kNoKey ? nullptr : index_.find(batch_keys_[i]);
+    batch_slots_[i] = at ? *at : ~std::uint32_t{0};
+    if (at) __builtin_prefetch(&slots_[*at]);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (batch_slots_[i] == ~std::uint32_t{0}) continue;
+    const Slot& s = slots_[batch_slots_[i]];
+    if (s.count < cap_ && s.count % kChunkPoints != 0) __builtin_prefetch(&chunk(s.last), 1);
+  }
+  std::size_t stored = 0;
+  for (std::size_t i = 0; i < n; ++i) stored += add_keyed(points[i], batch_keys_[i]) ? 1 : 0;
+  return stored;
+}
+
+bool ModelStore::add_keyed(const ModelPoint& m, std::uint64_t key) {
+  if (cap_ == 0 || key == kNoKey) return false;
   // A scan's neighbouring beams often land in one voxel: the last voxel is remembered.
   if (key != last_key_) {
     bool inserted = false;

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <memory>
+#include <span>
 #include <type_traits>
 #include <vector>
 
@@ -38,6 +39,10 @@ class ModelStore {
   // Stores `m` in its voxel; false when the voxel already holds max_points_per_voxel (counted) or the
   // point is not finite.
   bool add(const ModelPoint& m);
+  // add() for each point of `points` in order (the same stores, the same voxel numbering), the voxels'
+  // index slots, records and chunks prefetched first so their cache misses overlap (a scan's points
+  // land in voxels all over a map of hundreds of MiB). Returns how many were stored.
+  std::size_t add_all(std::span<const ModelPoint> points);
 
   [[nodiscard]] std::size_t voxels() const { return slots_.size(); }
   [[nodiscard]] std::uint64_t points() const { return points_; }
@@ -79,6 +84,10 @@ class ModelStore {
   [[nodiscard]] const Chunk& chunk(std::uint32_t c) const { return pages_[c / kChunksPerPage][c % kChunksPerPage]; }
   [[nodiscard]] Chunk& chunk(std::uint32_t c) { return pages_[c / kChunksPerPage][c % kChunksPerPage]; }
   std::uint32_t new_chunk();
+  // The packed voxel key of a finite point (kNoKey otherwise).
+  static constexpr std::uint64_t kNoKey = mapping::FlatKeyMap<std::uint32_t>::kEmpty;
+  [[nodiscard]] std::uint64_t key_of(const ModelPoint& m) const;
+  bool add_keyed(const ModelPoint& m, std::uint64_t key);
 
   double inverse_resolution_;
   std::uint32_t cap_;
@@ -89,6 +98,8 @@ class ModelStore {
   std::vector<std::unique_ptr<Chunk[], FreePage>> pages_;
   std::uint32_t chunks_ = 0;
   std::uint64_t points_ = 0, capped_ = 0;
+  std::vector<std::uint64_t> batch_keys_;  // add_all's scratch
+  std::vector<std::uint32_t> batch_slots_;
 };
 
 }  // namespace teamscan::fusion

@@ -61,32 +61,6 @@ FreeCell FreespaceGrid::cell(VoxelKey key, Lookup& lookup) const {
   return lookup.block >= 0 ? block(static_cast<std::uint32_t>(lookup.block))[offset_in_block(key)] : FreeCell{};
 }
 
-FreeCell& FreespaceGrid::touch(VoxelKey k) {
-  const std::int32_t bx = k.x >> kBlockBits, by = k.y >> kBlockBits, bz = k.z >> kBlockBits;
-  if (bx != cached_bx_ || by != cached_by_ || bz != cached_bz_ || cached_block_ == nullptr) {
-    const std::uint64_t bk = block_key(k);
-    bool inserted = false;
-    std::uint32_t& index = block_index_.get_or_insert(bk, 0, &inserted);
-    if (inserted) {
-      if (blocks_ % kBlocksPerPage == 0) {
-        // FreeCell is all zero bytes when empty: calloc's pages are the blocks' initial state.
-        auto* page = static_cast<Block*>(std::calloc(kBlocksPerPage, sizeof(Block)));
-        if (page == nullptr) throw std::bad_alloc();
-        pages_.emplace_back(page);
-      }
-      index = blocks_++;
-    }
-    cached_block_key_ = bk;
-    cached_block_ = &block(index);
-    cached_bx_ = bx;
-    cached_by_ = by;
-    cached_bz_ = bz;
-  }
-  FreeCell& c = (*cached_block_)[offset_in_block(k)];
-  if (c.hits == 0 && c.free == 0) ++voxels_;
-  return c;
-}
-
 bool FreespaceGrid::void_voxel(VoxelKey k, Lookup& lookup) const {
   const FreeCell c = cell(k, lookup);
   return c.free > 0 && std::uint32_t{c.free} >= options_.min_free && rays_through(c) >= options_.free_per_hit * static_cast<double>(c.hits);
@@ -113,6 +87,8 @@ bool FreespaceGrid::transient(const MapPoint& p, Lookup& lookup) const {
 }
 
 void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> points, std::uint32_t scan) {
+  std::vector<FreeCell*>& hits = ray_[0];
+  hits.clear();
   for (const MapPoint& p : points) {
     const double dx = p.x - origin_m.x, dy = p.y - origin_m.y, dz = p.z - origin_m.z;
     const double range = std::sqrt(dx * dx + dy * dy + dz * dz);
@@ -120,17 +96,74 @@ void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> 
     if (!(range >= options_.min_range_m)) continue;
     const VoxelKey k = key_of(p.x, p.y, p.z);
     if (!in_range(k)) continue;
-    FreeCell& c = touch(k);
-    if (c.hits != kSaturate) ++c.hits;
+    // Found and prefetched first, counted below: the hit voxels' misses overlap as the rays' do.
+    FreeCell* c = cell_in_block(k);
+    __builtin_prefetch(c, 1);
+    hits.push_back(c);
+  }
+  for (FreeCell* c : hits) {
+    if (c->hits == 0 && c->free == 0) ++voxels_;
+    if (c->hits != kSaturate) ++c->hits;
   }
   const std::size_t stride = static_cast<std::size_t>(ray_stride_);
-  for (std::size_t i = scan % stride; i < points.size(); i += stride) cast_ray(origin_m, points[i]);
+  cast_rays(origin_m, points, scan % stride, stride);
 }
 
 void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
+  const std::size_t n = ray_cells(origin_m, hit, ray_[0]);
+  mark_free({ray_[0].data(), n});
+}
+
+void FreespaceGrid::cast_rays(const Vec3& origin_m, std::span<const MapPoint> points, std::size_t first, std::size_t stride) {
+  // A ray's cells are mostly not in the cache (the grid is hundreds of MiB at 32 robots, and 31 other
+  // robots' scans came between this robot's two): walked one by one, every cell is a miss that waits
+  // for memory. Found one ray ahead and prefetched, the misses of a ray overlap each other.
+  std::size_t pending = 0;
+  int ahead = 0;
+  for (std::size_t i = first; i < points.size(); i += stride) {
+    const std::size_t n = ray_cells(origin_m, points[i], ray_[ahead]);
+    mark_free({ray_[1 - ahead].data(), pending});
+    pending = n;
+    ahead = 1 - ahead;
+  }
+  mark_free({ray_[1 - ahead].data(), pending});
+}
+
+void FreespaceGrid::mark_free(std::span<FreeCell* const> cells) {
+  for (FreeCell* c : cells) {
+    if (c->hits == 0 && c->free == 0) ++voxels_;
+    if (c->free != kSaturate) ++c->free;
+  }
+}
+
+FreeCell* FreespaceGrid::cell_in_block(VoxelKey k) {
+  const std::int32_t bx = k.x >> kBlockBits, by = k.y >> kBlockBits, bz = k.z >> kBlockBits;
+  if (bx != cached_bx_ || by != cached_by_ || bz != cached_bz_ || cached_block_ == nullptr) {
+    const std::uint64_t bk = block_key(k);
+    bool inserted = false;
+    std::uint32_t& index = block_index_.get_or_insert(bk, 0, &inserted);
+    if (inserted) {
+      if (blocks_ % kBlocksPerPage == 0) {
+        // FreeCell is all zero bytes when empty: calloc's pages are the blocks' initial state.
+        auto* page = static_cast<Block*>(std::calloc(kBlocksPerPage, sizeof(Block)));
+        if (page == nullptr) throw std::bad_alloc();
+        pages_.emplace_back(page);
+      }
+      index = blocks_++;
+    }
+    cached_block_key_ = bk;
+    cached_block_ = &block(index);
+    cached_bx_ = bx;
+    cached_by_ = by;
+    cached_bz_ = bz;
+  }
+  return &(*cached_block_)[offset_in_block(k)];
+}
+
+std::size_t FreespaceGrid::ray_cells(const Vec3& origin_m, const MapPoint& hit, std::vector<FreeCell*>& cells) {
   const double dx = hit.x - origin_m.x, dy = hit.y - origin_m.y, dz = hit.z - origin_m.z;
   const double range = std::sqrt(dx * dx + dy * dy + dz * dz);
-  if (!(range >= options_.min_range_m) || range > options_.max_range_m) return;
+  if (!(range >= options_.min_range_m) || range > options_.max_range_m) return 0;
   // Where the ray stops: end_margin short of the hit, further for grazing rays (see the options).
   const double sin_elev = std::abs(dz) / range;
   double stop_short = options_.end_margin_m;
@@ -139,7 +172,7 @@ void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
   else
     stop_short = std::max(stop_short, options_.grazing_cap_m);
   const double t0 = options_.min_range_m / range, t1 = (range - stop_short) / range;
-  if (!(t1 > t0)) return;
+  if (!(t1 > t0)) return 0;
 
   // Segment in grid units (voxel size 1, z from the grid origin).
   const double r = inverse_resolution_;
@@ -152,7 +185,7 @@ void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
              static_cast<std::int32_t>(std::floor(sz))};
   const VoxelKey end{static_cast<std::int32_t>(std::floor(ex)), static_cast<std::int32_t>(std::floor(ey)),
                      static_cast<std::int32_t>(std::floor(ez))};
-  if (!in_range(k) || !in_range(end)) return;
+  if (!in_range(k) || !in_range(end)) return 0;
   constexpr double kInf = std::numeric_limits<double>::infinity();
   // Per axis: the step, the parameter t (0..1 along the segment) of the next boundary, and the t
   // between boundaries (Amanatides–Woo tMax / tDelta).
@@ -179,35 +212,62 @@ void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
   // The voxel count is bounded by the Manhattan distance between the end voxels.
   const std::int64_t n = std::int64_t{1} + std::abs(std::int64_t{end.x} - k.x) + std::abs(std::int64_t{end.y} - k.y) +
                          std::abs(std::int64_t{end.z} - k.z);
-  traversed_ += static_cast<std::uint64_t>(n);
+  if (cells.size() < static_cast<std::size_t>(n)) cells.resize(static_cast<std::size_t>(n));
   // The walk keeps a pointer into the current 16³ block and the voxel's offsets within it: a step
   // moves the pointer by the axis' stride, and only a step out of the block (an offset leaving 0..15)
   // looks the next block up. The axis is chosen as Amanatides–Woo do (x on ties, then y), by index,
   // so the visited voxels and the counts are those of the plain per-voxel walk (test
   // FreespaceGrid.TheBlockWalkCountsLikeAPlainPerVoxelWalk).
-  std::int32_t key[3] = {k.x, k.y, k.z};
-  std::int32_t offset[3] = {k.x & kBlockMask, k.y & kBlockMask, k.z & kBlockMask};
-  constexpr std::ptrdiff_t kStride[3] = {1, std::ptrdiff_t{1} << kBlockBits, std::ptrdiff_t{1} << (2 * kBlockBits)};
-  FreeCell* c = &touch(k);
+  // One branch per axis, so that the walk's state stays in registers (indexing small arrays by the
+  // chosen axis kept it on the stack: a store-to-load round trip on every step).
+  std::int32_t kx = k.x, ky = k.y, kz = k.z;
+  std::int32_t ox = k.x & kBlockMask, oy = k.y & kBlockMask, oz = k.z & kBlockMask;
+  double tx = t_max[0], ty = t_max[1], tz = t_max[2];
+  const double dtx = t_delta[0], dty = t_delta[1], dtz = t_delta[2];
+  const std::int32_t stx = step[0], sty = step[1], stz = step[2];
+  const std::ptrdiff_t cx = stx, cy = sty * (std::ptrdiff_t{1} << kBlockBits), cz = stz * (std::ptrdiff_t{1} << (2 * kBlockBits));
+  constexpr auto kOut = [](std::int32_t o) { return static_cast<std::uint32_t>(o) > static_cast<std::uint32_t>(kBlockMask); };
+  FreeCell* c = cell_in_block(k);
+  std::size_t count = 0;
   for (std::int64_t i = 0;;) {
-    if (c->free != kSaturate) ++c->free;
-    if (key[0] == end.x && key[1] == end.y && key[2] == end.z) {
-      traversed_ -= static_cast<std::uint64_t>(n - 1 - i);  // stopped early: count only the visited
-      break;
-    }
+    __builtin_prefetch(c, 1);
+    cells[count++] = c;
+    if (kx == end.x && ky == end.y && kz == end.z) break;  // stopped early: only the visited
     if (++i >= n) break;
-    const int a = (t_max[0] <= t_max[1] && t_max[0] <= t_max[2]) ? 0 : (t_max[1] <= t_max[2] ? 1 : 2);
-    key[a] += step[a];
-    t_max[a] += t_delta[a];
-    offset[a] += step[a];
-    if (static_cast<std::uint32_t>(offset[a]) > static_cast<std::uint32_t>(kBlockMask)) {
-      offset[a] &= kBlockMask;
-      c = &touch({key[0], key[1], key[2]});
+    if (tx <= ty && tx <= tz) {
+      kx += stx;
+      tx += dtx;
+      ox += stx;
+      if (kOut(ox)) {
+        ox &= kBlockMask;
+        c = cell_in_block({kx, ky, kz});
+      } else {
+        c += cx;
+      }
+    } else if (ty <= tz) {
+      ky += sty;
+      ty += dty;
+      oy += sty;
+      if (kOut(oy)) {
+        oy &= kBlockMask;
+        c = cell_in_block({kx, ky, kz});
+      } else {
+        c += cy;
+      }
     } else {
-      c += step[a] * kStride[a];
-      if (c->hits == 0 && c->free == 0) ++voxels_;
+      kz += stz;
+      tz += dtz;
+      oz += stz;
+      if (kOut(oz)) {
+        oz &= kBlockMask;
+        c = cell_in_block({kx, ky, kz});
+      } else {
+        c += cz;
+      }
     }
   }
+  traversed_ += count;
+  return count;
 }
 
 FilterParams FreespaceFilter::params() const {

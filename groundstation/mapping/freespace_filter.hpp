@@ -35,6 +35,10 @@ class FreespaceGrid {
   void insert_scan(const Vec3& origin_m, std::span<const MapPoint> points, std::uint32_t scan = 0);
   // Marks the voxels of one ray (origin → hit, shortened as the options say) as passed.
   void cast_ray(const Vec3& origin_m, const MapPoint& hit);
+  // The same for points first, first + stride, … of a scan, software-pipelined (see ray_cells): the
+  // cells of ray i are found and prefetched while ray i − 1's are counted. Counts as cast_ray per
+  // point, in any order.
+  void cast_rays(const Vec3& origin_m, std::span<const MapPoint> points, std::size_t first = 0, std::size_t stride = 1);
   [[nodiscard]] FreeCell cell(VoxelKey key) const;
   // The last block looked up: the points of one scan are near each other, so classify() pays the
   // block index's hash once per block, not once per point (as cast_ray does).
@@ -76,7 +80,13 @@ class FreespaceGrid {
   [[nodiscard]] static std::uint64_t block_key(VoxelKey k) {
     return VoxelMap::pack({k.x >> kBlockBits, k.y >> kBlockBits, k.z >> kBlockBits});
   }
-  FreeCell& touch(VoxelKey k);  // creates the block if needed
+  // The cell of voxel k, its block created if needed; the cell is not read (it may not be cached yet:
+  // callers prefetch it and count it later).
+  FreeCell* cell_in_block(VoxelKey k);
+  // The cells one ray marks, in walk order, each prefetched for writing, into `cells` (resized as
+  // needed); returns how many. The walk: cast_ray's (Amanatides–Woo, x on ties, then y).
+  std::size_t ray_cells(const Vec3& origin_m, const MapPoint& hit, std::vector<FreeCell*>& cells);
+  void mark_free(std::span<FreeCell* const> cells);  // +1 free (saturating), counting new voxels
   // Blocks live in pages of kBlocksPerPage, zeroed by calloc (fresh pages from the kernel, not memset):
   // a new block never moves the others (no copy of the grid as it grows, pointers into it stay valid).
   static constexpr std::size_t kBlocksPerPage = 64;  // 1 MiB
@@ -98,6 +108,7 @@ class FreespaceGrid {
   std::int32_t cached_bx_ = INT32_MIN, cached_by_ = INT32_MIN, cached_bz_ = INT32_MIN;
   std::size_t voxels_ = 0;
   std::uint64_t traversed_ = 0;
+  std::vector<FreeCell*> ray_[2];  // cast_rays' two rays in flight
 };
 
 class FreespaceFilter final : public Filter {

@@ -1,6 +1,8 @@
 // TOML parsing of the ground-station config with toml++; each error names its key.
 #include "groundstation/station/config.hpp"
 
+#include <sched.h>
+
 #include <fstream>
 #include <sstream>
 
@@ -56,10 +58,11 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.number_in(station, "station", "status_interval_s", status_s, 0.0, 3600.0);
 
   const toml::table* dds = r.section("dds", false);
-  r.only(dds, "dds", {"domain_id", "scan_history_depth", "take_batch"});
+  r.only(dds, "dds", {"domain_id", "scan_history_depth", "take_batch", "batch_receive_threads"});
   r.integer_in(dds, "dds", "domain_id", domain, -1, 232);
   r.integer_in(dds, "dds", "scan_history_depth", depth, 1, 100000);
   r.integer_in(dds, "dds", "take_batch", batch, 1, 4096);
+  r.boolean(dds, "dds", "batch_receive_threads", c.station.batch_receive_threads);
 
   const toml::table* team = r.section("team", false);
   r.only(team, "team", {"publish_rate_hz", "liveliness_lease_s", "silence_timeout_s", "body", "last_pose", "source",
@@ -97,7 +100,8 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.only(fusion, "fusion", {"enabled", "method", "resolution_m", "half_angle_deg", "grid_origin_z_m", "frequency_k",
                             "position_sigma_m", "position_n", "direction_from_flags", "write_interval_s",
                             "write_all_points", "map_interval_s", "map_resolution_m", "latency_log", "hold_s", "team_lag_s",
-                            "model_resolution_m", "max_points_per_voxel", "compare_methods", "write_slice_ms", "registration"});
+                            "model_resolution_m", "max_points_per_voxel", "compare_methods", "write_slice_ms", "writer_cpus",
+                            "registration"});
   r.boolean(fusion, "fusion", "enabled", f.enabled);
   if (r.string(fusion, "fusion", "method", f.method, false) && f.method.empty())
     r.fail("fusion.method", "must not be empty", r.node(fusion, "method"));
@@ -110,6 +114,9 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.boolean(fusion, "fusion", "direction_from_flags", f.direction_from_flags);
   r.strings(fusion, "fusion", "compare_methods", f.compare_methods);
   r.number_in(fusion, "fusion", "write_slice_ms", f.write_slice_ms, 0.0, 1000.0, true);
+  std::vector<std::int64_t> writer_cpus(f.writer_cpus.begin(), f.writer_cpus.end());
+  if (r.integers_in(fusion, "fusion", "writer_cpus", writer_cpus, 0, CPU_SETSIZE - 1))
+    f.writer_cpus.assign(writer_cpus.begin(), writer_cpus.end());
   r.number_in(fusion, "fusion", "write_interval_s", write_s, 0.0, 86400.0, true);
   r.boolean(fusion, "fusion", "write_all_points", f.write_all_points);
   r.boolean(fusion, "fusion", "latency_log", f.latency_log);

@@ -41,6 +41,7 @@ struct FusionConfig {
   // fused_all.<method>.pcd) at the same times; only `method` feeds teamscan/map, the view and ROS 2.
   std::vector<std::string> compare_methods;
   double write_slice_ms = 2.0;         // a periodic write's snapshot takes at most this much of one loop turn
+  std::vector<int> writer_cpus;        // the model writer thread's CPUs (empty: the process's)
   double resolution_m = 0.1;           // frequency / visibility / combined voxel edge
   double half_angle_deg = 7.0;         // direction / combined cone half-angle
   double grid_origin_z_m = 0.0;        // vertical voxel grid offset (paper: 0)

@@ -71,6 +71,7 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   if (f.latency_log) o.latency_log_csv = "fused_latency.csv";
   o.compare_methods = f.compare_methods;
   o.write_slice_ms = f.write_slice_ms;
+  o.writer_cpus = f.writer_cpus;
   return o;
 }
 
@@ -242,10 +243,8 @@ void FusionStage::on_release(const fusion::FusedScan& f) {
   if (replaying_) ++counters_.replayed_scans;
   const std::span<const mapping::MapPoint> points = f.view->points;
   counters_.points += points.size();
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    map_.add(points[i], f.removed[i] != 0);
-    if (f.removed[i]) ++counters_.live_removed;
-  }
+  map_.add_all(points, f.removed);
+  for (std::uint8_t r : f.removed) counters_.live_removed += r != 0 ? 1 : 0;
   if (replaying_) return;
   // The scan is now decided and in the fused map: its latency from the end of its sweep. Both stamps
   // are CLOCK_REALTIME (the robots' clocks are NTP-disciplined, DESIGN.md "Frames, units, time").
@@ -364,6 +363,13 @@ void FusionStage::begin_snapshot() {
   if (!writer_.joinable()) {
     writer_ = std::thread([this] {
       yield_to_the_loop();
+      if (!options_.writer_cpus.empty()) {
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        for (int cpu : options_.writer_cpus)
+          if (cpu >= 0 && cpu < CPU_SETSIZE) CPU_SET(static_cast<std::size_t>(cpu), &set);
+        writer_affinity_error_.store(::pthread_setaffinity_np(::pthread_self(), sizeof set, &set));
+      }
       writer_tid_.store(current_tid());
       writer_main();
     });
@@ -384,6 +390,13 @@ ThreadScheduling FusionStage::writer_scheduling() const {
   if (nice == -1 && errno != 0) return out;
   out.policy = policy;
   out.nice = nice;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (::pthread_getaffinity_np(writer_handle_, sizeof set, &set) == 0) {
+    for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
+      if (CPU_ISSET(static_cast<std::size_t>(cpu), &set)) out.cpus.push_back(cpu);
+  }
+  out.affinity_error = writer_affinity_error_.load();
   return out;
 }
 

@@ -74,6 +74,10 @@ struct FusionOptions {
   // A periodic write's snapshot takes at most this much of one loop turn (request_write, poll_write);
   // the rest waits for the next turns. 0: one step (64 model voxels per core) per turn.
   double write_slice_ms = 2.0;
+  // The CPUs the model writer thread may run on (empty: the process's affinity). A station whose loop
+  // is pinned to one core keeps the writer's file work (page-cache copies, kernel sections that the
+  // loop cannot preempt) off that core with this; the snapshot itself stays in the loop.
+  std::vector<int> writer_cpus;
 };
 
 // A compared method's model file: "fused_all.pcd" + "position" -> "fused_all.position.pcd" (the
@@ -127,6 +131,8 @@ struct ModelWriteReport {
 struct ThreadScheduling {
   int policy = -1;
   int nice = 0;
+  std::vector<int> cpus;      // its affinity
+  int affinity_error = 0;     // errno of setting FusionOptions::writer_cpus (0: set, or none asked)
 };
 
 struct FusionConfig;
@@ -260,6 +266,7 @@ class FusionStage {
   std::thread writer_;
   std::thread::native_handle_type writer_handle_{};  // writer_'s, for writer_scheduling()
   std::atomic<int> writer_tid_{0};  // the writer's kernel thread id, set by it at start
+  std::atomic<int> writer_affinity_error_{0};  // pthread_setaffinity_np of options_.writer_cpus
   mutable std::mutex writer_mutex_;
   std::condition_variable writer_cv_;
   std::deque<WriterPart> writer_queue_;

@@ -8,13 +8,27 @@ namespace teamscan::station {
 
 LiveMap::LiveMap(double resolution_m) : resolution_m_{resolution_m}, inverse_resolution_{1.0 / resolution_m} {}
 
-void LiveMap::add(const mapping::MapPoint& p, bool removed) {
+std::uint64_t LiveMap::key_of(const mapping::MapPoint& p) const {
   const mapping::VoxelKey k = mapping::voxel_key(p, inverse_resolution_);
-  if (!mapping::VoxelMap::in_range(k)) {
+  return mapping::VoxelMap::in_range(k) ? mapping::VoxelMap::pack(k) : kOutOfRange;
+}
+
+void LiveMap::add(const mapping::MapPoint& p, bool removed) { add_keyed(key_of(p), removed); }
+
+void LiveMap::add_all(std::span<const mapping::MapPoint> points, std::span<const std::uint8_t> removed) {
+  batch_keys_.resize(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    batch_keys_[i] = key_of(points[i]);
+    if (batch_keys_[i] != kOutOfRange) cells_.prefetch(batch_keys_[i]);
+  }
+  for (std::size_t i = 0; i < points.size(); ++i) add_keyed(batch_keys_[i], i < removed.size() && removed[i] != 0);
+}
+
+void LiveMap::add_keyed(std::uint64_t key, bool removed) {
+  if (key == kOutOfRange) {
     ++rejected_;
     return;
   }
-  const std::uint64_t key = mapping::VoxelMap::pack(k);
   Cell& c = cells_.get_or_insert(key, Cell{});
   if (c.hits < UINT32_MAX) ++c.hits;
   if (!removed && c.kept < UINT16_MAX) ++c.kept;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "groundstation/mapping/flat_key_map.hpp"
@@ -19,6 +20,9 @@ class LiveMap {
 
   // One fused point and its decision at release. Points beyond the index range are counted, not mapped.
   void add(const mapping::MapPoint& p, bool removed);
+  // add() for every point of a released scan in order (removed[i]: its decision), the voxels' table
+  // slots prefetched first so that their cache misses overlap.
+  void add_all(std::span<const mapping::MapPoint> points, std::span<const std::uint8_t> removed);
 
   // Every occupied voxel as teamscan/map voxels (flags 1: every point in it was removed at release).
   void voxels(std::vector<teamscan_msg_MapVoxel>& out) const;
@@ -41,12 +45,16 @@ class LiveMap {
     std::uint16_t changed = 0;  // 1: in changed_
   };
   [[nodiscard]] teamscan_msg_MapVoxel message(std::uint64_t key, const Cell& c) const;
+  static constexpr std::uint64_t kOutOfRange = mapping::FlatKeyMap<Cell>::kEmpty;
+  [[nodiscard]] std::uint64_t key_of(const mapping::MapPoint& p) const;
+  void add_keyed(std::uint64_t key, bool removed);
 
   double resolution_m_;
   double inverse_resolution_;
   mapping::FlatKeyMap<Cell> cells_;
   std::vector<std::uint64_t> changed_;  // keys, in the order they changed
   std::uint64_t rejected_ = 0;
+  std::vector<std::uint64_t> batch_keys_;  // add_all's scratch
 };
 
 }  // namespace teamscan::station

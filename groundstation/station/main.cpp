@@ -221,6 +221,7 @@ int main(int argc, char** argv) {
   // The fused models written from the cores' memory (no read-back of the session): periodic writes
   // take a snapshot in this loop and are written on the fusion stage's writer thread; the shutdown
   // write is synchronous. Every finished write is logged here, in the loop, with the latency so far.
+  bool writer_told = false;
   auto log_write = [&](const ModelWriteReport& w) {
     if (!w.ok) {
       log(kErr, std::string("fusion: ") + w.error.what + " (" + std::strerror(w.error.sys_errno) + ")");
@@ -247,6 +248,18 @@ int main(int argc, char** argv) {
                     static_cast<double>(fusion->live_map().memory_bytes()) / (1024.0 * 1024.0),
                     static_cast<unsigned long long>(c.scans_forced));
       store->log_event(now_realtime(), text);
+      if (w.on_writer_thread && !writer_told) {
+        // Once: where the writer thread runs (fusion.writer_cpus), as the kernel reports it.
+        writer_told = true;
+        const ThreadScheduling ws = fusion->writer_scheduling();
+        std::string cpus;
+        for (int cpu : ws.cpus) cpus += (cpus.empty() ? "" : ",") + std::to_string(cpu);
+        std::string line = "model writer thread: " + (ws.policy == SCHED_IDLE ? std::string("SCHED_IDLE") : "policy " + std::to_string(ws.policy)) +
+                           ", nice " + std::to_string(ws.nice) + ", CPUs " + cpus;
+        if (ws.affinity_error != 0) line += std::string(" (fusion.writer_cpus refused: ") + std::strerror(ws.affinity_error) + ")";
+        store->log_event(now_realtime(), line);
+        if (ws.affinity_error != 0) log(kWarning, line);
+      }
     }
     // Scan -> fused-map latency so far (latency.csv; docs/demo.md "Scale").
     const LatencyHistogram& lat = fusion->fused_latency();

@@ -52,6 +52,9 @@ struct StationOptions {
   // even if its writers are alive (a hung robot loop). Zero: off.
   Duration silence_timeout = std::chrono::seconds(5);
   std::uint32_t take_batch = 64;               // samples taken per dds_take (preallocated)
+  // Cyclone's receive threads run SCHED_BATCH (dds/receive_threads.hpp): they take the queued packets at
+  // the loop's next tick or wait instead of preempting it for every packet.
+  bool batch_receive_threads = true;
   // DDS Security credential bundle of the station (dds/security/credentials.hpp), checked by the caller;
   // empty: an unsecured participant.
   std::string pki_dir;

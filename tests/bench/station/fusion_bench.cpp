@@ -13,6 +13,8 @@
 #include <memory>
 #include <map>
 
+#include <time.h>
+
 #include "groundstation/station/fusion.hpp"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 
@@ -98,6 +100,125 @@ BENCHMARK_CAPTURE(BM_LiveScans, visibility_0_05m, "visibility", 0.05)->Unit(benc
 BENCHMARK_CAPTURE(BM_LiveScans, frequency_0_05m, "frequency", 0.05)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, direction, "direction", 0.1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, position, "position", 0.1)->Unit(benchmark::kMillisecond);
+
+// The capacity benchmark's load in one process, without DDS (tests/bench/station/run_capacity.sh feeds the
+// same survey over DDS): N robots × 75 Hz for `seconds` of robot time, each copy of the lap2-like
+// template driving its own 12 m cell (station_feeder's layout), scans interleaved robot by robot, poses at
+// 10 Hz, arrival = stamp, the capacity run's decision lag (0.15 s). Every scan grows the maps, as in the
+// first lap of a 32-robot survey: the CPU per scan here is the station loop's share of
+// run_capacity.sh's cpu_ms_per_scan, repeatable on a loaded machine (counter cpu_us_per_scan); the third
+// argument turns the scan-to-map registration on (counter matches: the registration's accepted ones).
+struct TeamFeed {
+  std::vector<PoseObservation> poses;
+  std::vector<StoredScan> scans;  // in arrival order, poses interleaved by stamp (pose_before[i])
+  std::vector<std::size_t> poses_before;  // poses to add before scans[i]
+};
+
+const TeamFeed& team_feed(int robots, double seconds) {
+  static std::map<std::pair<int, int>, TeamFeed> cache;
+  auto key = std::make_pair(robots, static_cast<int>(seconds * 1000));
+  if (auto it = cache.find(key); it != cache.end()) return it->second;
+  bench::SurveyOptions so;
+  so.scan_hz = 75.0;
+  const double a = 0.3 * so.room_m, b = 0.2 * so.room_m;
+  so.duration_s = 3.14159265358979 * (3 * (a + b) - std::sqrt((3 * a + b) * (a + 3 * b))) / so.speed_mps;
+  const Dataset d = bench::synthetic_survey(so);
+  struct Template {
+    std::vector<const ScanRecord*> scans;
+    std::vector<std::vector<const LabelledPoint*>> points;
+    std::vector<const TrajectorySample*> odom;
+  };
+  std::map<int, Template> templates;
+  std::map<std::pair<int, std::uint32_t>, std::size_t> at;
+  for (const ScanRecord& r : d.scans) {
+    Template& t = templates[r.robot];
+    at[{r.robot, r.scan}] = t.scans.size();
+    t.scans.push_back(&r);
+    t.points.emplace_back();
+  }
+  for (const LabelledPoint& p : d.points) templates[p.robot].points[at[{p.robot, p.scan}]].push_back(&p);
+  for (const TrajectorySample& s : d.odom) templates[s.robot].odom.push_back(&s);
+  std::vector<const Template*> list;
+  for (const auto& [id, t] : templates) list.push_back(&t);
+  TeamFeed out;
+  const std::int64_t t0_ns = 1'700'000'000'000'000'000;
+  const auto scans_per_robot = static_cast<std::size_t>(seconds * 75.0);
+  std::size_t pose_k = 0;
+  for (std::size_t k = 0; k < scans_per_robot; ++k) {
+    const std::int64_t stamp_ns = t0_ns + static_cast<std::int64_t>(static_cast<double>(k) * 1e9 / 75.0);
+    // Poses at 10 Hz, from each robot's template odometry at the same index fraction.
+    while (t0_ns + static_cast<std::int64_t>(pose_k) * 100'000'000 <= stamp_ns) {
+      for (int i = 0; i < robots; ++i) {
+        const Template& t = *list[static_cast<std::size_t>(i) % list.size()];
+        const int cell = i / static_cast<int>(list.size());
+        const double ox = (cell % 8) * 12.0, oy = (cell / 8) * 12.0;
+        const std::size_t phase = static_cast<std::size_t>(cell) * 37;
+        const std::size_t scan_index = (pose_k * 75 / 10 + phase) % t.scans.size();
+        const std::size_t odom_index = std::min(t.odom.size() - 1, scan_index * t.odom.size() / t.scans.size());
+        const TrajectorySample& s = *t.odom[odom_index];
+        PoseObservation p;
+        p.robot_id = static_cast<std::uint32_t>(i + 1);
+        p.stamp = Time::from_ns(t0_ns + static_cast<std::int64_t>(pose_k) * 100'000'000);
+        p.received = p.stamp;
+        p.x_m = s.pose.x_m + ox;
+        p.y_m = s.pose.y_m + oy;
+        p.yaw_rad = s.pose.theta_rad;
+        p.vx_mps = s.v_mps * std::cos(s.pose.theta_rad);
+        p.vy_mps = s.v_mps * std::sin(s.pose.theta_rad);
+        out.poses.push_back(p);
+      }
+      ++pose_k;
+    }
+    for (int i = 0; i < robots; ++i) {
+      const Template& t = *list[static_cast<std::size_t>(i) % list.size()];
+      const int cell = i / static_cast<int>(list.size());
+      const double ox = (cell % 8) * 12.0, oy = (cell / 8) * 12.0;
+      const std::size_t j = (k + static_cast<std::size_t>(cell) * 37) % t.scans.size();
+      out.scans.emplace_back();
+      StoredScan& s = out.scans.back();
+      s.robot_id = static_cast<std::uint32_t>(i + 1);
+      s.seq = static_cast<std::uint32_t>(k + 1);
+      s.stamp_ns = stamp_ns + i * 13'333'333 / robots;
+      s.recv_realtime_ns = s.recv_monotonic_ns = s.stamp_ns + 2'000'000;
+      s.origin_x_mm = mm(t.scans[j]->origin.x + ox);
+      s.origin_y_mm = mm(t.scans[j]->origin.y + oy);
+      s.origin_z_mm = mm(t.scans[j]->origin.z);
+      for (const LabelledPoint* p : t.points[j])
+        if (s.count < kMaxBeams) s.points[s.count++] = ScanPoint{mm(p->x + ox), mm(p->y + oy), mm(p->z), p->beam, 0};
+      out.poses_before.push_back(out.poses.size());
+    }
+  }
+  return cache.emplace(key, std::move(out)).first->second;
+}
+
+void BM_LiveScansTeam(benchmark::State& state) {
+  const TeamFeed& f = team_feed(static_cast<int>(state.range(0)), static_cast<double>(state.range(1)));
+  double cpu_s = 0, corrections = 0;
+  for (auto _ : state) {
+    FusionOptions o;
+    o.core.tracker.team_lag_s = 0.15;
+    o.core.registration = state.range(2) != 0;
+    auto stage = FusionStage::create(o, "/tmp");
+    timespec c0{}, c1{};
+    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
+    std::size_t next_pose = 0;
+    for (std::size_t i = 0; i < f.scans.size(); ++i) {
+      while (next_pose < f.poses_before[i]) (*stage)->add_pose(f.poses[next_pose++]);
+      (*stage)->add_scan(f.scans[i]);
+    }
+    (*stage)->flush();
+    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
+    cpu_s += static_cast<double>(c1.tv_sec - c0.tv_sec) + 1e-9 * static_cast<double>(c1.tv_nsec - c0.tv_nsec);
+    corrections = static_cast<double>((*stage)->core().counters().registration_corrections);
+    benchmark::DoNotOptimize((*stage)->counters().live_removed);
+  }
+  const double scans = static_cast<double>(f.scans.size() * state.iterations());
+  state.counters["scans"] = static_cast<double>(f.scans.size());
+  state.counters["cpu_us_per_scan"] = 1e6 * cpu_s / scans;
+  state.counters["corrections"] = static_cast<double>(corrections);
+}
+// Args: robots, seconds of robot time, registration (0 off, 1 on: docs/registration.md "Cost").
+BENCHMARK(BM_LiveScansTeam)->Args({32, 10, 0})->Args({32, 10, 1})->Iterations(1)->Unit(benchmark::kMillisecond);
 
 // best with the paper's five methods decided side by side: six cores on the same input.
 void BM_LiveScansCompared(benchmark::State& state) {

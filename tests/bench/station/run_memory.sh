@@ -10,7 +10,7 @@
 # more core and model store each). A guard stops the feed if the station's RSS passes RSS_GUARD_MIB (a shared
 # host must not run out of memory), MAX_WALL_S bounds each run. Figures, not a test.
 #
-# usage: [WARP=3] [ROBOTS=8] [TEAM_LAG=0.15] [METHOD=best] [COMPARE=] [RSS_GUARD_MIB=4096] [MAX_WALL_S=1500] [STATION_CPU=1] [FEEDER_CPU=0]
+# usage: [WARP=3] [ROBOTS=8] [TEAM_LAG=0.15] [METHOD=best] [COMPARE=] [RSS_GUARD_MIB=4096] [MAX_WALL_S=1500] [STATION_CPU=1] [FEEDER_CPU=0] [WRITER_CPUS=FEEDER_CPU]
 #        [DDS_CONFIG=file] tests/bench/station/run_memory.sh [BUILD_DIR] [ROBOT_SECONDS]     default 3600
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -27,6 +27,11 @@ write_s=$(awk -v w="$warp" 'BEGIN { printf "%.3f", 60.0 / w }')  # one write per
 # period for the team state, and that wait, not the writes, would set the p99 compared below.
 lag_toml="$(mktemp /tmp/teamscan-memory.XXXXXX.toml)"
 printf 'team_lag_s = %s\n' "${TEAM_LAG:-0.15}" > "$lag_toml"
+# The model writer thread's CPUs (fusion.writer_cpus): by default the feeder's, so the loop's pinned CPU
+# carries the loop and the snapshot only (a station on a multi-core machine keeps its writer elsewhere);
+# WRITER_CPUS= (empty) leaves the writer on the station's CPU.
+writer_cpus="${WRITER_CPUS-${FEEDER_CPU:-0}}"
+[ -n "$writer_cpus" ] && printf 'writer_cpus = [%s]\n' "$writer_cpus" >> "$lag_toml"
 common=(-n "$robots" --duration "$seconds" --warp "$warp" --dds-config "${DDS_CONFIG:-$root/deploy/cyclonedds-lo.xml}"
         --station "$station" --station-cpu "${STATION_CPU:-1}" --method "${METHOD:-best}"
         --rss-guard-mib "${RSS_GUARD_MIB:-4096}" --max-wall "${MAX_WALL_S:-1500}" --stop-timeout 30
@@ -34,7 +39,7 @@ common=(-n "$robots" --duration "$seconds" --warp "$warp" --dds-config "${DDS_CO
 out="$(mktemp -d /tmp/teamscan-run-memory-XXXXXX)"
 # The "station: ..." line's scan -> fused map p99 (ms) of a run's output.
 p99_of() { sed -n 's/^station: .* p99 \([0-9.]*\) ms,.*/\1/p' "$1" | head -n 1; }
-echo "# $(date -u +%FT%TZ) station memory: $robots robots, $seconds s robot time at ${warp}x, a model write every 60 s of robot time ($write_s s wall), $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "# $(date -u +%FT%TZ) station memory: $robots robots, $seconds s robot time at ${warp}x, a model write every 60 s of robot time ($write_s s wall), station on CPU ${STATION_CPU:-1}, writer thread on CPUs ${writer_cpus:-of the station}, $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "## with model writes"
 taskset -c "${FEEDER_CPU:-0}" "$feeder" "${common[@]}" --write-interval "$write_s" | tee "$out/with.txt"
 if [ "${SKIP_NO_WRITES:-0}" != 1 ]; then

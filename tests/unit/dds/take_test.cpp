@@ -2,13 +2,19 @@
 // sample once, invalid samples handed on), over loopback DDS in one process.
 #include <gtest/gtest.h>
 
+#include <dirent.h>
+#include <sched.h>
+
 #include <chrono>
+#include <cstdio>
+#include <string>
 #include <cstring>
 #include <thread>
 #include <vector>
 
 #include "dds/participant.hpp"
 #include "dds/qos.hpp"
+#include "dds/receive_threads.hpp"
 #include "dds/take.hpp"
 #include "dds/topics.hpp"
 #include "tests/support/test_domain.hpp"
@@ -24,6 +30,40 @@ TEST(DdsTopics, EachTypeHasItsOneName) {
   EXPECT_STREQ(TopicOf<teamscan_msg_MapUpdate>::name, "teamscan/map");
   EXPECT_EQ(TopicOf<teamscan_msg_RobotPose>::descriptor(), &teamscan_msg_RobotPose_desc);
   EXPECT_EQ(TopicOf<teamscan_msg_ScanPoints>::descriptor(), &teamscan_msg_ScanPoints_desc);
+}
+
+// The scheduling policy of each thread of this process whose name starts with `prefix`.
+std::vector<int> policies_of_threads(const char* prefix) {
+  std::vector<int> out;
+  DIR* d = ::opendir("/proc/self/task");
+  if (d == nullptr) return out;
+  while (const dirent* e = ::readdir(d)) {
+    if (e->d_name[0] == '.') continue;
+    std::FILE* f = std::fopen((std::string("/proc/self/task/") + e->d_name + "/comm").c_str(), "r");
+    if (f == nullptr) continue;
+    char comm[32] = {};
+    const bool ok = std::fgets(comm, sizeof comm, f) != nullptr;
+    std::fclose(f);
+    if (ok && std::strncmp(comm, prefix, std::strlen(prefix)) == 0) out.push_back(::sched_getscheduler(std::stoi(e->d_name)));
+  }
+  ::closedir(d);
+  return out;
+}
+
+TEST(DdsReceiveThreads, CycloneReceiveThreadsBecomeBatchTheOthersKeepTheirPolicy) {
+  const std::vector<int> threads_before = thread_ids();
+  Result<Participant> p = Participant::create(test::test_domain_id());
+  ASSERT_TRUE(p.ok()) << p.error().what;
+  // Cyclone's new threads name themselves once they run (later, on a loaded machine): the call waits.
+  const ReceiveThreads r = batch_receive_threads(threads_before);
+  EXPECT_EQ(r.unnamed, 0u);
+  ASSERT_GE(r.found, 1u) << "Cyclone names its receive threads recv*";
+  EXPECT_EQ(r.batched, r.found);
+  EXPECT_EQ(policies_of_threads("recv").size(), r.found);
+  for (int policy : policies_of_threads("recv")) EXPECT_EQ(policy, SCHED_BATCH);
+  // This thread (the caller's loop) and Cyclone's others (tev: heartbeats and acks) are untouched.
+  EXPECT_EQ(::sched_getscheduler(0), SCHED_OTHER);
+  for (int policy : policies_of_threads("tev")) EXPECT_EQ(policy, SCHED_OTHER);
 }
 
 TEST(DdsParticipant, OwnsItsHandleAndMoves) {

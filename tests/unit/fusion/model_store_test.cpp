@@ -108,3 +108,35 @@ TEST(ModelStore, MemoryFollowsTheVoxelsNotThePointsFed) {
 }
 
 }  // namespace
+
+// add_all (a scan at a time, prefetched) stores exactly what add() one point at a time stores: the
+// same voxels in the same order, the same points in each, the same counts, across scans that revisit
+// voxels, fill them past the cap, carry non-finite points and cross chunk pages.
+TEST(ModelStore, AddAllStoresWhatAddStoresOneByOne) {
+  ModelStore one(0.05, 8), all(0.05, 8);
+  std::uint32_t seed = 7;
+  auto next = [&] { return (seed = seed * 1664525u + 1013904223u) >> 8; };
+  std::size_t stored_one = 0, stored_all = 0;
+  for (std::uint32_t scan = 0; scan < 400; ++scan) {
+    std::vector<ModelPoint> pts;
+    for (std::uint16_t b = 0; b < 181; ++b) {
+      const float x = static_cast<float>(next() % 400) * 0.01f - 2.0f, y = static_cast<float>(next() % 300) * 0.01f;
+      pts.push_back(point(x, y, 0.3f, scan, b, static_cast<std::uint8_t>(1 + scan % 5)));
+      if (b % 50 == 7) pts.back().p.x = std::numeric_limits<float>::quiet_NaN();
+      if (b % 3 == 0 && b > 0) pts.back().p = pts[b - 1].p;  // neighbouring beams in one voxel
+    }
+    for (const ModelPoint& m : pts) stored_one += one.add(m) ? 1 : 0;
+    stored_all += all.add_all(pts);
+  }
+  EXPECT_EQ(stored_all, stored_one);
+  EXPECT_EQ(all.points(), one.points());
+  EXPECT_EQ(all.capped_points(), one.capped_points());
+  EXPECT_GT(one.capped_points(), 0u);
+  ASSERT_EQ(all.voxels(), one.voxels());
+  for (std::size_t k = 0; k < one.voxels(); ++k) {
+    std::vector<std::pair<std::uint32_t, std::uint16_t>> a, b;
+    one.for_each_in_voxel(k, [&](const ModelPoint& m) { a.emplace_back(m.seq, m.beam); });
+    all.for_each_in_voxel(k, [&](const ModelPoint& m) { b.emplace_back(m.seq, m.beam); });
+    ASSERT_EQ(a, b) << "voxel " << k;
+  }
+}

@@ -741,6 +741,10 @@ TEST(FusionConfig, CompareMethodsAreKnownOtherThanThePrimaryAndListedOnce) {
   GroundStationConfig sliced;
   ASSERT_TRUE(parse_groundstation_config("[fusion]\nwrite_slice_ms = 0.5\n", "t.toml", sliced, e)) << e.message;
   EXPECT_DOUBLE_EQ(fusion_options_from_config(sliced.fusion, sliced.kalman).write_slice_ms, 0.5);
+  EXPECT_TRUE(fusion_options_from_config(sliced.fusion, sliced.kalman).writer_cpus.empty());  // default: the process's
+  GroundStationConfig pinned;
+  ASSERT_TRUE(parse_groundstation_config("[fusion]\nwriter_cpus = [0, 3]\n", "t.toml", pinned, e)) << e.message;
+  EXPECT_EQ(fusion_options_from_config(pinned.fusion, pinned.kalman).writer_cpus, (std::vector<int>{0, 3}));
   const FusionOptions p = compared_options(o, "position");
   EXPECT_EQ(p.core.method, "position");
   EXPECT_EQ(p.kept_pcd, "fused.position.pcd");
@@ -758,6 +762,9 @@ TEST(FusionConfig, CompareMethodsAreKnownOtherThanThePrimaryAndListedOnce) {
       {"[fusion]\ncompare_methods = \"position\"\n", "fusion.compare_methods: must be an array of strings"},
       {"[fusion]\ncompare_methods = [1]\n", "fusion.compare_methods: must be an array of strings"},
       {"[fusion]\nwrite_slice_ms = -1\n", "fusion.write_slice_ms: must be in"},
+      {"[fusion]\nwriter_cpus = 1\n", "fusion.writer_cpus: must be an array of integers"},
+      {"[fusion]\nwriter_cpus = [\"1\"]\n", "fusion.writer_cpus: must be an array of integers"},
+      {"[fusion]\nwriter_cpus = [-1]\n", "fusion.writer_cpus: each must be in [0, 1023], got -1"},
   };
   for (const auto& [text, message] : bad) {
     GroundStationConfig b;
@@ -904,6 +911,38 @@ TEST(Fusion, TheWriterThreadRunsIdleClassAndTheLoopKeepsItsPriority) {
   EXPECT_EQ(param_after.sched_priority, loop_param.sched_priority);
   errno = 0;
   EXPECT_EQ(getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid))), loop_nice);
+  std::filesystem::remove_all(dir);
+}
+
+// fusion.writer_cpus: the writer thread runs on the CPUs asked for (here the last one this process may
+// use), the loop's thread keeps its whole affinity.
+TEST(Fusion, TheWriterThreadRunsOnTheWriterCpus) {
+  cpu_set_t mine;
+  CPU_ZERO(&mine);
+  ASSERT_EQ(pthread_getaffinity_np(pthread_self(), sizeof mine, &mine), 0);
+  std::vector<int> allowed;
+  for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
+    if (CPU_ISSET(static_cast<std::size_t>(cpu), &mine)) allowed.push_back(cpu);
+  ASSERT_FALSE(allowed.empty());
+  const Dataset d = survey();
+  const std::string dir = temp_dir();
+  FusionOptions o;
+  o.writer_cpus = {allowed.back()};
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  FusionStage& f = **stage;
+  feed(f, d);
+  f.request_write();
+  f.wait_for_write();
+  ASSERT_TRUE(f.poll_write());
+  ASSERT_TRUE(f.last_write().ok);
+  const ThreadScheduling w = f.writer_scheduling();
+  EXPECT_EQ(w.affinity_error, 0);
+  EXPECT_EQ(w.cpus, o.writer_cpus);
+  cpu_set_t after;
+  CPU_ZERO(&after);
+  ASSERT_EQ(pthread_getaffinity_np(pthread_self(), sizeof after, &after), 0);
+  EXPECT_TRUE(CPU_EQUAL(&after, &mine));
   std::filesystem::remove_all(dir);
 }
 

@@ -67,4 +67,38 @@ TEST(LiveMap, PointsBeyondTheIndexRangeAreCountedNotMapped) {
   EXPECT_EQ(map.rejected_points(), 2u);
 }
 
+// add_all (a released scan at a time, prefetched) gives the map add() gives point by point: the same
+// voxels and counts, the same changed voxels in the same order, the same rejected count.
+TEST(LiveMap, AddAllMapsWhatAddMapsOneByOne) {
+  LiveMap one(0.05), all(0.05);
+  std::uint32_t seed = 3;
+  auto next = [&] { return (seed = seed * 1664525u + 1013904223u) >> 8; };
+  std::vector<teamscan_msg_MapVoxel> changed_one, changed_all;
+  for (int scan = 0; scan < 200; ++scan) {
+    std::vector<teamscan::mapping::MapPoint> pts;
+    std::vector<std::uint8_t> removed;
+    for (int b = 0; b < 181; ++b) {
+      pts.push_back({static_cast<float>(next() % 300) * 0.01f, static_cast<float>(next() % 200) * 0.01f, 0.2f});
+      if (b == 90) pts.back().x = 1e9f;  // beyond the index range
+      removed.push_back(static_cast<std::uint8_t>(next() % 4 == 0));
+    }
+    for (std::size_t i = 0; i < pts.size(); ++i) one.add(pts[i], removed[i] != 0);
+    all.add_all(pts, removed);
+    if (scan % 20 == 19) {
+      one.changed_voxels(changed_one);
+      all.changed_voxels(changed_all);
+      ASSERT_EQ(changed_all.size(), changed_one.size());
+      for (std::size_t i = 0; i < changed_one.size(); ++i) {
+        EXPECT_EQ(changed_all[i].x_mm, changed_one[i].x_mm);
+        EXPECT_EQ(changed_all[i].y_mm, changed_one[i].y_mm);
+        EXPECT_EQ(changed_all[i].hits, changed_one[i].hits);
+        EXPECT_EQ(changed_all[i].flags, changed_one[i].flags);
+      }
+    }
+  }
+  EXPECT_EQ(all.rejected_points(), 200u);
+  EXPECT_EQ(all.rejected_points(), one.rejected_points());
+  EXPECT_EQ(all.occupied_voxels(), one.occupied_voxels());
+}
+
 }  // namespace
