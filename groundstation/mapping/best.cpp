@@ -59,8 +59,7 @@ void BestFilter::decide(std::span<const MapPoint> points, std::span<const std::u
     }
     if (!(bits[i] & kBand)) continue;
     const FreeCell c = grid.cell(grid.key_of(p.x, p.y, p.z), lookup);
-    const double f = static_cast<double>(c.free);
-    if (f >= min_free && f >= drift_band_free_per_hit_ * static_cast<double>(c.hits)) removed[i] = 1;
+    if (static_cast<double>(c.free) >= min_free && grid.rays_through(c) >= drift_band_free_per_hit_ * static_cast<double>(c.hits)) removed[i] = 1;
   }
 }
 

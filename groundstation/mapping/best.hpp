@@ -1,12 +1,13 @@
 // `best` (issue 7, docs/beyond.md): the combination that won on the numbers. A point goes when
 //   - it lies in a teammate's body box inflated by the Kalman covariance (tracked, no drift), or
-//   - its voxel is void by strict free-space evidence (freespace at best_freespace: 8 passes per hit), or
+//   - its voxel is void by strict free-space evidence (freespace at best_freespace: 8 passes per hit,
+//     every third ray of a scan cast), or
 //   - it lies only in the band the odometry drift adds to the box (TrackerOptions::drift_*) AND its
 //     voxel was seen empty by the lenient rule (free ≥ max(min_free, drift_band_free_per_hit · hits)).
 // The drift band is where a drifting teammate may really be, but also where table tops and walls
 // beside its path are: there the map decides (a table top is hit far more often than crossed; a place a
-// robot left is crossed by later rays). Each part sees every point of the scan, so the free-space
-// evidence is built from all rays.
+// robot left is crossed by later rays). Each part sees every point of the scan: every point counts its
+// hit, every third ray is walked (FreespaceOptions::ray_stride).
 #pragma once
 
 #include <memory>
@@ -31,6 +32,7 @@ class BestFilter final : public Filter {
               std::span<std::uint8_t> removed) const override;
   void reset() override { freespace_.reset(); }
   [[nodiscard]] std::size_t memory_bytes() const override { return freespace_.memory_bytes(); }
+  [[nodiscard]] const FreespaceGrid& grid() const { return freespace_.grid(); }
 
  private:
   TrackedFilter core_;   // box without the drift band

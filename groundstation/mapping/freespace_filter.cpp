@@ -23,7 +23,9 @@ bool in_range(VoxelKey k) {
 }  // namespace
 
 FreespaceGrid::FreespaceGrid(const FreespaceOptions& options)
-    : options_{options}, inverse_resolution_{1.0 / options.resolution_m} {}
+    : options_{options},
+      inverse_resolution_{1.0 / options.resolution_m},
+      ray_stride_{static_cast<double>(std::max<std::uint32_t>(1, options.ray_stride))} {}
 
 VoxelKey FreespaceGrid::key_of(double x, double y, double z) const {
   return {static_cast<std::int32_t>(std::floor(x * inverse_resolution_)),
@@ -61,8 +63,7 @@ FreeCell FreespaceGrid::cell(VoxelKey key, Lookup& lookup) const {
 
 bool FreespaceGrid::void_voxel(VoxelKey k, Lookup& lookup) const {
   const FreeCell c = cell(k, lookup);
-  const double need = std::max(static_cast<double>(options_.min_free), options_.free_per_hit * static_cast<double>(c.hits));
-  return c.free > 0 && static_cast<double>(c.free) >= need;
+  return c.free > 0 && std::uint32_t{c.free} >= options_.min_free && rays_through(c) >= options_.free_per_hit * static_cast<double>(c.hits);
 }
 
 bool FreespaceGrid::transient(const MapPoint& p, Lookup& lookup) const {
@@ -85,7 +86,7 @@ bool FreespaceGrid::transient(const MapPoint& p, Lookup& lookup) const {
   return true;
 }
 
-void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> points) {
+void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> points, std::uint32_t scan) {
   std::vector<FreeCell*>& hits = ray_[0];
   hits.clear();
   for (const MapPoint& p : points) {
@@ -104,7 +105,8 @@ void FreespaceGrid::insert_scan(const Vec3& origin_m, std::span<const MapPoint> 
     if (c->hits == 0 && c->free == 0) ++voxels_;
     if (c->hits != kSaturate) ++c->hits;
   }
-  cast_rays(origin_m, points);
+  const std::size_t stride = static_cast<std::size_t>(ray_stride_);
+  cast_rays(origin_m, points, scan % stride, stride);
 }
 
 void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
@@ -112,14 +114,14 @@ void FreespaceGrid::cast_ray(const Vec3& origin_m, const MapPoint& hit) {
   mark_free({ray_[0].data(), n});
 }
 
-void FreespaceGrid::cast_rays(const Vec3& origin_m, std::span<const MapPoint> points) {
+void FreespaceGrid::cast_rays(const Vec3& origin_m, std::span<const MapPoint> points, std::size_t first, std::size_t stride) {
   // A ray's cells are mostly not in the cache (the grid is hundreds of MiB at 32 robots, and 31 other
   // robots' scans came between this robot's two): walked one by one, every cell is a miss that waits
   // for memory. Found one ray ahead and prefetched, the misses of a ray overlap each other.
   std::size_t pending = 0;
   int ahead = 0;
-  for (const MapPoint& p : points) {
-    const std::size_t n = ray_cells(origin_m, p, ray_[ahead]);
+  for (std::size_t i = first; i < points.size(); i += stride) {
+    const std::size_t n = ray_cells(origin_m, points[i], ray_[ahead]);
     mark_free({ray_[1 - ahead].data(), pending});
     pending = n;
     ahead = 1 - ahead;
@@ -274,7 +276,8 @@ FilterParams FreespaceFilter::params() const {
           {"end_margin_m", options_.end_margin_m},   {"clearance_m", options_.clearance_m},
           {"grazing_cap_m", options_.grazing_cap_m}, {"min_free", static_cast<double>(options_.min_free)},
           {"free_per_hit", options_.free_per_hit},   {"solid_neighbour_guard", options_.solid_neighbour_guard ? 1.0 : 0.0},
-          {"guard_neighbours", static_cast<double>(options_.guard_neighbours)}};
+          {"guard_neighbours", static_cast<double>(options_.guard_neighbours)},
+          {"ray_stride", static_cast<double>(std::max<std::uint32_t>(1, options_.ray_stride))}};
 }
 
 void FreespaceFilter::decide(std::span<const MapPoint> points, std::span<const std::uint8_t>,

@@ -30,13 +30,15 @@ class FreespaceGrid {
  public:
   explicit FreespaceGrid(const FreespaceOptions& options);
   [[nodiscard]] VoxelKey key_of(double x, double y, double z) const;
-  // Folds one scan in: every point's voxel +1 hit, every ray's traversed voxels +1 free.
-  void insert_scan(const Vec3& origin_m, std::span<const MapPoint> points);
+  // Folds one scan in: every point's voxel +1 hit, every cast ray's traversed voxels +1 free. The rays
+  // cast are every ray_stride-th from point (scan mod ray_stride) (FreespaceOptions::ray_stride).
+  void insert_scan(const Vec3& origin_m, std::span<const MapPoint> points, std::uint32_t scan = 0);
   // Marks the voxels of one ray (origin → hit, shortened as the options say) as passed.
   void cast_ray(const Vec3& origin_m, const MapPoint& hit);
-  // The same for every point of a scan, software-pipelined (see ray_cells): the cells of ray i are
-  // found and prefetched while ray i − 1's are counted. Counts as cast_ray per point, in any order.
-  void cast_rays(const Vec3& origin_m, std::span<const MapPoint> points);
+  // The same for points first, first + stride, … of a scan, software-pipelined (see ray_cells): the
+  // cells of ray i are found and prefetched while ray i − 1's are counted. Counts as cast_ray per
+  // point, in any order.
+  void cast_rays(const Vec3& origin_m, std::span<const MapPoint> points, std::size_t first = 0, std::size_t stride = 1);
   [[nodiscard]] FreeCell cell(VoxelKey key) const;
   // The last block looked up: the points of one scan are near each other, so classify() pays the
   // block index's hash once per block, not once per point (as cast_ray does).
@@ -56,6 +58,9 @@ class FreespaceGrid {
     return void_voxel(k, lookup);
   }
   [[nodiscard]] bool void_voxel(VoxelKey k, Lookup& lookup) const;
+  // The rays that crossed the voxel, as the per-hit rules count them: each cast pass stands for
+  // ray_stride rays of its scan (FreespaceOptions::ray_stride).
+  [[nodiscard]] double rays_through(FreeCell c) const { return static_cast<double>(c.free) * ray_stride_; }
   [[nodiscard]] std::size_t voxels() const { return voxels_; }
   [[nodiscard]] std::uint64_t traversed() const { return traversed_; }
   [[nodiscard]] std::size_t memory_bytes() const {
@@ -92,6 +97,7 @@ class FreespaceGrid {
 
   FreespaceOptions options_;
   double inverse_resolution_;
+  double ray_stride_;  // max(1, options_.ray_stride)
   FlatKeyMap<std::uint32_t> block_index_;  // block key -> block index (block())
   std::vector<std::unique_ptr<Block[], FreePage>> pages_;
   std::uint32_t blocks_ = 0;
@@ -111,7 +117,7 @@ class FreespaceFilter final : public Filter {
   [[nodiscard]] std::string method() const override { return "freespace"; }
   [[nodiscard]] FilterParams params() const override;
   void point_bits(const ScanView&, std::span<std::uint8_t> bits) const override { std::fill(bits.begin(), bits.end(), 0); }
-  void insert(const ScanView& scan, std::span<const std::uint8_t>) override { grid_.insert_scan(scan.origin_m, scan.points); }
+  void insert(const ScanView& scan, std::span<const std::uint8_t>) override { grid_.insert_scan(scan.origin_m, scan.points, scan.scan); }
   void decide(std::span<const MapPoint> points, std::span<const std::uint8_t> bits,
               std::span<std::uint8_t> removed) const override;
   void reset() override { grid_.clear(); }

@@ -26,7 +26,8 @@ struct FreespaceOptions {
   // A ray sliding over the floor to a far floor hit thus never enters the floor's voxel layer.
   double clearance_m = 0.05;
   double grazing_cap_m = 1.0;
-  // A point is transient when its voxel's free passes >= max(min_free, free_per_hit · hits).
+  // A point is transient when its voxel's free passes >= max(min_free, free_per_hit · hits) (with
+  // ray_stride > 1: free ≥ min_free and free · ray_stride ≥ free_per_hit · hits).
   // The ratio keeps surfaces that are hit far more often than rays graze through them.
   std::uint32_t min_free = 2;
   double free_per_hit = 1.0;
@@ -38,6 +39,14 @@ struct FreespaceOptions {
   // 6: face neighbours only; 26: also edge and corner neighbours (a table edge at a yaw to the grid
   // is a staircase of voxels whose solid neighbours are often diagonal).
   int guard_neighbours = 26;
+  // Rays cast per scan (docs/beyond.md "A cheaper free-space walk"): only every `ray_stride`-th point of
+  // a scan casts its ray, from point (scan number mod ray_stride) on, so consecutive scans cast the
+  // others. A laser fan is denser than the grid near the sensor (1° beams are 1.7 cm apart at 1 m, the
+  // voxels 5 cm). Every point still counts its hit, so a surface's evidence and the solid-neighbour
+  // guard are whole; a cast ray stands for `ray_stride` rays: the per-hit demands compare
+  // free · ray_stride with free_per_hit · hits, while min_free counts the passes actually cast.
+  // 1: every ray. `best` casts every third (MethodOptions::best_freespace).
+  std::uint32_t ray_stride = 1;
 };
 
 // `tracked`: the paper's position and direction filters made one 3-D body test: every

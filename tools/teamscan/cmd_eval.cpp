@@ -86,6 +86,8 @@ struct EvalArgs {
   int fs_guard_neighbours = mapping::FreespaceOptions{}.guard_neighbours;
   double best_fs_free_per_hit = 8.0;
   double best_drift_band_free_per_hit = 2.0;
+  int fs_ray_stride = static_cast<int>(mapping::MethodOptions{}.freespace.ray_stride);
+  int best_fs_ray_stride = static_cast<int>(mapping::MethodOptions{}.best_freespace.ray_stride);
   double tracked_n_sigma = 3.0;
   double tracked_margin_m = 0.04;
   int tracked_height_profile = 1;
@@ -150,6 +152,8 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.best_fs_free_per_hit != d.best_fs_free_per_hit) o << " --best-fs-free-per-hit " << number(a.best_fs_free_per_hit);
   if (a.best_drift_band_free_per_hit != d.best_drift_band_free_per_hit)
     o << " --best-drift-band-free-per-hit " << number(a.best_drift_band_free_per_hit);
+  if (a.fs_ray_stride != d.fs_ray_stride) o << " --fs-ray-stride " << a.fs_ray_stride;
+  if (a.best_fs_ray_stride != d.best_fs_ray_stride) o << " --best-fs-ray-stride " << a.best_fs_ray_stride;
   if (a.tracked_n_sigma != d.tracked_n_sigma) o << " --tracked-n-sigma " << number(a.tracked_n_sigma);
   if (a.tracked_margin_m != d.tracked_margin_m) o << " --tracked-margin " << number(a.tracked_margin_m);
   if (a.tracked_height_profile != d.tracked_height_profile) o << " --tracked-height-profile " << a.tracked_height_profile;
@@ -300,6 +304,8 @@ int run_eval(const EvalArgs& a) {
   }
   base.best_freespace.free_per_hit = a.best_fs_free_per_hit;
   base.best_drift_band_free_per_hit = a.best_drift_band_free_per_hit;
+  base.freespace.ray_stride = static_cast<std::uint32_t>(a.fs_ray_stride);
+  base.best_freespace.ray_stride = static_cast<std::uint32_t>(a.best_fs_ray_stride);
   base.tracked.n_sigma = a.tracked_n_sigma;
   base.tracked.margin_m = a.tracked_margin_m;
   base.tracked.height_profile = a.tracked_height_profile != 0;
@@ -542,6 +548,11 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
   app.add_option("--best-drift-band-free-per-hit", a->best_drift_band_free_per_hit,
                  "best: a point only in the drift band of a body box goes when its voxel has this many free passes per hit")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--fs-ray-stride", a->fs_ray_stride,
+                 "freespace: every Nth ray of a scan is cast, a pass counts as N rays (1: every ray; best: --best-fs-ray-stride)")
+      ->check(CLI::Range(1, 64))->capture_default_str();
+  app.add_option("--best-fs-ray-stride", a->best_fs_ray_stride, "best: its freespace part casts every Nth ray of a scan")
+      ->check(CLI::Range(1, 64))->capture_default_str();
   app.add_option("--tracked-n-sigma", a->tracked_n_sigma, "tracked/best: body box inflated by n Kalman sigma")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--tracked-margin", a->tracked_margin_m, "tracked/best: fixed body box margin (m)")

@@ -2,7 +2,7 @@
 //  - freespace at 0.05 m vs OctoMap's ray-cast insertion (insertPointCloud) of the same scans at the
 //    same resolution, in one run, with the ratio (goal ≥ 10×);
 //  - best live (observe + classify per scan) in points per second against the team's live load,
-//    32 robots × 75 Hz × 361 beams = 866 400 points/s, on one core;
+//    32 robots × 75 Hz × 361 beams = 866 400 points/s, on one core, casting every 1st/2nd/3rd ray;
 //  - the OctoMap-based removal (the DynamicMap benchmark's free-space method: build the OcTree from
 //    every scan, a point is dynamic when its leaf is not occupied) with its SA/DA beside best's.
 // TEAMSCAN_BENCH_DATASET=DIR uses a `teamscan sim` data set (e.g. lap2); else a synthetic survey.
@@ -15,6 +15,7 @@
 #include <ctime>
 
 #include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/mapping/best.hpp"
 #include "groundstation/mapping/freespace_filter.hpp"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 
@@ -62,7 +63,10 @@ void add_scores(benchmark::State& state, const std::string& prefix, const std::v
 
 void BM_BestLive(benchmark::State& state) {
   const PreparedDataset& p = prepared();
-  auto best = make_filter("best", MethodOptions{});
+  MethodOptions m;
+  m.best_freespace.ray_stride = static_cast<std::uint32_t>(state.range(0));
+  BestFilter best_filter(m.tracked, m.best_freespace, m.best_drift_band_free_per_hit);
+  Filter* best = &best_filter;
   double total_s = 0;
   std::vector<std::uint8_t> removed;
   for (auto _ : state) {
@@ -75,9 +79,35 @@ void BM_BestLive(benchmark::State& state) {
   state.counters["points"] = static_cast<double>(p.points.size());
   state.counters["pts_per_s"] = pts_per_s;
   state.counters["x_32robots_75Hz_361"] = pts_per_s / kTeamLoadPointsPerS;
+  state.counters["walked_per_scan"] = static_cast<double>(best_filter.grid().traversed()) / static_cast<double>(p.scans.size());
+  state.counters["grid_MiB"] = static_cast<double>(best_filter.memory_bytes()) / (1024.0 * 1024.0);
   add_scores(state, "best_live", removed);
 }
-BENCHMARK(BM_BestLive)->Unit(benchmark::kMillisecond)->Iterations(1);
+// ray_stride: best's free-space part casts every Nth ray of a scan (3: the default; docs/beyond.md
+// "A cheaper free-space walk"); walked_per_scan: voxels its rays walked per scan, grid_MiB: its grid.
+BENCHMARK(BM_BestLive)->ArgName("ray_stride")->Arg(1)->Arg(2)->Arg(3)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+// How much of a scan's walk is shared between its own rays (docs/beyond.md "A cheaper free-space
+// walk"): voxels walked per scan against the distinct voxels they are, each scan cast alone into an
+// empty grid with every ray. "One free count per voxel per scan" would count only the distinct ones.
+void BM_ScanVoxelSharing(benchmark::State& state) {
+  const PreparedDataset& p = prepared();
+  std::uint64_t walked = 0, distinct = 0;
+  for (auto _ : state) {
+    FreespaceGrid g(MethodOptions{}.best_freespace);
+    for (std::size_t s = 0; s < p.scans.size(); ++s) {
+      const ScanView v = p.view(s);
+      g.clear();
+      for (const MapPoint& q : v.points) g.cast_ray(v.origin_m, q);
+      walked += g.traversed();
+      distinct += g.voxels();
+    }
+  }
+  const double scans = static_cast<double>(p.scans.size() * state.iterations());
+  state.counters["walked_per_scan"] = static_cast<double>(walked) / scans;
+  state.counters["distinct_per_scan"] = static_cast<double>(distinct) / scans;
+}
+BENCHMARK(BM_ScanVoxelSharing)->Unit(benchmark::kMillisecond)->Iterations(1);
 
 void BM_TrackedLive(benchmark::State& state) {
   const PreparedDataset& p = prepared();

@@ -74,13 +74,15 @@ void run_feed(FusionStage& stage, const Feed& f) {
   }
 }
 
-void BM_LiveScans(benchmark::State& state, const char* method, double resolution_m) {
+// best_ray_stride: best's free-space part casts every Nth ray (MethodOptions::best_freespace; 0: the default).
+void BM_LiveScans(benchmark::State& state, const char* method, double resolution_m, std::uint32_t best_ray_stride = 0) {
   const Feed& f = feed();
   std::uint64_t points = 0;
   for (auto _ : state) {
     FusionOptions o;
     o.core.method = method;
     o.core.methods.frequency.resolution_m = o.core.methods.visibility.resolution_m = o.core.methods.combined_resolution_m = resolution_m;
+    if (best_ray_stride > 0) o.core.methods.best_freespace.ray_stride = best_ray_stride;
     auto stage = FusionStage::create(o, "/tmp");
     run_feed(**stage, f);
     (*stage)->flush();
@@ -92,6 +94,7 @@ void BM_LiveScans(benchmark::State& state, const char* method, double resolution
   state.counters["points_per_s"] = benchmark::Counter(static_cast<double>(points), benchmark::Counter::kIsRate);
 }
 BENCHMARK_CAPTURE(BM_LiveScans, best, "best", 0.1)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_LiveScans, best_every_ray, "best", 0.1, 1u)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, combined_0_1m, "combined", 0.1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, visibility_0_05m, "visibility", 0.05)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LiveScans, frequency_0_05m, "frequency", 0.05)->Unit(benchmark::kMillisecond);
@@ -195,6 +198,7 @@ void BM_LiveScansTeam(benchmark::State& state) {
     FusionOptions o;
     o.core.tracker.team_lag_s = 0.15;
     o.core.registration = state.range(2) != 0;
+    if (state.range(3) > 0) o.core.methods.best_freespace.ray_stride = static_cast<std::uint32_t>(state.range(3));
     auto stage = FusionStage::create(o, "/tmp");
     timespec c0{}, c1{};
     ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
@@ -214,8 +218,9 @@ void BM_LiveScansTeam(benchmark::State& state) {
   state.counters["cpu_us_per_scan"] = 1e6 * cpu_s / scans;
   state.counters["corrections"] = static_cast<double>(corrections);
 }
-// Args: robots, seconds of robot time, registration (0 off, 1 on: docs/registration.md "Cost").
-BENCHMARK(BM_LiveScansTeam)->Args({32, 10, 0})->Args({32, 10, 1})->Iterations(1)->Unit(benchmark::kMillisecond);
+// Args: robots, seconds of robot time, registration (0 off, 1 on: docs/registration.md "Cost"), best's
+// ray stride (0: the default, 1: every ray cast; docs/beyond.md "A cheaper free-space walk").
+BENCHMARK(BM_LiveScansTeam)->Args({32, 10, 0, 0})->Args({32, 10, 1, 0})->Args({32, 10, 0, 1})->Iterations(1)->Unit(benchmark::kMillisecond);
 
 // best with the paper's five methods decided side by side: six cores on the same input.
 void BM_LiveScansCompared(benchmark::State& state) {

@@ -4,10 +4,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <tuple>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "groundstation/mapping/best.hpp"
@@ -202,6 +204,83 @@ TEST(FreespaceFilter, AVoxelHitMoreOftenThanPassedStays) {
   f.observe(view_of(2, sensor, wall));
   f.classify(view_of(1, sensor, post), removed);
   EXPECT_EQ(removed[0], 1) << "5 hits, 5 passes";
+}
+
+// FreespaceOptions::ray_stride: a scan casts every third ray, from point (scan number mod 3) on, and
+// every point still counts its hit.
+TEST(FreespaceGrid, ARayStrideCastsEveryNthRayAndTheNextScansCastTheOthers) {
+  FreespaceOptions o = plain_options();
+  o.ray_stride = 3;
+  FreespaceGrid g(o);
+  FreespaceGrid every_ray(plain_options());
+  const Vec3 sensor{0.0, 0.0, 0.3};
+  // Nine horizontal rays 10° apart, 2 m long: 17 cm apart at 1 m, so no two share a voxel there.
+  std::vector<MapPoint> fan;
+  for (int i = 0; i < 9; ++i) {
+    const double a = 0.1745329 * i;
+    fan.push_back({static_cast<float>(2.0 * std::cos(a)), static_cast<float>(2.0 * std::sin(a)), 0.3f});
+  }
+  auto at_1m = [&](int i) {
+    const double a = 0.1745329 * i;
+    return g.cell(g.key_of(std::cos(a), std::sin(a), 0.3));
+  };
+  auto hit_voxel = [&](int i) { return g.cell(g.key_of(fan[i].x, fan[i].y, fan[i].z)); };
+  for (std::uint32_t scan = 0; scan < 3; ++scan) {
+    const std::uint64_t before = g.traversed();
+    g.insert_scan(sensor, fan, 10 + scan);  // 10 mod 3 = 1: points 1, 4, 7 first
+    std::uint64_t expected = 0;
+    for (int i = 0; i < 9; ++i) {
+      const bool cast_now = static_cast<std::uint32_t>(i) % 3 == (10 + scan) % 3;
+      const bool cast_yet = std::ranges::any_of(std::array<std::uint32_t, 3>{0, 1, 2}, [&](std::uint32_t s) {
+        return s <= scan && static_cast<std::uint32_t>(i) % 3 == (10 + s) % 3;
+      });
+      EXPECT_EQ(at_1m(i).free, cast_yet ? 1u : 0u) << "scan " << scan << " ray " << i;
+      EXPECT_EQ(hit_voxel(i).hits, scan + 1) << "every point counts its hit";
+      if (cast_now) {
+        const std::uint64_t t = every_ray.traversed();
+        every_ray.cast_ray(sensor, fan[i]);
+        expected += every_ray.traversed() - t;
+      }
+    }
+    EXPECT_EQ(g.traversed() - before, expected) << "scan " << scan << ": only its three rays walked";
+  }
+  // After three consecutive scans every ray was cast once, as one scan with ray_stride 1 would.
+  FreespaceGrid one_scan(plain_options());
+  one_scan.insert_scan(sensor, fan, 0);
+  EXPECT_EQ(g.traversed(), one_scan.traversed());
+}
+
+// A cast pass stands for ray_stride rays in the per-hit demand; min_free counts the passes cast.
+TEST(FreespaceFilter, WithARayStrideAPassCountsAsTheRaysItStandsFor) {
+  auto post_after = [](std::uint32_t stride, const std::vector<std::uint32_t>& wall_scans) {
+    FreespaceOptions o = plain_options();  // free_per_hit 1, min_free 2
+    o.ray_stride = stride;
+    FreespaceFilter f(o);
+    const Vec3 sensor{0.0, 0.0, 0.3};
+    const std::vector<MapPoint> post{{1.0f, 0.0f, 0.3f}};
+    const std::vector<MapPoint> wall{{3.0f, 0.0f, 0.3f}};
+    ScanView v = view_of(1, sensor, post);
+    for (std::uint32_t s = 0; s < 4; ++s) {
+      v.scan = s;
+      f.observe(v);  // 4 hits (the post's own ray ends short of it)
+    }
+    for (std::uint32_t s : wall_scans) {
+      ScanView w = view_of(2, sensor, wall);
+      w.scan = s;
+      f.observe(w);
+    }
+    EXPECT_EQ(f.grid().cell(f.grid().key_of(1.0, 0.0, 0.3)).hits, 4u);
+    std::vector<std::uint8_t> removed(1);
+    f.classify(v, removed);
+    return std::pair{f.grid().cell(f.grid().key_of(1.0, 0.0, 0.3)).free, removed[0] != 0};
+  };
+  // Stride 2: even scans cast their one ray, odd scans none.
+  EXPECT_EQ(post_after(2, {4}), (std::pair<std::uint16_t, bool>{1, false})) << "one pass: below min_free";
+  EXPECT_EQ(post_after(2, {4, 5}), (std::pair<std::uint16_t, bool>{1, false})) << "scan 5 casts no ray";
+  EXPECT_EQ(post_after(2, {4, 6}), (std::pair<std::uint16_t, bool>{2, true})) << "2 passes = 4 rays >= 1 x 4 hits";
+  // Every ray cast: the same scans give 3 passes against 4 hits, not void.
+  EXPECT_EQ(post_after(1, {4, 5, 6}), (std::pair<std::uint16_t, bool>{3, false}));
+  EXPECT_EQ(post_after(1, {4, 5, 6, 7}), (std::pair<std::uint16_t, bool>{4, true}));
 }
 
 TEST(FreespaceFilter, PointsWithinMinRangeNeitherMarkNorClear) {
