@@ -9,6 +9,7 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 #include <pthread.h>
+#include <sched.h>
 
 #include <filesystem>
 #include <fstream>
@@ -414,6 +415,11 @@ Result<std::unique_ptr<ViewServer>> ViewServer::start(const ServerOptions& optio
   s.schedule_tick();
   s.thread = std::thread([&s] {
     pthread_setname_np(pthread_self(), "teamscan-view");  // named for top -H and the benchmarks
+    // SCHED_BATCH (sched(7)): the view's encoding and sending never preempt the station's receive loop
+    // when it wakes; they take their fair share at the scheduler's ticks (a station pinned to one core
+    // otherwise had the view cut into every burst of scans: docs/view.md "Cost").
+    sched_param param{};
+    (void)pthread_setschedparam(pthread_self(), SCHED_BATCH, &param);
     s.ioc.run();
   });
   return std::unique_ptr<ViewServer>(new ViewServer(std::move(impl)));
