@@ -5,6 +5,8 @@
 #include "groundstation/view/server.hpp"
 
 #include <arpa/inet.h>
+#include <dirent.h>
+#include <sched.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -106,6 +108,34 @@ TEST_F(ViewServerTest, ServesTheFilesAndTheApi) {
   EXPECT_NE(s.find("\"x_m\":1.5000"), std::string::npos);
   EXPECT_EQ(status_of(raw("GET /api/stats HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")), 200);
   EXPECT_EQ(server_->counters().malformed.load() + server_->counters().oversized.load(), 0u);
+}
+
+// The view's thread never preempts the station's loop on wakeup: the kernel reports it SCHED_BATCH,
+// while the caller's thread (the loop) keeps its policy.
+TEST_F(ViewServerTest, TheServerThreadRunsBatchClassTheCallerKeepsItsPolicy) {
+  const int caller_policy = ::sched_getscheduler(0);
+  start();
+  int view_threads = 0, view_policy = -1;
+  wait_for([&] {
+    view_threads = 0;
+    DIR* d = ::opendir("/proc/self/task");
+    if (d == nullptr) return false;
+    while (const dirent* e = ::readdir(d)) {
+      if (e->d_name[0] == '.') continue;
+      std::ifstream comm(std::string("/proc/self/task/") + e->d_name + "/comm");
+      std::string name;
+      std::getline(comm, name);
+      if (name != "teamscan-view") continue;
+      ++view_threads;
+      view_policy = ::sched_getscheduler(std::stoi(e->d_name));
+    }
+    ::closedir(d);
+    return view_threads == 1 && view_policy == SCHED_BATCH;
+  });
+  EXPECT_EQ(view_threads, 1);
+  EXPECT_EQ(view_policy, SCHED_BATCH);
+  EXPECT_EQ(::sched_getscheduler(0), caller_policy);
+  EXPECT_NE(caller_policy, SCHED_BATCH);
 }
 
 TEST_F(ViewServerTest, MalformedOversizedAndUnknownRequestsGetAnErrorAndAreCounted) {
