@@ -221,7 +221,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
 
   // The browser view: listen may be empty (off); a present value must be HOST:PORT.
   const toml::table* view = r.section("view", false);
-  r.only(view, "view", {"listen", "web_root", "period_s"});
+  r.only(view, "view", {"listen", "web_root", "period_s", "cpus"});
   if (r.string(view, "view", "listen", c.view.listen, false) && !c.view.listen.empty()) {
     view::ListenAddress address;
     std::string why;
@@ -229,6 +229,8 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   }
   r.string(view, "view", "web_root", c.view.web_root, false);
   r.number_in(view, "view", "period_s", c.view.period_s, 0.0, 60.0);
+  std::vector<std::int64_t> view_cpus(c.view.cpus.begin(), c.view.cpus.end());
+  if (r.integers_in(view, "view", "cpus", view_cpus, 0, CPU_SETSIZE - 1)) c.view.cpus.assign(view_cpus.begin(), view_cpus.end());
   if (r.failed()) return false;
   ros.map_interval = from_seconds(cloud_s);
 

@@ -88,6 +88,7 @@ struct ViewConfig {
   std::string listen = "127.0.0.1:8080";
   std::string web_root;                // the built page; empty: found next to the executable
   double period_s = 0.1;               // team snapshots to the view
+  std::vector<int> cpus;               // the server thread's CPUs (empty: the process's)
 };
 
 enum class TeamSourceKind { kKalman, kLastPose };

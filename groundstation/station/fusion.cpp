@@ -27,13 +27,11 @@ namespace teamscan::station {
 
 namespace {
 
-int current_tid() { return static_cast<int>(::syscall(SYS_gettid)); }
-
 // The calling thread yields to every other thread of normal priority: nice 19 on its own thread id
 // (Linux: per thread), then SCHED_IDLE (allowed unprivileged: it only lowers the priority). Best
 // effort: a kernel that refuses one keeps the other.
 void yield_to_the_loop() {
-  (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(current_tid()), 19);
+  (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(current_thread_id()), 19);
   sched_param p{};
   p.sched_priority = 0;
   (void)::pthread_setschedparam(::pthread_self(), SCHED_IDLE, &p);
@@ -361,14 +359,8 @@ void FusionStage::begin_snapshot() {
   if (!writer_.joinable()) {
     writer_ = std::thread([this] {
       yield_to_the_loop();
-      if (!options_.writer_cpus.empty()) {
-        cpu_set_t set;
-        CPU_ZERO(&set);
-        for (int cpu : options_.writer_cpus)
-          if (cpu >= 0 && cpu < CPU_SETSIZE) CPU_SET(static_cast<std::size_t>(cpu), &set);
-        writer_affinity_error_.store(::pthread_setaffinity_np(::pthread_self(), sizeof set, &set));
-      }
-      writer_tid_.store(current_tid());
+      writer_affinity_error_.store(set_current_thread_cpus(options_.writer_cpus));
+      writer_tid_.store(current_thread_id());
       writer_main();
     });
     writer_handle_ = writer_.native_handle();
@@ -377,23 +369,7 @@ void FusionStage::begin_snapshot() {
 }
 
 ThreadScheduling FusionStage::writer_scheduling() const {
-  ThreadScheduling out;
-  const int tid = writer_tid_.load();
-  if (tid == 0) return out;  // not started yet (or still starting)
-  sched_param p{};
-  int policy = -1;
-  if (::pthread_getschedparam(writer_handle_, &policy, &p) != 0) return out;
-  errno = 0;
-  const int nice = ::getpriority(PRIO_PROCESS, static_cast<id_t>(tid));
-  if (nice == -1 && errno != 0) return out;
-  out.policy = policy;
-  out.nice = nice;
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (::pthread_getaffinity_np(writer_handle_, sizeof set, &set) == 0) {
-    for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
-      if (CPU_ISSET(static_cast<std::size_t>(cpu), &set)) out.cpus.push_back(cpu);
-  }
+  ThreadScheduling out = thread_scheduling(writer_handle_, writer_tid_.load());  // tid 0: not started yet
   out.affinity_error = writer_affinity_error_.load();
   return out;
 }

@@ -41,6 +41,7 @@
 
 #include "common/clock.hpp"
 #include "common/result.hpp"
+#include "common/thread_placement.hpp"
 #include "groundstation/fusion/core.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
 #include "groundstation/station/latency_histogram.hpp"
@@ -124,15 +125,6 @@ struct ModelWriteReport {
   double write_s = 0;         // formatted and written (the writer thread, or the caller's for write_model())
   std::uint64_t points = 0;   // every core's snapshot
   std::uint64_t kept = 0, removed = 0;  // the primary model's
-};
-
-// A thread's scheduling as the kernel reports it (sched(7)): its policy (SCHED_OTHER, SCHED_IDLE, ...) and
-// its nice value.
-struct ThreadScheduling {
-  int policy = -1;
-  int nice = 0;
-  std::vector<int> cpus;      // its affinity
-  int affinity_error = 0;     // errno of setting FusionOptions::writer_cpus (0: set, or none asked)
 };
 
 struct FusionConfig;

@@ -115,6 +115,12 @@ int main(int argc, char** argv) {
                 cfg.ros2.enabled ? "true" : "false", to_seconds(cfg.ros2.map_interval), cfg.ros2.pose_rate_hz,
                 cfg.ros2.heading_sigma_deg);
     std::printf("view.listen = \"%s\"\n", cfg.view.listen.c_str());
+    auto cpu_list = [](const std::vector<int>& cpus) {
+      std::string out;
+      for (int cpu : cpus) out += (out.empty() ? "" : ", ") + std::to_string(cpu);
+      return "[" + out + "]";
+    };
+    std::printf("view.cpus = %s\nfusion.writer_cpus = %s\n", cpu_list(cfg.view.cpus).c_str(), cpu_list(cfg.fusion.writer_cpus).c_str());
     return 0;
   }
 
@@ -252,10 +258,7 @@ int main(int argc, char** argv) {
         // Once: where the writer thread runs (fusion.writer_cpus), as the kernel reports it.
         writer_told = true;
         const ThreadScheduling ws = fusion->writer_scheduling();
-        std::string cpus;
-        for (int cpu : ws.cpus) cpus += (cpus.empty() ? "" : ",") + std::to_string(cpu);
-        std::string line = "model writer thread: " + (ws.policy == SCHED_IDLE ? std::string("SCHED_IDLE") : "policy " + std::to_string(ws.policy)) +
-                           ", nice " + std::to_string(ws.nice) + ", CPUs " + cpus;
+        std::string line = "model writer thread: " + describe(ws);
         if (ws.affinity_error != 0) line += std::string(" (fusion.writer_cpus refused: ") + std::strerror(ws.affinity_error) + ")";
         store->log_event(now_realtime(), line);
         if (ws.affinity_error != 0) log(kWarning, line);
@@ -282,6 +285,7 @@ int main(int argc, char** argv) {
     (void)view::parse_listen(cfg.view.listen, vo.listen, why);  // validated with the config
     vo.web_root = cfg.view.web_root.empty() ? default_view_web_root() : cfg.view.web_root;
     vo.hub.map_resolution_mm = static_cast<std::uint32_t>(std::lround(cfg.fusion.map_resolution_m * 1000.0));
+    vo.cpus = cfg.view.cpus;
     view_feed = std::make_unique<view::ViewFeed>();
     auto server = view::ViewServer::start(vo, *view_feed);
     if (!server) {
@@ -299,6 +303,11 @@ int main(int argc, char** argv) {
       log(kInfo, "view: " + view_server->url() +
                      (view_server->files() > 0 ? "" : " (no page found: give [view] web_root; API and /ws only)"));
       store->log_event(now_realtime(), "view: serving " + view_server->url() + " from " + (vo.web_root.empty() ? "-" : vo.web_root));
+      const ThreadScheduling vs = view_server->scheduling();
+      std::string placed = "view server thread: " + describe(vs);
+      if (vs.affinity_error != 0) placed += std::string(" (view.cpus refused: ") + std::strerror(vs.affinity_error) + ")";
+      store->log_event(now_realtime(), placed);
+      if (vs.affinity_error != 0) log(kWarning, placed);
     }
   }
 

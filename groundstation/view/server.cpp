@@ -11,6 +11,7 @@
 #include <pthread.h>
 #include <sched.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -41,6 +42,8 @@ struct ViewServer::Impl {
   tcp::acceptor acceptor{ioc};
   net::steady_timer ticker{ioc};
   std::thread thread;
+  std::atomic<int> thread_id{0};         // the server thread's kernel id, once it runs
+  std::atomic<int> affinity_error{0};    // of options.cpus
   ServerOptions options;
   ViewFeed& feed;
   ViewHub hub;
@@ -420,8 +423,12 @@ Result<std::unique_ptr<ViewServer>> ViewServer::start(const ServerOptions& optio
     // otherwise had the view cut into every burst of scans: docs/view.md "Cost").
     sched_param param{};
     (void)pthread_setschedparam(pthread_self(), SCHED_BATCH, &param);
+    s.affinity_error.store(set_current_thread_cpus(s.options.cpus));
+    s.thread_id.store(current_thread_id());
+    s.thread_id.notify_all();
     s.ioc.run();
   });
+  s.thread_id.wait(0);  // placed (class, CPUs) before start() returns: scheduling() reports it
   return std::unique_ptr<ViewServer>(new ViewServer(std::move(impl)));
 }
 
@@ -431,5 +438,10 @@ std::string ViewServer::url() const {
 }
 std::size_t ViewServer::files() const { return impl_->files.size(); }
 const ViewCounters& ViewServer::counters() const { return impl_->counters; }
+ThreadScheduling ViewServer::scheduling() const {
+  ThreadScheduling out = thread_scheduling(impl_->thread.native_handle(), impl_->thread_id.load());
+  out.affinity_error = impl_->affinity_error.load();
+  return out;
+}
 
 }  // namespace teamscan::view

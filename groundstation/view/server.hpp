@@ -8,8 +8,10 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "common/result.hpp"
+#include "common/thread_placement.hpp"
 #include "common/time.hpp"
 #include "groundstation/view/client_queue.hpp"
 #include "groundstation/view/feed.hpp"
@@ -27,6 +29,9 @@ struct ServerOptions {
   Duration tick = std::chrono::milliseconds(100);
   Duration http_timeout = std::chrono::seconds(10);  // a request not complete by then: connection closed
   std::size_t max_connections = 32;                  // beyond: 503, counted as refused
+  // The server thread's CPUs (none: the process's). A station whose receive loop has a core of its own
+  // puts the view on the others ([view] cpus; docs/view.md "Cost").
+  std::vector<int> cpus;
 };
 
 class ViewServer {
@@ -41,6 +46,8 @@ class ViewServer {
   [[nodiscard]] std::string url() const;  // http://HOST:PORT/
   [[nodiscard]] std::size_t files() const;
   [[nodiscard]] const ViewCounters& counters() const;
+  // The server thread's class and CPUs as the kernel reports them (affinity_error: ServerOptions::cpus refused).
+  [[nodiscard]] ThreadScheduling scheduling() const;
 
   struct Impl;
 

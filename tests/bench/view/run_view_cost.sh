@@ -8,16 +8,18 @@
 # station's scan -> fused map p50/p99/max (all scans), its CPU share and peak resident memory (the feeder's figures),
 # and what the clients received. p50/p99/max are the steady state (scans stamped after the feed's first
 # 2 s; station_feeder's "steady" line), the station deciding with the decision lag TEAM_LAG
-# (fusion.team_lag_s, default 0.15 s). Figures, not a test.
+# (fusion.team_lag_s, default 0.15 s). The view's server thread runs on VIEW_CPUS ([view] cpus; default
+# the feeder's CPU: the receive loop keeps its core, as on a station with more than one; VIEW_CPUS= puts
+# it on the station's pinned CPU beside the loop). Figures, not a test.
 #
-# usage: [REPEAT=2] [TEAM_LAG=0.15] [STATION_CPU=1] [FEEDER_CPU=0] tests/bench/view/run_view_cost.sh [BUILD_DIR] [N] [SECONDS] [CLIENTS]
+# usage: [REPEAT=2] [TEAM_LAG=0.15] [STATION_CPU=1] [FEEDER_CPU=0] [VIEW_CPUS=0] tests/bench/view/run_view_cost.sh [BUILD_DIR] [N] [SECONDS] [CLIENTS]
 #        default: build/dev 32 20 3
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../../.." && pwd)"
 build="$(cd "${1:-$root/build/dev}" && pwd)"
 n="${2:-32}"; seconds="${3:-20}"; clients="${4:-3}"
-repeat="${REPEAT:-2}"; scpu="${STATION_CPU:-1}"; fcpu="${FEEDER_CPU:-0}"
+repeat="${REPEAT:-2}"; scpu="${STATION_CPU:-1}"; fcpu="${FEEDER_CPU:-0}"; vcpus="${VIEW_CPUS-$fcpu}"
 feeder="$build/tests/bench/station/station_feeder"
 station="$build/groundstation/station/teamscan-groundstation"
 viewers="$build/tests/bench/view/view_bench_clients"
@@ -29,8 +31,8 @@ port=$(( 20000 + $$ % 20000 ))
 lag="${TEAM_LAG:-0.15}"
 # Appended to the feeder's generated config, inside its [fusion] table, then the [view] table.
 printf 'team_lag_s = %s\n[view]\nlisten = ""\n' "$lag" > "$work/off.toml"
-printf 'team_lag_s = %s\n[view]\nlisten = "127.0.0.1:%d"\n' "$lag" "$port" > "$work/on.toml"
-echo "# $(date -u +%FT%TZ) view cost: $n robots x 75 Hz x $seconds s robot time, team_lag_s $lag, $clients clients, station on CPU $scpu, feeder + clients on CPU $fcpu, load $(cut -d' ' -f1-3 /proc/loadavg)"
+printf 'team_lag_s = %s\n[view]\nlisten = "127.0.0.1:%d"\ncpus = [%s]\n' "$lag" "$port" "$vcpus" > "$work/on.toml"
+echo "# $(date -u +%FT%TZ) view cost: $n robots x 75 Hz x $seconds s robot time, team_lag_s $lag, $clients clients, station on CPU $scpu, view thread on CPUs ${vcpus:-(the station CPU)}, feeder + clients on CPU $fcpu, load $(cut -d' ' -f1-3 /proc/loadavg)"
 printf '%-5s %3s %9s %8s %5s %8s %8s %8s %6s %8s  %s\n' view run published stored lost p50_ms p99_ms max_ms cpu_% rss_MiB clients
 for ((r = 1; r <= repeat; r++)); do
   for mode in off on; do

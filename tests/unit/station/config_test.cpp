@@ -66,10 +66,22 @@ TEST(GroundStationConfig, ViewListenIsValidatedAndMayBeOff) {
   EXPECT_EQ(c.view.listen, "127.0.0.1:9000");
   for (const char* bad : {"[view]\nlisten = \"8080\"\n", "[view]\nlisten = \"127.0.0.1:70000\"\n",
                           "[view]\nlisten = \"host.example:80\"\n", "[view]\nlisten = 8080\n",
-                          "[view]\nperiod_s = 0\n", "[view]\nlisen = \"\"\n"}) {
+                          "[view]\nperiod_s = 0\n", "[view]\nlisen = \"\"\n", "[view]\ncpus = 0\n",
+                          "[view]\ncpus = [-1]\n", "[view]\ncpus = [\"0\"]\n"}) {
     EXPECT_FALSE(parse_groundstation_config(bad, "t.toml", c, e)) << bad;
     EXPECT_EQ(e.message.rfind("view.", 0), 0u) << e.message;
   }
+}
+
+TEST(GroundStationConfig, ViewCpusPlaceTheServerThread) {
+  GroundStationConfig c;
+  ConfigError e;
+  EXPECT_TRUE(c.view.cpus.empty());  // default: the process's CPUs
+  ASSERT_TRUE(parse_groundstation_config("[view]\ncpus = [0, 2]\n", "t.toml", c, e)) << e.message;
+  EXPECT_EQ(c.view.cpus, (std::vector<int>{0, 2}));
+  GroundStationConfig bad;
+  EXPECT_FALSE(parse_groundstation_config("[view]\ncpus = [1024]\n", "t.toml", bad, e));
+  EXPECT_EQ(e.message, "view.cpus: each must be in [0, 1023], got 1024 (line 2)") << e.message;
 }
 
 TEST(GroundStationConfig, ValidationKeys) {

@@ -9,6 +9,7 @@
 #include <sched.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
+#include <pthread.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -16,10 +17,12 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/websocket.hpp>
+#include <cerrno>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <thread>
+#include <vector>
 
 namespace teamscan::view {
 namespace {
@@ -136,6 +139,38 @@ TEST_F(ViewServerTest, TheServerThreadRunsBatchClassTheCallerKeepsItsPolicy) {
   EXPECT_EQ(view_policy, SCHED_BATCH);
   EXPECT_EQ(::sched_getscheduler(0), caller_policy);
   EXPECT_NE(caller_policy, SCHED_BATCH);
+}
+
+// [view] cpus: the server thread runs on the CPUs asked for (here the last one this process may use),
+// still SCHED_BATCH; the caller keeps its whole affinity. A set with no usable CPU is refused, reported
+// (the station logs it as a warning) and leaves the thread where it was.
+TEST_F(ViewServerTest, TheServerThreadRunsOnItsCpusTheCallerKeepsItsOwn) {
+  cpu_set_t mine;
+  CPU_ZERO(&mine);
+  ASSERT_EQ(pthread_getaffinity_np(pthread_self(), sizeof mine, &mine), 0);
+  std::vector<int> allowed;
+  for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
+    if (CPU_ISSET(static_cast<std::size_t>(cpu), &mine)) allowed.push_back(cpu);
+  ASSERT_FALSE(allowed.empty());
+  ServerOptions o;
+  o.cpus = {allowed.back()};
+  start(o);
+  const ThreadScheduling placed = server_->scheduling();
+  EXPECT_EQ(placed.affinity_error, 0);
+  EXPECT_EQ(placed.cpus, o.cpus);
+  EXPECT_EQ(placed.policy, SCHED_BATCH);
+  cpu_set_t after;
+  CPU_ZERO(&after);
+  ASSERT_EQ(pthread_getaffinity_np(pthread_self(), sizeof after, &after), 0);
+  EXPECT_TRUE(CPU_EQUAL(&after, &mine));
+  server_.reset();
+
+  ServerOptions none;
+  none.cpus = {CPU_SETSIZE - 1};  // in range, not a CPU of this machine
+  start(none);
+  const ThreadScheduling refused = server_->scheduling();
+  EXPECT_EQ(refused.affinity_error, EINVAL);
+  EXPECT_EQ(refused.cpus, allowed);
 }
 
 TEST_F(ViewServerTest, MalformedOversizedAndUnknownRequestsGetAnErrorAndAreCounted) {
