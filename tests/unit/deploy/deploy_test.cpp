@@ -6,15 +6,24 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
+#include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <set>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include <dds/dds.h>
+
+#include "tests/support/test_domain.hpp"
 
 namespace {
 
@@ -159,6 +168,81 @@ TEST(CycloneSiteConfig, AcceptedByCyclone) {
 
 TEST(CycloneSiteConfig, CheckRejectsAnUnknownElement) {
   EXPECT_NE(child_creates_domain(site_config_on_loopback("<Bogus>1</Bogus>"), 42), 0);
+}
+
+// A secured site's discovery (docs/security.md, Deployment step 6): the robots name the station as their
+// only peer, so that they authenticate the station alone, not each other. On one host as the security
+// benchmark runs it: the station on participant index 0 (a known port), each robot without an index of
+// its own and with one peer, the station's discovery port. Each process counts the participants it
+// discovers over a few seconds: the station both robots, each robot the station and nothing else.
+std::string loopback_config() {
+  return std::regex_replace(slurp(fs::path(source_dir()) / "deploy" / "cyclonedds-lo.xml"), std::regex("<\\?xml[^>]*>"), "");
+}
+
+std::string star_station_config() {
+  return std::regex_replace(loopback_config(), std::regex("<ParticipantIndex>auto</ParticipantIndex>"),
+                            "<ParticipantIndex>0</ParticipantIndex>");
+}
+
+std::string star_robot_config(dds_domainid_t id) {
+  std::string x = std::regex_replace(loopback_config(), std::regex("<ParticipantIndex>auto</ParticipantIndex>"),
+                                     "<ParticipantIndex>none</ParticipantIndex>");
+  const std::string station_port = std::to_string(7400 + 250 * id + 10);  // DDSI's default port mapping, index 0
+  return std::regex_replace(x, std::regex("<Peer address=\"127.0.0.1\"/>"), "<Peer address=\"127.0.0.1:" + station_port + "\"/>");
+}
+
+// In a child: joins domain `id` with `xml`, and exits with the number of other participants it has
+// discovered after `seconds` (100 + a code on failure).
+pid_t child_counts_participants(const std::string& xml, dds_domainid_t id, double seconds) {
+  const pid_t pid = ::fork();
+  if (pid != 0) return pid;
+  if (dds_create_domain(id, xml.c_str()) < 0) ::_exit(101);
+  const dds_entity_t pp = dds_create_participant(id, nullptr, nullptr);
+  if (pp < 0) ::_exit(102);
+  dds_guid_t self{};
+  if (dds_get_guid(pp, &self) != DDS_RETCODE_OK) ::_exit(103);
+  const dds_entity_t rd = dds_create_reader(pp, DDS_BUILTIN_TOPIC_DCPSPARTICIPANT, nullptr, nullptr);
+  if (rd < 0) ::_exit(104);
+  std::set<std::string> others;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < end) {
+    std::array<void*, 16> samples{};
+    std::array<dds_sample_info_t, 16> infos{};
+    const int n = dds_read(rd, samples.data(), infos.data(), samples.size(), static_cast<std::uint32_t>(samples.size()));
+    for (int i = 0; i < n; ++i) {
+      const auto* p = static_cast<const dds_builtintopic_participant_t*>(samples[static_cast<std::size_t>(i)]);
+      if (std::memcmp(p->key.v, self.v, sizeof self.v) != 0)
+        others.insert(std::string(reinterpret_cast<const char*>(p->key.v), sizeof p->key.v));
+    }
+    if (n > 0) (void)dds_return_loan(rd, samples.data(), n);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ::_exit(static_cast<int>(std::min<std::size_t>(others.size(), 99)));
+}
+
+int exit_code(pid_t pid) {
+  int st = 0;
+  ::waitpid(pid, &st, 0);
+  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+TEST(CycloneSiteConfig, RobotsPeeringWithTheStationOnlyDiscoverTheStationAndNotEachOther) {
+  const dds_domainid_t id = teamscan::test::test_domain_id();
+  const pid_t station = child_counts_participants(star_station_config(), id, 6.0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the station holds index 0 first
+  const pid_t robot1 = child_counts_participants(star_robot_config(id), id, 5.0);
+  const pid_t robot2 = child_counts_participants(star_robot_config(id), id, 5.0);
+  EXPECT_EQ(exit_code(robot1), 1);  // the station only
+  EXPECT_EQ(exit_code(robot2), 1);
+  EXPECT_EQ(exit_code(station), 2);  // both robots
+  // The same three on the plain loopback config (every participant probes every index) find each other:
+  // the check above can fail.
+  const pid_t m0 = child_counts_participants(loopback_config(), id, 5.0);
+  const pid_t m1 = child_counts_participants(loopback_config(), id, 5.0);
+  const pid_t m2 = child_counts_participants(loopback_config(), id, 5.0);
+  EXPECT_EQ(exit_code(m1), 2);
+  EXPECT_EQ(exit_code(m2), 2);
+  EXPECT_EQ(exit_code(m0), 2);
 }
 
 }  // namespace
