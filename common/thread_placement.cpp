@@ -21,6 +21,22 @@ int set_current_thread_cpus(std::span<const int> cpus) {
   return ::pthread_setaffinity_np(::pthread_self(), sizeof set, &set);
 }
 
+namespace {
+
+std::vector<int> affinity_of(pthread_t handle) {
+  std::vector<int> out;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (::pthread_getaffinity_np(handle, sizeof set, &set) != 0) return out;
+  for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
+    if (CPU_ISSET(static_cast<std::size_t>(cpu), &set)) out.push_back(cpu);
+  return out;
+}
+
+}  // namespace
+
+std::vector<int> current_thread_cpus() { return affinity_of(::pthread_self()); }
+
 ThreadScheduling thread_scheduling(pthread_t handle, int tid) {
   ThreadScheduling out;
   if (tid == 0) return out;
@@ -32,12 +48,7 @@ ThreadScheduling thread_scheduling(pthread_t handle, int tid) {
   if (nice == -1 && errno != 0) return out;
   out.policy = policy;
   out.nice = nice;
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (::pthread_getaffinity_np(handle, sizeof set, &set) == 0) {
-    for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
-      if (CPU_ISSET(static_cast<std::size_t>(cpu), &set)) out.cpus.push_back(cpu);
-  }
+  out.cpus = affinity_of(handle);
   return out;
 }
 

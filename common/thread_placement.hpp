@@ -22,6 +22,9 @@ struct ThreadScheduling {
 // The calling thread's kernel id (gettid()).
 [[nodiscard]] int current_thread_id();
 
+// The calling thread's CPUs (its affinity), ascending.
+[[nodiscard]] std::vector<int> current_thread_cpus();
+
 // Restricts the calling thread to `cpus` (none: unchanged). Returns 0 or the errno (EINVAL: no CPU
 // of the set is online or allowed; out-of-range numbers are ignored).
 [[nodiscard]] int set_current_thread_cpus(std::span<const int> cpus);

@@ -937,12 +937,7 @@ TEST(Fusion, TheWriterThreadRunsIdleClassAndTheLoopKeepsItsPriority) {
 // fusion.writer_cpus: the writer thread runs on the CPUs asked for (here the last one this process may
 // use), the loop's thread keeps its whole affinity.
 TEST(Fusion, TheWriterThreadRunsOnTheWriterCpus) {
-  cpu_set_t mine;
-  CPU_ZERO(&mine);
-  ASSERT_EQ(pthread_getaffinity_np(pthread_self(), sizeof mine, &mine), 0);
-  std::vector<int> allowed;
-  for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
-    if (CPU_ISSET(static_cast<std::size_t>(cpu), &mine)) allowed.push_back(cpu);
+  const std::vector<int> allowed = current_thread_cpus();
   ASSERT_FALSE(allowed.empty());
   const Dataset d = survey();
   const std::string dir = temp_dir();
@@ -959,10 +954,7 @@ TEST(Fusion, TheWriterThreadRunsOnTheWriterCpus) {
   const ThreadScheduling w = f.writer_scheduling();
   EXPECT_EQ(w.affinity_error, 0);
   EXPECT_EQ(w.cpus, o.writer_cpus);
-  cpu_set_t after;
-  CPU_ZERO(&after);
-  ASSERT_EQ(pthread_getaffinity_np(pthread_self(), sizeof after, &after), 0);
-  EXPECT_TRUE(CPU_EQUAL(&after, &mine));
+  EXPECT_EQ(current_thread_cpus(), allowed);
   std::filesystem::remove_all(dir);
 }
 

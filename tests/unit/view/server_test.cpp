@@ -145,12 +145,7 @@ TEST_F(ViewServerTest, TheServerThreadRunsBatchClassTheCallerKeepsItsPolicy) {
 // still SCHED_BATCH; the caller keeps its whole affinity. A set with no usable CPU is refused, reported
 // (the station logs it as a warning) and leaves the thread where it was.
 TEST_F(ViewServerTest, TheServerThreadRunsOnItsCpusTheCallerKeepsItsOwn) {
-  cpu_set_t mine;
-  CPU_ZERO(&mine);
-  ASSERT_EQ(pthread_getaffinity_np(pthread_self(), sizeof mine, &mine), 0);
-  std::vector<int> allowed;
-  for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
-    if (CPU_ISSET(static_cast<std::size_t>(cpu), &mine)) allowed.push_back(cpu);
+  const std::vector<int> allowed = current_thread_cpus();
   ASSERT_FALSE(allowed.empty());
   ServerOptions o;
   o.cpus = {allowed.back()};
@@ -159,10 +154,7 @@ TEST_F(ViewServerTest, TheServerThreadRunsOnItsCpusTheCallerKeepsItsOwn) {
   EXPECT_EQ(placed.affinity_error, 0);
   EXPECT_EQ(placed.cpus, o.cpus);
   EXPECT_EQ(placed.policy, SCHED_BATCH);
-  cpu_set_t after;
-  CPU_ZERO(&after);
-  ASSERT_EQ(pthread_getaffinity_np(pthread_self(), sizeof after, &after), 0);
-  EXPECT_TRUE(CPU_EQUAL(&after, &mine));
+  EXPECT_EQ(current_thread_cpus(), allowed);
   server_.reset();
 
   ServerOptions none;
