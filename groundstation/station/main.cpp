@@ -116,9 +116,13 @@ int main(int argc, char** argv) {
                 cfg.ros2.heading_sigma_deg);
     std::printf("view.listen = \"%s\"\n", cfg.view.listen.c_str());
     auto cpu_list = [](const std::vector<int>& cpus) {
-      std::string out;
-      for (int cpu : cpus) out += (out.empty() ? "" : ", ") + std::to_string(cpu);
-      return "[" + out + "]";
+      std::string out = "[";
+      for (std::size_t i = 0; i < cpus.size(); ++i) {
+        if (i > 0) out += ", ";
+        out += std::to_string(cpus[i]);
+      }
+      out += ']';
+      return out;
     };
     std::printf("view.cpus = %s\nfusion.writer_cpus = %s\n", cpu_list(cfg.view.cpus).c_str(), cpu_list(cfg.fusion.writer_cpus).c_str());
     return 0;
