@@ -189,6 +189,7 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
     map_.build(std::move(features));
     map_built_ns_ = stamp_ns;
     map_dirty_ = false;
+    ++reference_updates_;
   }
   if (map_.size() < options_.min_map_features) {
     ++r.c.first_lap;

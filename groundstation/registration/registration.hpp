@@ -138,6 +138,8 @@ class Registration {
   [[nodiscard]] const RobotCorrection* correction(std::uint8_t robot) const;
   [[nodiscard]] std::size_t reference_features() const { return map_.size(); }
   [[nodiscard]] std::size_t reference_voxels() const { return reference_.voxels(); }
+  // The reference's updates (rebuilds of its index) so far.
+  [[nodiscard]] std::uint64_t reference_updates() const { return reference_updates_; }
   [[nodiscard]] std::uint64_t rejected_scans() const { return rejected_scans_; }
   [[nodiscard]] const RegistrationOptions& options() const { return options_; }
 
@@ -170,6 +172,7 @@ class Registration {
   LineMap map_;
   bool map_dirty_ = false;
   std::int64_t map_built_ns_ = 0;
+  std::uint64_t reference_updates_ = 0;
   std::array<Robot, kMaxRobots + 1> robots_{};
   SurfaceGrid window_grid_;
   std::vector<LineFeature> scratch_;

@@ -191,32 +191,85 @@ const TeamFeed& team_feed(int robots, double seconds) {
   return cache.emplace(key, std::move(out)).first->second;
 }
 
+double thread_cpu_s() {
+  timespec t{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+// The p-quantile (0..1) of `v` (sorted in place).
+double quantile(std::vector<double>& v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
+}
+
 void BM_LiveScansTeam(benchmark::State& state) {
   const TeamFeed& f = team_feed(static_cast<int>(state.range(0)), static_cast<double>(state.range(1)));
   double cpu_s = 0, corrections = 0;
+  // Stalls without wall-clock noise: the thread CPU of each call (one turn of the station's loop: a
+  // scan, or a pose, and whatever it releases through the core), the registration's reference updates
+  // among them (a call during which Registration::reference_updates() moved).
+  std::vector<double> scan_call_s, update_call_s;
+  double pose_call_max_s = 0;
+  std::uint64_t updates = 0, reference_features = 0, matches = 0;
   for (auto _ : state) {
     FusionOptions o;
     o.core.tracker.team_lag_s = 0.15;
     o.core.registration = state.range(2) != 0;
     if (state.range(3) > 0) o.core.methods.best_freespace.ray_stride = static_cast<std::uint32_t>(state.range(3));
     auto stage = FusionStage::create(o, "/tmp");
-    timespec c0{}, c1{};
-    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
+    const registration::Registration* reg = (*stage)->core().registration();
+    scan_call_s.clear();
+    scan_call_s.reserve(f.scans.size());
+    update_call_s.clear();
+    const double c0 = thread_cpu_s();
     std::size_t next_pose = 0;
     for (std::size_t i = 0; i < f.scans.size(); ++i) {
-      while (next_pose < f.poses_before[i]) (*stage)->add_pose(f.poses[next_pose++]);
+      while (next_pose < f.poses_before[i]) {
+        const std::uint64_t u0 = reg ? reg->reference_updates() : 0;
+        const double t0 = thread_cpu_s();
+        (*stage)->add_pose(f.poses[next_pose++]);
+        const double dt = thread_cpu_s() - t0;
+        pose_call_max_s = std::max(pose_call_max_s, dt);
+        if (reg && reg->reference_updates() != u0) update_call_s.push_back(dt);
+      }
+      const std::uint64_t u0 = reg ? reg->reference_updates() : 0;
+      const double t0 = thread_cpu_s();
       (*stage)->add_scan(f.scans[i]);
+      const double dt = thread_cpu_s() - t0;
+      scan_call_s.push_back(dt);
+      if (reg && reg->reference_updates() != u0) update_call_s.push_back(dt);
     }
     (*stage)->flush();
-    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
-    cpu_s += static_cast<double>(c1.tv_sec - c0.tv_sec) + 1e-9 * static_cast<double>(c1.tv_nsec - c0.tv_nsec);
+    cpu_s += thread_cpu_s() - c0;
     corrections = static_cast<double>((*stage)->core().counters().registration_corrections);
+    if (reg) {
+      updates = reg->reference_updates();
+      reference_features = reg->reference_features();
+      matches = 0;
+      for (std::uint8_t r = 1; r <= state.range(0); ++r)
+        if (const registration::RobotCorrection* c = reg->correction(r)) matches += c->matches;
+    }
     benchmark::DoNotOptimize((*stage)->counters().live_removed);
   }
   const double scans = static_cast<double>(f.scans.size() * state.iterations());
   state.counters["scans"] = static_cast<double>(f.scans.size());
   state.counters["cpu_us_per_scan"] = 1e6 * cpu_s / scans;
   state.counters["corrections"] = static_cast<double>(corrections);
+  // The last iteration's calls: the longest, p99.9 and p99 of a scan's call (ms of thread CPU).
+  state.counters["scan_call_max_ms"] = 1e3 * quantile(scan_call_s, 1.0);
+  state.counters["scan_call_p999_ms"] = 1e3 * quantile(scan_call_s, 0.999);
+  state.counters["scan_call_p99_ms"] = 1e3 * quantile(scan_call_s, 0.99);
+  state.counters["pose_call_max_ms"] = 1e3 * pose_call_max_s;
+  if (state.range(2) != 0) {
+    // The calls that updated the registration's reference: how many, their longest and median.
+    state.counters["ref_updates"] = static_cast<double>(updates);
+    state.counters["ref_features"] = static_cast<double>(reference_features);
+    state.counters["update_call_max_ms"] = 1e3 * quantile(update_call_s, 1.0);
+    state.counters["update_call_p50_ms"] = 1e3 * quantile(update_call_s, 0.5);
+    state.counters["matches"] = static_cast<double>(matches);
+  }
 }
 // Args: robots, seconds of robot time, registration (0 off, 1 on: docs/registration.md "Cost"), best's
 // ray stride (0: the default, 1: every ray cast; docs/beyond.md "A cheaper free-space walk").
