@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <map>
@@ -212,10 +214,10 @@ void BM_LiveScansTeam(benchmark::State& state) {
   // among them (a call during which Registration::reference_updates() moved).
   // The first 2 s of robot time are left out of the figures (start-up: the core's hold releases its
   // first second of scans in one call, startup_call_max_ms).
-  std::vector<double> scan_call_s, update_call_s;
+  std::vector<double> scan_call_s, update_call_s, match_call_s;
   double pose_call_max_s = 0, startup_call_max_s = 0;
   const std::int64_t steady_from_ns = f.scans.empty() ? 0 : f.scans.front().stamp_ns + 2'000'000'000;
-  std::uint64_t updates = 0, reference_features = 0, matches = 0;
+  std::uint64_t updates = 0, columns = 0, reference_features = 0, matches = 0;
   for (auto _ : state) {
     FusionOptions o;
     o.core.tracker.team_lag_s = 0.15;
@@ -226,6 +228,23 @@ void BM_LiveScansTeam(benchmark::State& state) {
     scan_call_s.clear();
     scan_call_s.reserve(f.scans.size());
     update_call_s.clear();
+    match_call_s.clear();
+    // Matches tried so far by every robot (a call that ran one or more).
+    auto tried = [&] {
+      std::uint64_t n = 0;
+      if (reg)
+        for (std::uint8_t r = 1; r <= state.range(0); ++r)
+          if (const registration::RobotCorrection* c = reg->correction(r)) n += c->matches;
+      return n;
+    };
+    // TEAMSCAN_BENCH_LONGEST_CALLS=1 prints the 20 longest scan calls (over 10 ms) with the reference's
+    // voxels before and after (a doubling of a hash map shows as a long call at its load limit).
+    struct Long {
+      double s;
+      std::size_t scan, voxels_before, voxels_after;
+      bool operator<(const Long& o) const { return s < o.s; }
+    };
+    std::vector<Long> longest;
     const double c0 = thread_cpu_s();
     std::size_t next_pose = 0;
     for (std::size_t i = 0; i < f.scans.size(); ++i) {
@@ -241,7 +260,8 @@ void BM_LiveScansTeam(benchmark::State& state) {
         pose_call_max_s = std::max(pose_call_max_s, dt);
         if (reg && reg->reference_updates() != u0) update_call_s.push_back(dt);
       }
-      const std::uint64_t u0 = reg ? reg->reference_updates() : 0;
+      const std::uint64_t u0 = reg ? reg->reference_updates() : 0, m0 = tried();
+      const std::size_t v0 = reg ? reg->reference_voxels() : 0;
       const double t0 = thread_cpu_s();
       (*stage)->add_scan(f.scans[i]);
       const double dt = thread_cpu_s() - t0;
@@ -251,12 +271,25 @@ void BM_LiveScansTeam(benchmark::State& state) {
       }
       scan_call_s.push_back(dt);
       if (reg && reg->reference_updates() != u0) update_call_s.push_back(dt);
+      if (reg && tried() != m0) match_call_s.push_back(dt);
+      if (dt > 0.010) longest.push_back({dt, i, v0, reg ? reg->reference_voxels() : 0});
     }
     (*stage)->flush();
     cpu_s += thread_cpu_s() - c0;
+    if (std::getenv("TEAMSCAN_BENCH_LONGEST_CALLS") != nullptr) {
+      std::sort(longest.rbegin(), longest.rend());
+      for (std::size_t k = 0; k < longest.size() && k < 20; ++k) {
+        const StoredScan& sc = f.scans[longest[k].scan];
+        std::fprintf(stderr, "call %.1f ms: scan %zu (robot %u, %.3f s), registration reference %zu -> %zu voxels\n",
+                     1e3 * longest[k].s, longest[k].scan, sc.robot_id,
+                     1e-9 * static_cast<double>(sc.stamp_ns - f.scans.front().stamp_ns), longest[k].voxels_before,
+                     longest[k].voxels_after);
+      }
+    }
     corrections = static_cast<double>((*stage)->core().counters().registration_corrections);
     if (reg) {
       updates = reg->reference_updates();
+      columns = reg->reference_columns_updated();
       reference_features = reg->reference_features();
       matches = 0;
       for (std::uint8_t r = 1; r <= state.range(0); ++r)
@@ -277,10 +310,14 @@ void BM_LiveScansTeam(benchmark::State& state) {
   if (state.range(2) != 0) {
     // The calls that updated the registration's reference: how many, their longest and median.
     state.counters["ref_updates"] = static_cast<double>(updates);
+    state.counters["ref_columns_per_update"] = updates ? static_cast<double>(columns) / static_cast<double>(updates) : 0.0;
     state.counters["ref_features"] = static_cast<double>(reference_features);
     state.counters["update_call_max_ms"] = 1e3 * quantile(update_call_s, 1.0);
     state.counters["update_call_p50_ms"] = 1e3 * quantile(update_call_s, 0.5);
     state.counters["matches"] = static_cast<double>(matches);
+    // The calls that ran a match (window features + ICP; in the loop like the rest).
+    state.counters["match_call_max_ms"] = 1e3 * quantile(match_call_s, 1.0);
+    state.counters["match_call_p50_ms"] = 1e3 * quantile(match_call_s, 0.5);
   }
 }
 // Args: robots, seconds of robot time, registration (0 off, 1 on: docs/registration.md "Cost"), best's
