@@ -149,10 +149,19 @@ std::ptrdiff_t LineMap::nearest(double x_m, double y_m, double nx, double ny, do
       if (found < kK) ++found;
     }
   };
+  auto agrees = [&](std::uint32_t slot) {
+    const LineFeature& f = slots_[slot].f;
+    return (nx == 0 && ny == 0) || std::abs(f.nx * nx + f.ny * ny) >= min_dot;
+  };
   for (std::int64_t r = 0;; ++r) {
     if (r > 0) {
       const double lb = static_cast<double>(r - 1) * cell_m_ + border;
       if (lb > max_distance_m || (found == kK && lb * lb > d2[kK - 1])) break;
+      // The first agreeing one of the 4 nearest so far is the answer once nothing unvisited can come
+      // before it: every feature nearer than it has been seen, so its rank is final.
+      int first = 0;
+      while (first < found && !agrees(idx[first])) ++first;
+      if (first < found && d2[first] < lb * lb) break;
       // The block of rings < r covered every cell ever used: nothing further out.
       if (qx - (r - 1) <= cx_lo_ && qx + (r - 1) >= cx_hi_ && qy - (r - 1) <= cy_lo_ && qy + (r - 1) >= cy_hi_) break;
     }
@@ -169,10 +178,8 @@ std::ptrdiff_t LineMap::nearest(double x_m, double y_m, double nx, double ny, do
       visit(qx + r, cy);
     }
   }
-  for (int k = 0; k < found; ++k) {
-    const LineFeature& f = slots_[idx[k]].f;
-    if ((nx == 0 && ny == 0) || std::abs(f.nx * nx + f.ny * ny) >= min_dot) return static_cast<std::ptrdiff_t>(idx[k]);
-  }
+  for (int k = 0; k < found; ++k)
+    if (agrees(idx[k])) return static_cast<std::ptrdiff_t>(idx[k]);
   return -1;
 }
 
