@@ -109,7 +109,9 @@ BENCHMARK_CAPTURE(BM_LiveScans, position, "position", 0.1)->Unit(benchmark::kMil
 // 10 Hz, arrival = stamp, the capacity run's decision lag (0.15 s). Every scan grows the maps, as in the
 // first lap of a 32-robot survey: the CPU per scan here is the station loop's share of
 // run_capacity.sh's cpu_ms_per_scan, repeatable on a loaded machine (counter cpu_us_per_scan); the third
-// argument turns the scan-to-map registration on (counter matches: the registration's accepted ones).
+// argument turns the scan-to-map registration on (counter corrections: the corrections it set). Stalls
+// as thread CPU per call (one turn of the loop), without wall-clock noise: scan_call_max / p999 / p99,
+// and with the registration the calls that updated its reference or ran a match.
 struct TeamFeed {
   std::vector<PoseObservation> poses;
   std::vector<StoredScan> scans;  // in arrival order, poses interleaved by stamp (pose_before[i])
