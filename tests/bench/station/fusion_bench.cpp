@@ -216,7 +216,7 @@ void BM_LiveScansTeam(benchmark::State& state) {
   // among them (a call during which Registration::reference_updates() moved).
   // The first 2 s of robot time are left out of the figures (start-up: the core's hold releases its
   // first second of scans in one call, startup_call_max_ms).
-  std::vector<double> scan_call_s, update_call_s, match_call_s;
+  std::vector<double> scan_call_s, update_call_s, match_call_s, busy_ms;
   double pose_call_max_s = 0, startup_call_max_s = 0;
   const std::int64_t steady_from_ns = f.scans.empty() ? 0 : f.scans.front().stamp_ns + 2'000'000'000;
   std::uint64_t updates = 0, columns = 0, reference_features = 0, matches = 0;
@@ -229,6 +229,9 @@ void BM_LiveScansTeam(benchmark::State& state) {
     const registration::Registration* reg = (*stage)->core().registration();
     scan_call_s.clear();
     scan_call_s.reserve(f.scans.size());
+    // The scan calls' CPU per millisecond of robot time (their stamps): the busiest 50 ms window is what
+    // the loop must do in 50 ms when the scans arrive on time (more than 50 ms of CPU: they queue).
+    busy_ms.assign(static_cast<std::size_t>((f.scans.back().stamp_ns - f.scans.front().stamp_ns) / 1'000'000) + 1, 0.0);
     update_call_s.clear();
     match_call_s.clear();
     // Matches tried so far by every robot (a call that ran one or more).
@@ -272,6 +275,7 @@ void BM_LiveScansTeam(benchmark::State& state) {
         continue;
       }
       scan_call_s.push_back(dt);
+      busy_ms[static_cast<std::size_t>((f.scans[i].stamp_ns - f.scans.front().stamp_ns) / 1'000'000)] += dt;
       if (reg && reg->reference_updates() != u0) update_call_s.push_back(dt);
       if (reg && tried() != m0) match_call_s.push_back(dt);
       if (dt > 0.010) longest.push_back({dt, i, v0, reg ? reg->reference_voxels() : 0});
@@ -307,6 +311,16 @@ void BM_LiveScansTeam(benchmark::State& state) {
   state.counters["scan_call_max_ms"] = 1e3 * quantile(scan_call_s, 1.0);
   state.counters["scan_call_p999_ms"] = 1e3 * quantile(scan_call_s, 0.999);
   state.counters["scan_call_p99_ms"] = 1e3 * quantile(scan_call_s, 0.99);
+  std::vector<double> windows;  // every 50 ms window of robot time from 2 s on, by the millisecond
+  double window_s = 0;
+  for (std::size_t k = 0; k < busy_ms.size(); ++k) {
+    window_s += busy_ms[k];
+    if (k >= 50) window_s -= busy_ms[k - 50];
+    if (k >= 2050) windows.push_back(window_s);
+  }
+  state.counters["cpu_ms_per_50ms_max"] = 1e3 * quantile(windows, 1.0);
+  state.counters["cpu_ms_per_50ms_p99"] = 1e3 * quantile(windows, 0.99);
+  state.counters["cpu_ms_per_50ms_p50"] = 1e3 * quantile(windows, 0.5);
   state.counters["pose_call_max_ms"] = 1e3 * pose_call_max_s;
   state.counters["startup_call_max_ms"] = 1e3 * startup_call_max_s;
   if (state.range(2) != 0) {
