@@ -79,7 +79,9 @@ const RobotCorrection& Registration::add_scan(std::uint8_t robot, std::int64_t s
     r.started = true;
     r.last_odom = odom_pose;
     r.odom_at_match = odom_pose;
-    r.last_attempt_ns = stamp_ns;
+    // Phased by the robot's id (golden-ratio fractions spread any team size evenly over the period).
+    const double phase = std::fmod(0.6180339887498949 * robot, 1.0);
+    r.last_attempt_ns = stamp_ns - static_cast<std::int64_t>(phase * options_.match_every_s * 1e9);
     const double sm = options_.initial_sigma_m, sr = options_.initial_sigma_rad;
     r.covariance = Matrix6::Zero();
     r.covariance.diagonal().head<3>() = Eigen::Vector3d{sm * sm, sm * sm, sr * sr};

@@ -63,7 +63,10 @@ struct RegistrationOptions {
   // The window's voxels take this many points (the reference's take surface.voxel_cap): the window is
   // one rigid piece, so every sweep across a voxel counts (a tilted laser's stripes fill it).
   std::uint32_t window_voxel_cap = 1024;
-  double match_every_s = 0.5;        // at most one match per robot this often
+  // At most one match per robot this often. Each robot's attempts are phased by its id (the fractional
+  // part of id × 0.618…, of this period): a team that starts together would otherwise match all at once,
+  // every period (32 robots: ~70 ms of matching within ~100 ms of robot time, the loop behind by ~30 ms).
+  double match_every_s = 0.5;
   // The source of a match: the window's surface features (a tilted laser's 3-D points), or its
   // points themselves, each paired with the nearest reference line (point-to-line: a sparse 2-D
   // scan has too few points per voxel for features of its own).
