@@ -219,7 +219,7 @@ void BM_LiveScansTeam(benchmark::State& state) {
   std::vector<double> scan_call_s, update_call_s, match_call_s, busy_ms;
   double pose_call_max_s = 0, startup_call_max_s = 0;
   const std::int64_t steady_from_ns = f.scans.empty() ? 0 : f.scans.front().stamp_ns + 2'000'000'000;
-  std::uint64_t updates = 0, columns = 0, reference_features = 0, matches = 0;
+  std::uint64_t updates = 0, columns = 0, dropped = 0, reference_features = 0, matches = 0;
   for (auto _ : state) {
     FusionOptions o;
     o.core.tracker.team_lag_s = 0.15;
@@ -297,6 +297,7 @@ void BM_LiveScansTeam(benchmark::State& state) {
       updates = reg->reference_updates();
       columns = reg->reference_columns_updated();
       reference_features = reg->reference_features();
+      dropped = reg->reference_map().dropped();
       matches = 0;
       for (std::uint8_t r = 1; r <= state.range(0); ++r)
         if (const registration::RobotCorrection* c = reg->correction(r)) matches += c->matches;
@@ -328,6 +329,7 @@ void BM_LiveScansTeam(benchmark::State& state) {
     state.counters["ref_updates"] = static_cast<double>(updates);
     state.counters["ref_columns_per_update"] = updates ? static_cast<double>(columns) / static_cast<double>(updates) : 0.0;
     state.counters["ref_features"] = static_cast<double>(reference_features);
+    state.counters["ref_dropped"] = static_cast<double>(dropped);  // features beyond LineMap::kMaxPerGroup (0)
     state.counters["update_call_max_ms"] = 1e3 * quantile(update_call_s, 1.0);
     state.counters["update_call_p50_ms"] = 1e3 * quantile(update_call_s, 0.5);
     state.counters["matches"] = static_cast<double>(matches);
