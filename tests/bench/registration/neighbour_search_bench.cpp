@@ -227,9 +227,9 @@ void BM_Match(benchmark::State& state) {
 }
 
 // Reference sizes: a room (2 k features), a floor of a building (8 k, the Intel lab's reference
-// reaches ~6 k), a large site (32 k; 32 robots' reference after 10 s of their first lap: ~8 k). Grid cells 10, 25 and
-// 50 cm. Gates opening at 30 cm (the default) and 100 cm (after a long unmatched stretch). The time
-// per iteration is the search of one match (300 × 13 queries).
+// reaches ~6 k; 32 robots' after 10 s of their first lap ~8 k), a large site (32 k). Grid cells 10,
+// 25 and 50 cm. Gates opening at 30 cm (the default) and 100 cm (after a long unmatched stretch). The
+// time per iteration is the search of one match (300 × 13 queries).
 BENCHMARK(BM_KdTree_Search)->ArgsProduct({{2000, 8000, 32000}, {30, 100}})->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_LineMap_Search)->ArgsProduct({{2000, 8000, 32000}, {10, 25, 50}, {30, 100}})->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_KdTree_Build)->Arg(2000)->Arg(8000)->Arg(32000)->Unit(benchmark::kMicrosecond);
