@@ -3,6 +3,7 @@
 // capacity, load factor ≤ 0.7; memory is exactly two flat arrays, so bytes per entry are measurable.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -41,6 +42,17 @@ class FlatKeyMap {
       if (keys_[i] == key) return &values_[i];
       if (keys_[i] == kEmpty) return nullptr;
     }
+  }
+
+  [[nodiscard]] V* find(std::uint64_t key) {
+    return const_cast<V*>(static_cast<const FlatKeyMap&>(*this).find(key));
+  }
+
+  // Empties the map but keeps its capacity (a map refilled to about the same size, e.g. per match,
+  // does not grow again from 16 entries through every doubling).
+  void clear_keep_capacity() {
+    std::fill(keys_.begin(), keys_.end(), kEmpty);
+    size_ = 0;
   }
 
   // Starts loading the slot where `key` is (or would be inserted) into the cache: a caller with a batch

@@ -1,45 +1,102 @@
 // Scan-to-map matching in the plane: a robot's recent vertical-surface features (odometry-map frame)
-// against the reference features (map frame) by point-to-line ICP with a k-d tree (nanoflann), for the
+// against the reference features (map frame, LineMap) by point-to-line ICP, for the
 // correction map_from_odom = (x, y, yaw). Robust (Huber) weights, a shrinking correspondence gate,
 // normals that must agree. The normal-equations Hessian is eigen-analysed: a direction the geometry
 // does not constrain (a corridor's axis) is left where the prior had it and reported. The result
 // says whether the match is usable (overlap, residual, step) and carries the 3×3 covariance.
 #pragma once
 
+#include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <memory>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "common/pose.hpp"
+#include "groundstation/mapping/flat_key_map.hpp"
 #include "groundstation/registration/surface_grid.hpp"
 
 namespace teamscan::registration {
 
-// The reference: line features with a 2-D k-d tree over their positions. Rebuilt, not updated.
+// The reference: line features in a 2-D hash grid of their positions, updated in place. Features
+// come in groups (the team's reference: one group per voxel column, SurfaceGrid::take_changes), and a
+// group's features are replaced when its column changes: an update costs what changed, never the
+// whole map (the k-d tree this replaced was rebuilt from every feature: docs/registration.md "Cost").
 class LineMap {
  public:
-  LineMap();
-  ~LineMap();
-  LineMap(const LineMap&) = delete;
-  LineMap& operator=(const LineMap&) = delete;
+  // Cells of `cell_m`, in tiles of 16 × 16 cells (one hash look-up per tile a query touches).
+  static constexpr double kDefaultCellM = 0.25;
+  static constexpr std::size_t kMaxPerGroup = 8;  // a column gives one feature per normal direction
+  explicit LineMap(double cell_m = kDefaultCellM);
 
-  void build(std::vector<LineFeature> features);
-  [[nodiscard]] std::size_t size() const { return features_.size(); }
-  [[nodiscard]] const std::vector<LineFeature>& features() const { return features_; }
+  // From scratch: feature i is group i (its index for nearest() and feature() is i).
+  void build(std::span<const LineFeature> features);
+  void clear();
+  // The features of `group` become `features` (none: the group is gone); at most kMaxPerGroup are
+  // kept, the rest counted (dropped()).
+  void replace(std::uint64_t group, std::span<const LineFeature> features);
+
+  [[nodiscard]] std::size_t size() const { return size_; }
+  // The feature nearest() answered with (`index` < slots(); valid until the next change).
+  [[nodiscard]] const LineFeature& feature(std::size_t index) const { return slots_[index].f; }
+  [[nodiscard]] std::size_t slots() const { return slots_.size(); }
   // Index of the nearest feature to (x, y) within `max_distance_m` whose normal agrees with (nx, ny)
   // (|dot| ≥ min_dot; among the 4 nearest), or -1. A query without a normal (0, 0: a bare point)
-  // takes the nearest line.
+  // takes the nearest line. Equal distances are ordered by (group, place in the group): the answer
+  // depends on the features alone, never on the order they came in.
   [[nodiscard]] std::ptrdiff_t nearest(double x_m, double y_m, double nx, double ny, double max_distance_m,
                                        double min_dot) const;
+  // Every feature with its group, by group and place in it (to compare two maps).
+  void collect(std::vector<std::pair<std::uint64_t, LineFeature>>& out) const;
+
+  // Counters: groups replaced, features put in and taken out, features beyond kMaxPerGroup.
+  [[nodiscard]] std::uint64_t groups_replaced() const { return groups_replaced_; }
+  [[nodiscard]] std::uint64_t features_added() const { return features_added_; }
+  [[nodiscard]] std::uint64_t features_removed() const { return features_removed_; }
+  [[nodiscard]] std::uint64_t dropped() const { return dropped_; }
 
  private:
-  struct Index;
-  std::vector<LineFeature> features_;
-  std::unique_ptr<Index> index_;
+  static constexpr std::uint32_t kNone = ~std::uint32_t{0};
+  static constexpr int kTileBits = 4;  // 16 × 16 cells
+  struct Slot {
+    LineFeature f;
+    std::uint64_t group = 0;
+    std::uint32_t place = 0;  // in the group
+    bool live = false;
+  };
+  struct Entry {  // a feature in its cell (the position and normal inline: a query reads no slot)
+    double x_m, y_m, nx, ny;
+    std::uint32_t slot;
+  };
+  struct Group {
+    std::uint32_t count = 0;
+    std::array<std::uint32_t, kMaxPerGroup> slots{};
+  };
+  using Tile = std::array<std::uint32_t, 1u << (2 * kTileBits)>;  // cell index per cell, or kNone
+
+  [[nodiscard]] std::int64_t cell_of(double v) const { return static_cast<std::int64_t>(std::floor(v / cell_m_)); }
+  static std::uint64_t tile_key(std::int64_t tx, std::int64_t ty);
+  [[nodiscard]] const std::vector<Entry>* cell(std::int64_t cx, std::int64_t cy) const;
+  std::vector<Entry>& cell_for_insert(std::int64_t cx, std::int64_t cy);
+  void insert(std::uint32_t slot);
+  void erase(std::uint32_t slot);
+  // (distance², group, place) order of two slots at distance² d2a and d2b.
+  [[nodiscard]] bool before(double d2a, std::uint32_t a, double d2b, std::uint32_t b) const;
+
+  double cell_m_;
+  std::vector<Slot> slots_;
+  std::vector<std::uint32_t> free_;
+  mapping::FlatKeyMap<Group> groups_;
+  mapping::FlatKeyMap<std::uint32_t> tiles_;  // tile key → index in tile_cells_
+  std::vector<Tile> tile_cells_;
+  std::vector<std::vector<Entry>> cells_;
+  std::int64_t cx_lo_ = 0, cx_hi_ = -1, cy_lo_ = 0, cy_hi_ = -1;  // cells ever used (a query stops beyond)
+  std::size_t size_ = 0;
+  std::uint64_t groups_replaced_ = 0, features_added_ = 0, features_removed_ = 0, dropped_ = 0;
 };
 
 struct MatchOptions {

@@ -17,7 +17,7 @@ RegistrationOptions planar_scan_options(RegistrationOptions o) {
   o.window_s = 60.0;
   o.window_m = 0.01;  // the last scan (and any taken from the same spot)
   o.match_every_s = 0.0;
-  o.rebuild_every_s = 0.0;
+  o.update_every_s = 0.0;
   o.match.min_overlap = 0.30;
   o.drift_rad2_per_m = 0.02 * 0.02;
   o.drift_rad2_per_rad = 0.1 * 0.1;
@@ -57,7 +57,9 @@ SurfaceOptions with_cap(SurfaceOptions o, std::uint32_t cap) {
 }  // namespace
 
 Registration::Registration(RegistrationOptions options)
-    : options_{options}, reference_{options.surface}, window_grid_{with_cap(options.surface, options.window_voxel_cap)} {
+    : options_{options},
+      reference_{options.surface, /*track_columns=*/true},
+      window_grid_{with_cap(options.surface, options.window_voxel_cap)} {
   for (std::size_t id = 0; id < robots_.size(); ++id) robots_[id].c.robot = static_cast<std::uint8_t>(id);
 }
 
@@ -77,7 +79,9 @@ const RobotCorrection& Registration::add_scan(std::uint8_t robot, std::int64_t s
     r.started = true;
     r.last_odom = odom_pose;
     r.odom_at_match = odom_pose;
-    r.last_attempt_ns = stamp_ns;
+    // Phased by the robot's id (golden-ratio fractions spread any team size evenly over the period).
+    const double phase = std::fmod(0.6180339887498949 * robot, 1.0);
+    r.last_attempt_ns = stamp_ns - static_cast<std::int64_t>(phase * options_.match_every_s * 1e9);
     const double sm = options_.initial_sigma_m, sr = options_.initial_sigma_rad;
     r.covariance = Matrix6::Zero();
     r.covariance.diagonal().head<3>() = Eigen::Vector3d{sm * sm, sm * sm, sr * sr};
@@ -169,7 +173,7 @@ void Registration::retire(Robot& r, std::int64_t now_ns) {
     // With the correction at the scan (the later matches applied): its place as well as it is known.
     const Pose2& at_scan = r.window.front().map_from_odom;
     for (const Vec3& p : r.window.front().points)
-      if (reference_.add(corrected(at_scan, p))) map_dirty_ = true;
+      (void)reference_.add(corrected(at_scan, p));
     r.window.pop_front();
   }
 }
@@ -183,13 +187,9 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
     ++r.c.standing_still;
     return;
   }
-  if (map_dirty_ && (map_.size() == 0 || static_cast<double>(stamp_ns - map_built_ns_) * 1e-9 >= options_.rebuild_every_s)) {
-    std::vector<LineFeature> features;
-    reference_.features(features);
-    map_.build(std::move(features));
-    map_built_ns_ = stamp_ns;
-    map_dirty_ = false;
-  }
+  if (reference_.changed_columns() > 0 &&
+      (map_.size() == 0 || static_cast<double>(stamp_ns - map_built_ns_) * 1e-9 >= options_.update_every_s))
+    update_reference(stamp_ns);
   if (map_.size() < options_.min_map_features) {
     ++r.c.first_lap;
     return;
@@ -236,6 +236,18 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
   if (m.degenerate) ++r.c.degenerate;
   fuse(r, m);
   r.odom_at_match = odom_pose;
+}
+
+void Registration::update_reference(std::int64_t stamp_ns) {
+  // Only the columns a retired scan changed since the last update: their features are recomputed and
+  // replace theirs in the index.
+  reference_.take_changes(changes_, changed_features_);
+  const std::span<const LineFeature> all{changed_features_};
+  for (const ColumnChange& c : changes_) map_.replace(c.column, all.subspan(c.begin, c.end - c.begin));
+  map_built_ns_ = stamp_ns;
+  ++reference_updates_;
+  reference_columns_updated_ += changes_.size();
+  reference_last_update_columns_ = changes_.size();
 }
 
 void Registration::fuse(Robot& r, const MatchResult& m) {

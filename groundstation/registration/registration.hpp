@@ -63,14 +63,20 @@ struct RegistrationOptions {
   // The window's voxels take this many points (the reference's take surface.voxel_cap): the window is
   // one rigid piece, so every sweep across a voxel counts (a tilted laser's stripes fill it).
   std::uint32_t window_voxel_cap = 1024;
-  double match_every_s = 0.5;        // at most one match per robot this often
+  // At most one match per robot this often. Each robot's attempts are phased by its id (the fractional
+  // part of id × 0.618…, of this period): a team that starts together would otherwise match all at once,
+  // every period (32 robots: ~70 ms of matching within ~100 ms of robot time, the loop behind by ~30 ms).
+  double match_every_s = 0.5;
   // The source of a match: the window's surface features (a tilted laser's 3-D points), or its
   // points themselves, each paired with the nearest reference line (point-to-line: a sparse 2-D
   // scan has too few points per voxel for features of its own).
   bool point_source = false;
   double min_motion_m = 0.05;        // since the last match: less motion than this (and …
   double min_motion_rad = 0.017;     // … less turn) is standing still: no match
-  double rebuild_every_s = 1.0;      // the reference's k-d tree is rebuilt at most this often
+  // The reference's index (LineMap) takes the columns changed since its last update at most this
+  // often (robot time: the stamp of the scan whose match asks for it). An update costs the changed
+  // columns, not the map.
+  double update_every_s = 1.0;
   std::size_t min_map_features = 60; // the first lap: no match before the reference has this many
   // Prediction: the correction's uncertainty grows with what the robot does (skid-steer drift):
   // σ² per metre driven for x and y and for yaw, and per radian turned for yaw.
@@ -138,6 +144,14 @@ class Registration {
   [[nodiscard]] const RobotCorrection* correction(std::uint8_t robot) const;
   [[nodiscard]] std::size_t reference_features() const { return map_.size(); }
   [[nodiscard]] std::size_t reference_voxels() const { return reference_.voxels(); }
+  // The reference's updates so far and the columns they recomputed (their cost: one column each).
+  [[nodiscard]] std::uint64_t reference_updates() const { return reference_updates_; }
+  [[nodiscard]] std::uint64_t reference_columns_updated() const { return reference_columns_updated_; }
+  // The columns recomputed by the latest update.
+  [[nodiscard]] std::size_t reference_last_update_columns() const { return reference_last_update_columns_; }
+  // The reference itself (its features, for tests that compare it with a build from scratch).
+  [[nodiscard]] const LineMap& reference_map() const { return map_; }
+  [[nodiscard]] const SurfaceGrid& reference_grid() const { return reference_; }
   [[nodiscard]] std::uint64_t rejected_scans() const { return rejected_scans_; }
   [[nodiscard]] const RegistrationOptions& options() const { return options_; }
 
@@ -166,10 +180,15 @@ class Registration {
   void fuse(Robot& r, const MatchResult& m);
 
   RegistrationOptions options_;
-  SurfaceGrid reference_;
-  LineMap map_;
-  bool map_dirty_ = false;
+  void update_reference(std::int64_t stamp_ns);
+
+  SurfaceGrid reference_;  // tracks its changed columns
+  LineMap map_;            // the reference's features, one group per column
   std::int64_t map_built_ns_ = 0;
+  std::vector<ColumnChange> changes_;           // update_reference's scratch
+  std::vector<LineFeature> changed_features_;
+  std::uint64_t reference_updates_ = 0, reference_columns_updated_ = 0;
+  std::size_t reference_last_update_columns_ = 0;
   std::array<Robot, kMaxRobots + 1> robots_{};
   SurfaceGrid window_grid_;
   std::vector<LineFeature> scratch_;

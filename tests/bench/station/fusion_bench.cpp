@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <map>
@@ -107,7 +109,9 @@ BENCHMARK_CAPTURE(BM_LiveScans, position, "position", 0.1)->Unit(benchmark::kMil
 // 10 Hz, arrival = stamp, the capacity run's decision lag (0.15 s). Every scan grows the maps, as in the
 // first lap of a 32-robot survey: the CPU per scan here is the station loop's share of
 // run_capacity.sh's cpu_ms_per_scan, repeatable on a loaded machine (counter cpu_us_per_scan); the third
-// argument turns the scan-to-map registration on (counter matches: the registration's accepted ones).
+// argument turns the scan-to-map registration on (counter corrections: the corrections it set). Stalls
+// as thread CPU per call (one turn of the loop), without wall-clock noise: scan_call_max / p999 / p99,
+// and with the registration the calls that updated its reference or ran a match.
 struct TeamFeed {
   std::vector<PoseObservation> poses;
   std::vector<StoredScan> scans;  // in arrival order, poses interleaved by stamp (pose_before[i])
@@ -191,32 +195,148 @@ const TeamFeed& team_feed(int robots, double seconds) {
   return cache.emplace(key, std::move(out)).first->second;
 }
 
+double thread_cpu_s() {
+  timespec t{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+// The p-quantile (0..1) of `v` (sorted in place).
+double quantile(std::vector<double>& v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
+}
+
 void BM_LiveScansTeam(benchmark::State& state) {
   const TeamFeed& f = team_feed(static_cast<int>(state.range(0)), static_cast<double>(state.range(1)));
   double cpu_s = 0, corrections = 0;
+  // Stalls without wall-clock noise: the thread CPU of each call (one turn of the station's loop: a
+  // scan, or a pose, and whatever it releases through the core), the registration's reference updates
+  // among them (a call during which Registration::reference_updates() moved).
+  // The first 2 s of robot time are left out of the figures (start-up: the core's hold releases its
+  // first second of scans in one call, startup_call_max_ms).
+  std::vector<double> scan_call_s, update_call_s, match_call_s, busy_ms;
+  double pose_call_max_s = 0, startup_call_max_s = 0;
+  const std::int64_t steady_from_ns = f.scans.empty() ? 0 : f.scans.front().stamp_ns + 2'000'000'000;
+  std::uint64_t updates = 0, columns = 0, dropped = 0, reference_features = 0, matches = 0;
   for (auto _ : state) {
     FusionOptions o;
     o.core.tracker.team_lag_s = 0.15;
     o.core.registration = state.range(2) != 0;
     if (state.range(3) > 0) o.core.methods.best_freespace.ray_stride = static_cast<std::uint32_t>(state.range(3));
     auto stage = FusionStage::create(o, "/tmp");
-    timespec c0{}, c1{};
-    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
+    const registration::Registration* reg = (*stage)->core().registration();
+    scan_call_s.clear();
+    scan_call_s.reserve(f.scans.size());
+    // The scan calls' CPU per millisecond of robot time (their stamps): the busiest 50 ms window is what
+    // the loop must do in 50 ms when the scans arrive on time (more than 50 ms of CPU: they queue).
+    busy_ms.assign(static_cast<std::size_t>((f.scans.back().stamp_ns - f.scans.front().stamp_ns) / 1'000'000) + 1, 0.0);
+    update_call_s.clear();
+    match_call_s.clear();
+    // Matches tried so far by every robot (a call that ran one or more).
+    auto tried = [&] {
+      std::uint64_t n = 0;
+      if (reg)
+        for (std::uint8_t r = 1; r <= state.range(0); ++r)
+          if (const registration::RobotCorrection* c = reg->correction(r)) n += c->matches;
+      return n;
+    };
+    // TEAMSCAN_BENCH_LONGEST_CALLS=1 prints the 20 longest scan calls (over 10 ms) with the reference's
+    // voxels before and after (a doubling of a hash map shows as a long call at its load limit).
+    struct Long {
+      double s;
+      std::size_t scan, voxels_before, voxels_after;
+      bool operator<(const Long& o) const { return s < o.s; }
+    };
+    std::vector<Long> longest;
+    const double c0 = thread_cpu_s();
     std::size_t next_pose = 0;
     for (std::size_t i = 0; i < f.scans.size(); ++i) {
-      while (next_pose < f.poses_before[i]) (*stage)->add_pose(f.poses[next_pose++]);
+      while (next_pose < f.poses_before[i]) {
+        const std::uint64_t u0 = reg ? reg->reference_updates() : 0;
+        const double t0 = thread_cpu_s();
+        (*stage)->add_pose(f.poses[next_pose++]);
+        const double dt = thread_cpu_s() - t0;
+        if (f.scans[i].stamp_ns < steady_from_ns) {
+          startup_call_max_s = std::max(startup_call_max_s, dt);
+          continue;
+        }
+        pose_call_max_s = std::max(pose_call_max_s, dt);
+        if (reg && reg->reference_updates() != u0) update_call_s.push_back(dt);
+      }
+      const std::uint64_t u0 = reg ? reg->reference_updates() : 0, m0 = tried();
+      const std::size_t v0 = reg ? reg->reference_voxels() : 0;
+      const double t0 = thread_cpu_s();
       (*stage)->add_scan(f.scans[i]);
+      const double dt = thread_cpu_s() - t0;
+      if (f.scans[i].stamp_ns < steady_from_ns) {
+        startup_call_max_s = std::max(startup_call_max_s, dt);
+        continue;
+      }
+      scan_call_s.push_back(dt);
+      busy_ms[static_cast<std::size_t>((f.scans[i].stamp_ns - f.scans.front().stamp_ns) / 1'000'000)] += dt;
+      if (reg && reg->reference_updates() != u0) update_call_s.push_back(dt);
+      if (reg && tried() != m0) match_call_s.push_back(dt);
+      if (dt > 0.010) longest.push_back({dt, i, v0, reg ? reg->reference_voxels() : 0});
     }
     (*stage)->flush();
-    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
-    cpu_s += static_cast<double>(c1.tv_sec - c0.tv_sec) + 1e-9 * static_cast<double>(c1.tv_nsec - c0.tv_nsec);
+    cpu_s += thread_cpu_s() - c0;
+    if (std::getenv("TEAMSCAN_BENCH_LONGEST_CALLS") != nullptr) {
+      std::sort(longest.rbegin(), longest.rend());
+      for (std::size_t k = 0; k < longest.size() && k < 20; ++k) {
+        const StoredScan& sc = f.scans[longest[k].scan];
+        std::fprintf(stderr, "call %.1f ms: scan %zu (robot %u, %.3f s), registration reference %zu -> %zu voxels\n",
+                     1e3 * longest[k].s, longest[k].scan, sc.robot_id,
+                     1e-9 * static_cast<double>(sc.stamp_ns - f.scans.front().stamp_ns), longest[k].voxels_before,
+                     longest[k].voxels_after);
+      }
+    }
     corrections = static_cast<double>((*stage)->core().counters().registration_corrections);
+    if (reg) {
+      updates = reg->reference_updates();
+      columns = reg->reference_columns_updated();
+      reference_features = reg->reference_features();
+      dropped = reg->reference_map().dropped();
+      matches = 0;
+      for (std::uint8_t r = 1; r <= state.range(0); ++r)
+        if (const registration::RobotCorrection* c = reg->correction(r)) matches += c->matches;
+    }
     benchmark::DoNotOptimize((*stage)->counters().live_removed);
   }
   const double scans = static_cast<double>(f.scans.size() * state.iterations());
   state.counters["scans"] = static_cast<double>(f.scans.size());
   state.counters["cpu_us_per_scan"] = 1e6 * cpu_s / scans;
   state.counters["corrections"] = static_cast<double>(corrections);
+  // The last iteration's calls from 2 s on: the longest, p99.9 and p99 of a scan's call (ms of thread CPU).
+  state.counters["scan_call_max_ms"] = 1e3 * quantile(scan_call_s, 1.0);
+  state.counters["scan_call_p999_ms"] = 1e3 * quantile(scan_call_s, 0.999);
+  state.counters["scan_call_p99_ms"] = 1e3 * quantile(scan_call_s, 0.99);
+  std::vector<double> windows;  // every 50 ms window of robot time from 2 s on, by the millisecond
+  double window_s = 0;
+  for (std::size_t k = 0; k < busy_ms.size(); ++k) {
+    window_s += busy_ms[k];
+    if (k >= 50) window_s -= busy_ms[k - 50];
+    if (k >= 2050) windows.push_back(window_s);
+  }
+  state.counters["cpu_ms_per_50ms_max"] = 1e3 * quantile(windows, 1.0);
+  state.counters["cpu_ms_per_50ms_p99"] = 1e3 * quantile(windows, 0.99);
+  state.counters["cpu_ms_per_50ms_p50"] = 1e3 * quantile(windows, 0.5);
+  state.counters["pose_call_max_ms"] = 1e3 * pose_call_max_s;
+  state.counters["startup_call_max_ms"] = 1e3 * startup_call_max_s;
+  if (state.range(2) != 0) {
+    // The calls that updated the registration's reference: how many, their longest and median.
+    state.counters["ref_updates"] = static_cast<double>(updates);
+    state.counters["ref_columns_per_update"] = updates ? static_cast<double>(columns) / static_cast<double>(updates) : 0.0;
+    state.counters["ref_features"] = static_cast<double>(reference_features);
+    state.counters["ref_dropped"] = static_cast<double>(dropped);  // features beyond LineMap::kMaxPerGroup (0)
+    state.counters["update_call_max_ms"] = 1e3 * quantile(update_call_s, 1.0);
+    state.counters["update_call_p50_ms"] = 1e3 * quantile(update_call_s, 0.5);
+    state.counters["matches"] = static_cast<double>(matches);
+    // The calls that ran a match (window features + ICP; in the loop like the rest).
+    state.counters["match_call_max_ms"] = 1e3 * quantile(match_call_s, 1.0);
+    state.counters["match_call_p50_ms"] = 1e3 * quantile(match_call_s, 0.5);
+  }
 }
 // Args: robots, seconds of robot time, registration (0 off, 1 on: docs/registration.md "Cost"), best's
 // ray stride (0: the default, 1: every ray cast; docs/beyond.md "A cheaper free-space walk").
