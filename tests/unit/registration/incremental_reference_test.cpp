@@ -31,14 +31,26 @@ std::size_t apply_changes(SurfaceGrid& grid, LineMap& map) {
   return columns.size();
 }
 
-// `map`'s features (by column, place in it) against a grid fed the same points from scratch.
-void expect_same_as_from_scratch(const LineMap& map, const std::vector<Vec3>& points, const SurfaceOptions& o) {
+// The features of a grid fed `points` from scratch.
+std::vector<LineFeature> features_from_scratch(const std::vector<Vec3>& points, const SurfaceOptions& o) {
   SurfaceGrid scratch{o};
   for (const Vec3& p : points) (void)scratch.add(p);
-  std::vector<LineFeature> expected;
-  scratch.features(expected);
-  std::vector<std::pair<std::uint64_t, LineFeature>> got;
-  map.collect(got);
+  std::vector<LineFeature> out;
+  scratch.features(out);
+  return out;
+}
+
+// Every feature of `map`, by column and place in it.
+std::vector<std::pair<std::uint64_t, LineFeature>> collected(const LineMap& map) {
+  std::vector<std::pair<std::uint64_t, LineFeature>> out;
+  map.collect(out);
+  return out;
+}
+
+// `map`'s features (by column, place in it) against a grid fed the same points from scratch.
+void expect_same_as_from_scratch(const LineMap& map, const std::vector<Vec3>& points, const SurfaceOptions& o) {
+  const std::vector<LineFeature> expected = features_from_scratch(points, o);
+  const std::vector<std::pair<std::uint64_t, LineFeature>> got = collected(map);
   ASSERT_EQ(got.size(), expected.size());
   ASSERT_GT(got.size(), 0u);
   for (std::size_t i = 0; i < got.size(); ++i) {
@@ -142,12 +154,8 @@ TEST(IncrementalReference, AMissedColumnIsSeen) {
   for (const Vec3& p : in.back()) (void)grid.add(p);
   all.insert(all.end(), in.back().begin(), in.back().end());
   ASSERT_GT(grid.changed_columns(), 0u);
-  SurfaceGrid scratch{o};
-  for (const Vec3& p : all) (void)scratch.add(p);
-  std::vector<LineFeature> expected;
-  scratch.features(expected);
-  std::vector<std::pair<std::uint64_t, LineFeature>> got;
-  map.collect(got);
+  const std::vector<LineFeature> expected = features_from_scratch(all, o);
+  const std::vector<std::pair<std::uint64_t, LineFeature>> got = collected(map);
   bool differs = got.size() != expected.size();
   for (std::size_t i = 0; !differs && i < got.size(); ++i)
     differs = got[i].second.x_m != expected[i].x_m || got[i].second.weight != expected[i].weight;
