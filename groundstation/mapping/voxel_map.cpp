@@ -61,9 +61,7 @@ void VoxelMap::insert(const MapPoint& p) {
 }
 
 void VoxelMap::insert(std::span<const MapPoint> points) {
-  // A hollow room's occupancy grows with its surface: a few points per voxel is typical, so reserving
-  // for a quarter of the points avoids most rehashes without over-allocating.
-  voxels_.reserve(voxels_.size() + points.size() / 4);
+  // No reserve: the tables grow a few slots per insert (FlatKeyMap), a reserve would rehash at once.
   for (const MapPoint& p : points) insert(p);
 }
 
