@@ -104,16 +104,23 @@ bool FusionCore::add_scan(const ScanInput& in) {
     ++counters_.duplicate_scans;
     return false;
   }
-  HeldScan s;
+  std::uint32_t slot = 0;
+  if (free_slots_.empty()) {
+    slot = static_cast<std::uint32_t>(slots_.size());
+    slots_.emplace_back();
+  } else {
+    slot = free_slots_.back();
+    free_slots_.pop_back();
+  }
+  HeldScan& s = slots_[slot];
   s.view = v;
   s.view.points = {};
   s.view.flags = {};
   s.view.team = nullptr;
-  s.arrival_ns = in.arrival_ns;
   s.points.assign(v.points.begin(), v.points.end());
   s.flags.assign(v.flags.begin(), v.flags.end());
   s.beams.assign(in.beams.begin(), in.beams.end());
-  held_.push_back(std::move(s));
+  held_.push_back(Held{v.stamp_ns, in.arrival_ns, v.scan, slot, v.robot, false});
   newest_scan_stamp_ns_[v.robot] = std::max(newest_scan_stamp_ns_[v.robot], v.stamp_ns);
   last_scan_arrival_ns_[v.robot] = std::max(last_scan_arrival_ns_[v.robot], in.arrival_ns);
   newest_arrival_ns_ = std::max(newest_arrival_ns_, in.arrival_ns);
@@ -130,7 +137,7 @@ void FusionCore::advance_to(std::int64_t arrival_ns) {
 }
 
 void FusionCore::resume_at(std::int64_t arrival_ns) {
-  for (HeldScan& s : held_) s.arrival_ns = std::max(s.arrival_ns, arrival_ns);
+  for (Held& h : held_) h.arrival_ns = std::max(h.arrival_ns, arrival_ns);
   for (std::uint8_t r = 1; r <= kMaxRobots; ++r)
     if (poses_.known(r)) last_pose_arrival_ns_[r] = std::max(last_pose_arrival_ns_[r], arrival_ns);
   for (std::int64_t& t : last_scan_arrival_ns_)
@@ -166,29 +173,33 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
   }
   // The ready scans go in stamp order (robot, seq on a tie), whatever order they arrived in: the
   // registration's state, and with it every later scan's correction, follows the release order.
+  // The ready ones out, the rest kept in arrival order (one pass, no erase from the middle).
   releasing_.clear();
-  for (auto it = held_.begin(); it != held_.end();) {
+  std::size_t kept = 0;
+  for (Held& h : held_) {
     // Its own robot's poses must have passed it too (own pose), unless that robot is silent.
-    const std::int64_t cutoff = poses_.cutoff(it->view.stamp_ns);  // the newest pose stamp that decides it
-    const std::uint8_t robot = it->view.robot;
-    const bool own_ok = poses_.known(robot) &&
-                        (poses_.newest_stamp(robot) >= cutoff || now_ns - last_pose_arrival_ns_[robot] >= hold_ns);
-    const bool by_poses = own_ok && cutoff <= watermark && it->view.stamp_ns <= scan_watermark;
-    const bool forced = !by_poses && (all || now_ns - it->arrival_ns >= hold_ns);
+    const std::int64_t cutoff = poses_.cutoff(h.stamp_ns);  // the newest pose stamp that decides it
+    const bool own_ok = poses_.known(h.robot) &&
+                        (poses_.newest_stamp(h.robot) >= cutoff || now_ns - last_pose_arrival_ns_[h.robot] >= hold_ns);
+    const bool by_poses = own_ok && cutoff <= watermark && h.stamp_ns <= scan_watermark;
+    const bool forced = !by_poses && (all || now_ns - h.arrival_ns >= hold_ns);
     if (by_poses || forced) {
-      it->forced = forced;
-      releasing_.push_back(std::move(*it));
-      it = held_.erase(it);
+      h.forced = forced;
+      releasing_.push_back(h);
     } else {
-      ++it;
+      held_[kept++] = h;
     }
   }
-  std::stable_sort(releasing_.begin(), releasing_.end(), [](const HeldScan& x, const HeldScan& y) {
-    if (x.view.stamp_ns != y.view.stamp_ns) return x.view.stamp_ns < y.view.stamp_ns;
-    if (x.view.robot != y.view.robot) return x.view.robot < y.view.robot;
-    return x.view.scan < y.view.scan;
+  held_.resize(kept);
+  std::stable_sort(releasing_.begin(), releasing_.end(), [](const Held& x, const Held& y) {
+    if (x.stamp_ns != y.stamp_ns) return x.stamp_ns < y.stamp_ns;
+    if (x.robot != y.robot) return x.robot < y.robot;
+    return x.scan < y.scan;
   });
-  for (HeldScan& s : releasing_) release(s, s.forced);
+  for (const Held& h : releasing_) {
+    release(slots_[h.slot], h.arrival_ns, h.forced);
+    free_slots_.push_back(h.slot);
+  }
   releasing_.clear();
 }
 
@@ -246,7 +257,7 @@ void FusionCore::register_scan(const HeldScan& s) {
   }
 }
 
-void FusionCore::release(HeldScan& s, bool forced) {
+void FusionCore::release(HeldScan& s, std::int64_t arrival_ns, bool forced) {
   ++counters_.scans_released;
   if (forced) ++counters_.scans_forced;
   // The registration first (it may correct this scan's robot from this scan's stamp on), then the
@@ -283,7 +294,7 @@ void FusionCore::release(HeldScan& s, bool forced) {
   if (on_release_) {
     FusedScan f;
     f.view = &view;
-    f.arrival_ns = s.arrival_ns;
+    f.arrival_ns = arrival_ns;
     f.forced = forced;
     f.beams = s.beams;
     f.bits = bits_;

@@ -24,7 +24,6 @@
 
 #include <array>
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <memory>
 #include <span>
@@ -189,18 +188,26 @@ class FusionCore {
  private:
   FusionCore(const CoreOptions& options, std::unique_ptr<mapping::Filter> filter);
   // A scan waiting for its team state: its input with the spans copied into owned storage (the view's
-  // spans are pointed at it on release).
+  // spans are pointed at it on release). Kept in slots_ and reused: a released scan's vectors keep
+  // their capacity for the next one.
   struct HeldScan {
     mapping::ScanView view;
-    std::int64_t arrival_ns = 0;
     std::vector<mapping::MapPoint> points;
     std::vector<std::uint16_t> flags, beams;
-    bool forced = false;  // released by hold_s (set when it is released)
+  };
+  // A held scan in the queue: what release_ready() tests, and its slot. Small, so that a pass over a
+  // long queue (a station catching up holds thousands) and taking the ready ones out stay cheap.
+  struct Held {
+    std::int64_t stamp_ns;
+    std::int64_t arrival_ns;
+    std::uint32_t scan;
+    std::uint32_t slot;  // in slots_
+    std::uint8_t robot;
+    bool forced;  // released by hold_s (set when it is released)
   };
   bool seen_before(std::uint8_t robot, std::uint32_t seq);
-  [[nodiscard]] bool ready(const HeldScan& s) const;
   void release_ready(std::int64_t now_arrival_ns, bool all);
-  void release(HeldScan& s, bool forced);
+  void release(HeldScan& s, std::int64_t arrival_ns, bool forced);
   void store(const HeldScan& s);
   void decide_voxel(std::size_t k, std::vector<ModelPoint>& points, std::vector<mapping::MapPoint>& pts,
                     std::vector<std::uint8_t>& bits, std::vector<std::uint8_t>& removed) const;
@@ -209,7 +216,9 @@ class FusionCore {
   CoreOptions options_;
   std::unique_ptr<mapping::Filter> filter_;
   PoseHistory poses_;
-  std::deque<HeldScan> held_;  // arrival order
+  std::vector<Held> held_;  // arrival order
+  std::vector<HeldScan> slots_;
+  std::vector<std::uint32_t> free_slots_;
   std::int64_t newest_arrival_ns_ = INT64_MIN;
   std::int64_t first_arrival_ns_ = INT64_MIN;
   std::array<std::int64_t, kMaxRobots + 1> last_pose_arrival_ns_{};
@@ -236,7 +245,7 @@ class FusionCore {
   // Scratch of a release.
   std::vector<std::uint8_t> bits_, removed_;
   std::vector<ModelPoint> model_points_;  // store()'s scratch
-  std::vector<HeldScan> releasing_;
+  std::vector<Held> releasing_;
   std::vector<Vec3> registration_points_;
   std::vector<std::uint8_t> registration_usable_;
   std::vector<mapping::MapPoint> registration_corrected_;  // register_scan's points in the corrected frame
