@@ -26,6 +26,8 @@ Result<std::unique_ptr<FusionCore>> FusionCore::create(const CoreOptions& option
   if (!(options.tracker.team_lag_s >= 0.0 && options.tracker.team_lag_s <= 10.0))
     return Error{"fusion: team_lag_s must be in [0, 10] s"};
   if (!(options.pose_keep_s > 0.0)) return Error{"fusion: pose_keep_s must be > 0"};
+  if (!(options.min_scan_interval_s >= 0.0 && options.min_scan_interval_s <= 1.0))
+    return Error{"fusion: min_scan_interval_s must be in [0, 1] s"};
   if (options.max_points_per_voxel > 0 && !(options.model_resolution_m > 0.0))
     return Error{"fusion: model resolution must be > 0 (fusion.model_resolution_m)"};
   if (options.registration) {
@@ -161,14 +163,17 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
     watermark = std::min(watermark, poses_.newest_stamp(r));
   }
   // With the registration, the release order is part of the state (each match sees the reference the
-  // scans released before it built), so a scan also waits for every robot still sending scans to have
-  // sent one stamped at or after it (a robot's scans arrive in order): then no earlier-stamped scan can
-  // still arrive, and live releases in stamp order as `teamscan eval` does. Costs about one scan period.
-  std::int64_t scan_watermark = INT64_MAX;
+  // scans released before it built), so a scan also waits until no earlier-stamped scan can still
+  // arrive: a robot's scans arrive in order, each stamped at least min_scan_interval_s after the one
+  // before (at least 1 ns), so robot r sends nothing stamped before newest_r + interval. A scan stamped
+  // before that for every robot still sending is released, and live releases in stamp order as
+  // `teamscan eval` does. Costs up to a scan period minus the interval.
+  std::int64_t scan_watermark = INT64_MAX;  // release what is stamped before it
   if (registration_) {
+    const std::int64_t interval_ns = std::max<std::int64_t>(1, from_seconds(options_.min_scan_interval_s).count());
     for (std::uint8_t r = 1; r <= kMaxRobots; ++r) {
       if (last_scan_arrival_ns_[r] == INT64_MIN || now_ns - last_scan_arrival_ns_[r] >= hold_ns) continue;
-      scan_watermark = std::min(scan_watermark, newest_scan_stamp_ns_[r]);
+      scan_watermark = std::min(scan_watermark, newest_scan_stamp_ns_[r] + interval_ns);
     }
   }
   // The ready scans go in stamp order (robot, seq on a tie), whatever order they arrived in: the
@@ -181,7 +186,7 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
     const std::int64_t cutoff = poses_.cutoff(h.stamp_ns);  // the newest pose stamp that decides it
     const bool own_ok = poses_.known(h.robot) &&
                         (poses_.newest_stamp(h.robot) >= cutoff || now_ns - last_pose_arrival_ns_[h.robot] >= hold_ns);
-    const bool by_poses = own_ok && cutoff <= watermark && h.stamp_ns <= scan_watermark;
+    const bool by_poses = own_ok && cutoff <= watermark && h.stamp_ns < scan_watermark;
     const bool forced = !by_poses && (all || now_ns - h.arrival_ns >= hold_ns);
     if (by_poses || forced) {
       h.forced = forced;
@@ -197,6 +202,8 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
     return x.scan < y.scan;
   });
   for (const Held& h : releasing_) {
+    if (h.stamp_ns < newest_released_stamp_ns_) ++counters_.scans_out_of_stamp_order;
+    newest_released_stamp_ns_ = std::max(newest_released_stamp_ns_, h.stamp_ns);
     release(slots_[h.slot], h.arrival_ns, h.forced);
     free_slots_.push_back(h.slot);
   }

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "common/capacities.hpp"
+#include "common/laser_geometry.hpp"
 #include "common/result.hpp"
 #include "groundstation/fusion/model_store.hpp"
 #include "groundstation/fusion/pose_history.hpp"
@@ -65,6 +66,13 @@ struct CoreOptions {
   // (methods.tracked).
   bool registration = false;
   registration::RegistrationOptions registration_options{};
+  // With the registration, scans are released in stamp order: a scan waits until no earlier-stamped one
+  // can still arrive, i.e. until every robot still sending scans has sent one stamped later than it
+  // minus this interval (a robot's scans arrive in order, each stamped at least this long after the one
+  // before). The LMS-200's mirror turns 75 times a second, a scan every 13.3 ms or more; half of that
+  // leaves room for the stamps' jitter. 0: wait for a scan stamped at or after it (up to a scan period
+  // more). A scan stamped closer to its predecessor is released out of order (counted).
+  double min_scan_interval_s = to_seconds(kLmsRevolution) / 2;
 };
 
 // One scan as the core takes it: the filters' view of it (mapping::ScanView: robot, sequence number,
@@ -127,6 +135,9 @@ struct CoreCounters {
   std::uint64_t duplicate_scans = 0;   // (robot, seq) fused recently: a DDS history replay
   std::uint64_t scans_released = 0;
   std::uint64_t scans_forced = 0;      // released by hold_s
+  // Released after a scan stamped later (with the registration: it arrived later than the release
+  // order allowed for, e.g. stamped closer to its predecessor than min_scan_interval_s).
+  std::uint64_t scans_out_of_stamp_order = 0;
   std::uint64_t poses_in = 0;
   std::uint64_t poses_rejected = 0;    // duplicates, bad ids, non-finite
   std::uint64_t points = 0;
@@ -221,6 +232,7 @@ class FusionCore {
   std::vector<std::uint32_t> free_slots_;
   std::int64_t newest_arrival_ns_ = INT64_MIN;
   std::int64_t first_arrival_ns_ = INT64_MIN;
+  std::int64_t newest_released_stamp_ns_ = INT64_MIN;
   std::array<std::int64_t, kMaxRobots + 1> last_pose_arrival_ns_{};
   // Per robot: its newest scan's stamp and the arrival of its last scan (the scan watermark, used with
   // the registration: release_ready).

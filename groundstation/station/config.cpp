@@ -168,6 +168,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.only(fusion, "fusion", {"enabled", "method", "resolution_m", "half_angle_deg", "grid_origin_z_m", "frequency_k",
                             "position_sigma_m", "position_n", "direction_from_flags", "write_interval_s",
                             "write_all_points", "map_interval_s", "map_resolution_m", "latency_log", "hold_s", "team_lag_s",
+                            "min_scan_interval_s",
                             "model_resolution_m", "max_points_per_voxel", "compare_methods", "write_slice_ms", "writer_cpus",
                             "registration"});
   r.boolean(fusion, "fusion", "enabled", f.enabled);
@@ -192,6 +193,7 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.number_in(fusion, "fusion", "map_resolution_m", f.map_resolution_m, 0.0, 10.0);
   r.number_in(fusion, "fusion", "hold_s", f.hold_s, 0.0, 60.0, true);
   r.number_in(fusion, "fusion", "team_lag_s", f.team_lag_s, 0.0, 10.0, true);
+  r.number_in(fusion, "fusion", "min_scan_interval_s", f.min_scan_interval_s, 0.0, 1.0, true);
   r.number_in(fusion, "fusion", "model_resolution_m", f.model_resolution_m, 0.0, 10.0);
   std::int64_t max_per_voxel = f.max_points_per_voxel;
   r.integer_in(fusion, "fusion", "max_points_per_voxel", max_per_voxel, 0, 1'000'000);

@@ -59,6 +59,8 @@ struct FusionConfig {
   double hold_s = fusion::CoreOptions{}.hold_s;
   // The decision lag (mapping::TrackerOptions::team_lag_s): 0 = the exact team at each scan's stamp.
   double team_lag_s = 0.0;
+  // With the registration: a robot's scans are stamped at least this far apart (fusion::CoreOptions).
+  double min_scan_interval_s = fusion::CoreOptions{}.min_scan_interval_s;
   double model_resolution_m = fusion::CoreOptions{}.model_resolution_m;
   std::uint32_t max_points_per_voxel = fusion::CoreOptions{}.max_points_per_voxel;
   // Scan-to-map registration in the fusion core (docs/registration.md; `teamscan eval --registration`

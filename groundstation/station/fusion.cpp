@@ -58,6 +58,7 @@ FusionOptions fusion_options_from_config(const FusionConfig& f, const KalmanConf
   o.core.tracker = tracker_options(k);
   o.core.hold_s = f.hold_s;
   o.core.tracker.team_lag_s = f.team_lag_s;
+  o.core.min_scan_interval_s = f.min_scan_interval_s;
   o.core.model_resolution_m = f.model_resolution_m;
   o.core.max_points_per_voxel = f.max_points_per_voxel;
   o.core.registration = f.registration;

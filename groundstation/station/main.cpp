@@ -244,7 +244,7 @@ int main(int argc, char** argv) {
                     "fused model written (%s): %llu kept, %llu removed, %llu scans; snapshot %.3f s in the loop (%u slices, longest "
                     "%.1f ms, over %.2f s), write %.2f s %s "
                     "(%zu models, %llu points; %llu requests coalesced); model store %llu points in %zu voxels (%llu beyond the "
-                    "per-voxel cap), %.1f MiB (all models %.1f MiB); filter maps %.1f MiB, live map %.1f MiB; %llu scans released by hold_s",
+                    "per-voxel cap), %.1f MiB (all models %.1f MiB); filter maps %.1f MiB, live map %.1f MiB; %llu scans released by hold_s, %llu out of stamp order",
                     w.on_writer_thread ? "periodic" : "shutdown", static_cast<unsigned long long>(w.kept), static_cast<unsigned long long>(w.removed),
                     static_cast<unsigned long long>(fc.scans), w.snapshot_s, w.snapshot_slices,
                     w.snapshot_slice_max_s * 1e3, w.snapshot_span_s, w.write_s,
@@ -256,7 +256,7 @@ int main(int argc, char** argv) {
                     static_cast<double>(fusion->model_memory_bytes()) / (1024.0 * 1024.0),
                     static_cast<double>(fusion->filter_memory_bytes()) / (1024.0 * 1024.0),
                     static_cast<double>(fusion->live_map().memory_bytes()) / (1024.0 * 1024.0),
-                    static_cast<unsigned long long>(c.scans_forced));
+                    static_cast<unsigned long long>(c.scans_forced), static_cast<unsigned long long>(c.scans_out_of_stamp_order));
       store->log_event(now_realtime(), text);
       if (w.on_writer_thread && !writer_told) {
         // Once: where the writer thread runs (fusion.writer_cpus), as the kernel reports it.

@@ -302,6 +302,7 @@ TEST(FusionRegistration, ModelDecisionsEqualEvalWithRegistrationOn) {
       ASSERT_TRUE(stage.ok());
       feed(**stage, d, pose_delay, {}, scan_delay);
       EXPECT_GT((*stage)->core().counters().registration_corrections, 0u);
+      EXPECT_EQ((*stage)->core().counters().scans_out_of_stamp_order, 0u);
       ASSERT_TRUE((*stage)->write_model().ok());
       auto all = read_pcd(dir + "/fused_all.pcd");
       ASSERT_TRUE(all.ok());
@@ -713,6 +714,21 @@ TEST(FusionConfig, RegistrationIsOffByDefaultAndOnByKeyOrSection) {
   EXPECT_FALSE(parse_groundstation_config("[registration]\nwindow_s = 0\n", "t.toml", off, e));
   EXPECT_EQ(e.message.rfind("registration.window_s:", 0), 0u) << e.message;
   EXPECT_FALSE(parse_groundstation_config("[registration]\nmagic = 1\n", "t.toml", off, e));
+}
+
+TEST(FusionConfig, MinScanIntervalReachesTheCore) {
+  GroundStationConfig c;
+  EXPECT_DOUBLE_EQ(fusion_options_from_config(c.fusion, c.kalman).core.min_scan_interval_s,
+                   fusion::CoreOptions{}.min_scan_interval_s);
+  ConfigError e;
+  ASSERT_TRUE(parse_groundstation_config("[fusion]\nmin_scan_interval_s = 0.02\n", "t.toml", c, e)) << e.message;
+  EXPECT_DOUBLE_EQ(fusion_options_from_config(c.fusion, c.kalman).core.min_scan_interval_s, 0.02);
+  for (const char* bad : {"[fusion]\nmin_scan_interval_s = -0.001\n", "[fusion]\nmin_scan_interval_s = 2.0\n",
+                          "[fusion]\nmin_scan_interval_s = \"fast\"\n"}) {
+    GroundStationConfig b;
+    EXPECT_FALSE(parse_groundstation_config(bad, "t.toml", b, e)) << bad;
+    EXPECT_EQ(e.message.rfind("fusion.min_scan_interval_s:", 0), 0u) << e.message;
+  }
 }
 
 // The station's [registration] odometry priors (a calibration's [[registration.robot]] tables) reach the
