@@ -17,6 +17,7 @@ RegistrationOptions planar_scan_options(RegistrationOptions o) {
   o.window_s = 60.0;
   o.window_m = 0.01;  // the last scan (and any taken from the same spot)
   o.match_every_s = 0.0;
+  o.match_delay_s = 0.0;  // the next scan's match starts from this one's
   o.update_every_s = 0.0;
   o.match.min_overlap = 0.30;
   o.drift_rad2_per_m = 0.02 * 0.02;
@@ -104,6 +105,11 @@ const RobotCorrection& Registration::add_scan(std::uint8_t robot, std::int64_t s
   }
   r.c.matched = false;
   predict(r, odom_pose);
+  // A match due at this scan: fused now (waiting for the worker if it is not done).
+  if (r.job.pending && stamp_ns >= r.job.apply_ns) {
+    if (r.job.ticket != 0) worker_->wait(r.job.ticket);
+    finish(r);
+  }
   WindowScan ws;
   ws.stamp_ns = stamp_ns;
   ws.path_m = r.path_m;
@@ -179,6 +185,7 @@ void Registration::retire(Robot& r, std::int64_t now_ns) {
 }
 
 void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_pose) {
+  if (r.job.pending) return;  // the last one is not fused yet
   if (static_cast<double>(stamp_ns - r.last_attempt_ns) * 1e-9 < options_.match_every_s) return;
   r.last_attempt_ns = stamp_ns;
   const double moved_m = std::hypot(odom_pose.x_m - r.odom_at_match.x_m, odom_pose.y_m - r.odom_at_match.y_m);
@@ -194,34 +201,64 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
     ++r.c.first_lap;
     return;
   }
+  MatchJob& j = r.job;
   // The window is matched as one rigid piece in the odometry frame of now: each scan's points moved by
   // the correction's change since it (the rates' extrapolation; none when the correction was held).
   const Pose2 now_from_map = r.c.map_from_odom.inverse();
-  auto for_each_window_point = [&](auto&& f) {
-    for (const WindowScan& ws : r.window) {
-      const bool held = ws.map_from_odom.x_m == r.c.map_from_odom.x_m && ws.map_from_odom.y_m == r.c.map_from_odom.y_m &&
-                        ws.map_from_odom.theta_rad == r.c.map_from_odom.theta_rad;
-      const Pose2 now_from_scan = now_from_map * ws.map_from_odom;
-      for (const Vec3& p : ws.points) f(held ? p : corrected(now_from_scan, p));
-    }
-  };
-  if (options_.point_source) {
-    // Each usable point is a source of its own, without a normal: it pairs with the nearest line.
-    scratch_.clear();
-    for_each_window_point([&](const Vec3& p) { scratch_.push_back({p.x, p.y, 0.0, 0.0, 1.0f}); });
-  } else {
-    window_grid_.clear();
-    for_each_window_point([&](const Vec3& p) { (void)window_grid_.add(p); });
-    window_grid_.features(scratch_);
+  j.points.clear();
+  for (const WindowScan& ws : r.window) {
+    const bool held = ws.map_from_odom.x_m == r.c.map_from_odom.x_m && ws.map_from_odom.y_m == r.c.map_from_odom.y_m &&
+                      ws.map_from_odom.theta_rad == r.c.map_from_odom.theta_rad;
+    const Pose2 now_from_scan = now_from_map * ws.map_from_odom;
+    for (const Vec3& p : ws.points) j.points.push_back(held ? p : corrected(now_from_scan, p));
   }
   // The bounded step opens with the prediction's uncertainty (3σ): a robot that went unmatched for a
   // while may move further, one matched a moment ago may not jump.
-  MatchOptions mo = options_.match;
+  j.options = options_.match;
+  MatchOptions& mo = j.options;
   const double sigma_m = std::sqrt(std::max(r.c.covariance(0, 0), r.c.covariance(1, 1)));
   mo.max_step_m = std::max(mo.max_step_m, 3.0 * sigma_m);
   mo.max_step_rad = std::max(mo.max_step_rad, 3.0 * std::sqrt(r.c.covariance(2, 2)));
   mo.gate_start_m = std::max(mo.gate_start_m, mo.max_step_m + mo.gate_end_m);
-  const MatchResult m = match(map_, scratch_, r.c.map_from_odom, mo);
+  j.prior = r.c.map_from_odom;
+  j.odom_pose = odom_pose;
+  j.pending = true;
+  if (options_.match_delay_s <= 0.0) {
+    j.ticket = 0;
+    compute(j);
+    finish(r);
+    return;
+  }
+  j.apply_ns = stamp_ns + static_cast<std::int64_t>(options_.match_delay_s * 1e9);
+  if (!worker_) worker_ = std::make_unique<MatchWorker>(options_.cpus);
+  j.ticket = worker_->submit([this, &j] { compute(j); });
+}
+
+void Registration::compute(MatchJob& j) {
+  if (options_.point_source) {
+    // Each usable point is a source of its own, without a normal: it pairs with the nearest line.
+    j.features.clear();
+    for (const Vec3& p : j.points) j.features.push_back({p.x, p.y, 0.0, 0.0, 1.0f});
+  } else {
+    window_grid_.clear();
+    for (const Vec3& p : j.points) (void)window_grid_.add(p);
+    window_grid_.features(j.features);
+  }
+  j.result = match(map_, j.features, j.prior, j.options);
+}
+
+void Registration::finish(Robot& r) {
+  MatchJob& j = r.job;
+  j.pending = false;
+  MatchResult m = j.result;
+  // Matched at its scan; the correction has since moved by the rates' extrapolation alone (no match is
+  // fused in between): the measurement moves with it.
+  if (!(r.c.map_from_odom.x_m == j.prior.x_m && r.c.map_from_odom.y_m == j.prior.y_m &&
+        r.c.map_from_odom.theta_rad == j.prior.theta_rad)) {
+    const Pose2 since = r.c.map_from_odom * j.prior.inverse();
+    m.map_from_odom = since * m.map_from_odom;
+    m.pivot_m = since.apply(m.pivot_m);
+  }
   ++r.c.matches;
   r.c.last = m;
   switch (m.status) {
@@ -235,10 +272,11 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
   r.c.matched = true;
   if (m.degenerate) ++r.c.degenerate;
   fuse(r, m);
-  r.odom_at_match = odom_pose;
+  r.odom_at_match = j.odom_pose;
 }
 
 void Registration::update_reference(std::int64_t stamp_ns) {
+  if (worker_) worker_->wait_idle();  // no match may be reading the index while it changes
   // Only the columns a retired scan changed since the last update: their features are recomputed and
   // replace theirs in the index.
   reference_.take_changes(changes_, changed_features_);

@@ -19,6 +19,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -27,6 +28,7 @@
 
 #include "common/capacities.hpp"
 #include "common/pose.hpp"
+#include "groundstation/registration/match_worker.hpp"
 #include "groundstation/registration/matcher.hpp"
 #include "groundstation/registration/surface_grid.hpp"
 
@@ -67,6 +69,15 @@ struct RegistrationOptions {
   // part of id × 0.618…, of this period): a team that starts together would otherwise match all at once,
   // every period (32 robots: ~70 ms of matching within ~100 ms of robot time, the loop behind by ~30 ms).
   double match_every_s = 0.5;
+  // A match taken at a robot's scan stamped t is fused into its correction at its first scan stamped
+  // t + match_delay_s or later, and is computed meanwhile on a thread of its own (MatchWorker, on
+  // `cpus`): the station's receive loop neither builds the window's grid nor searches the reference.
+  // The caller waits for the match only if it is not done when due, so every scan gets the same
+  // correction whichever thread computed it and however long it took (live = `teamscan eval`). The
+  // scans in between keep the prediction. 0: matched and fused at the scan, on the caller's thread.
+  double match_delay_s = 0.05;
+  // The match thread's CPUs (empty: the caller's). A station pinned to one core names another here.
+  std::vector<int> cpus;
   // The source of a match: the window's surface features (a tilted laser's 3-D points), or its
   // points themselves, each paired with the nearest reference line (point-to-line: a sparse 2-D
   // scan has too few points per voxel for features of its own).
@@ -153,6 +164,8 @@ class Registration {
   [[nodiscard]] const LineMap& reference_map() const { return map_; }
   [[nodiscard]] const SurfaceGrid& reference_grid() const { return reference_; }
   [[nodiscard]] std::uint64_t rejected_scans() const { return rejected_scans_; }
+  // The match thread (nullptr until the first match with match_delay_s > 0).
+  [[nodiscard]] const MatchWorker* worker() const { return worker_.get(); }
   [[nodiscard]] const RegistrationOptions& options() const { return options_; }
 
  private:
@@ -163,6 +176,19 @@ class Registration {
     Pose2 map_from_odom;       // the correction at the scan (moved with every later match)
   };
   using Matrix6 = Eigen::Matrix<double, 6, 6>;
+  // A match in flight: its input (the window's points in the odometry frame of its scan, the prior),
+  // its answer, and when it is fused.
+  struct MatchJob {
+    bool pending = false;
+    std::uint64_t ticket = 0;     // MatchWorker's (0: computed on the caller's thread)
+    std::int64_t apply_ns = 0;    // fused at the robot's first scan stamped this or later
+    Pose2 prior;                  // the correction it started from
+    Pose2 odom_pose;              // the robot's odometry at its scan
+    MatchOptions options;
+    std::vector<Vec3> points;
+    std::vector<LineFeature> features;
+    MatchResult result;
+  };
   struct Robot {
     bool started = false;
     RobotCorrection c;
@@ -172,11 +198,16 @@ class Registration {
     Pose2 odom_at_match;
     std::int64_t last_attempt_ns = 0;
     std::deque<WindowScan> window;
+    MatchJob job;
   };
 
   void predict(Robot& r, const Pose2& odom_pose);
   void retire(Robot& r, std::int64_t now_ns);
   void try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_pose);
+  // The match itself (the worker's part): window grid, features, search. Reads map_ and window_grid_.
+  void compute(MatchJob& j);
+  // Its answer into the robot's counters and correction (the caller's part).
+  void finish(Robot& r);
   void fuse(Robot& r, const MatchResult& m);
 
   RegistrationOptions options_;
@@ -190,9 +221,10 @@ class Registration {
   std::uint64_t reference_updates_ = 0, reference_columns_updated_ = 0;
   std::size_t reference_last_update_columns_ = 0;
   std::array<Robot, kMaxRobots + 1> robots_{};
-  SurfaceGrid window_grid_;
-  std::vector<LineFeature> scratch_;
+  SurfaceGrid window_grid_;  // compute()'s (one match at a time)
   std::uint64_t rejected_scans_ = 0;
+  // Last: destroyed first, its queued matches still reading the members above.
+  std::unique_ptr<MatchWorker> worker_;
 };
 
 // Applies a correction to a point of the odometry-map frame.

@@ -200,13 +200,18 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   f.max_points_per_voxel = static_cast<std::uint32_t>(max_per_voxel);
   r.boolean(fusion, "fusion", "registration", f.registration);
   const toml::table* reg = r.section("registration", false);
-  r.only(reg, "registration", {"enabled", "window_s", "match_every_s", "min_map_features", "robot", TEAMSCAN_PRIOR_KEYS});
+  r.only(reg, "registration",
+         {"enabled", "window_s", "match_every_s", "match_delay_s", "cpus", "min_map_features", "robot", TEAMSCAN_PRIOR_KEYS});
   if (reg != nullptr) {
     f.registration = true;
     r.boolean(reg, "registration", "enabled", f.registration);
   }
   r.number_in(reg, "registration", "window_s", c.registration.window_s, 0.0, 60.0);
   r.number_in(reg, "registration", "match_every_s", c.registration.match_every_s, 0.0, 60.0, true);
+  r.number_in(reg, "registration", "match_delay_s", c.registration.match_delay_s, 0.0, 10.0, true);
+  std::vector<std::int64_t> match_cpus(c.registration.cpus.begin(), c.registration.cpus.end());
+  if (r.integers_in(reg, "registration", "cpus", match_cpus, 0, CPU_SETSIZE - 1))
+    c.registration.cpus.assign(match_cpus.begin(), match_cpus.end());
   std::int64_t min_features = c.registration.min_map_features;
   r.integer_in(reg, "registration", "min_map_features", min_features, 0, 1'000'000);
   c.registration.min_map_features = static_cast<std::uint32_t>(min_features);

@@ -124,7 +124,8 @@ int main(int argc, char** argv) {
       out += ']';
       return out;
     };
-    std::printf("view.cpus = %s\nfusion.writer_cpus = %s\n", cpu_list(cfg.view.cpus).c_str(), cpu_list(cfg.fusion.writer_cpus).c_str());
+    std::printf("view.cpus = %s\nfusion.writer_cpus = %s\nregistration.cpus = %s\n", cpu_list(cfg.view.cpus).c_str(),
+                cpu_list(cfg.fusion.writer_cpus).c_str(), cpu_list(cfg.registration.cpus).c_str());
     return 0;
   }
 
@@ -232,6 +233,7 @@ int main(int argc, char** argv) {
   // take a snapshot in this loop and are written on the fusion stage's writer thread; the shutdown
   // write is synchronous. Every finished write is logged here, in the loop, with the latency so far.
   bool writer_told = false;
+  bool match_told = false;  // a refused registration.cpus warned once
   auto log_write = [&](const ModelWriteReport& w) {
     if (!w.ok) {
       log(kErr, std::string("fusion: ") + w.error.what + " (" + std::strerror(w.error.sys_errno) + ")");
@@ -266,6 +268,16 @@ int main(int argc, char** argv) {
         if (ws.affinity_error != 0) line += std::string(" (fusion.writer_cpus refused: ") + std::strerror(ws.affinity_error) + ")";
         store->log_event(now_realtime(), line);
         if (ws.affinity_error != 0) log(kWarning, line);
+      }
+      // Where the registration's matches run (registration.cpus), and how often the loop waited for one.
+      if (const registration::Registration* reg = fusion->core().registration(); reg != nullptr && reg->worker() != nullptr) {
+        const ThreadScheduling ms = reg->worker()->scheduling();
+        std::string line = "registration match thread: " + describe(ms) + "; the loop waited for " +
+                           std::to_string(reg->worker()->waits_blocked()) + " matches";
+        if (ms.affinity_error != 0) line += std::string(" (registration.cpus refused: ") + std::strerror(ms.affinity_error) + ")";
+        store->log_event(now_realtime(), line);
+        if (ms.affinity_error != 0 && !match_told) log(kWarning, line);
+        match_told = true;
       }
     }
     // Scan -> fused-map latency so far (latency.csv; docs/demo.md "Scale").

@@ -11,11 +11,12 @@
 # first 2 s: the core releases nothing in its first hold_s); the all-scans p99 is printed beside them.
 #
 # REGISTRATION=1 turns the station's scan-to-map registration on (a [registration] section, its defaults;
-# docs/registration.md "Cost"); DATASET=DIR feeds a recorded data set (`teamscan sim ... --out DIR`, e.g.
+# docs/registration.md "Cost"), its match thread on MATCH_CPUS (default: the feeder's CPU, as a station
+# with a second core would place it; MATCH_CPUS= keeps it on the station's); DATASET=DIR feeds a recorded data set (`teamscan sim ... --out DIR`, e.g.
 # lap2-drift) instead of the synthetic survey. cpu_ms_per_scan = the station's CPU seconds over the feed
 # and the drain / the scans it stored: on a shared machine a steadier figure than the latency.
 #
-# usage: [METHOD=best] [TEAM_LAG=0.15] [REGISTRATION=0] [DATASET=dir] [DOMAIN=id] [STATION_CPU=1] [FEEDER_CPU=0] [DDS_CONFIG=file] \
+# usage: [METHOD=best] [TEAM_LAG=0.15] [REGISTRATION=0] [MATCH_CPUS=0] [DATASET=dir] [DOMAIN=id] [STATION_CPU=1] [FEEDER_CPU=0] [DDS_CONFIG=file] \
 #          tests/bench/station/run_capacity.sh [BUILD_DIR] [DURATION_S] [N ...]   default: build/dev, 20 s, N = 8 16 24 32
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -37,11 +38,12 @@ extra="$(mktemp /tmp/teamscan-capacity.XXXXXX.toml)"
 # Appended to the feeder's generated config, inside its [fusion] table; the view off (no clients here).
 printf 'team_lag_s = %s\n[view]\nlisten = ""\n' "$lag" > "$extra"
 registration="${REGISTRATION:-0}"
-[ "$registration" = 1 ] && printf '[registration]\nenabled = true\n' >> "$extra"
+match_cpus="${MATCH_CPUS-$fcpu}"
+[ "$registration" = 1 ] && printf '[registration]\nenabled = true\ncpus = [%s]\n' "$match_cpus" >> "$extra"
 dataset_args=()
 [ -n "${DATASET:-}" ] && dataset_args=(--dataset "$DATASET")
 [ -n "${DOMAIN:-}" ] && dataset_args+=(--domain "$DOMAIN")  # a fixed DDS domain (default: from the feeder's pid)
-echo "# $(date -u +%FT%TZ) station capacity: ${duration} s robot time per N, method $method, team_lag_s $lag, registration $registration, template ${DATASET:-synthetic survey}, station on CPU $scpu, feeder on CPU $fcpu, $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "# $(date -u +%FT%TZ) station capacity: ${duration} s robot time per N, method $method, team_lag_s $lag, registration $registration${match_cpus:+ (matches on CPU $match_cpus)}, template ${DATASET:-synthetic survey}, station on CPU $scpu, feeder on CPU $fcpu, $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
 printf '%4s %8s %8s %6s %8s %8s %8s %10s %7s %8s %8s %15s\n' N published stored lost p50_ms p99_ms max_ms all_p99_ms cpu_% rss_MiB cpu_s cpu_ms_per_scan
 best=0
 for n in "${counts[@]}"; do

@@ -7,6 +7,7 @@
 
 #include <Eigen/LU>
 
+#include "common/thread_placement.hpp"
 #include "groundstation/registration/registration.hpp"
 #include "tests/unit/registration/synthetic_scene.hpp"
 
@@ -102,6 +103,68 @@ TEST(Registration, CorrectsSkidSteerDriftAgainstTheTeamsMap) {
   EXPECT_GT(c.covariance.determinant(), 0.0);
   EXPECT_LT(std::sqrt(c.covariance(0, 0)), 0.03);
   EXPECT_GT(reg.reference_features(), 500u);
+}
+
+// Matches beside the caller (match_delay_s): a match taken at a scan is fused at the robot's first scan
+// stamped match_delay_s later, never before; the corrections are the same to the bit whatever thread
+// computed them and where it ran; at 0 the match is fused at its own scan.
+struct DelayedRun {
+  std::vector<Pose2> corrections;     // robot 1's, per scan
+  std::vector<int> matched_scans;     // robot 1's scans whose correction took a match
+  double worst_after_m = 0;
+  std::uint64_t accepted = 0;
+};
+
+DelayedRun drive_with_delay(double match_delay_s, std::vector<int> cpus = {}) {
+  const Scene s = furnished_room();
+  RegistrationOptions o;
+  o.match_delay_s = match_delay_s;
+  o.cpus = std::move(cpus);
+  Registration reg(o);
+  DriftingRobot r1{1, 0.02, deg_to_rad(0.25)}, r2{2, 0.0, 0.0};
+  std::mt19937_64 rng{1};
+  std::vector<std::uint8_t> usable;
+  DelayedRun out;
+  for (int k = 0; k <= 400; ++k) {  // 40 s at 10 scans/s
+    const std::int64_t t_ns = static_cast<std::int64_t>(k) * 100'000'000;
+    const double phase = 0.3 * 0.1 * k / 2.1;
+    for (DriftingRobot* r : {&r1, &r2}) {
+      r->move_to(on_oval(phase + (r->id == 2 ? kPi : 0.0), 2.6, 1.7));
+      const auto pts = testing::into_odometry(s.sample({r->truth.x_m, r->truth.y_m}, 3.0, 1500, rng), r->true_correction());
+      usable.assign(pts.size(), 1);
+      const RobotCorrection& c = reg.add_scan(r->id, t_ns, r->odom, pts, usable);
+      if (r->id != 1) continue;
+      out.corrections.push_back(c.map_from_odom);
+      if (c.matched) out.matched_scans.push_back(k);
+      if (k > 150) out.worst_after_m = std::max(out.worst_after_m, error_of(c, *r).after_m);
+    }
+  }
+  out.accepted = reg.correction(1)->accepted;
+  EXPECT_EQ(reg.worker() != nullptr, match_delay_s > 0.0);
+  return out;
+}
+
+TEST(Registration, ADelayedMatchIsFusedAtItsDueScanTheSameWhateverThreadComputedIt) {
+  // Robot 1 attempts every 0.5 s (5 scans) from scan 2 (its phase: 0.618 of the period before its first).
+  const DelayedRun now = drive_with_delay(0.0);
+  ASSERT_GT(now.accepted, 40u);
+  for (int k : now.matched_scans) EXPECT_EQ(k % 5, 2) << k;
+  const DelayedRun delayed = drive_with_delay(0.05);  // due 50 ms later: the next scan, 100 ms later
+  ASSERT_GT(delayed.accepted, 40u);
+  for (int k : delayed.matched_scans) EXPECT_EQ(k % 5, 3) << k;
+  EXPECT_LT(delayed.worst_after_m, 0.03);
+  EXPECT_LT(now.worst_after_m, 0.03);
+  // The same run with the match thread on another CPU (or the same, on a one-CPU machine): every
+  // correction equal to the bit.
+  const std::vector<int> cpus = current_thread_cpus();
+  const DelayedRun placed = drive_with_delay(0.05, {cpus.front()});
+  ASSERT_EQ(placed.corrections.size(), delayed.corrections.size());
+  for (std::size_t i = 0; i < placed.corrections.size(); ++i) {
+    ASSERT_EQ(placed.corrections[i].x_m, delayed.corrections[i].x_m) << i;
+    ASSERT_EQ(placed.corrections[i].y_m, delayed.corrections[i].y_m) << i;
+    ASSERT_EQ(placed.corrections[i].theta_rad, delayed.corrections[i].theta_rad) << i;
+  }
+  EXPECT_EQ(placed.matched_scans, delayed.matched_scans);
 }
 
 TEST(Registration, MaskedGhostsNeitherPullTheMatchNorEnterTheReference) {

@@ -714,6 +714,20 @@ TEST(FusionConfig, RegistrationIsOffByDefaultAndOnByKeyOrSection) {
   EXPECT_FALSE(parse_groundstation_config("[registration]\nwindow_s = 0\n", "t.toml", off, e));
   EXPECT_EQ(e.message.rfind("registration.window_s:", 0), 0u) << e.message;
   EXPECT_FALSE(parse_groundstation_config("[registration]\nmagic = 1\n", "t.toml", off, e));
+  // The match thread: its delay and its CPUs.
+  EXPECT_DOUBLE_EQ(o.core.registration_options.match_delay_s, registration::RegistrationOptions{}.match_delay_s);
+  EXPECT_TRUE(o.core.registration_options.cpus.empty());
+  GroundStationConfig m;
+  ASSERT_TRUE(parse_groundstation_config("[registration]\nmatch_delay_s = 0\ncpus = [0, 1]\n", "t.toml", m, e)) << e.message;
+  const FusionOptions mo = fusion_options_from_config(m.fusion, m.kalman, m.registration);
+  EXPECT_DOUBLE_EQ(mo.core.registration_options.match_delay_s, 0.0);
+  EXPECT_EQ(mo.core.registration_options.cpus, (std::vector<int>{0, 1}));
+  for (const char* bad : {"[registration]\nmatch_delay_s = -1\n", "[registration]\nmatch_delay_s = 11\n",
+                          "[registration]\ncpus = 0\n", "[registration]\ncpus = [-1]\n", "[registration]\ncpus = [\"0\"]\n"}) {
+    GroundStationConfig b;
+    EXPECT_FALSE(parse_groundstation_config(bad, "t.toml", b, e)) << bad;
+    EXPECT_EQ(e.message.rfind("registration.", 0), 0u) << e.message;
+  }
 }
 
 TEST(FusionConfig, MinScanIntervalReachesTheCore) {
