@@ -32,6 +32,8 @@ class MatchWorker {
   void wait(std::uint64_t ticket);
   // Returns once every submitted job has run.
   void wait_idle() { wait(submitted_); }
+  // The ticket of the latest job.
+  [[nodiscard]] std::uint64_t submitted() const { return submitted_; }
 
   // Where the thread runs and its class, as the kernel reports it (affinity_error: placing it on `cpus`).
   [[nodiscard]] ThreadScheduling scheduling() const;

@@ -177,11 +177,28 @@ void Registration::retire(Robot& r, std::int64_t now_ns) {
   };
   while (!r.window.empty() && leaves(r.window.front())) {
     // With the correction at the scan (the later matches applied): its place as well as it is known.
-    const Pose2& at_scan = r.window.front().map_from_odom;
-    for (const Vec3& p : r.window.front().points)
-      (void)reference_.add(corrected(at_scan, p));
+    WindowScan& ws = r.window.front();
+    in_order([this, at_scan = ws.map_from_odom, points = std::move(ws.points)] {
+      for (const Vec3& p : points) (void)reference_.add(corrected(at_scan, p));
+      reference_voxels_.store(reference_.voxels(), std::memory_order_relaxed);
+    });
     r.window.pop_front();
   }
+}
+
+void Registration::in_order(std::function<void()> job) {
+  if (options_.match_delay_s <= 0.0) {
+    job();
+    return;
+  }
+  if (!worker_) worker_ = std::make_unique<MatchWorker>(options_.cpus);
+  (void)worker_->submit(std::move(job));
+}
+
+void Registration::update_reference_if_due(std::int64_t stamp_ns) {
+  if (reference_.changed_columns() > 0 &&
+      (map_.size() == 0 || static_cast<double>(stamp_ns - map_built_ns_) * 1e-9 >= options_.update_every_s))
+    update_reference(stamp_ns);
 }
 
 void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_pose) {
@@ -194,10 +211,9 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
     ++r.c.standing_still;
     return;
   }
-  if (reference_.changed_columns() > 0 &&
-      (map_.size() == 0 || static_cast<double>(stamp_ns - map_built_ns_) * 1e-9 >= options_.update_every_s))
-    update_reference(stamp_ns);
-  if (map_.size() < options_.min_map_features) {
+  in_order([this, stamp_ns] { update_reference_if_due(stamp_ns); });
+  // At once: the first lap is told here; on the match thread, by the match (finish()).
+  if (options_.match_delay_s <= 0.0 && map_.size() < options_.min_map_features) {
     ++r.c.first_lap;
     return;
   }
@@ -230,11 +246,13 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
     return;
   }
   j.apply_ns = stamp_ns + static_cast<std::int64_t>(options_.match_delay_s * 1e9);
-  if (!worker_) worker_ = std::make_unique<MatchWorker>(options_.cpus);
-  j.ticket = worker_->submit([this, &j] { compute(j); });
+  in_order([this, &j] { compute(j); });
+  j.ticket = worker_->submitted();
 }
 
 void Registration::compute(MatchJob& j) {
+  j.first_lap = map_.size() < options_.min_map_features;
+  if (j.first_lap) return;
   if (options_.point_source) {
     // Each usable point is a source of its own, without a normal: it pairs with the nearest line.
     j.features.clear();
@@ -250,6 +268,10 @@ void Registration::compute(MatchJob& j) {
 void Registration::finish(Robot& r) {
   MatchJob& j = r.job;
   j.pending = false;
+  if (j.first_lap) {
+    ++r.c.first_lap;
+    return;
+  }
   MatchResult m = j.result;
   // Matched at its scan; the correction has since moved by the rates' extrapolation alone (no match is
   // fused in between): the measurement moves with it.
@@ -276,16 +298,16 @@ void Registration::finish(Robot& r) {
 }
 
 void Registration::update_reference(std::int64_t stamp_ns) {
-  if (worker_) worker_->wait_idle();  // no match may be reading the index while it changes
   // Only the columns a retired scan changed since the last update: their features are recomputed and
   // replace theirs in the index.
   reference_.take_changes(changes_, changed_features_);
   const std::span<const LineFeature> all{changed_features_};
   for (const ColumnChange& c : changes_) map_.replace(c.column, all.subspan(c.begin, c.end - c.begin));
   map_built_ns_ = stamp_ns;
-  ++reference_updates_;
-  reference_columns_updated_ += changes_.size();
-  reference_last_update_columns_ = changes_.size();
+  reference_updates_.fetch_add(1, std::memory_order_relaxed);
+  reference_columns_updated_.fetch_add(changes_.size(), std::memory_order_relaxed);
+  reference_last_update_columns_.store(changes_.size(), std::memory_order_relaxed);
+  reference_features_.store(map_.size(), std::memory_order_relaxed);
 }
 
 void Registration::fuse(Robot& r, const MatchResult& m) {

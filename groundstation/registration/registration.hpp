@@ -19,6 +19,8 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <atomic>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -153,16 +155,29 @@ class Registration {
                                   std::span<const Vec3> points, std::span<const std::uint8_t> usable);
 
   [[nodiscard]] const RobotCorrection* correction(std::uint8_t robot) const;
-  [[nodiscard]] std::size_t reference_features() const { return map_.size(); }
-  [[nodiscard]] std::size_t reference_voxels() const { return reference_.voxels(); }
+  // The reference's figures as of the latest update and retired scan the match thread has applied
+  // (with match_delay_s > 0 the reference is the match thread's: these are copies it publishes).
+  [[nodiscard]] std::size_t reference_features() const { return reference_features_.load(std::memory_order_relaxed); }
+  [[nodiscard]] std::size_t reference_voxels() const { return reference_voxels_.load(std::memory_order_relaxed); }
   // The reference's updates so far and the columns they recomputed (their cost: one column each).
-  [[nodiscard]] std::uint64_t reference_updates() const { return reference_updates_; }
-  [[nodiscard]] std::uint64_t reference_columns_updated() const { return reference_columns_updated_; }
+  [[nodiscard]] std::uint64_t reference_updates() const { return reference_updates_.load(std::memory_order_relaxed); }
+  [[nodiscard]] std::uint64_t reference_columns_updated() const {
+    return reference_columns_updated_.load(std::memory_order_relaxed);
+  }
   // The columns recomputed by the latest update.
-  [[nodiscard]] std::size_t reference_last_update_columns() const { return reference_last_update_columns_; }
+  [[nodiscard]] std::size_t reference_last_update_columns() const {
+    return reference_last_update_columns_.load(std::memory_order_relaxed);
+  }
   // The reference itself (its features, for tests that compare it with a build from scratch).
-  [[nodiscard]] const LineMap& reference_map() const { return map_; }
-  [[nodiscard]] const SurfaceGrid& reference_grid() const { return reference_; }
+  // Waits for the match thread first (valid until the next add_scan).
+  [[nodiscard]] const LineMap& reference_map() const {
+    wait_idle();
+    return map_;
+  }
+  [[nodiscard]] const SurfaceGrid& reference_grid() const {
+    wait_idle();
+    return reference_;
+  }
   [[nodiscard]] std::uint64_t rejected_scans() const { return rejected_scans_; }
   // The match thread (nullptr until the first match with match_delay_s > 0).
   [[nodiscard]] const MatchWorker* worker() const { return worker_.get(); }
@@ -185,6 +200,7 @@ class Registration {
     Pose2 prior;                  // the correction it started from
     Pose2 odom_pose;              // the robot's odometry at its scan
     MatchOptions options;
+    bool first_lap = false;       // the reference was too small to match against
     std::vector<Vec3> points;
     std::vector<LineFeature> features;
     MatchResult result;
@@ -204,6 +220,14 @@ class Registration {
   void predict(Robot& r, const Pose2& odom_pose);
   void retire(Robot& r, std::int64_t now_ns);
   void try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_pose);
+  // With match_delay_s > 0 the reference (reference_, map_) belongs to the match thread: everything
+  // that reads or changes it (a retired scan's points, an update, a match) runs there, in the order the
+  // scans asked for it, so the result is the order's, not the threads'. At 0: here, at once.
+  void in_order(std::function<void()> job);
+  void wait_idle() const {
+    if (worker_) worker_->wait_idle();
+  }
+  void update_reference_if_due(std::int64_t stamp_ns);
   // The match itself (the worker's part): window grid, features, search. Reads map_ and window_grid_.
   void compute(MatchJob& j);
   // Its answer into the robot's counters and correction (the caller's part).
@@ -218,8 +242,8 @@ class Registration {
   std::int64_t map_built_ns_ = 0;
   std::vector<ColumnChange> changes_;           // update_reference's scratch
   std::vector<LineFeature> changed_features_;
-  std::uint64_t reference_updates_ = 0, reference_columns_updated_ = 0;
-  std::size_t reference_last_update_columns_ = 0;
+  std::atomic<std::uint64_t> reference_updates_{0}, reference_columns_updated_{0};
+  std::atomic<std::size_t> reference_last_update_columns_{0}, reference_features_{0}, reference_voxels_{0};
   std::array<Robot, kMaxRobots + 1> robots_{};
   SurfaceGrid window_grid_;  // compute()'s (one match at a time)
   std::uint64_t rejected_scans_ = 0;
