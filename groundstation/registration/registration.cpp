@@ -221,12 +221,11 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
   // The window is matched as one rigid piece in the odometry frame of now: each scan's points moved by
   // the correction's change since it (the rates' extrapolation; none when the correction was held).
   const Pose2 now_from_map = r.c.map_from_odom.inverse();
-  j.points.clear();
+  j.pieces.clear();
   for (const WindowScan& ws : r.window) {
     const bool held = ws.map_from_odom.x_m == r.c.map_from_odom.x_m && ws.map_from_odom.y_m == r.c.map_from_odom.y_m &&
                       ws.map_from_odom.theta_rad == r.c.map_from_odom.theta_rad;
-    const Pose2 now_from_scan = now_from_map * ws.map_from_odom;
-    for (const Vec3& p : ws.points) j.points.push_back(held ? p : corrected(now_from_scan, p));
+    j.pieces.push_back({now_from_map * ws.map_from_odom, held, ws.points});
   }
   // The bounded step opens with the prediction's uncertainty (3σ): a robot that went unmatched for a
   // while may move further, one matched a moment ago may not jump.
@@ -253,13 +252,18 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
 void Registration::compute(MatchJob& j) {
   j.first_lap = map_.size() < options_.min_map_features;
   if (j.first_lap) return;
+  // The window as one rigid piece in the odometry frame of the match's scan.
+  auto for_each_point = [&](auto&& f) {
+    for (const WindowPiece& w : j.pieces)
+      for (const Vec3& p : w.points) f(w.held ? p : corrected(w.now_from_scan, p));
+  };
   if (options_.point_source) {
     // Each usable point is a source of its own, without a normal: it pairs with the nearest line.
     j.features.clear();
-    for (const Vec3& p : j.points) j.features.push_back({p.x, p.y, 0.0, 0.0, 1.0f});
+    for_each_point([&](const Vec3& p) { j.features.push_back({p.x, p.y, 0.0, 0.0, 1.0f}); });
   } else {
     window_grid_.clear();
-    for (const Vec3& p : j.points) (void)window_grid_.add(p);
+    for_each_point([&](const Vec3& p) { (void)window_grid_.add(p); });
     window_grid_.features(j.features);
   }
   j.result = match(map_, j.features, j.prior, j.options);

@@ -191,8 +191,15 @@ class Registration {
     Pose2 map_from_odom;       // the correction at the scan (moved with every later match)
   };
   using Matrix6 = Eigen::Matrix<double, 6, 6>;
-  // A match in flight: its input (the window's points in the odometry frame of its scan, the prior),
-  // its answer, and when it is fused.
+  // A match in flight: its input (the window's scans with what moves each into the odometry frame of
+  // its scan, the prior), its answer, and when it is fused. The pieces point into the window scans'
+  // point buffers: a scan that leaves the window meanwhile hands its buffer to a job queued after
+  // this one, so the buffer outlives the match.
+  struct WindowPiece {
+    Pose2 now_from_scan;
+    bool held = false;  // the correction unchanged since the scan: its points as they are
+    std::span<const Vec3> points;
+  };
   struct MatchJob {
     bool pending = false;
     std::uint64_t ticket = 0;     // MatchWorker's (0: computed on the caller's thread)
@@ -201,7 +208,7 @@ class Registration {
     Pose2 odom_pose;              // the robot's odometry at its scan
     MatchOptions options;
     bool first_lap = false;       // the reference was too small to match against
-    std::vector<Vec3> points;
+    std::vector<WindowPiece> pieces;
     std::vector<LineFeature> features;
     MatchResult result;
   };
