@@ -71,19 +71,28 @@ const std::vector<Input>& inputs() {
   return in;
 }
 
-double thread_cpu_s() {
+double cpu_s(clockid_t clock) {
   timespec ts{};
-  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  ::clock_gettime(clock, &ts);
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
+double thread_cpu_s() { return cpu_s(CLOCK_THREAD_CPUTIME_ID); }
 
 // One iteration: a fresh Registration fed the whole survey (the reference grows as in a run).
+// Arg 0: match_delay_s = 0, everything on the caller's thread (the cost of a match itself: window grid,
+// features, search, the reference's update when due). Arg 1: the default, matches and the reference on
+// the match thread: the caller's CPU per scan, and the match thread's (the process's CPU less the
+// caller's) per match.
 void BM_RegistrationAddScan(benchmark::State& state) {
   const std::vector<Input>& in = inputs();
-  double match_cpu_s = 0, other_cpu_s = 0, max_match_cpu_s = 0;
+  double match_cpu_s = 0, other_cpu_s = 0, max_match_cpu_s = 0, worker_cpu_s = 0;
   std::uint64_t matches = 0, accepted = 0, others = 0, points = 0;
+  registration::RegistrationOptions options;
+  if (state.range(0) == 0) options.match_delay_s = 0.0;
   for (auto _ : state) {
-    registration::Registration reg;
+    const double process0 = cpu_s(CLOCK_PROCESS_CPUTIME_ID), thread0 = thread_cpu_s();
+    {
+    registration::Registration reg(options);
     for (const Input& s : in) {
       const registration::RobotCorrection* before = reg.correction(s.robot);
       const std::uint64_t tried = before ? before->matches : 0;
@@ -102,6 +111,8 @@ void BM_RegistrationAddScan(benchmark::State& state) {
     }
     for (std::uint8_t r = 1; r <= 2; ++r)
       if (const registration::RobotCorrection* c = reg.correction(r)) accepted += c->accepted;
+    }  // the match thread joined
+    worker_cpu_s += (cpu_s(CLOCK_PROCESS_CPUTIME_ID) - process0) - (thread_cpu_s() - thread0);
   }
   const auto n = static_cast<double>(state.iterations());
   state.counters["scans_per_s"] = benchmark::Counter(static_cast<double>(in.size()) * n, benchmark::Counter::kIsRate);
@@ -115,8 +126,9 @@ void BM_RegistrationAddScan(benchmark::State& state) {
   state.counters["cpu_ms_max_match"] = 1e3 * max_match_cpu_s;
   state.counters["cpu_us_per_other_scan"] = others ? 1e6 * other_cpu_s / static_cast<double>(others) : 0.0;
   state.counters["cpu_us_per_scan"] = 1e6 * (match_cpu_s + other_cpu_s) / (static_cast<double>(in.size()) * n);
+  state.counters["match_thread_cpu_ms_per_match"] = matches ? 1e3 * worker_cpu_s / static_cast<double>(matches) : 0.0;
 }
-BENCHMARK(BM_RegistrationAddScan)->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK(BM_RegistrationAddScan)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 // The fusion core on the survey, method best, registration off (0) / on (1): CPU per scan.
 void BM_CoreBest(benchmark::State& state) {
