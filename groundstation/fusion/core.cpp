@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <system_error>
 
 #include "common/dataset/pcd.hpp"
 #include "common/point_flags.hpp"
@@ -34,8 +35,14 @@ Result<std::unique_ptr<FusionCore>> FusionCore::create(const CoreOptions& option
     const registration::RegistrationOptions& r = options.registration_options;
     if (!(r.window_s > 0.0) || !(r.match_every_s >= 0.0) || !(r.surface.voxel_m > 0.0))
       return Error{"fusion: registration window_s and voxel_m must be > 0, match_every_s >= 0"};
+    if (!(r.match_delay_s >= 0.0 && r.match_delay_s <= 10.0))
+      return Error{"fusion: registration match_delay_s must be in [0, 10] s"};
   }
-  return std::unique_ptr<FusionCore>(new FusionCore(options, std::move(filter)));
+  try {
+    return std::unique_ptr<FusionCore>(new FusionCore(options, std::move(filter)));
+  } catch (const std::system_error&) {
+    return Error{"fusion: cannot start the registration's match thread (the system refused a thread)"};
+  }
 }
 
 FusionCore::FusionCore(const CoreOptions& options, std::unique_ptr<mapping::Filter> filter)

@@ -62,6 +62,9 @@ Registration::Registration(RegistrationOptions options)
       reference_{options.surface, /*track_columns=*/true},
       window_grid_{with_cap(options.surface, options.window_voxel_cap)} {
   for (std::size_t id = 0; id < robots_.size(); ++id) robots_[id].c.robot = static_cast<std::uint8_t>(id);
+  // At start-up, not at the first match: a thread that cannot start is an error of the constructor
+  // (std::system_error), never of a scan.
+  if (options_.match_delay_s > 0.0) worker_ = std::make_unique<MatchWorker>(options_.cpus);
 }
 
 const RobotCorrection* Registration::correction(std::uint8_t robot) const {
@@ -191,7 +194,6 @@ void Registration::in_order(std::function<void()> job) {
     job();
     return;
   }
-  if (!worker_) worker_ = std::make_unique<MatchWorker>(options_.cpus);
   (void)worker_->submit(std::move(job));
 }
 

@@ -145,6 +145,7 @@ struct RobotCorrection {
 
 class Registration {
  public:
+  // Starts the match thread when options.match_delay_s > 0 (std::system_error if it cannot).
   explicit Registration(RegistrationOptions options = {});
 
   // One scan of `robot` (1..kMaxRobots) at `stamp_ns` (non-decreasing per robot): its odometry pose
@@ -179,7 +180,7 @@ class Registration {
     return reference_;
   }
   [[nodiscard]] std::uint64_t rejected_scans() const { return rejected_scans_; }
-  // The match thread (nullptr until the first match with match_delay_s > 0).
+  // The match thread (started by the constructor when match_delay_s > 0, else nullptr).
   [[nodiscard]] const MatchWorker* worker() const { return worker_.get(); }
   [[nodiscard]] const RegistrationOptions& options() const { return options_; }
 
