@@ -32,6 +32,9 @@ struct Vec3 {
 struct Pose2 {
   double x_m = 0, y_m = 0, theta_rad = 0;
 
+  // Exactly the same numbers (a correction held, not re-derived).
+  friend constexpr bool operator==(const Pose2&, const Pose2&) = default;
+
   // this * other: compose (map_from_robot * robot_from_thing = map_from_thing).
   [[nodiscard]] Pose2 operator*(const Pose2& o) const {
     const double c = std::cos(theta_rad), s = std::sin(theta_rad);

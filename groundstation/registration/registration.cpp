@@ -225,9 +225,7 @@ void Registration::try_match(Robot& r, std::int64_t stamp_ns, const Pose2& odom_
   const Pose2 now_from_map = r.c.map_from_odom.inverse();
   j.pieces.clear();
   for (const WindowScan& ws : r.window) {
-    const bool held = ws.map_from_odom.x_m == r.c.map_from_odom.x_m && ws.map_from_odom.y_m == r.c.map_from_odom.y_m &&
-                      ws.map_from_odom.theta_rad == r.c.map_from_odom.theta_rad;
-    j.pieces.push_back({now_from_map * ws.map_from_odom, held, ws.points});
+    j.pieces.push_back({now_from_map * ws.map_from_odom, ws.map_from_odom == r.c.map_from_odom, ws.points});
   }
   // The bounded step opens with the prediction's uncertainty (3σ): a robot that went unmatched for a
   // while may move further, one matched a moment ago may not jump.
@@ -281,8 +279,7 @@ void Registration::finish(Robot& r) {
   MatchResult m = j.result;
   // Matched at its scan; the correction has since moved by the rates' extrapolation alone (no match is
   // fused in between): the measurement moves with it.
-  if (!(r.c.map_from_odom.x_m == j.prior.x_m && r.c.map_from_odom.y_m == j.prior.y_m &&
-        r.c.map_from_odom.theta_rad == j.prior.theta_rad)) {
+  if (r.c.map_from_odom != j.prior) {
     const Pose2 since = r.c.map_from_odom * j.prior.inverse();
     m.map_from_odom = since * m.map_from_odom;
     m.pivot_m = since.apply(m.pivot_m);

@@ -17,9 +17,9 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <deque>
-#include <atomic>
 #include <functional>
 #include <memory>
 #include <span>

@@ -565,10 +565,7 @@ void CorrectionShare::share(const fusion::FusionCore& core, TeamSource& team, Ti
     if (c == nullptr) continue;
     Shared& s = shared_[id];
     const Pose2& m = c->map_from_odom;
-    if (s.any && s.from_stamp_ns == c->from_stamp_ns && s.map_from_odom.x_m == m.x_m && s.map_from_odom.y_m == m.y_m &&
-        s.map_from_odom.theta_rad == m.theta_rad) {
-      continue;
-    }
+    if (s.any && s.from_stamp_ns == c->from_stamp_ns && s.map_from_odom == m) continue;
     const registration::RobotCorrection* r = reg->correction(id);
     const std::uint64_t accepted = r != nullptr ? r->accepted : 0;
     team.set_correction(id, m.x_m, m.y_m, m.theta_rad, c->position_sigma_m, c->heading_sigma_rad, accepted != s.accepted);
