@@ -9,6 +9,7 @@
 #include <cstdint>
 
 #include "common/pose.hpp"
+#include "common/units.hpp"
 
 namespace teamscan {
 
@@ -31,8 +32,8 @@ struct OdomCorrection {
   // The wire form of a correction (rounded to mm and µrad, ties away from zero; yaw wrapped first).
   [[nodiscard]] static OdomCorrection from_pose(const Pose2& map_from_odom, std::uint32_t seq) {
     OdomCorrection c;
-    c.x_mm = static_cast<std::int32_t>(std::lround(map_from_odom.x_m * 1000.0));
-    c.y_mm = static_cast<std::int32_t>(std::lround(map_from_odom.y_m * 1000.0));
+    c.x_mm = to_mm(map_from_odom.x_m);
+    c.y_mm = to_mm(map_from_odom.y_m);
     c.yaw_urad = static_cast<std::int32_t>(std::lround(normalize_angle(map_from_odom.theta_rad) * 1e6));
     c.seq = seq;
     return c;

@@ -6,16 +6,9 @@
 
 #include "common/fixed_point.hpp"
 #include "common/result.hpp"
+#include "common/units.hpp"
 
 namespace teamscan {
-
-std::int32_t metres_to_mm_i32(double metres) {
-  const double mm = metres * 1000.0;
-  // llround is undefined outside the long long range; int32 saturation bounds it long before that.
-  if (!(mm < 2147483647.0)) return std::numeric_limits<std::int32_t>::max();  // also NaN
-  if (mm < -2147483648.0) return std::numeric_limits<std::int32_t>::min();
-  return saturate_i32(std::llround(mm));
-}
 
 ScanProjector::ScanProjector(const Pose3& robot_from_laser, const Pose2& map_from_odom,
                              const ScanPointsOptions& options)
@@ -51,9 +44,9 @@ bool ScanProjector::project(BeamSpans beams, Time stamp, LaserVariant variant, c
   if (out.pose_ok) {
     out.map_from_robot = map_from_odom_ * at_stamp.value();
     const double c = std::cos(out.map_from_robot.theta_rad), s = std::sin(out.map_from_robot.theta_rad);
-    out.origin_x_mm = metres_to_mm_i32(out.map_from_robot.x_m + c * mount.x - s * mount.y);
-    out.origin_y_mm = metres_to_mm_i32(out.map_from_robot.y_m + s * mount.x + c * mount.y);
-    out.origin_z_mm = metres_to_mm_i32(mount.z);
+    out.origin_x_mm = to_mm(out.map_from_robot.x_m + c * mount.x - s * mount.y);
+    out.origin_y_mm = to_mm(out.map_from_robot.y_m + s * mount.x + c * mount.y);
+    out.origin_z_mm = to_mm(mount.z);
   } else {
     out.map_from_robot = Pose2{};
     out.origin_x_mm = out.origin_y_mm = out.origin_z_mm = 0;
@@ -88,9 +81,9 @@ bool ScanProjector::project(BeamSpans beams, Time stamp, LaserVariant variant, c
     const double r_m = (p.flags & (kPointInvalid | kPointDazzled)) != 0 ? 0.0 : static_cast<double>(range_mm) * 1e-3;
     const Vec3& d = direction_robot_[i];
     const double px = mount.x + r_m * d.x, py = mount.y + r_m * d.y, pz = mount.z + r_m * d.z;
-    p.x_mm = metres_to_mm_i32(x_m + c * px - s * py);
-    p.y_mm = metres_to_mm_i32(y_m + s * px + c * py);
-    p.z_mm = metres_to_mm_i32(pz);
+    p.x_mm = to_mm(x_m + c * px - s * py);
+    p.y_mm = to_mm(y_m + s * px + c * py);
+    p.z_mm = to_mm(pz);
   }
   return true;
 }

@@ -101,7 +101,5 @@ class ScanProjector {
   std::array<Vec3, kMaxBeams> direction_robot_{};  // unit beam direction in the robot frame
 };
 
-// Rounds metres to the nearest millimetre (ties away from zero), saturated to int32.
-[[nodiscard]] std::int32_t metres_to_mm_i32(double metres);
 
 }  // namespace teamscan

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 
 namespace teamscan {
@@ -24,6 +25,18 @@ inline constexpr double kRadToDeg = 180.0 / kPi;
   while (a > kPi) a -= 2.0 * kPi;
   while (a <= -kPi) a += 2.0 * kPi;
   return a;
+}
+
+// Metres to whole millimetres, the unit of the wire (int32, DESIGN.md "Frames, units, time") and of the
+// robot's fixed-point filter: rounded to nearest, a half millimetre away from zero, saturated to the
+// int32 range (far beyond any site, where the direction filter leaves a point or a teammate alone). Not
+// a number gives the largest value, so it never reads as a place. The one conversion every layer uses.
+[[nodiscard]] inline std::int32_t to_mm(double m) {
+  const double mm = m * 1000.0;
+  // llround is undefined outside the long long range; the int32 saturation bounds it long before that.
+  if (!(mm < 2147483647.0)) return std::numeric_limits<std::int32_t>::max();  // also NaN
+  if (mm < -2147483648.0) return std::numeric_limits<std::int32_t>::min();
+  return static_cast<std::int32_t>(std::llround(mm));  // within [INT32_MIN, INT32_MAX] by the bounds above
 }
 
 // Integer millimetres, the unit of the wire (int32, map frame) and of the LMS in mm mode.

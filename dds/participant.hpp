@@ -38,8 +38,8 @@ class Participant {
   // The topic of Sample (TopicOf<Sample>), created once per participant (Cyclone returns the same
   // topic for the same name and type).
   template <class Sample>
-  [[nodiscard]] Result<dds_entity_t> topic() const {
-    return create_topic(TopicOf<Sample>::descriptor(), TopicOf<Sample>::name);
+  [[nodiscard]] Result<dds_entity_t> topic(const char* name = TopicOf<Sample>::name) const {
+    return create_topic(TopicOf<Sample>::descriptor(), name);
   }
 
  private:
@@ -51,8 +51,9 @@ class Participant {
 // A reader or writer of Sample's topic with `qos` (not deleted here; the caller keeps it).
 template <class Sample>
 [[nodiscard]] Result<dds_entity_t> create_reader(const Participant& p, const dds_qos_t* qos,
-                                                 const dds_listener_t* listener = nullptr) {
-  Result<dds_entity_t> t = p.topic<Sample>();
+                                                 const dds_listener_t* listener = nullptr,
+                                                 const char* topic_name = TopicOf<Sample>::name) {
+  Result<dds_entity_t> t = p.topic<Sample>(topic_name);
   if (!t.ok()) return t;
   const dds_entity_t r = dds_create_reader(p.handle(), t.value(), qos, listener);
   if (r < 0) return Error{"dds: cannot create reader", 0, static_cast<long>(r)};
@@ -60,8 +61,9 @@ template <class Sample>
 }
 
 template <class Sample>
-[[nodiscard]] Result<dds_entity_t> create_writer(const Participant& p, const dds_qos_t* qos) {
-  Result<dds_entity_t> t = p.topic<Sample>();
+[[nodiscard]] Result<dds_entity_t> create_writer(const Participant& p, const dds_qos_t* qos,
+                                                 const char* topic_name = TopicOf<Sample>::name) {
+  Result<dds_entity_t> t = p.topic<Sample>(topic_name);
   if (!t.ok()) return t;
   const dds_entity_t w = dds_create_writer(p.handle(), t.value(), qos, nullptr);
   if (w < 0) return Error{"dds: cannot create writer", 0, static_cast<long>(w)};

@@ -38,6 +38,12 @@ inline constexpr const char* kRobotsPartition = "robot*";
 [[nodiscard]] dds_qos_t* make_team_writer_qos(Duration liveliness_lease);
 [[nodiscard]] dds_qos_t* make_team_reader_qos();
 
+// Store and forward (docs/onboard.md "The ring"): teamscan/backfill takes the scan QoS above (the robot's
+// writer with depth kBackfillHistoryDepth), teamscan/stored the team state's (keep-last 1, transient-local).
+// The depth is the back-fill's repair window on a lossy link: a back-filled scan whose fragments are lost
+// must be repaired before this many newer ones replace it (at the back-fill's 300 Hz, 1 s; docs/radio.md).
+inline constexpr std::uint32_t kBackfillHistoryDepth = 300;
+
 // teamscan/map (ground station -> viewers): reliable, keep-last 1, volatile.
 [[nodiscard]] dds_qos_t* make_map_qos();
 

@@ -23,7 +23,7 @@ struct ReceiveThreads {
 // wakeup; unprivileged, it keeps the nice value). A new thread names itself once it runs, so this waits
 // up to `wait` for every new thread to carry a name other than the caller's.
 // Why: each sample wakes the receive thread; on a loop that is busy fusing, a normal thread preempts it
-// once per packet (at 2 400 scans/s, ~18 % of a core in context switches and per-packet work). As a batch
+// once per packet, and context switches and per-packet work take a share of a core. As a batch
 // thread it runs within a tick (4 ms at HZ=250) or as soon as the loop waits, and takes every packet
 // queued by then in one go. Linux only; elsewhere nothing is found.
 ReceiveThreads batch_receive_threads(const std::vector<int>& before,

@@ -13,8 +13,11 @@ inline constexpr const char* kTopicScan = "teamscan/scan";
 inline constexpr const char* kTopicStatus = "teamscan/status";
 inline constexpr const char* kTopicTeam = "teamscan/team";
 inline constexpr const char* kTopicMap = "teamscan/map";
+inline constexpr const char* kTopicStored = "teamscan/stored";      // StoredState: station -> robots
+inline constexpr const char* kTopicBackfill = "teamscan/backfill";  // ScanPoints from the ring: robot -> station
 
-// TopicOf<Sample>::name and ::descriptor() for every generated type that has a topic.
+// TopicOf<Sample>::name and ::descriptor() for every generated type that has a topic. ScanPoints has a
+// second topic, kTopicBackfill, named where its reader and writer are made.
 template <class Sample>
 struct TopicOf;
 
@@ -37,6 +40,11 @@ template <>
 struct TopicOf<teamscan_msg_TeamState> {
   static constexpr const char* name = kTopicTeam;
   static const dds_topic_descriptor_t* descriptor() { return &teamscan_msg_TeamState_desc; }
+};
+template <>
+struct TopicOf<teamscan_msg_StoredState> {
+  static constexpr const char* name = kTopicStored;
+  static const dds_topic_descriptor_t* descriptor() { return &teamscan_msg_StoredState_desc; }
 };
 template <>
 struct TopicOf<teamscan_msg_MapUpdate> {

@@ -5,6 +5,9 @@
 # The browser view (groundstation/view): Boost.Beast (libboost-dev) serves it; node + npm bundle its
 # page at build time (npm ci from the npm registry, package-lock.json); chromium runs its browser test;
 # nlohmann-json3-dev parses its JSON in the unit tests. libssl-dev: the site PKI tool (OpenSSL libcrypto).
+# zlib1g-dev: the CRC-32 of the MCAP writer (common/mcap).
+# libceres-dev: the pose graph's solver (groundstation/posegraph); liblzma-dev: logs read as .xz.
+# iproute2: `ip netns`, veth and bridges for the demo's link faults and their test (docs/radio.md).
 set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 SUDO=""
@@ -18,17 +21,18 @@ $SUDO apt-get install -y --no-install-recommends \
   build-essential cmake ninja-build pkg-config git python3 \
   clang libclang-rt-14-dev \
   libeigen3-dev \
+  libceres-dev liblzma-dev \
   libnanoflann-dev \
   cyclonedds-dev cyclonedds-tools \
   libsystemd-dev systemd \
   libgtest-dev libgmock-dev libbenchmark-dev \
-  libtomlplusplus-dev libcli11-dev libfmt-dev \
-  libpng-dev \
+  libtomlplusplus-dev libcli11-dev \
+  libpng-dev zlib1g-dev \
   liboctomap-dev \
   pcl-tools \
   help2man file dpkg-dev lintian \
   libboost-dev nlohmann-json3-dev libssl-dev \
-  chromium
+  chromium iproute2
 # node + npm: Debian's nodejs and npm packages, unless a node with its npm is already installed (a
 # NodeSource nodejs bundles npm and conflicts with Debian's npm package: asking for both fails).
 if command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1; then

@@ -7,13 +7,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
-#include <mutex>
-#include <set>
 #include <string_view>
 
 #include <toml++/toml.h>
 
+#include "common/capacities.hpp"
 #include "common/dataset/pcd.hpp"
+#include "common/error_message.hpp"
 
 namespace teamscan {
 
@@ -35,17 +35,11 @@ constexpr const char* kScansHeader =
     "robot,scan,stamp_ns,beams,points,origin_x_m,origin_y_m,origin_z_m,odom_x_m,odom_y_m,odom_theta_rad,"
     "true_x_m,true_y_m,true_theta_rad";
 constexpr const char* kTrajectoryHeader = "robot,stamp_ns,x_m,y_m,theta_rad,v_mps,w_radps";
+// Optional: each scan's stamp as its source wrote it (an imported log), one row per scans.csv row.
+constexpr const char* kSourceStampsHeader = "robot,scan,source_stamp_us";
 
-// Error::what is a static string; messages that name a file are built once and kept for the process's
-// life. The set is bounded: file names are fixed and problems are literals.
-const char* intern(const std::string& s) {
-  static std::mutex mutex;
-  static std::set<std::string> pool;
-  const std::lock_guard<std::mutex> lock(mutex);
-  return pool.insert(s).first->c_str();
-}
 Error file_error(const char* file, const std::string& problem, long line = 0, int sys_errno = 0) {
-  return Error{intern(std::string(file) + ": " + problem), sys_errno, line};
+  return make_error(std::string(file) + ": " + problem, sys_errno, line);
 }
 
 // Shortest text that reads back to the same double (std::to_chars round-trip guarantee).
@@ -137,6 +131,18 @@ std::string scans_csv(const std::vector<ScanRecord>& scans) {
   return s;
 }
 
+bool has_source_stamps(const std::vector<ScanRecord>& scans) {
+  for (const auto& r : scans)
+    if (r.source_stamp_us != 0) return true;
+  return false;
+}
+
+std::string source_stamps_csv(const std::vector<ScanRecord>& scans) {
+  std::string s = std::string(kSourceStampsHeader) + "\n";
+  for (const auto& r : scans) s += std::to_string(r.robot) + ',' + std::to_string(r.scan) + ',' + std::to_string(r.source_stamp_us) + '\n';
+  return s;
+}
+
 std::string trajectory_csv(const std::vector<TrajectorySample>& samples) {
   std::string s = std::string(kTrajectoryHeader) + "\n";
   for (const auto& t : samples) {
@@ -198,6 +204,9 @@ Status parse_csv(const std::string& text, const char* name, const char* header, 
   return ok_status();
 }
 
+// A robot id as the fusion core takes it: checked here, where a data set enters, and not again.
+bool valid_robot(std::uint8_t robot) { return robot >= 1 && robot <= kMaxRobots; }
+
 Status parse_scans(const std::string& text, std::vector<ScanRecord>& out) {
   return parse_csv(text, "scans.csv", kScansHeader, 14, [&](const std::vector<std::string_view>& c, long) {
     ScanRecord r;
@@ -206,10 +215,27 @@ Status parse_scans(const std::string& text, std::vector<ScanRecord>& out) {
                     parse_double(c[6], r.origin.y) && parse_double(c[7], r.origin.z) && parse_double(c[8], r.pose.x_m) &&
                     parse_double(c[9], r.pose.y_m) && parse_double(c[10], r.pose.theta_rad) &&
                     parse_double(c[11], r.true_pose.x_m) && parse_double(c[12], r.true_pose.y_m) &&
-                    parse_double(c[13], r.true_pose.theta_rad);
+                    parse_double(c[13], r.true_pose.theta_rad) && valid_robot(r.robot);
     if (ok) out.push_back(r);
     return ok;
   });
+}
+
+// Row i belongs to scans.csv row i (the same robot and scan, or the file is refused).
+Status parse_source_stamps(const std::string& text, std::vector<ScanRecord>& scans) {
+  std::size_t row = 0;
+  const Status parsed = parse_csv(text, "source_stamps.csv", kSourceStampsHeader, 3, [&](const std::vector<std::string_view>& c, long) {
+    std::uint8_t robot = 0;
+    std::uint32_t scan = 0;
+    std::int64_t stamp_us = 0;
+    const bool ok = row < scans.size() && parse_int(c[0], robot) && parse_int(c[1], scan) && parse_int(c[2], stamp_us) &&
+                    robot == scans[row].robot && scan == scans[row].scan;
+    if (ok) scans[row++].source_stamp_us = stamp_us;
+    return ok;
+  });
+  if (!parsed) return parsed;
+  if (row != scans.size()) return file_error("source_stamps.csv", "fewer rows than scans.csv", static_cast<long>(row) + 1);
+  return ok_status();
 }
 
 Status parse_trajectory(const std::string& text, const char* name, std::vector<TrajectorySample>& out) {
@@ -217,7 +243,7 @@ Status parse_trajectory(const std::string& text, const char* name, std::vector<T
     TrajectorySample t;
     const bool ok = parse_int(c[0], t.robot) && parse_int(c[1], t.stamp_ns) && parse_double(c[2], t.pose.x_m) &&
                     parse_double(c[3], t.pose.y_m) && parse_double(c[4], t.pose.theta_rad) && parse_double(c[5], t.v_mps) &&
-                    parse_double(c[6], t.w_radps);
+                    parse_double(c[6], t.w_radps) && valid_robot(t.robot);
     if (ok) out.push_back(t);
     return ok;
   });
@@ -356,21 +382,22 @@ Status write_dataset(const std::string& dir, const Dataset& dataset) {
   namespace fs = std::filesystem;
   std::error_code ec;
   fs::create_directories(dir, ec);
-  if (ec) return Error{intern(dir + ": cannot create data set folder"), ec.value()};
+  if (ec) return make_error(dir + ": cannot create data set folder", ec.value());
   const fs::path root{dir};
   TEAMSCAN_TRY(write_text(root / "dataset.toml", dataset_toml(dataset)));
   if (auto s = write_labelled_pcd((root / "points.pcd").string(), dataset.points); !s)
-    return file_error("points.pcd", s.error().what, 0, s.error().sys_errno);
+    return with_context("points.pcd", s.error());
   TEAMSCAN_TRY(write_text(root / "scans.csv", scans_csv(dataset.scans)));
   TEAMSCAN_TRY(write_text(root / "truth.csv", trajectory_csv(dataset.truth)));
   TEAMSCAN_TRY(write_text(root / "odom.csv", trajectory_csv(dataset.odom)));
+  if (has_source_stamps(dataset.scans)) TEAMSCAN_TRY(write_text(root / "source_stamps.csv", source_stamps_csv(dataset.scans)));
   return ok_status();
 }
 
 Result<Dataset> read_dataset(const std::string& dir) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return Error{intern(dir + ": not a data set folder (no such directory)"), ENOENT};
+  if (!fs::is_directory(dir, ec)) return make_error(dir + ": not a data set folder (no such directory)", ENOENT);
   const fs::path root{dir};
   Dataset d;
   Counts counts;
@@ -381,13 +408,20 @@ Result<Dataset> read_dataset(const std::string& dir) {
   }
   {
     auto points = read_labelled_pcd((root / "points.pcd").string());
-    if (!points) return file_error("points.pcd", points.error().what, points.error().detail, points.error().sys_errno);
+    if (!points) return with_context("points.pcd", points.error());
     d.points = std::move(*points);
+    for (const LabelledPoint& p : d.points)
+      if (!valid_robot(p.robot)) return file_error("points.pcd", "a point's robot id is not 1.." + std::to_string(kMaxRobots));
   }
   {
     const auto text = read_text(root / "scans.csv", "scans.csv");
     if (!text) return text.error();
     TEAMSCAN_TRY(parse_scans(*text, d.scans));
+  }
+  if (fs::exists(root / "source_stamps.csv", ec)) {
+    const auto text = read_text(root / "source_stamps.csv", "source_stamps.csv");
+    if (!text) return text.error();
+    TEAMSCAN_TRY(parse_source_stamps(*text, d.scans));
   }
   {
     const auto text = read_text(root / "truth.csv", "truth.csv");

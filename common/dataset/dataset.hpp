@@ -39,6 +39,9 @@ struct ScanRecord {
   Vec3 origin;                       // sensor origin in the map frame at the stamp (odometry pose)
   Pose2 pose;                        // odometry pose (map frame) at the stamp
   Pose2 true_pose;                   // true pose at the stamp
+  // The scan's stamp exactly as its source wrote it (an imported log's: CARMEN's ipc_timestamp), µs
+  // since the Unix epoch; 0 = none (stamp_ns is the source's). Stored in source_stamps.csv.
+  std::int64_t source_stamp_us = 0;
 };
 
 struct TrajectorySample {

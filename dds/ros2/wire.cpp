@@ -31,11 +31,14 @@ char* c_str(const char* s) { return const_cast<char*>(s); }
 }  // namespace
 
 std::string odometry_topic(std::uint32_t robot_id) { return "rt/robot" + std::to_string(robot_id) + "/odom"; }
+std::string scan_topic(std::uint32_t robot_id) { return "rt/robot" + std::to_string(robot_id) + "/scan"; }
 std::string base_link_frame(std::uint32_t robot_id) { return "robot" + std::to_string(robot_id) + "/base_link"; }
 
 dds_qos_t* make_map_cloud_writer_qos() { return writer_qos(true, 1); }
 dds_qos_t* make_tf_writer_qos() { return writer_qos(false, 100); }
+dds_qos_t* make_tf_static_writer_qos() { return writer_qos(true, 1); }
 dds_qos_t* make_odometry_writer_qos() { return writer_qos(false, 10); }
+dds_qos_t* make_scan_writer_qos() { return writer_qos(false, 5); }
 
 dds_qos_t* make_rmw_like_reader_qos(bool reliable, bool transient_local, std::int32_t depth) {
   dds_qos_t* q = dds_create_qos();
@@ -62,10 +65,10 @@ geometry_msgs_msg_dds__Quaternion_ yaw_quaternion(double yaw_rad) {
   return {0.0, 0.0, std::sin(yaw_rad / 2.0), std::cos(yaw_rad / 2.0)};
 }
 
-PointCloudMessage::PointCloudMessage() {
-  static const char* const kNames[] = {"x", "y", "z", "hits"};
+PointCloudMessage::PointCloudMessage(const char* fourth) : fourth_{fourth} {
+  const char* const names[] = {"x", "y", "z", fourth_.c_str()};
   for (std::uint32_t i = 0; i < 4; ++i) {
-    fields_.push_back({c_str(kNames[i]), 4 * i, sensor_msgs_msg_dds__PointField_Constants_FLOAT32, 1});
+    fields_.push_back({c_str(names[i]), 4 * i, sensor_msgs_msg_dds__PointField_Constants_FLOAT32, 1});
   }
   msg_.height = 1;
   msg_.fields = {static_cast<std::uint32_t>(fields_.size()), static_cast<std::uint32_t>(fields_.size()),
@@ -87,18 +90,29 @@ void PointCloudMessage::set(std::int64_t stamp_ns, const std::string& frame_id, 
   msg_.data = {static_cast<std::uint32_t>(data_.size()), static_cast<std::uint32_t>(data_.size()), data_.data(), false};
 }
 
+RobotFrames robot_frames(const PlanarState& s) {
+  return {s.robot_id, s.stamp_ns, s.x_m, s.y_m, s.yaw_rad, s.map_from_odom_x_m, s.map_from_odom_y_m, s.map_from_odom_yaw_rad};
+}
+
 void TfMessage::set(std::span<const PlanarState> states) {
-  children_.clear();
+  std::vector<RobotFrames> robots;
+  robots.reserve(states.size());
+  for (const PlanarState& s : states) robots.push_back(robot_frames(s));
+  std::vector<FrameTransform> frames;
+  append_dynamic_transforms(robots, frames);
+  set_transforms(frames);
+}
+
+void TfMessage::set_transforms(std::span<const FrameTransform> transforms) {
+  frames_.assign(transforms.begin(), transforms.end());
   transforms_.clear();
-  for (const PlanarState& s : states) children_.push_back(base_link_frame(s.robot_id));
-  for (std::size_t i = 0; i < states.size(); ++i) {
-    const PlanarState& s = states[i];
+  for (const FrameTransform& f : frames_) {  // frames_ is complete: its strings no longer move
     geometry_msgs_msg_dds__TransformStamped_ t{};
-    t.header.stamp = ros_time(s.stamp_ns);
-    t.header.frame_id = c_str(kFrameMap);
-    t.child_frame_id = c_str(children_[i]);  // children_ is complete: its strings no longer move
-    t.transform.translation = {s.x_m, s.y_m, 0.0};
-    t.transform.rotation = yaw_quaternion(s.yaw_rad);
+    t.header.stamp = ros_time(f.stamp_ns);
+    t.header.frame_id = c_str(f.parent);
+    t.child_frame_id = c_str(f.child);
+    t.transform.translation = {f.x_m, f.y_m, f.z_m};
+    t.transform.rotation = {f.rotation.x, f.rotation.y, f.rotation.z, f.rotation.w};
     transforms_.push_back(t);
   }
   const auto n = static_cast<std::uint32_t>(transforms_.size());
@@ -106,17 +120,24 @@ void TfMessage::set(std::span<const PlanarState> states) {
 }
 
 void OdometryMessage::set(const PlanarState& s) {
+  frame_ = odom_frame(s.robot_id);
   child_ = base_link_frame(s.robot_id);
   msg_ = nav_msgs_msg_dds__Odometry_{};
   msg_.header.stamp = ros_time(s.stamp_ns);
-  msg_.header.frame_id = c_str(kFrameMap);
+  msg_.header.frame_id = c_str(frame_);
   msg_.child_frame_id = c_str(child_);
-  msg_.pose.pose.position = {s.x_m, s.y_m, 0.0};
-  msg_.pose.pose.orientation = yaw_quaternion(s.yaw_rad);
+  const PlanarPose p = odom_from_base_link(robot_frames(s));
+  msg_.pose.pose.position = {p.x_m, p.y_m, 0.0};
+  msg_.pose.pose.orientation = yaw_quaternion(p.yaw_rad);
+  // The map-frame position covariance C in the odom frame: R^T C R, R the correction's rotation.
+  const double cc = std::cos(s.map_from_odom_yaw_rad), sc = std::sin(s.map_from_odom_yaw_rad);
+  const double xx = cc * cc * s.cov_xx_m2 + 2 * cc * sc * s.cov_xy_m2 + sc * sc * s.cov_yy_m2;
+  const double yy = sc * sc * s.cov_xx_m2 - 2 * cc * sc * s.cov_xy_m2 + cc * cc * s.cov_yy_m2;
+  const double xy = (cc * cc - sc * sc) * s.cov_xy_m2 + cc * sc * (s.cov_yy_m2 - s.cov_xx_m2);
   double* pc = msg_.pose.covariance;  // row-major 6x6: x y z roll pitch yaw
-  pc[0] = s.cov_xx_m2;
-  pc[1] = pc[6] = s.cov_xy_m2;
-  pc[7] = s.cov_yy_m2;
+  pc[0] = xx;
+  pc[1] = pc[6] = xy;
+  pc[7] = yy;
   pc[35] = s.yaw_var_rad2;
   // Twist in child_frame_id: the map-frame velocity rotated by -yaw.
   const double c = std::cos(s.yaw_rad), sn = std::sin(s.yaw_rad);
@@ -136,17 +157,25 @@ Result<std::unique_ptr<Ros2Writers>> Ros2Writers::create(dds_entity_t participan
   dds_qos_t* tq = make_tf_writer_qos();
   w->tf_writer_ = dds_create_writer(participant, tf_topic, tq, nullptr);
   dds_delete_qos(tq);
-  if (w->cloud_writer_ < 0 || w->tf_writer_ < 0) return Error{"ros2: cannot create the rt/ writers"};
+  const dds_entity_t tf_static_topic =
+      dds_create_topic(participant, &tf2_msgs_msg_dds__TFMessage__desc, kTopicTfStatic, nullptr, nullptr);
+  dds_qos_t* sq = make_tf_static_writer_qos();
+  w->tf_static_writer_ = tf_static_topic < 0 ? tf_static_topic : dds_create_writer(participant, tf_static_topic, sq, nullptr);
+  dds_delete_qos(sq);
+  if (w->cloud_writer_ < 0 || w->tf_writer_ < 0 || w->tf_static_writer_ < 0)
+    return Error{"ros2: cannot create the rt/ writers"};
   return w;
 }
 
 Ros2Writers::~Ros2Writers() {
   // Writers (and topics) go with the participant; delete the writers now so a caller that keeps the
   // participant does not keep publishing stale endpoints.
-  for (dds_entity_t e : odometry_writers_)
-    if (e > 0) (void)dds_delete(e);
+  for (const std::vector<dds_entity_t>* list : {&odometry_writers_, &scan_writers_})
+    for (dds_entity_t e : *list)
+      if (e > 0) (void)dds_delete(e);
   if (cloud_writer_ > 0) (void)dds_delete(cloud_writer_);
   if (tf_writer_ > 0) (void)dds_delete(tf_writer_);
+  if (tf_static_writer_ > 0) (void)dds_delete(tf_static_writer_);
 }
 
 Status Ros2Writers::write_cloud(const PointCloudMessage& cloud) {
@@ -167,30 +196,60 @@ Status Ros2Writers::write_tf(const TfMessage& tf) {
   return ok_status();
 }
 
+Status Ros2Writers::write_tf_static(const TfMessage& tf) {
+  if (dds_write(tf_static_writer_, &tf.msg()) < 0) {
+    ++counters_.write_errors;
+    return Error{"ros2: rt/tf_static write failed"};
+  }
+  return ok_status();
+}
+
 dds_entity_t Ros2Writers::odometry_writer(std::uint32_t robot_id) const {
   return robot_id < odometry_writers_.size() ? odometry_writers_[robot_id] : 0;
 }
 
-Status Ros2Writers::write_odometry(std::uint32_t robot_id, const OdometryMessage& odometry) {
-  if (robot_id >= odometry_writers_.size()) odometry_writers_.resize(robot_id + 1, 0);
-  dds_entity_t& w = odometry_writers_[robot_id];
+dds_entity_t Ros2Writers::robot_writer(std::vector<dds_entity_t>& writers, std::uint32_t robot_id,
+                                       const std::string& topic, const dds_topic_descriptor_t* desc,
+                                       dds_qos_t* (*make_qos)()) {
+  if (robot_id >= writers.size()) writers.resize(robot_id + 1, 0);
+  dds_entity_t& w = writers[robot_id];
   if (w <= 0) {
-    const dds_entity_t topic = dds_create_topic(participant_, &nav_msgs_msg_dds__Odometry__desc,
-                                                odometry_topic(robot_id).c_str(), nullptr, nullptr);
-    dds_qos_t* q = make_odometry_writer_qos();
-    w = topic < 0 ? topic : dds_create_writer(participant_, topic, q, nullptr);
+    const dds_entity_t t = dds_create_topic(participant_, desc, topic.c_str(), nullptr, nullptr);
+    dds_qos_t* q = make_qos();
+    w = t < 0 ? t : dds_create_writer(participant_, t, q, nullptr);
     dds_delete_qos(q);
-    if (w < 0) {
-      w = 0;
-      ++counters_.write_errors;
-      return Error{"ros2: cannot create an odometry writer"};
-    }
+    if (w < 0) w = 0;
+  }
+  return w;
+}
+
+Status Ros2Writers::write_odometry(std::uint32_t robot_id, const OdometryMessage& odometry) {
+  const dds_entity_t w = robot_writer(odometry_writers_, robot_id, odometry_topic(robot_id),
+                                      &nav_msgs_msg_dds__Odometry__desc, make_odometry_writer_qos);
+  if (w == 0) {
+    ++counters_.write_errors;
+    return Error{"ros2: cannot create an odometry writer"};
   }
   if (dds_write(w, &odometry.msg()) < 0) {
     ++counters_.write_errors;
     return Error{"ros2: odometry write failed"};
   }
   ++counters_.odometry;
+  return ok_status();
+}
+
+Status Ros2Writers::write_scan(std::uint32_t robot_id, const PointCloudMessage& scan) {
+  const dds_entity_t w = robot_writer(scan_writers_, robot_id, scan_topic(robot_id),
+                                      &sensor_msgs_msg_dds__PointCloud2__desc, make_scan_writer_qos);
+  if (w == 0) {
+    ++counters_.write_errors;
+    return Error{"ros2: cannot create a scan writer"};
+  }
+  if (dds_write(w, &scan.msg()) < 0) {
+    ++counters_.write_errors;
+    return Error{"ros2: scan write failed"};
+  }
+  ++counters_.scans;
   return ok_status();
 }
 

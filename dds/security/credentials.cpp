@@ -23,7 +23,7 @@
 #include "common/capacities.hpp"
 #include "dds/security/openssl_util.hpp"
 
-namespace teamscan::security {
+namespace teamscan::dds::security {
 
 std::string CredentialCheck::summary() const {
   std::string s;
@@ -204,4 +204,4 @@ void add_security_properties(dds_qos_t* qos, const std::string& dir) {
   if (std::filesystem::exists(abs / kCrlFile, ec)) dds_qset_prop(qos, "org.eclipse.cyclonedds.sec.auth.crl", file(kCrlFile).c_str());
 }
 
-}  // namespace teamscan::security
+}  // namespace teamscan::dds::security

@@ -13,7 +13,7 @@
 
 #include <dds/dds.h>
 
-namespace teamscan::security {
+namespace teamscan::dds::security {
 
 inline constexpr const char* kCaCertFile = "ca_cert.pem";          // the site CA (identity and permissions CA)
 inline constexpr const char* kCertFile = "cert.pem";               // this participant's identity certificate
@@ -58,4 +58,4 @@ inline constexpr const char* kStationIdentity = "station";
 // The robot id named by "robot<N>" (1..32), or 0 if `name` is not a robot identity.
 [[nodiscard]] std::uint32_t robot_id_of_identity(const std::string& name);
 
-}  // namespace teamscan::security
+}  // namespace teamscan::dds::security

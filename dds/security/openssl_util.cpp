@@ -11,7 +11,7 @@
 #include <openssl/pem.h>
 #include <openssl/x509_vfy.h>
 
-namespace teamscan::security {
+namespace teamscan::dds::security {
 
 bool read_file(const std::string& path, std::string& out) {
   std::ifstream in(path, std::ios::binary);
@@ -168,4 +168,4 @@ std::string verify_smime_file(const std::string& path, X509* ca, std::int64_t no
   return {};
 }
 
-}  // namespace teamscan::security
+}  // namespace teamscan::dds::security

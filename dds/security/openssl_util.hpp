@@ -10,7 +10,7 @@
 #include <openssl/pkcs7.h>
 #include <openssl/x509.h>
 
-namespace teamscan::security {
+namespace teamscan::dds::security {
 
 struct X509Free { void operator()(X509* p) const { X509_free(p); } };
 struct EvpKeyFree { void operator()(EVP_PKEY* p) const { EVP_PKEY_free(p); } };
@@ -46,4 +46,4 @@ std::string verify_cert(X509* cert, X509* ca, X509_CRL* crl, std::int64_t now_s)
 // signed text without its MIME header. Empty on success, else the reason.
 std::string verify_smime_file(const std::string& path, X509* ca, std::int64_t now_s, std::string& content);
 
-}  // namespace teamscan::security
+}  // namespace teamscan::dds::security

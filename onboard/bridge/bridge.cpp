@@ -87,6 +87,25 @@ void encode_status(const OnboardStatus& in, teamscan_msg_RobotStatus& out) {
   out.last_team_reject = in.last_team_reject;
   out.corrections_applied = in.corrections_applied;
   out.corrections_rejected = in.corrections_rejected;
+  out.ring_unconfirmed = in.ring_unconfirmed;
+  out.ring_dropped = in.ring_dropped;
+  out.ring_confirmed_seq = in.ring_confirmed_seq;
+  out.shadow_ms = in.shadow_ms;
+  out.backfill_total = in.backfill_total;
+  out.backfill_remaining = in.backfill_remaining;
+  out.confirmations_refused = in.confirmations_refused;
+  out.last_shadow_ms = in.last_shadow_ms;
+}
+
+bool decode_stored(const teamscan_msg_StoredState& in, StoredSnapshot& out) {
+  if (in.count > kMaxRobots) return false;  // validated at the edge: the count comes off the network
+  out.stamp_ns = in.stamp_ns;
+  out.count = in.count;
+  for (std::uint32_t i = 0; i < in.count; ++i) {
+    const teamscan_msg_RobotStored& r = in.robots[i];
+    out.robots[i] = RobotStoredState{r.robot_id, r.contiguous_seq, r.first_seq, r.stored};
+  }
+  return true;
 }
 
 bool decode_team(const teamscan_msg_TeamState& in, TeamSnapshot& out) {
@@ -162,6 +181,23 @@ Result<DdsBridge> DdsBridge::create(const DdsBridgeOptions& options) {
   rc = dds_register_instance(b.status_writer_, &ih, &s.status_tx);
   if (rc < 0) return dds_error("dds: cannot register status instance", rc);
 
+  if (options.store_and_forward) {
+    q = dds::make_scan_writer_qos(options.robot_id, dds::kBackfillHistoryDepth, options.liveliness_lease,
+                                  options.max_blocking);
+    Result<dds_entity_t> backfill_writer = dds::create_writer<teamscan_msg_ScanPoints>(b.participant_, q, dds::kTopicBackfill);
+    dds_delete_qos(q);
+    if (!backfill_writer.ok()) return backfill_writer.error();
+    b.backfill_writer_ = backfill_writer.value();
+    s.backfill_tx.robot_id = options.robot_id;
+    rc = dds_register_instance(b.backfill_writer_, &ih, &s.backfill_tx);
+    if (rc < 0) return dds_error("dds: cannot register back-fill instance", rc);
+    q = dds::make_team_reader_qos();
+    Result<dds_entity_t> stored_reader = dds::create_reader<teamscan_msg_StoredState>(b.participant_, q);
+    dds_delete_qos(q);
+    if (!stored_reader.ok()) return stored_reader.error();
+    b.stored_reader_ = stored_reader.value();
+  }
+
   if (options.subscribe_team) {
     q = dds::make_team_reader_qos();
     Result<dds_entity_t> team_reader = dds::create_reader<teamscan_msg_TeamState>(b.participant_, q);
@@ -202,6 +238,21 @@ Status DdsBridge::publish_scan(const ScanPoints& scan) {
   return ok_status();
 }
 
+Status DdsBridge::publish_backfill(const ScanPoints& scan) {
+  if (!participant_.valid() || backfill_writer_ <= 0 || scan.robot_id != robot_id_) {
+    ++counters_.write_errors;
+    return Error{"dds: back-fill for another robot id or no back-fill writer", 0, static_cast<long>(scan.robot_id)};
+  }
+  encode_scan(scan, samples_->backfill_tx);
+  const dds_return_t rc = dds_write(backfill_writer_, &samples_->backfill_tx);
+  if (rc < 0) {
+    ++counters_.write_errors;
+    return dds_error("dds: back-fill write failed", rc);
+  }
+  ++counters_.backfills_written;
+  return ok_status();
+}
+
 Status DdsBridge::publish_status(const OnboardStatus& status) {
   if (!participant_.valid() || status.robot_id != robot_id_) {
     ++counters_.write_errors;
@@ -231,6 +282,23 @@ bool DdsBridge::take_team(TeamSnapshot& out) {
           ++counters_.teams_taken;
         } else {
           ++counters_.bad_team_samples;
+        }
+      });
+  return got;
+}
+
+bool DdsBridge::take_stored(StoredSnapshot& out) {
+  if (stored_reader_ <= 0 || !participant_.valid()) return false;
+  bool got = false;
+  (void)dds::take_all(
+      stored_reader_, stored_rx_, [] {},
+      [&](const teamscan_msg_StoredState& stored, const dds_sample_info_t& info) {
+        if (!info.valid_data) return;
+        if (decode_stored(stored, out)) {
+          got = true;
+          ++counters_.stored_taken;
+        } else {
+          ++counters_.bad_stored_samples;
         }
       });
   return got;

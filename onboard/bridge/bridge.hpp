@@ -33,6 +33,8 @@ struct DdsBridgeOptions {
   // How long a reliable dds_write may block when the writer history is full (keep-last never blocks).
   Duration max_blocking = std::chrono::milliseconds(10);
   bool subscribe_team = true;               // create the teamscan/team reader
+  // Store and forward: the teamscan/backfill writer and the teamscan/stored reader (docs/onboard.md).
+  bool store_and_forward = false;
   // DDS Security credential bundle of this robot (dds/security/credentials.hpp), checked by the caller;
   // null: an unsecured participant.
   const char* pki_dir = nullptr;
@@ -45,6 +47,9 @@ struct DdsBridgeCounters {
   std::uint32_t write_errors = 0;
   std::uint32_t teams_taken = 0;
   std::uint32_t bad_team_samples = 0;       // count out of range; dropped
+  std::uint32_t backfills_written = 0;
+  std::uint32_t stored_taken = 0;
+  std::uint32_t bad_stored_samples = 0;     // count out of range; dropped
 };
 
 class DdsBridge {
@@ -62,9 +67,13 @@ class DdsBridge {
   [[nodiscard]] Status publish_pose(const OnboardPose& pose);
   [[nodiscard]] Status publish_scan(const ScanPoints& scan);
   [[nodiscard]] Status publish_status(const OnboardStatus& status);
+  // A scan re-published from the ring (teamscan/backfill); fails without store_and_forward.
+  [[nodiscard]] Status publish_backfill(const ScanPoints& scan);
 
   // The newest team state received since the last call, if any. Never blocks, never allocates.
   [[nodiscard]] bool take_team(TeamSnapshot& out);
+  // The newest teamscan/stored since the last call, if any. Never blocks, never allocates.
+  [[nodiscard]] bool take_stored(StoredSnapshot& out);
 
   // Blocks until every matched reader acknowledged every scan written so far, or `timeout` (for an
   // orderly stop: SIGTERM flushes the last sweeps before the participant goes away). Not a data-path call.
@@ -80,9 +89,10 @@ class DdsBridge {
     teamscan_msg_RobotPose pose_tx;
     teamscan_msg_ScanPoints scan_tx;
     teamscan_msg_RobotStatus status_tx;
+    teamscan_msg_ScanPoints backfill_tx;
   };
   explicit DdsBridge(dds::Participant participant)
-      : participant_{std::move(participant)}, team_rx_{1} {}
+      : participant_{std::move(participant)}, team_rx_{1}, stored_rx_{1} {}
 
   // Declared first, destroyed last: the writers and reader below belong to it.
   dds::Participant participant_;
@@ -90,9 +100,12 @@ class DdsBridge {
   dds_entity_t scan_writer_ = 0;
   dds_entity_t status_writer_ = 0;
   dds_entity_t team_reader_ = 0;
+  dds_entity_t backfill_writer_ = 0;
+  dds_entity_t stored_reader_ = 0;
   std::uint32_t robot_id_ = 0;
   std::unique_ptr<Samples> samples_;
   dds::TakeBuffer<teamscan_msg_TeamState> team_rx_;  // keep-last 1: one sample at a time
+  dds::TakeBuffer<teamscan_msg_StoredState> stored_rx_;
   DdsBridgeCounters counters_{};
 };
 
@@ -103,5 +116,6 @@ void encode_scan(const ScanPoints& in, teamscan_msg_ScanPoints& out);
 void encode_status(const OnboardStatus& in, teamscan_msg_RobotStatus& out);
 // False (out unchanged beyond count) if the sample's count is out of range.
 [[nodiscard]] bool decode_team(const teamscan_msg_TeamState& in, TeamSnapshot& out);
+[[nodiscard]] bool decode_stored(const teamscan_msg_StoredState& in, StoredSnapshot& out);
 
 }  // namespace teamscan::onboard

@@ -26,6 +26,10 @@ Pose2 OnboardConfig::map_from_odom() const {
   return {registration_x_m, registration_y_m, normalize_angle(deg_to_rad(registration_theta_deg))};
 }
 
+std::uint64_t RingConfig::slots() const {
+  return static_cast<std::uint64_t>(std::ceil(capacity_s * kRingRecordsPerSecond));
+}
+
 std::uint32_t OnboardConfig::max_range_mm() const {
   return static_cast<std::uint32_t>(std::lround(lms_max_range_m * 1000.0));
 }
@@ -126,7 +130,7 @@ Result<OnboardConfig> parse_onboard_config(std::string_view toml_text, std::stri
   TomlReader r{root, message};
   OnboardConfig c;
 
-  r.top_level({"robot", "arcos", "lms", "mount", "registration", "filter", "dds", "status", "odometry"});
+  r.top_level({"robot", "arcos", "lms", "mount", "registration", "filter", "dds", "status", "odometry", "ring"});
 
   // [robot]
   const toml::table* robot = r.section("robot", true);
@@ -305,6 +309,29 @@ Result<OnboardConfig> parse_onboard_config(std::string_view toml_text, std::stri
       c.odometry_max_hold = from_seconds(hold_s);
   }
 
+  // [ring]
+  const toml::table* ring = r.section("ring", false);
+  r.only(ring, "ring", {"path", "capacity_s", "flush_records", "flush_period_s", "backfill_rate_hz"});
+  RingConfig& rc = c.ring;
+  if (r.string(ring, "ring", "path", rc.path, false) && rc.path.empty())
+    r.fail("ring.path", "must not be empty (leave the key out for no ring)", r.node(ring, "path"));
+  if (r.number(ring, "ring", "capacity_s", rc.capacity_s, false) && !(rc.capacity_s >= 1.0 && rc.capacity_s <= 86400.0))
+    r.fail("ring.capacity_s", fmt_double(rc.capacity_s) + " is outside [1, 86400]", r.node(ring, "capacity_s"));
+  std::int64_t flush_records = rc.flush_records;
+  if (r.integer(ring, "ring", "flush_records", flush_records, false) && (flush_records < 1 || flush_records > 100000))
+    r.fail("ring.flush_records", std::to_string(flush_records) + " is outside 1..100000", r.node(ring, "flush_records"));
+  rc.flush_records = static_cast<std::uint32_t>(std::clamp<std::int64_t>(flush_records, 1, 100000));
+  double flush_s = to_seconds(rc.flush_period);
+  if (r.number(ring, "ring", "flush_period_s", flush_s, false)) {
+    if (!(flush_s >= 0.001 && flush_s <= 60.0))
+      r.fail("ring.flush_period_s", fmt_double(flush_s) + " is outside [0.001, 60]", r.node(ring, "flush_period_s"));
+    else
+      rc.flush_period = from_seconds(flush_s);
+  }
+  if (r.number(ring, "ring", "backfill_rate_hz", rc.backfill_rate_hz, false) &&
+      !(rc.backfill_rate_hz >= 1.0 && rc.backfill_rate_hz <= 10000.0))
+    r.fail("ring.backfill_rate_hz", fmt_double(rc.backfill_rate_hz) + " is outside [1, 10000]", r.node(ring, "backfill_rate_hz"));
+
   // Consistency across sections.
   if (!r.failed() && c.arcos_device == c.lms_device)
     r.fail("lms.device", "is the same device as arcos.device (" + c.lms_device + ")", r.node(lms, "device"));
@@ -328,12 +355,13 @@ Result<OnboardConfig> load_onboard_config(const std::string& path, std::string& 
 }
 
 std::string describe(const OnboardConfig& c) {
-  char buf[768];
+  char buf[1280];
   std::snprintf(buf, sizeof buf,
                 "robot %u; arcos %s @ %u; lms %s @ %u, %u°/%.2f°, %s, max %.2f m; mount (%.3f, %.3f, %.3f) m "
                 "rpy (%.1f, %.1f, %.1f)°; registration (%.3f, %.3f) m %.1f°; filter %s ha %.1f° range gate %s "
                 "height gate %s, team age %.2f s, stale %s; dds domain %u, publish %s, history %u; status %.2f s; "
-                "odometry extrapolation %.3f s, hold %.3f s",
+                "odometry extrapolation %.3f s, hold %.3f s; ring %s (%.0f s = %llu records, flush every %u records "
+                "or %.3f s, back-fill %.0f Hz)",
                 c.robot_id, c.arcos_device.c_str(), c.arcos_baud, c.lms_device.c_str(), c.lms_baud, c.lms_variant.fov_deg,
                 c.lms_variant.resolution_cdeg / 100.0, c.lms_units == LmsUnits::mm ? "mm" : "cm", c.lms_max_range_m,
                 c.mount.x_m, c.mount.y_m, c.mount.z_m, c.mount.roll_deg, c.mount.pitch_deg, c.mount.yaw_deg,
@@ -341,7 +369,10 @@ std::string describe(const OnboardConfig& c) {
                 c.filter.half_angle_deg, c.filter.range_gate ? "on" : "off", c.filter.height_gate ? "on" : "off",
                 to_seconds(c.filter.max_team_age), c.filter.stale_policy == StalePolicy::widen ? "widen" : "disable",
                 c.dds_domain, c.publish == PublishMode::all ? "all" : "kept", c.scan_history_depth,
-                to_seconds(c.status_period), to_seconds(c.odometry_max_extrapolation), to_seconds(c.odometry_max_hold));
+                to_seconds(c.status_period), to_seconds(c.odometry_max_extrapolation), to_seconds(c.odometry_max_hold),
+                c.ring.enabled() ? c.ring.path.c_str() : "off", c.ring.capacity_s,
+                static_cast<unsigned long long>(c.ring.slots()), c.ring.flush_records, to_seconds(c.ring.flush_period),
+                c.ring.backfill_rate_hz);
   return buf;
 }
 

@@ -26,6 +26,20 @@ struct LaserMount {
   [[nodiscard]] Pose3 robot_from_laser() const;
 };
 
+// [ring]: store and forward (docs/onboard.md "The ring"). Every scan and pose the robot publishes is kept in
+// a preallocated file of fixed-size records; what the station has not confirmed is back-filled when it is
+// reachable again. No path: no ring.
+inline constexpr double kRingRecordsPerSecond = 85.0;  // the LMS' 75 scans and the Pioneer's 10 SIPs a second
+struct RingConfig {
+  std::string path;                         // e.g. /var/lib/teamscan/ring.bin; empty: no ring
+  double capacity_s = 1800.0;               // the ring holds this long at kRingRecordsPerSecond
+  std::uint32_t flush_records = 75;         // fdatasync after this many records...
+  Duration flush_period = 1s;               // ...or when the oldest unflushed one is this old
+  double backfill_rate_hz = 300.0;          // back-filled scans per second at most (live ones go first)
+  [[nodiscard]] bool enabled() const { return !path.empty(); }
+  [[nodiscard]] std::uint64_t slots() const;  // records: ceil(capacity_s * kRingRecordsPerSecond)
+};
+
 struct OnboardConfig {
   std::uint32_t robot_id = 0;  // 1..32
 
@@ -54,6 +68,8 @@ struct OnboardConfig {
   // is published with its last beams extrapolated from the two newest SIPs (0: at once). Default: the
   // extrapolation limit (every scan interpolated whenever the SIPs keep coming).
   Duration odometry_max_hold = kDefaultMaxExtrapolation;
+
+  RingConfig ring;
 
   [[nodiscard]] Pose2 map_from_odom() const;
   [[nodiscard]] std::uint32_t max_range_mm() const;

@@ -54,6 +54,29 @@ struct OnboardStatus {
   std::uint32_t last_team_reject = 0; // TeamReject of the newest refused one
   std::uint32_t corrections_applied = 0;   // own corrections taken into use (pipeline.hpp)
   std::uint32_t corrections_rejected = 0;  // own corrections refused as an absurd step
+  // Store and forward (onboard/ring): see RobotStatus in idl/teamscan.idl.
+  std::uint32_t ring_unconfirmed = 0;
+  std::uint32_t ring_dropped = 0;
+  std::uint32_t ring_confirmed_seq = 0;
+  std::uint32_t shadow_ms = 0;
+  std::uint32_t backfill_total = 0;
+  std::uint32_t backfill_remaining = 0;
+  std::uint32_t confirmations_refused = 0;
+  std::uint32_t last_shadow_ms = 0;
+};
+
+// What the station has stored of one robot's scans (teamscan/stored).
+struct RobotStoredState {
+  std::uint32_t robot_id = 0;
+  std::uint32_t contiguous_seq = 0;  // every scan from first_seq up to this one is stored
+  std::uint32_t first_seq = 0;
+  std::uint32_t stored = 0;
+};
+
+struct StoredSnapshot {
+  std::int64_t stamp_ns = 0;  // the station's publication time (CLOCK_REALTIME)
+  std::uint32_t count = 0;
+  RobotStoredState robots[kMaxRobots];
 };
 
 // One teammate as tracked by the ground station (teamscan/team).

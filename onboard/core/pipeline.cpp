@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/units.hpp"
+
 namespace teamscan::onboard {
 
 namespace {
@@ -38,8 +40,8 @@ bool OnboardPipeline::on_odometry(Time stamp, const Pose2& odom_from_robot, doub
   out.robot_id = robot_id_;
   out.seq = ++pose_seq_;
   out.stamp_ns = stamp.ns();
-  out.x_mm = metres_to_mm_i32(map_from_robot.x_m);
-  out.y_mm = metres_to_mm_i32(map_from_robot.y_m);
+  out.x_mm = to_mm(map_from_robot.x_m);
+  out.y_mm = to_mm(map_from_robot.y_m);
   out.yaw_urad = static_cast<std::int32_t>(std::lround(map_from_robot.theta_rad * 1e6));
   out.vx_mmps = static_cast<std::int32_t>(std::lround(trans_vel_mm_s * std::cos(map_from_robot.theta_rad)));
   out.vy_mmps = static_cast<std::int32_t>(std::lround(trans_vel_mm_s * std::sin(map_from_robot.theta_rad)));
@@ -103,7 +105,7 @@ const ScanPoints* OnboardPipeline::on_scan(BeamSpans beams, Time stamp) {
   if (filter_enabled_) {
     if (scan_.pose_ok) {
       // R1 of eq. 7 is this robot's own position at the scan's stamp, corrected like its teammates'.
-      filter_stats_ = filter_.apply(metres_to_mm_i32(scan_.map_from_robot.x_m), metres_to_mm_i32(scan_.map_from_robot.y_m),
+      filter_stats_ = filter_.apply(to_mm(scan_.map_from_robot.x_m), to_mm(scan_.map_from_robot.y_m),
                                     scan_.stamp, scan_.points.data(), scan_.count);
     } else {
       ++counters_.scans_without_pose;

@@ -59,6 +59,13 @@ class OnboardPipeline {
   // not one full sweep of the configured variant. The scan stays valid until the next call.
   const ScanPoints* on_scan(BeamSpans beams, Time stamp);
 
+  // Continues the numbering after a restart: the next scan is scan_seq + 1, the next pose pose_seq + 1
+  // (the newest ones the robot's ring recovered), so the station never sees a seq twice.
+  void resume_after(std::uint32_t scan_seq, std::uint32_t pose_seq) {
+    scan_.seq = scan_seq;
+    pose_seq_ = pose_seq;
+  }
+
   // The last scan on_scan made (the published one).
   [[nodiscard]] const ScanPoints& last_scan() const { return scan_; }
   [[nodiscard]] const DirectionFilterStats& last_filter_stats() const { return filter_stats_; }

@@ -49,18 +49,44 @@ Result<std::unique_ptr<OnboardDaemon>> OnboardDaemon::create(const OnboardConfig
                                                              const DaemonOptions& options) {
   Result<OnboardPipeline> pipeline = OnboardPipeline::create(config);
   if (!pipeline.ok()) return pipeline.error();
-  std::unique_ptr<OnboardDaemon> d{new OnboardDaemon(config, publisher, options, pipeline.value())};
+  std::unique_ptr<ring::ScanRing> ring;
+  if (config.ring.enabled()) {
+    Result<std::unique_ptr<ring::ScanRing>> opened = ring::ScanRing::open(config.ring, config.robot_id, config.scan_history_depth);
+    if (!opened.ok()) {
+      log_message(LogLevel::err, "ring %s: %s (%s)", config.ring.path.c_str(), opened.error().what,
+                  std::strerror(opened.error().sys_errno));
+      return opened.error();
+    }
+    ring = std::move(opened.value());
+    const ring::RingIndex& idx = ring->index();
+    const ring::RingCounters& rc = idx.counters();
+    char seqs[48] = "";
+    if (rc.recovered_scans > 0) std::snprintf(seqs, sizeof seqs, " (seq %u..%u)", idx.oldest_scan_seq(), idx.newest_scan_seq());
+    log_message(LogLevel::notice,
+                "ring %s: %llu records (%.0f MB)%s; recovered %llu scans%s and %llu poses in %.2f s; "
+                "%llu torn and %llu misplaced records skipped, %llu of another robot",
+                config.ring.path.c_str(), static_cast<unsigned long long>(idx.slots()),
+                static_cast<double>(idx.slots() * ring::kSlotBytes) / 1e6, ring->created() ? " (new)" : "",
+                static_cast<unsigned long long>(rc.recovered_scans), seqs, static_cast<unsigned long long>(rc.recovered_poses),
+                ring->recovery_s(),
+                static_cast<unsigned long long>(rc.torn), static_cast<unsigned long long>(rc.misplaced),
+                static_cast<unsigned long long>(rc.foreign));
+    // The numbering continues after the newest recovered scan and pose: never a seq twice at the station.
+    pipeline.value().resume_after(idx.newest_scan_seq(), idx.newest_pose_seq());
+  }
+  std::unique_ptr<OnboardDaemon> d{new OnboardDaemon(config, publisher, options, pipeline.value(), std::move(ring))};
   const Status fds = d->setup_fds();
   if (!fds.ok()) return fds.error();
   return d;
 }
 
 OnboardDaemon::OnboardDaemon(const OnboardConfig& config, Publisher& publisher, const DaemonOptions& options,
-                             OnboardPipeline pipeline)
+                             OnboardPipeline pipeline, std::unique_ptr<ring::ScanRing> ring)
     : config_{config},
       publisher_{publisher},
       options_{options},
       pipeline_{pipeline},
+      ring_{std::move(ring)},
       arcos_{[&] {
         arcos::ArcosClientOptions o;
         o.baud = config.arcos_baud;
@@ -208,6 +234,10 @@ void OnboardDaemon::on_sip(void* self_ptr, const arcos::SipPacket& sip, const ar
                                    self->pose_msg_))
     return;
   if (!self->publisher_.publish_pose(self->pose_msg_).ok()) ++self->publish_errors_;
+  if (self->ring_) {
+    const Status s = self->ring_->append_pose(self->pose_msg_, received);
+    if (!s.ok()) self->ring_failed(s, "pose not kept", received);
+  }
   self->drain_scans(received, false);
 }
 
@@ -248,6 +278,65 @@ void OnboardDaemon::drain_scans(Time now, bool force) {
     if (msg == nullptr) continue;
     ++scans_in_period_;
     if (publisher_.publish_scan(*msg).ok()) ++scans_published_; else ++publish_errors_;
+    // Kept whether or not DDS took it: the ring is what the station gets back later.
+    if (ring_) {
+      const Status s = ring_->append_scan(*msg, now);
+      if (!s.ok()) ring_failed(s, "scan not kept", now);
+    }
+  }
+}
+
+void OnboardDaemon::ring_failed(const Status& s, const char* what, Time now) {
+  ++ring_errors_;
+  if (now >= next_ring_error_log_) {
+    log_message(LogLevel::err, "ring: %s: %s (%s); %llu ring errors so far", what, s.error().what,
+                std::strerror(s.error().sys_errno), static_cast<unsigned long long>(ring_errors_));
+    next_ring_error_log_ = now + std::chrono::seconds(10);
+  }
+}
+
+void OnboardDaemon::on_stored(Time now) {
+  // A confirmation older than the reachable timeout is the transient-local copy a restarted robot gets of
+  // the station's last one, not a sign of contact (clocks: NTP, as for the team state's age).
+  const Duration age = to_realtime(now) - Time::from_ns(stored_msg_.stamp_ns);
+  const bool fresh = age <= ring_->index().options().reachable_timeout;
+  for (std::uint32_t i = 0; i < stored_msg_.count; ++i) {
+    const RobotStoredState& r = stored_msg_.robots[i];
+    const ring::Confirmation c = ring_->on_confirmation(r.robot_id, r.contiguous_seq, now, fresh);
+    if (c == ring::Confirmation::kUnknownRobot || c == ring::Confirmation::kFuture) {
+      ++confirmations_refused_;
+      if (now >= next_ring_error_log_) {
+        log_message(LogLevel::warning, "confirmation refused: robot %u seq %u (%s; newest scan %u); %llu refused so far",
+                    r.robot_id, r.contiguous_seq, c == ring::Confirmation::kFuture ? "from the future" : "unknown robot",
+                    ring_->index().newest_scan_seq(), static_cast<unsigned long long>(confirmations_refused_));
+        next_ring_error_log_ = now + std::chrono::seconds(10);
+      }
+    }
+  }
+}
+
+void OnboardDaemon::service_ring(Time now) {
+  if (!ring_) return;
+  if (publisher_.take_stored(stored_msg_)) on_stored(now);
+  const Status f = ring_->flush_if_due(now);
+  if (!f.ok()) ring_failed(f, "flush", now);
+  const ring::ShadowState st = ring_->index().shadow(now);
+  if (st.reachable != station_reachable_) {
+    if (st.reachable)
+      log_message(LogLevel::notice, "station confirms scan %u: back-filling %u scans from the ring", st.confirmed_seq,
+                  st.backfill_total);
+    else
+      log_message(LogLevel::warning, "station unreachable (no confirmation for %.1f s): %u scans unconfirmed, kept in the ring",
+                  to_seconds(now - st.shadow_since), st.unconfirmed);
+    station_reachable_ = st.reachable;
+  }
+  // After this turn's live scans (take_scans ran first): at most the back-fill's burst, at its rate.
+  ring_->start_turn(now);
+  while (ring_->next_backfill(now, backfill_msg_)) {
+    if (!publisher_.publish_backfill(backfill_msg_).ok()) {
+      ++publish_errors_;
+      break;
+    }
   }
 }
 
@@ -287,9 +376,23 @@ void OnboardDaemon::publish_status(Time now) {
   s.loop_max_us = loop_max_us_;
   s.corrections_applied = clamp_u32(pc.corrections_applied);
   s.corrections_rejected = clamp_u32(pc.corrections_rejected);
+  ring::ShadowState shadow;
+  if (ring_) {
+    shadow = ring_->index().shadow(now);
+    s.ring_unconfirmed = shadow.unconfirmed;
+    s.ring_dropped = clamp_u32(ring_->index().counters().dropped_unconfirmed);
+    s.ring_confirmed_seq = shadow.confirmed_seq;
+    s.shadow_ms = shadow.reachable || !shadow.ever_confirmed
+                      ? 0
+                      : clamp_u32(static_cast<std::uint64_t>(std::max<std::int64_t>(1, (now - shadow.shadow_since).count() / 1'000'000)));
+    s.backfill_total = shadow.backfill_total;
+    s.backfill_remaining = shadow.backfill_remaining;
+    s.confirmations_refused = clamp_u32(confirmations_refused_);
+    s.last_shadow_ms = clamp_u32(static_cast<std::uint64_t>(std::max<std::int64_t>(0, shadow.last_shadow.count() / 1'000'000)));
+  }
   if (!publisher_.publish_status(s).ok()) ++publish_errors_;
 
-  char text[512];
+  char text[768];
   std::snprintf(text, sizeof text,
                 "arcos %s %.1f Hz (opens %u, bad %u); lms %s %.1f Hz (opens %u, bad %u, dropped %u, forced %u); scans %u, "
                 "filtered %u, stale %u, no pose %u; team %s (refused %u, last %s); correction %u (applied %u, refused %u); "
@@ -300,6 +403,16 @@ void OnboardDaemon::publish_status(Time now) {
                 s.points_team_stale, s.points_no_pose, s.team_fresh ? "fresh" : "stale", s.teams_rejected,
                 team_reject_name(pipeline_.team_checks().last_reject), pipeline_.applied_correction().seq,
                 s.corrections_applied, s.corrections_rejected, to_string(sync), s.loop_max_us, publish_errors_);
+  if (ring_) {
+    // The ring's part of the status line: "ring: 3200 unconfirmed (shadow 43.0 s), back-fill 1184/3200, ...".
+    const std::size_t used = std::strlen(text);
+    std::snprintf(text + used, sizeof text - used,
+                  "; ring: %u unconfirmed (confirmed %u, %s %.1f s), back-fill %u/%u, dropped %u, refused %u, errors %llu, "
+                  "flush max %u us",
+                  s.ring_unconfirmed, s.ring_confirmed_seq, s.shadow_ms > 0 ? "shadow" : "reachable", s.shadow_ms / 1000.0,
+                  s.backfill_total - s.backfill_remaining, s.backfill_total, s.ring_dropped, s.confirmations_refused,
+                  static_cast<unsigned long long>(ring_errors_), ring_->take_flush_max_us());
+  }
   dds::notify_status(text);
   sips_in_period_ = scans_in_period_ = 0;
   loop_max_us_ = 0;
@@ -344,6 +457,12 @@ Time OnboardDaemon::next_wakeup(Time now) const {
   if (stopping_) consider(std::min(stop_deadline_, now + 10ms));
   // The oldest held scan is due when its hold ends (stamps are CLOCK_REALTIME, the loop runs on monotonic).
   if (pending_size_ > 0) consider(pending_[pending_head_].stamp - realtime_offset_ + config_.odometry_max_hold);
+  // The ring: its flush period, and the back-fill's next turn while there is some to do.
+  if (ring_) {
+    if (ring_->flush_counters().unflushed > 0) consider(ring_->flush_due());
+    const ring::ShadowState st = ring_->index().shadow(now);
+    if (st.reachable && st.backfill_remaining > 0) consider(now + 10ms);
+  }
   return std::max(t, now);
 }
 
@@ -382,6 +501,7 @@ void OnboardDaemon::tick(Time now) {
     if (publisher_.take_team(team_msg_)) on_team(now);
     next_team_poll_ = now + options_.team_poll_period;
   }
+  service_ring(now);
   log_state_changes();
   if (!ready_sent_ && arcos_.connected() && lms_.streaming()) {
     // READY=1 only once both devices stream (DDS_SYSTEMD.md 5).
@@ -475,6 +595,10 @@ int OnboardDaemon::run() {
   // Flush what the clients queued for the shutdown (STOP + CLOSE for the Pioneer) and close the ports.
   const Time end = now_monotonic();
   while (pending_size_ > 0) drain_scans(end, true);  // nothing received is lost
+  if (ring_) {
+    const Status f = ring_->flush();
+    if (!f.ok()) ring_failed(f, "final flush", end);
+  }
   if (arcos_dev_.open) service_tx(arcos_dev_, arcos_, end);
   if (lms_dev_.open) service_tx(lms_dev_, lms_, end);
   for (DeviceSlot* dev : {&arcos_dev_, &lms_dev_}) {

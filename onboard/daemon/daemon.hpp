@@ -19,6 +19,7 @@
 #include "onboard/core/pipeline.hpp"
 #include "onboard/daemon/clock_sync.hpp"
 #include "onboard/daemon/publisher.hpp"
+#include "onboard/ring/scan_ring.hpp"
 
 namespace teamscan::onboard {
 
@@ -57,7 +58,7 @@ class OnboardDaemon {
 
  private:
   OnboardDaemon(const OnboardConfig& config, Publisher& publisher, const DaemonOptions& options,
-                OnboardPipeline pipeline);
+                OnboardPipeline pipeline, std::unique_ptr<ring::ScanRing> ring);
 
   Status setup_fds();
   void tick(Time now);
@@ -72,6 +73,11 @@ class OnboardDaemon {
   // unless `force`, or the queue is full, or it has waited odometry.max_hold_s (config.hpp).
   void drain_scans(Time now, bool force);
   void publish_status(Time now);
+  // Store and forward (config [ring]): the station's confirmations into the ring, the flush policy, and
+  // the back-fill of what it has not confirmed, after the live scans of this turn.
+  void service_ring(Time now);
+  void on_stored(Time now);
+  void ring_failed(const Status& s, const char* what, Time now);
   // Hands the team state just taken to the pipeline (checked there); a refusal is logged at most once
   // per 10 s with the count since the last line.
   void on_team(Time now);
@@ -87,6 +93,7 @@ class OnboardDaemon {
   Publisher& publisher_;
   DaemonOptions options_;
   OnboardPipeline pipeline_;
+  std::unique_ptr<ring::ScanRing> ring_;  // null: no [ring] in the config
   arcos::ArcosClient arcos_;
   lms200::LmsClient lms_;
   DeviceSlot arcos_dev_;
@@ -118,6 +125,12 @@ class OnboardDaemon {
   OnboardPose pose_msg_{};
   OnboardStatus status_msg_{};
   TeamSnapshot team_msg_{};
+  StoredSnapshot stored_msg_{};
+  ScanPoints backfill_msg_{};
+  std::uint64_t confirmations_refused_ = 0;
+  std::uint64_t ring_errors_ = 0;
+  Time next_ring_error_log_{};          // monotonic
+  bool station_reachable_ = false;      // as the ring saw it last turn (for the journal's transitions)
   // Scans waiting for the SIP that covers them: a fixed ring (16 scans = 213 ms at 75 Hz).
   struct PendingScan {
     lms200::ScanTelegram telegram;

@@ -78,15 +78,15 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (!pki_dir.empty()) {
-    const std::string identity = teamscan::security::robot_identity(config.value().robot_id);
-    const teamscan::security::CredentialCheck c =
-        teamscan::security::check_credentials_for(pki_dir, identity, static_cast<std::int64_t>(std::time(nullptr)));
+    const std::string identity = teamscan::dds::security::robot_identity(config.value().robot_id);
+    const teamscan::dds::security::CredentialCheck c =
+        teamscan::dds::security::check_credentials_for(pki_dir, identity, static_cast<std::int64_t>(std::time(nullptr)));
     if (!c.ok()) {
       log_message(LogLevel::err, "DDS Security credentials refused: %s", c.summary().c_str());
       return 2;
     }
     log_message(LogLevel::info, "DDS Security: identity %s, certificate valid until %s", c.subject.c_str(),
-                teamscan::security::unix_to_utc(c.not_after_s).c_str());
+                teamscan::dds::security::unix_to_utc(c.not_after_s).c_str());
   }
   if (check_only) {
     std::printf("%s: valid\n%s\n", config_path.c_str(), describe(config.value()).c_str());

@@ -14,6 +14,8 @@ class DdsPublisher final : public Publisher {
   Status publish_scan(const ScanPoints& scan) override { return bridge_.publish_scan(scan); }
   Status publish_status(const OnboardStatus& status) override { return bridge_.publish_status(status); }
   bool take_team(TeamSnapshot& out) override { return bridge_.take_team(out); }
+  Status publish_backfill(const ScanPoints& scan) override { return bridge_.publish_backfill(scan); }
+  bool take_stored(StoredSnapshot& out) override { return bridge_.take_stored(out); }
   const char* name() const override { return "dds"; }
 
  private:
@@ -28,6 +30,7 @@ Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig& config, c
   options.robot_id = config.robot_id;
   options.domain_id = config.dds_domain;
   options.scan_history_depth = config.scan_history_depth;
+  options.store_and_forward = config.ring.enabled();
   Result<DdsBridge> bridge = DdsBridge::create(options);
   if (!bridge.ok()) return bridge.error();
   return std::unique_ptr<Publisher>(new DdsPublisher(std::move(bridge.value())));

@@ -18,6 +18,10 @@ class Publisher {
   [[nodiscard]] virtual Status publish_status(const OnboardStatus& status) = 0;
   // The newest team state since the last call, if any; never blocks.
   [[nodiscard]] virtual bool take_team(TeamSnapshot& out) = 0;
+  // Store and forward (docs/onboard.md "The ring"): a scan re-published from the ring, and the newest
+  // teamscan/stored since the last call. A publisher without them refuses and never has one.
+  [[nodiscard]] virtual Status publish_backfill(const ScanPoints&) { return Error{"publisher: no back-fill writer"}; }
+  [[nodiscard]] virtual bool take_stored(StoredSnapshot&) { return false; }
   [[nodiscard]] virtual const char* name() const = 0;
 };
 

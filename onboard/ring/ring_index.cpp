@@ -1,0 +1,216 @@
+// The ring's state without I/O (ring_index.hpp).
+#include "onboard/ring/ring_index.hpp"
+
+#include <algorithm>
+#include <new>
+
+#include "common/capacities.hpp"
+
+namespace teamscan::onboard::ring {
+
+Result<std::unique_ptr<RingIndex>> RingIndex::create(const RingIndexOptions& options) {
+  if (options.slots < 16) return Error{"ring: fewer than 16 records", 0, static_cast<long>(options.slots)};
+  if (options.robot_id == 0 || options.robot_id > kMaxRobots) return Error{"ring: robot id outside 1..32"};
+  if (!(options.backfill_rate_hz > 0.0)) return Error{"ring: back-fill rate must be > 0"};
+  std::unique_ptr<RingIndex> r{new (std::nothrow) RingIndex(options)};
+  if (!r) return Error{"ring: out of memory"};
+  r->slots_.reset(new (std::nothrow) Slot[options.slots]);
+  r->scan_pos_.reset(new (std::nothrow) std::uint64_t[options.slots]);
+  if (!r->slots_ || !r->scan_pos_)
+    return Error{"ring: out of memory for the slot tables", 0, static_cast<long>(options.slots)};
+  std::fill_n(r->scan_pos_.get(), options.slots, 0);
+  return r;
+}
+
+RingIndex::RingIndex(const RingIndexOptions& options) : options_{options} {}
+
+void RingIndex::recover_slot(std::uint64_t slot, RecordError error, const RecordHeader& header) {
+  if (slot >= options_.slots) return;
+  if (error == RecordError::kEmpty) {
+    ++counters_.recovered_empty;
+    return;
+  }
+  if (error != RecordError::kNone) {
+    ++counters_.torn;
+    return;
+  }
+  if (header.robot_id != options_.robot_id) {
+    ++counters_.foreign;
+    return;
+  }
+  if (header.ring_seq % options_.slots != slot) {
+    ++counters_.misplaced;
+    return;
+  }
+  slots_[slot] = Slot{header.ring_seq, header.seq, header.kind};
+}
+
+void RingIndex::finish_recovery() {
+  head_ = 0;
+  for (std::uint64_t i = 0; i < options_.slots; ++i)
+    if (slots_[i].kind != RecordKind::kEmpty) head_ = std::max(head_, slots_[i].ring_seq + 1);
+  std::uint64_t newest_scan = 0, oldest_scan = UINT64_MAX, newest_pose = 0;
+  bool any_pose = false;
+  for (std::uint64_t i = 0; i < options_.slots; ++i) {
+    Slot& s = slots_[i];
+    if (s.kind == RecordKind::kEmpty) continue;
+    // A record older than one lap is left from a write that failed since: not part of the ring.
+    if (s.ring_seq + options_.slots < head_) {
+      ++counters_.misplaced;
+      s = Slot{};
+      continue;
+    }
+    if (s.kind == RecordKind::kPose) {
+      ++counters_.recovered_poses;
+      if (!any_pose || s.ring_seq >= newest_pose) newest_pose_seq_ = s.seq;
+      newest_pose = any_pose ? std::max(newest_pose, s.ring_seq) : s.ring_seq;
+      any_pose = true;
+      continue;
+    }
+    ++counters_.recovered_scans;
+    std::uint64_t& pos = scan_pos_[s.seq % options_.slots];
+    if (pos == 0 || pos - 1 < s.ring_seq) pos = s.ring_seq + 1;
+    if (!any_scan_ || s.ring_seq >= newest_scan) {
+      newest_scan = s.ring_seq;
+      newest_scan_seq_ = s.seq;
+    }
+    if (!any_scan_ || s.ring_seq < oldest_scan) {
+      oldest_scan = s.ring_seq;
+      oldest_scan_seq_ = s.seq;
+    }
+    any_scan_ = true;
+  }
+}
+
+void RingIndex::written(RecordKind kind, std::uint32_t seq, bool ok) {
+  const std::uint64_t slot = head_ % options_.slots;
+  Slot& s = slots_[slot];
+  if (s.kind == RecordKind::kScan) {
+    std::uint64_t& pos = scan_pos_[s.seq % options_.slots];
+    if (pos == s.ring_seq + 1) pos = 0;
+    if (!ever_confirmed_ || s.seq > confirmed_seq_) ++counters_.dropped_unconfirmed;
+    if (s.seq >= oldest_scan_seq_) oldest_scan_seq_ = s.seq + 1;
+  }
+  if (ok) {
+    s = Slot{head_, seq, kind};
+    if (kind == RecordKind::kScan) {
+      scan_pos_[seq % options_.slots] = head_ + 1;
+      if (!any_scan_) oldest_scan_seq_ = seq;
+      any_scan_ = true;
+      newest_scan_seq_ = seq;
+      ++counters_.scans_written;
+    } else {
+      newest_pose_seq_ = seq;
+      ++counters_.poses_written;
+    }
+  } else {
+    s = Slot{};
+    ++counters_.write_errors;
+  }
+  ++head_;
+}
+
+bool RingIndex::locate_scan(std::uint32_t seq, std::uint64_t& slot) const {
+  const std::uint64_t pos = scan_pos_[seq % options_.slots];
+  if (pos == 0) return false;
+  const std::uint64_t i = (pos - 1) % options_.slots;
+  const Slot& s = slots_[i];
+  if (s.kind != RecordKind::kScan || s.seq != seq || s.ring_seq != pos - 1) return false;
+  slot = i;
+  return true;
+}
+
+bool RingIndex::reachable(Time now) const {
+  return ever_confirmed_ && now - last_confirmation_ <= options_.reachable_timeout;
+}
+
+std::uint32_t RingIndex::backfill_limit() const {
+  return newest_scan_seq_ > options_.live_window ? newest_scan_seq_ - options_.live_window : 0;
+}
+
+Confirmation RingIndex::on_confirmation(std::uint32_t robot_id, std::uint32_t contiguous_seq, Time now, bool fresh) {
+  if (robot_id == 0 || robot_id > kMaxRobots) {
+    ++counters_.confirmations_unknown_robot;
+    return Confirmation::kUnknownRobot;
+  }
+  if (robot_id != options_.robot_id) return Confirmation::kOtherRobot;
+  if (contiguous_seq > newest_scan_seq_ || (!any_scan_ && contiguous_seq > 0)) {
+    ++counters_.confirmations_future;
+    return Confirmation::kFuture;
+  }
+  ++counters_.confirmations;
+  const bool back = fresh && !reachable(now);
+  if (back && ever_confirmed_) last_shadow_ = now - last_confirmation_;  // the shadow that ends here
+  if (!ever_confirmed_ || contiguous_seq != confirmed_seq_) confirmed_moved_ = now;
+  if (!fresh && !ever_confirmed_) last_confirmation_ = now - options_.reachable_timeout - Duration{1};
+  ever_confirmed_ = true;
+  confirmed_seq_ = contiguous_seq;
+  if (fresh) last_confirmation_ = now;
+  if (back) {
+    // The station is back (or heard for the first time): back-fill from its confirmed scan on.
+    const std::uint32_t limit = backfill_limit();
+    backfill_total_ = limit > confirmed_seq_ ? limit - confirmed_seq_ : 0;
+    backfill_next_ = 0;
+    confirmed_moved_ = now;  // the back-fill starts now: resend_after counts from here
+  }
+  return Confirmation::kAccepted;
+}
+
+void RingIndex::start_turn(Time now) {
+  const double dt = std::max(0.0, to_seconds(now - tokens_at_));
+  tokens_ = std::min(static_cast<double>(options_.backfill_burst), tokens_ + dt * options_.backfill_rate_hz);
+  tokens_at_ = now;
+  turn_left_ = options_.backfill_burst;
+}
+
+bool RingIndex::next_backfill(Time now, std::uint64_t& slot, std::uint32_t& seq) {
+  if (!reachable(now) || turn_left_ == 0 || tokens_ < 1.0 || !any_scan_) return false;
+  const std::uint32_t limit = backfill_limit();
+  // Sent, but the confirmations have not followed for resend_after: a back-filled scan went missing on
+  // the way (or the station restarted without it); send again from the confirmed one.
+  if (backfill_next_ > confirmed_seq_ + 1 && now - confirmed_moved_ >= options_.resend_after &&
+      now - backfill_sent_ < options_.resend_after * 2) {
+    backfill_next_ = confirmed_seq_ + 1;
+    confirmed_moved_ = now;
+    ++counters_.backfill_rewinds;
+  }
+  std::uint32_t s = std::max({backfill_next_, confirmed_seq_ + 1, oldest_scan_seq_});
+  // Bounded work per call: a run of seqs the ring does not hold is skipped 64 at a time.
+  for (int k = 0; k < 64 && s <= limit; ++k, ++s) {
+    if (locate_scan(s, slot)) {
+      seq = s;
+      backfill_next_ = s + 1;
+      tokens_ -= 1.0;
+      --turn_left_;
+      ++counters_.backfilled;
+      backfill_sent_ = now;
+      return true;
+    }
+    ++counters_.backfill_missing;
+  }
+  backfill_next_ = s;
+  return false;
+}
+
+void RingIndex::backfill_failed() { ++counters_.backfill_missing; }
+
+ShadowState RingIndex::shadow(Time now) const {
+  ShadowState st;
+  st.reachable = reachable(now);
+  st.ever_confirmed = ever_confirmed_;
+  st.confirmed_seq = confirmed_seq_;
+  st.newest_seq = newest_scan_seq_;
+  if (any_scan_) {
+    const std::uint32_t lower = std::max(ever_confirmed_ ? confirmed_seq_ + 1 : oldest_scan_seq_, oldest_scan_seq_);
+    st.unconfirmed = newest_scan_seq_ >= lower ? newest_scan_seq_ - lower + 1 : 0;
+  }
+  st.shadow_since = ever_confirmed_ && !st.reachable ? last_confirmation_ : Time{};
+  st.backfill_total = backfill_total_;
+  st.last_shadow = last_shadow_;
+  const std::uint32_t limit = backfill_limit();
+  st.backfill_remaining =
+      ever_confirmed_ && limit > confirmed_seq_ ? std::min(limit - confirmed_seq_, backfill_total_) : 0;
+  return st;
+}
+
+}  // namespace teamscan::onboard::ring

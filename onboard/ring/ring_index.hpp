@@ -1,0 +1,133 @@
+// The store-and-forward ring's state, without I/O (STYLE.md 1: pure logic; ring_file.hpp is the seam to
+// the file): which slot the next record goes to, what every slot holds, what the station has confirmed,
+// which scans are still to be back-filled and at what rate. The slot tables are allocated once in create();
+// nothing after that allocates.
+//
+// Records are numbered by ring_seq since the file was made; record r lives in slot r % slots. Scans keep
+// their own sequence numbers (ScanPoints.seq), which continue across restarts (the daemon resumes after the
+// newest recovered one), so the scans in the ring have increasing seq in ring order.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+
+#include "common/result.hpp"
+#include "common/time.hpp"
+#include "onboard/ring/record.hpp"
+
+namespace teamscan::onboard::ring {
+
+struct RingIndexOptions {
+  std::uint64_t slots = 0;     // records the ring holds (>= 16)
+  std::uint32_t robot_id = 0;  // records of another robot found at recovery are ignored (counted)
+  // Scans newer than this many below the newest are left to the live writer's DDS history, which a
+  // returning station receives anyway (dds.scan_history_depth): the back-fill takes the older ones.
+  std::uint32_t live_window = 300;
+  double backfill_rate_hz = 300.0;   // back-filled scans per second at most (live ones come first)
+  std::uint32_t backfill_burst = 8;  // back-filled scans per loop turn at most
+  // The station counts as reachable while its confirmations keep arriving: the newest within this.
+  Duration reachable_timeout = std::chrono::seconds(3);
+  // A back-fill the confirmations did not follow within this is sent again from the confirmed seq.
+  Duration resend_after = std::chrono::seconds(5);
+};
+
+struct RingCounters {
+  std::uint64_t scans_written = 0;
+  std::uint64_t poses_written = 0;
+  std::uint64_t write_errors = 0;         // records the file refused (the record is not in the ring)
+  std::uint64_t dropped_unconfirmed = 0;  // scans overwritten (ring full) before the station confirmed them
+  std::uint64_t recovered_scans = 0;      // at start-up: records found intact
+  std::uint64_t recovered_poses = 0;
+  std::uint64_t recovered_empty = 0;  // never-written slots
+  std::uint64_t torn = 0;             // slots whose record failed its check (a write a power cut tore): skipped
+  std::uint64_t misplaced = 0;        // intact records in a slot that is not theirs (another ring size): skipped
+  std::uint64_t foreign = 0;          // intact records of another robot: skipped
+  std::uint64_t confirmations = 0;    // accepted station confirmations
+  std::uint64_t confirmations_unknown_robot = 0;  // refused: robot id outside 1..32
+  std::uint64_t confirmations_future = 0;         // refused: a seq this robot has not written yet
+  std::uint64_t backfilled = 0;                   // scans handed to the back-fill writer
+  std::uint64_t backfill_rewinds = 0;             // back-fills sent again (the confirmations did not follow)
+  std::uint64_t backfill_missing = 0;  // unconfirmed seqs the ring does not hold (never written, torn, overwritten)
+};
+
+enum class Confirmation : std::uint8_t { kAccepted, kOtherRobot, kUnknownRobot, kFuture };
+
+// The shadow as the robot sees it, for teamscan/status and the journal.
+struct ShadowState {
+  bool reachable = false;  // a confirmation arrived within reachable_timeout
+  bool ever_confirmed = false;
+  std::uint32_t confirmed_seq = 0;       // the station's highest contiguous stored scan
+  std::uint32_t newest_seq = 0;          // the newest scan written
+  std::uint32_t unconfirmed = 0;         // scans in the ring above confirmed_seq
+  Time shadow_since{};                   // monotonic; valid while !reachable and ever_confirmed
+  std::uint32_t backfill_total = 0;      // scans to back-fill when the station came back (0: none)
+  std::uint32_t backfill_remaining = 0;  // of those, not yet confirmed
+  Duration last_shadow{0};               // the last shadow that ended: its last confirmation to the next
+};
+
+class RingIndex {
+ public:
+  [[nodiscard]] static Result<std::unique_ptr<RingIndex>> create(const RingIndexOptions& options);
+
+  // Start-up: every slot's check_record result, in any order; then finish_recovery().
+  void recover_slot(std::uint64_t slot, RecordError error, const RecordHeader& header);
+  void finish_recovery();
+
+  // Where the next record goes (slot and ring_seq); then written(...) with the outcome of the write.
+  [[nodiscard]] std::uint64_t next_slot() const { return head_ % options_.slots; }
+  [[nodiscard]] std::uint64_t next_ring_seq() const { return head_; }
+  void written(RecordKind kind, std::uint32_t seq, bool ok);
+
+  // A station confirmation: robot robot_id has stored every scan up to contiguous_seq. `now` monotonic.
+  // `fresh`: the confirmation was published just now (not the transient-local copy of an old one that a
+  // restarted robot receives at once): only a fresh one says the station is reachable.
+  Confirmation on_confirmation(std::uint32_t robot_id, std::uint32_t contiguous_seq, Time now, bool fresh = true);
+
+  // The next scan to back-fill, if one is due at `now` (monotonic): its slot and seq. Call again until
+  // false; at most backfill_burst per turn (start_turn) and backfill_rate_hz on average.
+  void start_turn(Time now);
+  [[nodiscard]] bool next_backfill(Time now, std::uint64_t& slot, std::uint32_t& seq);
+  // The slot's record could not be read or decoded: the scan is skipped.
+  void backfill_failed();
+
+  [[nodiscard]] ShadowState shadow(Time now) const;
+  [[nodiscard]] const RingCounters& counters() const { return counters_; }
+  [[nodiscard]] std::uint32_t newest_scan_seq() const { return newest_scan_seq_; }
+  [[nodiscard]] std::uint32_t newest_pose_seq() const { return newest_pose_seq_; }
+  [[nodiscard]] std::uint32_t oldest_scan_seq() const { return oldest_scan_seq_; }
+  [[nodiscard]] std::uint64_t slots() const { return options_.slots; }
+  [[nodiscard]] const RingIndexOptions& options() const { return options_; }
+
+ private:
+  struct Slot {
+    std::uint64_t ring_seq = 0;
+    std::uint32_t seq = 0;
+    RecordKind kind = RecordKind::kEmpty;
+  };
+  explicit RingIndex(const RingIndexOptions& options);
+  [[nodiscard]] bool locate_scan(std::uint32_t seq, std::uint64_t& slot) const;
+  [[nodiscard]] bool reachable(Time now) const;
+  [[nodiscard]] std::uint32_t backfill_limit() const;
+
+  RingIndexOptions options_;
+  std::unique_ptr<Slot[]> slots_;
+  std::unique_ptr<std::uint64_t[]> scan_pos_;  // [seq % slots] = ring_seq + 1 of that scan (0: none)
+  std::uint64_t head_ = 0;                     // ring_seq of the next record
+  bool any_scan_ = false;
+  std::uint32_t newest_scan_seq_ = 0, newest_pose_seq_ = 0, oldest_scan_seq_ = 0;
+
+  bool ever_confirmed_ = false;
+  std::uint32_t confirmed_seq_ = 0;
+  Time last_confirmation_{};  // monotonic
+  Time confirmed_moved_{};    // monotonic: confirmed_seq_ last changed
+  std::uint32_t backfill_total_ = 0;
+  Duration last_shadow_{0};
+  std::uint32_t backfill_next_ = 0;  // next seq to back-fill (0: from the confirmed one)
+  Time backfill_sent_{};             // monotonic: the last back-filled scan
+  double tokens_ = 0.0;
+  Time tokens_at_{};
+  std::uint32_t turn_left_ = 0;
+  RingCounters counters_{};
+};
+
+}  // namespace teamscan::onboard::ring
