@@ -17,7 +17,7 @@
 #include <Eigen/Core>
 
 #include "common/pose.hpp"
-#include "groundstation/mapping/flat_key_map.hpp"
+#include "common/flat_key_map.hpp"
 #include "groundstation/registration/surface_grid.hpp"
 
 namespace teamscan::registration {
@@ -90,8 +90,8 @@ class LineMap {
   double cell_m_;
   std::vector<Slot> slots_;
   std::vector<std::uint32_t> free_;
-  mapping::FlatKeyMap<Group> groups_;
-  mapping::FlatKeyMap<std::uint32_t> tiles_;  // tile key → index in tile_cells_
+  FlatKeyMap<Group> groups_;
+  FlatKeyMap<std::uint32_t> tiles_;  // tile key → index in tile_cells_
   std::vector<Tile> tile_cells_;
   std::vector<std::vector<Entry>> cells_;
   std::int64_t cx_lo_ = 0, cx_hi_ = -1, cy_lo_ = 0, cy_hi_ = -1;  // cells ever used (a query stops beyond)

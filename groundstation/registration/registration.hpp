@@ -61,7 +61,7 @@ struct RobotPrior {
 struct RegistrationOptions {
   SurfaceOptions surface;            // reference and window grids
   MatchOptions match;
-  double window_s = 3.0;             // a robot's recent points matched as one rigid piece
+  double window_s = 2.5;             // a robot's recent points matched as one rigid piece
   double window_m = 0.0;             // … and no more path than this (0: time alone): a sparse log that
                                      // covers metres in a few seconds keeps only a rigid stretch
   // The window's voxels take this many points (the reference's take surface.voxel_cap): the window is
@@ -69,8 +69,8 @@ struct RegistrationOptions {
   std::uint32_t window_voxel_cap = 1024;
   // At most one match per robot this often. Each robot's attempts are phased by its id (the fractional
   // part of id × 0.618…, of this period): a team that starts together would otherwise match all at once,
-  // every period (32 robots: ~70 ms of matching within ~100 ms of robot time, the loop behind by ~30 ms).
-  double match_every_s = 0.5;
+  // every period, and the whole team's matching would fall into one stretch of the loop.
+  double match_every_s = 0.4;
   // A match taken at a robot's scan stamped t is fused into its correction at its first scan stamped
   // t + match_delay_s or later, and is computed meanwhile on a thread of its own (MatchWorker, on
   // `cpus`): the station's receive loop neither builds the window's grid nor searches the reference.
@@ -92,8 +92,10 @@ struct RegistrationOptions {
   double update_every_s = 1.0;
   std::size_t min_map_features = 60; // the first lap: no match before the reference has this many
   // Prediction: the correction's uncertainty grows with what the robot does (skid-steer drift):
-  // σ² per metre driven for x and y and for yaw, and per radian turned for yaw.
-  double drift_m2_per_m = 0.03 * 0.03;
+  // σ² per metre driven for x and y and for yaw, and per radian turned for yaw. The position's growth
+  // also opens the bounded step (3σ): a wider one lets a repeated, self-consistent alias through
+  // on a robot that has gone metres between accepted matches.
+  double drift_m2_per_m = 0.02 * 0.02;
   double drift_rad2_per_m = 0.01 * 0.01;
   double drift_rad2_per_rad = 0.03 * 0.03;
   double initial_sigma_m = 0.01;     // at the registration (the start pose is known)

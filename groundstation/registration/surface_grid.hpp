@@ -13,7 +13,7 @@
 #include <Eigen/Core>
 
 #include "common/pose.hpp"
-#include "groundstation/mapping/flat_key_map.hpp"
+#include "common/flat_key_map.hpp"
 
 namespace teamscan::registration {
 
@@ -110,8 +110,8 @@ class SurfaceGrid {
   };
   static constexpr std::uint32_t kNone = ~std::uint32_t{0};
   // Voxels live in chunks that never move: the hash map holds 4-byte indices, so its growth copies 12
-  // bytes per voxel, not the voxel (a team's reference at 90 k voxels: a 150 ms stall at a doubling
-  // with the voxels in the map, measured).
+  // bytes per voxel, not the voxel: with the voxels in the map, a doubling of a team's reference stalls
+  // the loop for as long as copying every voxel takes.
   static constexpr std::uint32_t kChunkBits = 10;
   [[nodiscard]] Voxel& voxel(std::uint32_t i) { return chunks_[i >> kChunkBits][i & ((1u << kChunkBits) - 1)]; }
   [[nodiscard]] const Voxel& voxel(std::uint32_t i) const { return chunks_[i >> kChunkBits][i & ((1u << kChunkBits) - 1)]; }
@@ -120,10 +120,10 @@ class SurfaceGrid {
 
   SurfaceOptions options_;
   bool track_columns_ = false;
-  mapping::FlatKeyMap<std::uint32_t> index_;  // voxel key → voxel index
+  FlatKeyMap<std::uint32_t> index_;  // voxel key → voxel index
   std::vector<std::unique_ptr<Voxel[]>> chunks_;  // kept by clear(): a window grid refills them
   std::uint32_t voxels_ = 0;
-  mapping::FlatKeyMap<Column> columns_;
+  FlatKeyMap<Column> columns_;
   std::vector<std::uint64_t> changed_;
   std::uint64_t points_ = 0;
   // Scratch of features() and take_changes() (kept: no allocation per call once grown).

@@ -1,0 +1,245 @@
+// Scan-to-submap matching (matching.hpp).
+#include "groundstation/posegraph/matching.hpp"
+
+#include <ceres/ceres.h>
+#include <ceres/cubic_interpolation.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace teamscan::posegraph {
+namespace {
+
+using GridAdapter = ceres::Grid2D<float, 1>;
+using Interpolator = ceres::BiCubicInterpolator<GridAdapter>;
+
+// 1 − the interpolated grid value at each point moved by the pose: zero on a return.
+struct OccupiedCost {
+  OccupiedCost(const Interpolator& interpolator, const std::vector<Vec2>& points, double weight, double inv_resolution)
+      : interpolator_(interpolator), points_(points), weight_(weight), inv_resolution_(inv_resolution) {}
+  template <typename T>
+  bool operator()(const T* const pose, T* residual) const {
+    const T c = ceres::cos(pose[2]), s = ceres::sin(pose[2]);
+    for (std::size_t i = 0; i < points_.size(); ++i) {
+      const T x = pose[0] + c * points_[i].x - s * points_[i].y;
+      const T y = pose[1] + s * points_[i].x + c * points_[i].y;
+      T v;
+      interpolator_.Evaluate(y * inv_resolution_, x * inv_resolution_, &v);
+      residual[i] = weight_ * (1.0 - v);
+    }
+    return true;
+  }
+  const Interpolator& interpolator_;
+  const std::vector<Vec2>& points_;
+  double weight_, inv_resolution_;
+};
+
+struct PriorCost {
+  PriorCost(const Pose2& guess, double tw, double rw) : guess_(guess), tw_(tw), rw_(rw) {}
+  template <typename T>
+  bool operator()(const T* const pose, T* residual) const {
+    residual[0] = tw_ * (pose[0] - guess_.x_m);
+    residual[1] = tw_ * (pose[1] - guess_.y_m);
+    residual[2] = rw_ * (pose[2] - guess_.theta_rad);
+    return true;
+  }
+  Pose2 guess_;
+  double tw_, rw_;
+};
+
+}  // namespace
+
+Pose2 refine_pose(const Grid& grid, const std::vector<Vec2>& points, const Pose2& guess, const RefineOptions& options) {
+  if (grid.empty() || points.empty()) return guess;
+  const CellBox& b = grid.box();
+  const GridAdapter adapter(grid.values().data(), b.y0, b.y0 + b.height, b.x0, b.x0 + b.width);
+  const Interpolator interpolator(adapter);
+  double pose[3] = {guess.x_m, guess.y_m, guess.theta_rad};
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  const double w = options.occupied_weight / std::sqrt(static_cast<double>(points.size()));
+  auto* occupied = new ceres::AutoDiffCostFunction<OccupiedCost, ceres::DYNAMIC, 3>(
+      new OccupiedCost(interpolator, points, w, 1.0 / grid.resolution_m()), static_cast<int>(points.size()));
+  problem.AddResidualBlock(occupied, nullptr, pose);
+  problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, 3, 3>(
+                               new PriorCost(guess, options.translation_weight, options.rotation_weight)),
+                           nullptr, pose);
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = options.max_iterations;
+  so.num_threads = 1;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  return {pose[0], pose[1], normalize_angle(pose[2])};
+}
+
+TranslationAxes translation_axes(const Grid& grid, const std::vector<Vec2>& points, const Pose2& pose) {
+  TranslationAxes axes;
+  if (grid.empty() || points.empty()) return axes;
+  const CellBox& b = grid.box();
+  const GridAdapter adapter(grid.values().data(), b.y0, b.y0 + b.height, b.x0, b.x0 + b.width);
+  const Interpolator interpolator(adapter);
+  const double inv = 1.0 / grid.resolution_m();
+  // At the match the points sit on the grid's ridges, where its gradient vanishes: the information is
+  // taken from the gradients a small displacement (one cell, either way in x and in y) would meet,
+  // so a wall gives information across it and none along it.
+  const double h = grid.resolution_m();
+  double xx = 0, xy = 0, yy = 0;
+  for (const Vec2& p : points) {
+    const Vec2 q = pose.apply(p);
+    for (const Vec2 d : {Vec2{h, 0}, Vec2{-h, 0}, Vec2{0, h}, Vec2{0, -h}}) {
+      double v = 0, dv_drow = 0, dv_dcol = 0;
+      interpolator.Evaluate((q.y + d.y) * inv, (q.x + d.x) * inv, &v, &dv_drow, &dv_dcol);
+      const double gx = dv_dcol * inv, gy = dv_drow * inv;
+      xx += gx * gx;
+      xy += gx * gy;
+      yy += gy * gy;
+    }
+  }
+  // Eigen decomposition of the symmetric 2 × 2 [[xx, xy], [xy, yy]].
+  const double mean = 0.5 * (xx + yy), half_diff = 0.5 * (xx - yy);
+  const double radius = std::hypot(half_diff, xy);
+  const double strong = mean + radius, weak = std::max(0.0, mean - radius);
+  axes.strong_axis_rad = 0.5 * std::atan2(2.0 * xy, xx - yy);
+  axes.weak_ratio = strong > 0.0 ? weak / strong : 1.0;
+  return axes;
+}
+
+double pose_score(const Grid& grid, const std::vector<Vec2>& points, const Pose2& pose) {
+  if (points.empty()) return 0.0;
+  const double inv = 1.0 / grid.resolution_m();
+  double sum = 0;
+  for (const Vec2& p : points) {
+    const Vec2 q = pose.apply(p);
+    sum += grid.at(static_cast<int>(std::lround(q.x * inv)), static_cast<int>(std::lround(q.y * inv)));
+  }
+  return sum / static_cast<double>(points.size());
+}
+
+// ---- the correlative search ----------------------------------------------------------------------
+
+struct CorrelativeMatcher::Candidate {
+  int scan = 0;        // index of the rotated scan
+  int dx = 0, dy = 0;  // cell offset of the block's corner
+  float score = 0;
+};
+
+CorrelativeMatcher::CorrelativeMatcher(const Grid& grid, int depth, int pool) : resolution_m_(grid.resolution_m() * pool) {
+  const CellBox& g = grid.box();
+  // Search cell (X, Y) holds grid cells [X·pool, X·pool + pool) × [Y·pool, Y·pool + pool).
+  auto floor_div = [pool](int v) { return v >= 0 ? v / pool : -((-v + pool - 1) / pool); };
+  box_.x0 = floor_div(g.x0);
+  box_.y0 = floor_div(g.y0);
+  box_.width = floor_div(g.x0 + g.width - 1) - box_.x0 + 1;
+  box_.height = floor_div(g.y0 + g.height - 1) - box_.y0 + 1;
+  const int pad = (1 << depth) - 1;
+  Level base;
+  base.pad = pad;
+  base.width = box_.width + pad;
+  base.height = box_.height + pad;
+  base.values.assign(static_cast<std::size_t>(base.width) * static_cast<std::size_t>(base.height), 0);
+  for (int y = g.y0; y < g.y0 + g.height; ++y)
+    for (int x = g.x0; x < g.x0 + g.width; ++x) {
+      const auto v = static_cast<std::uint8_t>(std::lround(255.0f * std::clamp(grid.at(x, y), 0.0f, 1.0f)));
+      std::uint8_t& cell = base.values[static_cast<std::size_t>(floor_div(y) - box_.y0 + pad) * static_cast<std::size_t>(base.width) +
+                                       static_cast<std::size_t>(floor_div(x) - box_.x0 + pad)];
+      cell = std::max(cell, v);
+    }
+  levels_.push_back(std::move(base));
+  // Level d at (x, y): the maximum over [x, x + 2^d) × [y, y + 2^d), from four cells of level d − 1.
+  for (int d = 1; d <= depth; ++d) {
+    const Level& prev = levels_.back();
+    const int h = 1 << (d - 1);
+    Level next = prev;
+    for (int y = 0; y < next.height; ++y)
+      for (int x = 0; x < next.width; ++x)
+        next.values[static_cast<std::size_t>(y) * static_cast<std::size_t>(next.width) + static_cast<std::size_t>(x)] =
+            std::max({prev.at(x, y), prev.at(x + h, y), prev.at(x, y + h), prev.at(x + h, y + h)});
+    levels_.push_back(std::move(next));
+  }
+}
+
+float CorrelativeMatcher::score(const Level& level, const std::vector<std::array<int, 2>>& scan, int dx, int dy) const {
+  int sum = 0;
+  for (const auto& c : scan) sum += level.at(c[0] + dx, c[1] + dy);
+  return scan.empty() ? 0.0f : static_cast<float>(sum) / (255.0f * static_cast<float>(scan.size()));
+}
+
+void CorrelativeMatcher::branch(const std::vector<std::vector<std::array<int, 2>>>& scans, std::vector<Candidate>& candidates, int depth,
+                                int max_x, int max_y, float& best_score, Candidate& best) const {
+  std::stable_sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  for (const Candidate& c : candidates) {
+    if (c.score <= best_score) break;  // sorted: no later candidate can beat the best either
+    if (depth == 0) {
+      best_score = c.score;
+      best = c;
+      continue;
+    }
+    const int h = 1 << (depth - 1);
+    std::vector<Candidate> children;
+    children.reserve(4);
+    for (int ox : {0, h})
+      for (int oy : {0, h}) {
+        const int dx = c.dx + ox, dy = c.dy + oy;
+        if (dx > max_x || dy > max_y) continue;
+        children.push_back({c.scan, dx, dy, score(levels_[static_cast<std::size_t>(depth - 1)], scans[static_cast<std::size_t>(c.scan)], dx, dy)});
+      }
+    branch(scans, children, depth - 1, max_x, max_y, best_score, best);
+  }
+}
+
+SearchResult CorrelativeMatcher::search(const std::vector<Vec2>& points, const Pose2& guess, const SearchWindow& window,
+                                        double min_score) const {
+  SearchResult result;
+  if (points.empty() || levels_.empty()) return result;
+  double max_range = 0;
+  for (const Vec2& p : points) max_range = std::max(max_range, p.norm());
+  double step = window.angular_step_rad;
+  if (step <= 0.0) {
+    // The farthest point moves by one cell (Hess et al. 2016, eq. 7).
+    const double r = resolution_m_, d = std::max(max_range, r);
+    step = std::acos(std::clamp(1.0 - r * r / (2.0 * d * d), -1.0, 1.0));
+  }
+  const int n_angles = static_cast<int>(std::ceil(window.angular_rad / step));
+  const int linear = static_cast<int>(std::ceil(window.linear_m / resolution_m_));
+  const Level& base = levels_.front();
+  const double inv = 1.0 / resolution_m_;
+  // Each rotation's points as level cells with the guess's translation and the window's low corner.
+  std::vector<std::vector<std::array<int, 2>>> scans;
+  std::vector<double> angles;
+  for (int k = -n_angles; k <= n_angles; ++k) {
+    const double a = guess.theta_rad + k * step;
+    const Pose2 pose{guess.x_m, guess.y_m, a};
+    std::vector<std::array<int, 2>> cells;
+    cells.reserve(points.size());
+    for (const Vec2& p : points) {
+      const Vec2 q = pose.apply(p);
+      cells.push_back({static_cast<int>(std::lround(q.x * inv)) - box_.x0 + base.pad - linear,
+                       static_cast<int>(std::lround(q.y * inv)) - box_.y0 + base.pad - linear});
+    }
+    scans.push_back(std::move(cells));
+    angles.push_back(a);
+  }
+  const int depth = static_cast<int>(levels_.size()) - 1;
+  const int top_step = 1 << depth;
+  const int max_offset = 2 * linear;
+  std::vector<Candidate> top;
+  for (std::size_t s = 0; s < scans.size(); ++s)
+    for (int dx = 0; dx <= max_offset; dx += top_step)
+      for (int dy = 0; dy <= max_offset; dy += top_step)
+        top.push_back({static_cast<int>(s), dx, dy, score(levels_.back(), scans[s], dx, dy)});
+  float best_score = static_cast<float>(min_score);
+  Candidate best;
+  best.scan = -1;
+  branch(scans, top, depth, max_offset, max_offset, best_score, best);
+  if (best.scan < 0) return result;
+  result.found = true;
+  result.score = best_score;
+  result.pose = {guess.x_m + (best.dx - linear) * resolution_m_, guess.y_m + (best.dy - linear) * resolution_m_,
+                 normalize_angle(angles[static_cast<std::size_t>(best.scan)])};
+  return result;
+}
+
+}  // namespace teamscan::posegraph

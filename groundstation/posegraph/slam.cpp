@@ -1,0 +1,167 @@
+// 2-D SLAM for the team (slam.hpp).
+#include "groundstation/posegraph/slam.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace teamscan::posegraph {
+
+struct PlanarSlam::Submap {
+  Submap(std::uint8_t robot_id, const Pose2& local_pose, const SlamOptions& o)
+      : robot(robot_id), local(local_pose), grid(o.resolution_m, o.hit_sigma_m) {}
+  std::uint8_t robot;
+  Pose2 local;  // local_from_submap: the frame of its grid in its robot's local SLAM frame
+  Grid grid;
+  int scans = 0;
+  std::size_t last_robot_node = 0;  // its robot's count of nodes when the last scan went in
+  std::unique_ptr<CorrelativeMatcher> matcher;  // once finished
+};
+
+struct PlanarSlam::Robot {
+  std::uint8_t id = 0;
+  bool started = false;
+  Pose2 last_odometry, last_local;
+  std::size_t last_node = 0;
+  std::size_t nodes = 0;            // its nodes so far
+  Pose2 global_from_local;          // from the last optimisation
+  std::vector<std::size_t> active;  // its submaps being built, oldest first (at most two)
+  struct Followed {
+    std::size_t submap = 0, node = 0;
+    Pose2 submap_from_node;
+  };
+  std::vector<Followed> followed;  // its last closure with each submap, while recent
+};
+
+PlanarSlam::PlanarSlam(SlamOptions options) : options_(options), graph_(options.graph) {}
+PlanarSlam::~PlanarSlam() = default;
+
+PlanarSlam::Robot& PlanarSlam::robot(std::uint8_t id) {
+  for (auto& r : robots_)
+    if (r->id == id) return *r;
+  robots_.push_back(std::make_unique<Robot>());
+  robots_.back()->id = id;
+  return *robots_.back();
+}
+
+std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, const std::vector<Vec2>& all_points) {
+  std::vector<Vec2> points;
+  points.reserve(all_points.size());
+  for (const Vec2& p : all_points) {
+    const double r = p.norm();
+    if (r >= options_.min_range_m && r <= options_.max_range_m) points.push_back(p);
+  }
+  Robot& r = robot(robot_id);
+  // Local SLAM: the odometry's motion since the last scan, then the match against the oldest active
+  // submap (the one with the most scans in it). A robot's local frame starts as its odometry frame.
+  Pose2 local = r.started ? r.last_local * (r.last_odometry.inverse() * odometry) : odometry;
+  if (!r.active.empty()) {
+    const Submap& m = *submaps_[r.active.front()];
+    const Pose2 guess = m.local.inverse() * local;
+    local = m.local * refine_pose(m.grid, points, guess, options_.local);
+  }
+  const bool first_node = graph_.nodes().empty();
+  const std::size_t node = graph_.add_node(r.global_from_local * local, first_node);
+  node_local_.push_back(local);
+  node_robot_.push_back(robot_id);
+  if (r.started) graph_.add_link({r.last_node, node, r.last_odometry.inverse() * odometry, r.last_local.inverse() * local});
+  r.started = true;
+  ++r.nodes;
+  r.last_odometry = odometry;
+  r.last_local = local;
+  r.last_node = node;
+  if (options_.closure_every_n_nodes > 0 && node % static_cast<std::size_t>(options_.closure_every_n_nodes) == 0) close_loops(r, node, points);
+  insert(r, node, local, points);
+  if (options_.optimize_every_n_nodes > 0 && (node + 1) % static_cast<std::size_t>(options_.optimize_every_n_nodes) == 0) {
+    graph_.optimize();
+    after_optimization();
+  }
+  return node;
+}
+
+void PlanarSlam::insert(Robot& r, std::size_t node, const Pose2& local, const std::vector<Vec2>& points) {
+  if (r.active.empty() || submaps_[r.active.back()]->scans >= options_.scans_per_submap) {
+    const Pose2 origin{local.x_m, local.y_m, 0.0};
+    const std::size_t id = graph_.add_submap(r.global_from_local * origin);
+    submaps_.push_back(std::make_unique<Submap>(r.id, origin, options_));
+    r.active.push_back(id);
+  }
+  std::vector<Vec2> moved(points.size());
+  for (std::size_t id : r.active) {
+    Submap& m = *submaps_[id];
+    const Pose2 submap_from_node = m.local.inverse() * local;
+    for (std::size_t i = 0; i < points.size(); ++i) moved[i] = submap_from_node.apply(points[i]);
+    m.grid.insert(moved);
+    ++m.scans;
+    m.last_robot_node = r.nodes;
+    graph_.add_constraint({id, node, submap_from_node, Constraint::Kind::inserted});
+  }
+  if (r.active.size() > 2) {
+    Submap& done = *submaps_[r.active.front()];
+    done.matcher = std::make_unique<CorrelativeMatcher>(done.grid, options_.closure_depth, options_.closure_pool);
+    r.active.erase(r.active.begin());
+  }
+}
+
+void PlanarSlam::close_loops(Robot& r, std::size_t node, const std::vector<Vec2>& points) {
+  if (points.size() < 20) return;
+  const Pose2 global = graph_.nodes()[node];
+  // The nearest finished submaps (by their origin), ties by index: a fixed order.
+  std::vector<std::pair<double, std::size_t>> near;
+  for (std::size_t i = 0; i < submaps_.size(); ++i) {
+    const Submap& candidate = *submaps_[i];
+    if (!candidate.matcher) continue;
+    // The robot's own latest submaps are already tied to it by local SLAM: the closures worth the
+    // search are with what it mapped before (or a teammate did).
+    if (candidate.robot == r.id && r.nodes - candidate.last_robot_node < static_cast<std::size_t>(std::max(0, options_.closure_skip_recent_nodes)))
+      continue;
+    const Pose2& s = graph_.submaps()[i];
+    const double d = std::hypot(s.x_m - global.x_m, s.y_m - global.y_m);
+    if (d <= options_.closure_max_distance_m) near.emplace_back(d, i);
+  }
+  std::sort(near.begin(), near.end());
+  if (near.size() > static_cast<std::size_t>(options_.closure_submaps)) near.resize(static_cast<std::size_t>(options_.closure_submaps));
+  const auto recent = static_cast<std::size_t>(std::max(0, options_.closure_track_nodes));
+  std::erase_if(r.followed, [&](const Robot::Followed& f) { return node - f.node > recent; });
+  for (const auto& [distance, id] : near) {
+    const Submap& m = *submaps_[id];
+    auto followed = std::find_if(r.followed.begin(), r.followed.end(), [id = id](const Robot::Followed& f) { return f.submap == id; });
+    Pose2 start;
+    if (followed != r.followed.end()) {
+      start = followed->submap_from_node * (node_local_[followed->node].inverse() * node_local_[node]);
+      ++tracked_;
+    } else {
+      ++searches_;
+      const SearchResult found = m.matcher->search(points, graph_.submaps()[id].inverse() * global, options_.closure_window,
+                                                   options_.closure_min_score);
+      if (!found.found) continue;
+      start = found.pose;
+    }
+    const Pose2 refined = refine_pose(m.grid, points, start, options_.closure_refine);
+    if (pose_score(m.grid, points, refined) < options_.closure_min_refined_score) continue;
+    Constraint closure{id, node, refined, Constraint::Kind::closure};
+    if (options_.closure_weak_axis_floor < 1.0) {
+      const TranslationAxes axes = translation_axes(m.grid, points, refined);
+      closure.strong_axis_rad = axes.strong_axis_rad;
+      closure.weak_axis_factor = std::max(options_.closure_weak_axis_floor, std::sqrt(axes.weak_ratio));
+    }
+    graph_.add_constraint(closure);
+    if (followed != r.followed.end()) *followed = {id, node, refined};
+    else if (recent > 0) r.followed.push_back({id, node, refined});
+  }
+}
+
+void PlanarSlam::after_optimization() {
+  for (auto& r : robots_)
+    if (r->started) r->global_from_local = graph_.nodes()[r->last_node] * node_local_[r->last_node].inverse();
+}
+
+void PlanarSlam::finish() {
+  graph_.optimize(true);
+  after_optimization();
+}
+
+SlamStats PlanarSlam::stats() const {
+  return {graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_};
+}
+
+}  // namespace teamscan::posegraph

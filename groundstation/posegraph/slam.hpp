@@ -1,0 +1,92 @@
+// 2-D SLAM for a team of robots (the planar counterpart of Cartographer's, Hess et al. 2016): per robot,
+// local SLAM matches each scan against its current submap (refine_pose from the odometry's prediction)
+// and inserts it into its two active submaps; the team's pose graph gets one node per scan, the
+// inserted scans' constraints, odometry between consecutive nodes and loop closures found by the
+// correlative search around the current estimate against every finished submap near it, of this robot
+// or another; it is optimised every few hundred nodes and at the end. Deterministic: one thread, the
+// scans in the order given give the same poses.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "common/pose.hpp"
+#include "groundstation/posegraph/grid.hpp"
+#include "groundstation/posegraph/matching.hpp"
+#include "groundstation/posegraph/pose_graph.hpp"
+
+namespace teamscan::posegraph {
+
+struct SlamOptions {
+  double resolution_m = 0.03;
+  double hit_sigma_m = 0.03;
+  double min_range_m = 0.1;
+  double max_range_m = 12.0;        // returns beyond are not inserted (and not matched): bounds a submap's grid
+  int scans_per_submap = 35;        // a submap is finished after 2× this many scans
+  RefineOptions local{1.0, 1.0, 1.0, 20};  // scan to submap, a weak pull to the odometry's prediction
+  // Loop closure: every `closure_every_n_nodes`-th node is searched against the `closure_submaps`
+  // nearest finished submaps within `closure_max_distance_m` (submap origin to node).
+  int closure_every_n_nodes = 3;
+  int closure_submaps = 3;
+  double closure_max_distance_m = 7.0;
+  SearchWindow closure_window{3.0, 0.35, 0.01};
+  double closure_min_score = 0.55;  // of the search (mean grid value at the points)
+  double closure_min_refined_score = 0.65;
+  int closure_depth = 6;            // branch and bound levels: blocks of up to 2^6 search cells
+  int closure_pool = 2;             // a search cell is pool × pool grid cells
+  RefineOptions closure_refine{1.0, 0.5, 1.0, 30};
+  // A closure found for a robot's node is followed: its later nodes' closures with the same submap
+  // start from that closure moved by local SLAM's motion and are refined only (no search), while the
+  // last one is at most this many nodes back. 0: every closure searched.
+  int closure_track_nodes = 10;
+  // A robot's own submaps that took a scan within this many of its nodes are not searched.
+  int closure_skip_recent_nodes = 0;
+  // A closure's translation weight along its match's weak axis: √(weak_ratio) (TranslationAxes), at
+  // least this floor; 1 = isotropic weights.
+  double closure_weak_axis_floor = 0.1;
+  int optimize_every_n_nodes = 500;
+  GraphOptions graph;
+};
+
+struct SlamStats {
+  std::size_t nodes = 0, submaps = 0, searches = 0, closures = 0, optimizations = 0;
+  std::size_t tracked = 0;  // closures refined from a followed one, without a search
+};
+
+class PlanarSlam {
+ public:
+  explicit PlanarSlam(SlamOptions options = {});
+  ~PlanarSlam();
+  PlanarSlam(const PlanarSlam&) = delete;
+  PlanarSlam& operator=(const PlanarSlam&) = delete;
+
+  // One scan of `robot`: its odometry (map_from_robot) and its returns in the robot frame (metres).
+  // Returns the scan's node.
+  std::size_t add_scan(std::uint8_t robot, const Pose2& odometry, const std::vector<Vec2>& points);
+  // The last optimisation, over every node.
+  void finish();
+
+  [[nodiscard]] Pose2 pose(std::size_t node) const { return graph_.nodes()[node]; }
+  // The node's pose in its robot's local SLAM frame (scan-to-submap matching alone, no loop closure).
+  [[nodiscard]] Pose2 local_pose(std::size_t node) const { return node_local_[node]; }
+  [[nodiscard]] SlamStats stats() const;
+
+ private:
+  struct Submap;
+  struct Robot;
+  Robot& robot(std::uint8_t id);
+  void insert(Robot& r, std::size_t node, const Pose2& local, const std::vector<Vec2>& points);
+  void close_loops(Robot& r, std::size_t node, const std::vector<Vec2>& points);
+  void after_optimization();
+
+  SlamOptions options_;
+  PoseGraph graph_;
+  std::vector<std::unique_ptr<Submap>> submaps_;  // index = the graph's submap index
+  std::vector<std::unique_ptr<Robot>> robots_;
+  std::vector<Pose2> node_local_;
+  std::vector<std::uint8_t> node_robot_;
+  std::size_t searches_ = 0, tracked_ = 0;
+};
+
+}  // namespace teamscan::posegraph
