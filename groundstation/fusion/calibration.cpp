@@ -12,9 +12,10 @@
 #include "common/units.hpp"
 #include "groundstation/fusion/evaluation.hpp"
 
-namespace teamscan::mapping {
+namespace teamscan::fusion {
 namespace {
 
+using mapping::MethodOptions;
 using registration::OdometryPrior;
 
 // The three rates of a prior as (value, σ) pairs, in the order scale, drift, turn.
@@ -37,12 +38,14 @@ std::string format(const char* fmt, double v) {
 
 }  // namespace
 
-Calibration calibrate_drive(const Dataset& drive, const CalibrationOptions& options) {
+Result<Calibration> calibrate_drive(const Dataset& drive, const CalibrationOptions& options) {
   CoreRunOptions run;
   run.tracker = options.tracker;
   run.registration = true;
   run.registration_options = options.registration;
-  const CoreRun core = run_through_core(drive, "position", MethodOptions{}, run);
+  const Result<CoreRun> ran = run_through_core(drive, "position", MethodOptions{}, run);
+  if (!ran) return ran.error();
+  const CoreRun& core = ran.value();
   // The path each robot drove, by its odometry (what a real drive has; no truth is used).
   std::map<std::uint8_t, double> path_m;
   std::map<std::uint8_t, Pose2> last;
@@ -144,4 +147,4 @@ std::string calibration_toml(const Calibration& calibration, const std::string& 
   return o.str();
 }
 
-}  // namespace teamscan::mapping
+}  // namespace teamscan::fusion

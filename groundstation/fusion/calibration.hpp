@@ -13,14 +13,15 @@
 #include <vector>
 
 #include "common/dataset/dataset.hpp"
+#include "common/result.hpp"
 #include "groundstation/mapping/tracker.hpp"
 #include "groundstation/registration/registration.hpp"
 
-namespace teamscan::mapping {
+namespace teamscan::fusion {
 
 struct CalibrationOptions {
   registration::RegistrationOptions registration{};  // the drive's rates start from its prior
-  TrackerOptions tracker{};
+  mapping::TrackerOptions tracker{};
   // A robot is calibrated only with at least this much path and this many accepted matches (else
   // its rates are still the prior's: it is reported, not written).
   double min_path_m = 20.0;
@@ -47,8 +48,9 @@ struct Calibration {
 };
 
 // One drive: the data set through the fusion core (method `position`, which places the scans as every
-// method does) with the registration on; each robot's rates at the end.
-[[nodiscard]] Calibration calibrate_drive(const Dataset& drive, const CalibrationOptions& options);
+// method does) with the registration on; each robot's rates at the end. An error when the core refuses
+// the options.
+[[nodiscard]] Result<Calibration> calibrate_drive(const Dataset& drive, const CalibrationOptions& options);
 
 // Several drives of the same robots: per robot and rate the inverse-variance mean of the calibrated
 // drives, σ² = 1 / Σ(1/σᵢ²) + the weighted spread of the drives' values about it (their disagreement
@@ -60,4 +62,4 @@ struct Calibration {
 // named in a comment, not written.
 [[nodiscard]] std::string calibration_toml(const Calibration& calibration, const std::string& comment);
 
-}  // namespace teamscan::mapping
+}  // namespace teamscan::fusion

@@ -56,6 +56,15 @@ FusionCore::FusionCore(const CoreOptions& options, std::unique_ptr<mapping::Filt
   removed_.reserve(kMaxBeams);
 }
 
+Status FusionCore::reset() {
+  auto fresh = create(options_);
+  if (!fresh) return fresh.error();
+  std::function<void(const FusedScan&)> on_release = std::move(on_release_);
+  *this = std::move(*fresh.value());
+  on_release_ = std::move(on_release);
+  return ok_status();
+}
+
 void FusionCore::add_pose(const PoseInput& pose) {
   ++counters_.poses_in;
   if (first_arrival_ns_ == INT64_MIN) first_arrival_ns_ = pose.arrival_ns;
@@ -107,9 +116,8 @@ bool FusionCore::seen_before(std::uint8_t robot, std::uint32_t seq) {
 
 bool FusionCore::add_scan(const ScanInput& in) {
   ++counters_.scans_in;
-  const mapping::ScanView& v = in.view;
-  if (v.robot == 0 || v.robot > kMaxRobots) return false;
-  if (seen_before(v.robot, v.scan)) {
+  TEAMSCAN_EXPECTS(in.robot >= 1 && in.robot <= kMaxRobots);  // checked where the scan entered
+  if (seen_before(in.robot, in.scan)) {
     ++counters_.duplicate_scans;
     return false;
   }
@@ -121,17 +129,10 @@ bool FusionCore::add_scan(const ScanInput& in) {
     slot = free_slots_.back();
     free_slots_.pop_back();
   }
-  HeldScan& s = slots_[slot];
-  s.view = v;
-  s.view.points = {};
-  s.view.flags = {};
-  s.view.team = nullptr;
-  s.points.assign(v.points.begin(), v.points.end());
-  s.flags.assign(v.flags.begin(), v.flags.end());
-  s.beams.assign(in.beams.begin(), in.beams.end());
-  held_.push_back(Held{v.stamp_ns, in.arrival_ns, v.scan, slot, v.robot, false});
-  newest_scan_stamp_ns_[v.robot] = std::max(newest_scan_stamp_ns_[v.robot], v.stamp_ns);
-  last_scan_arrival_ns_[v.robot] = std::max(last_scan_arrival_ns_[v.robot], in.arrival_ns);
+  slots_[slot] = in;
+  held_.push_back(Held{in.stamp_ns, in.arrival_ns, in.scan, slot, in.robot, false});
+  newest_scan_stamp_ns_[in.robot] = std::max(newest_scan_stamp_ns_[in.robot], in.stamp_ns);
+  last_scan_arrival_ns_[in.robot] = std::max(last_scan_arrival_ns_[in.robot], in.arrival_ns);
   newest_arrival_ns_ = std::max(newest_arrival_ns_, in.arrival_ns);
   release_ready(newest_arrival_ns_, false);
   return true;
@@ -209,7 +210,10 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
     return x.scan < y.scan;
   });
   for (const Held& h : releasing_) {
-    if (h.stamp_ns < newest_released_stamp_ns_) ++counters_.scans_out_of_stamp_order;
+    if (h.stamp_ns < newest_released_stamp_ns_) {
+      ++counters_.scans_out_of_stamp_order;
+      if (newest_released_stamp_ns_ - h.stamp_ns > hold_ns) ++counters_.scans_late;
+    }
     newest_released_stamp_ns_ = std::max(newest_released_stamp_ns_, h.stamp_ns);
     release(slots_[h.slot], h.arrival_ns, h.forced);
     free_slots_.push_back(h.slot);
@@ -217,16 +221,16 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
   releasing_.clear();
 }
 
-void FusionCore::register_scan(const HeldScan& s) {
-  const PoseHistory::ScanPose own = poses_.scan_pose(s.view.robot, s.view.stamp_ns);
+void FusionCore::register_scan(const ScanInput& s) {
+  const PoseHistory::ScanPose own = poses_.scan_pose(s.robot, s.stamp_ns);
   if (!own.found) return;  // no odometry of its own: nothing to correct
   // Teammates' bodies at the scan's time (their corrected tracks): hits on them must not pull the match.
-  const mapping::TeamState team = poses_.team_at(s.view.stamp_ns);
+  const mapping::TeamState team = poses_.team_at(s.stamp_ns);
   std::vector<mapping::BodyBox> boxes;
-  const Pose2 correction = poses_.map_from_odom(s.view.robot, s.view.stamp_ns);
-  const Vec3 sensor = registration::corrected(correction, s.view.origin_m);
+  const Pose2 correction = poses_.map_from_odom(s.robot, s.stamp_ns);
+  const Vec3 sensor = registration::corrected(correction, s.origin_m);
   for (const mapping::RobotEstimate& e : team.robots) {
-    if (!e.valid || e.robot == s.view.robot) continue;
+    if (!e.valid || e.robot == s.robot) continue;
     boxes.push_back(mapping::body_box(e, options_.methods.tracked));
     boxes.back().sensor_m = sensor;
   }
@@ -259,42 +263,40 @@ void FusionCore::register_scan(const HeldScan& s) {
     if (registration_usable_[i] == 0) ++counters_.registration_masked_points;
   }
   const registration::RobotCorrection& c =
-      registration_->add_scan(s.view.robot, s.view.stamp_ns, own.odom, registration_points_, registration_usable_);
+      registration_->add_scan(s.robot, s.stamp_ns, own.odom, registration_points_, registration_usable_);
   const Pose2& now = c.map_from_odom;
   if (now.x_m != correction.x_m || now.y_m != correction.y_m || now.theta_rad != correction.theta_rad) {
     // A matched correction is also a measurement for the robot's Kalman track (its covariance, about
     // the robot's position): the drift restarts from it. One the drift rates extrapolated between
     // matches is a change of frame only. Both carry their σ (teamscan/team hands it to the robot).
-    poses_.set_map_from_odom(s.view.robot, s.view.stamp_ns, now, std::sqrt(std::max({0.0, c.covariance(0, 0), c.covariance(1, 1)})),
+    poses_.set_map_from_odom(s.robot, s.stamp_ns, now, std::sqrt(std::max({0.0, c.covariance(0, 0), c.covariance(1, 1)})),
                              std::sqrt(std::max(0.0, c.covariance(2, 2))), c.matched);
     ++counters_.registration_corrections;
   }
 }
 
-void FusionCore::release(HeldScan& s, std::int64_t arrival_ns, bool forced) {
+void FusionCore::release(ScanInput& s, std::int64_t arrival_ns, bool forced) {
   ++counters_.scans_released;
   if (forced) ++counters_.scans_forced;
   // The registration first (it may correct this scan's robot from this scan's stamp on), then the
   // correction in force at the scan's stamp (identity until set): points and origin into the map frame.
   if (registration_) register_scan(s);
-  const Pose2 correction = poses_.map_from_odom(s.view.robot, s.view.stamp_ns);
+  const Pose2 correction = poses_.map_from_odom(s.robot, s.stamp_ns);
   if (!is_identity(correction)) {
     for (mapping::MapPoint& p : s.points) {
       const Vec2 q = correction.apply(Vec2{p.x, p.y});
       p.x = static_cast<float>(q.x);
       p.y = static_cast<float>(q.y);
     }
-    const Vec2 o = correction.apply(Vec2{s.view.origin_m.x, s.view.origin_m.y});
-    s.view.origin_m.x = o.x;
-    s.view.origin_m.y = o.y;
+    const Vec2 o = correction.apply(Vec2{s.origin_m.x, s.origin_m.y});
+    s.origin_m.x = o.x;
+    s.origin_m.y = o.y;
   }
-  const mapping::TeamState team = poses_.team_at(s.view.stamp_ns);
-  const PoseHistory::ScanPose own = poses_.scan_pose(s.view.robot, s.view.stamp_ns);
-  mapping::ScanView& view = s.view;
+  const mapping::TeamState team = poses_.team_at(s.stamp_ns);
+  const PoseHistory::ScanPose own = poses_.scan_pose(s.robot, s.stamp_ns);
+  mapping::ScanView view = s.view();
   // Without any pose of its own robot: at its sensor origin, heading 0 (as the station always did).
   view.map_from_robot = own.found ? own.map_from_robot : Pose2{view.origin_m.x, view.origin_m.y, 0.0};
-  view.points = s.points;
-  view.flags = s.flags;
   view.team = &team;
   const std::size_t n = s.points.size();
   bits_.assign(n, 0);
@@ -303,8 +305,19 @@ void FusionCore::release(HeldScan& s, std::int64_t arrival_ns, bool forced) {
   filter_->insert(view, bits_);
   filter_->decide(view.points, bits_, removed_);
   counters_.points += n;
-  for (std::uint8_t r : removed_) counters_.removed_at_release += r;
-  if (options_.max_points_per_voxel > 0) store(s);
+  std::uint64_t removed = 0;
+  for (std::uint8_t r : removed_) removed += r;
+  counters_.removed_at_release += removed;
+  RobotCounters& rc = robot_counters_[view.robot];
+  ++rc.scans_released;
+  rc.points += n;
+  rc.removed_at_release += removed;
+  stored_.clear();
+  if (options_.max_points_per_voxel > 0) {
+    const std::uint64_t before = counters_.stored_points;
+    store(s);
+    rc.stored_points += counters_.stored_points - before;
+  }
   if (on_release_) {
     FusedScan f;
     f.view = &view;
@@ -313,22 +326,25 @@ void FusionCore::release(HeldScan& s, std::int64_t arrival_ns, bool forced) {
     f.beams = s.beams;
     f.bits = bits_;
     f.removed = removed_;
+    f.stored = stored_;
+    f.release = counters_.scans_released;
     on_release_(f);
   }
 }
 
-void FusionCore::store(const HeldScan& s) {
+void FusionCore::store(const ScanInput& s) {
   model_points_.resize(s.points.size());
   for (std::size_t i = 0; i < s.points.size(); ++i) {
     ModelPoint& m = model_points_[i];
     m.p = s.points[i];
-    m.seq = s.view.scan;
+    m.seq = s.scan;
     m.beam = i < s.beams.size() ? s.beams[i] : static_cast<std::uint16_t>(i);
-    m.robot = s.view.robot & 0x7Fu;
+    m.robot = s.robot & 0x7Fu;
     m.bits = bits_[i];
     m.removed_at_release = removed_[i] != 0 ? 1 : 0;
   }
-  counters_.stored_points += model_.add_all(model_points_);
+  stored_.resize(s.points.size());
+  counters_.stored_points += model_.add_all(model_points_, stored_);
   counters_.capped_points = model_.capped_points();
 }
 
@@ -370,134 +386,6 @@ std::size_t FusionCore::snapshot_model_part(ModelSnapshot& out, std::size_t from
     out.removed.insert(out.removed.end(), removed.begin(), removed.end());
   }
   return std::max(from, to);
-}
-
-Result<ModelFigures> FusionCore::write_model(const std::string& kept_path, const std::string& all_path) const {
-  ModelFileWriter w(kept_path, all_path);
-  ModelSnapshot part;
-  for (std::size_t next = 0; next < model_.voxels();) {
-    part.points.clear();
-    part.removed.clear();
-    part.kept = 0;
-    next = snapshot_model_part(part, next, 256);
-    w.add(part);
-  }
-  return w.finish();
-}
-
-// One PCD being streamed: rows into NAME.rows.tmp, then NAME.tmp = header + rows, renamed to NAME.
-struct ModelFileWriter::File {
-  File(std::string p, bool with_keep) : path{std::move(p)}, rows_path{path + ".rows.tmp"}, all{with_keep} {
-    rows_file = std::fopen(rows_path.c_str(), "w+b");
-    if (rows_file == nullptr) error = errno != 0 ? errno : EIO;
-  }
-  ~File() {
-    if (rows_file != nullptr) std::fclose(rows_file);
-    std::remove(rows_path.c_str());
-  }
-  void add(const ModelPoint& m, bool removed) {
-    std::uint8_t rec[21];
-    std::memcpy(rec + 0, &m.p.x, 4);
-    std::memcpy(rec + 4, &m.p.y, 4);
-    std::memcpy(rec + 8, &m.p.z, 4);
-    rec[12] = m.robot;
-    std::memcpy(rec + 13, &m.seq, 4);
-    std::memcpy(rec + 17, &m.beam, 2);
-    rec[19] = removed ? 0 : 1;
-    rec[20] = m.removed_at_release ? 0 : 1;
-    const std::size_t n = all ? 21 : 19;
-    if (used + n > buffer.size()) drain();
-    std::memcpy(buffer.data() + used, rec, n);
-    used += n;
-    ++rows;
-  }
-  void drain() {
-    if (used > 0 && error == 0 && std::fwrite(buffer.data(), 1, used, rows_file) != used) error = errno != 0 ? errno : EIO;
-    used = 0;
-  }
-  // encode_pcd's header (common/dataset/pcd.hpp) for these fields, so the bytes are write_pcd's.
-  [[nodiscard]] std::string header() const {
-    const std::string n = std::to_string(rows);
-    std::string h = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z robot scan beam";
-    h += all ? " keep live_keep\nSIZE 4 4 4 1 4 2 1 1\nTYPE F F F U U U U U\nCOUNT 1 1 1 1 1 1 1 1"
-             : "\nSIZE 4 4 4 1 4 2\nTYPE F F F U U U\nCOUNT 1 1 1 1 1 1";
-    return h + "\nWIDTH " + n + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + n + "\nDATA binary\n";
-  }
-  [[nodiscard]] Status finish() {
-    drain();
-    if (error != 0) return Error{"fusion: cannot write the fused PCD", error};
-    const std::string tmp = path + ".tmp";
-    std::FILE* out = std::fopen(tmp.c_str(), "wb");
-    if (out == nullptr) return Error{"fusion: cannot create the fused PCD", errno};
-    const std::string h = header();
-    bool ok = std::fwrite(h.data(), 1, h.size(), out) == h.size() && std::fflush(rows_file) == 0 && std::fseek(rows_file, 0, SEEK_SET) == 0;
-    int err = ok ? 0 : (errno != 0 ? errno : EIO);
-    while (ok) {
-      const std::size_t got = std::fread(buffer.data(), 1, buffer.size(), rows_file);
-      if (got > 0 && std::fwrite(buffer.data(), 1, got, out) != got) {
-        ok = false;
-        err = errno != 0 ? errno : EIO;
-      }
-      if (got < buffer.size()) {
-        if (std::ferror(rows_file)) {
-          ok = false;
-          err = EIO;
-        }
-        break;
-      }
-    }
-    if (std::fclose(out) != 0 && ok) {
-      ok = false;
-      err = errno;
-    }
-    if (!ok) {
-      std::remove(tmp.c_str());
-      return Error{"fusion: cannot write the fused PCD", err};
-    }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-      err = errno;
-      std::remove(tmp.c_str());
-      return Error{"fusion: cannot rename the fused PCD into place", err};
-    }
-    return ok_status();
-  }
-
-  std::string path, rows_path;
-  bool all = false;
-  std::FILE* rows_file = nullptr;
-  int error = 0;
-  std::array<std::uint8_t, 1 << 16> buffer{};
-  std::size_t used = 0;
-  std::uint64_t rows = 0;
-};
-
-ModelFileWriter::ModelFileWriter(std::string kept_path, std::string all_path)
-    : kept_{std::make_unique<File>(std::move(kept_path), false)} {
-  if (!all_path.empty()) all_ = std::make_unique<File>(std::move(all_path), true);
-}
-
-ModelFileWriter::~ModelFileWriter() = default;
-
-void ModelFileWriter::add(std::span<const ModelPoint> points, std::span<const std::uint8_t> removed) {
-  const std::size_t n = std::min(points.size(), removed.size());
-  for (std::size_t i = 0; i < n; ++i) {
-    const bool r = removed[i] != 0;
-    if (r) {
-      ++figures_.removed;
-    } else {
-      ++figures_.kept;
-      kept_->add(points[i], false);
-    }
-    if (all_) all_->add(points[i], r);
-  }
-}
-
-Result<ModelFigures> ModelFileWriter::finish() {
-  if (Status st = kept_->finish(); !st.ok()) return st.error();
-  if (all_) {
-    if (Status st = all_->finish(); !st.ok()) return st.error();
-  }
-  return figures_;
 }
 
 }  // namespace teamscan::fusion

@@ -34,9 +34,10 @@
 #include "common/laser_geometry.hpp"
 #include "common/result.hpp"
 #include "groundstation/fusion/model_store.hpp"
+#include "groundstation/fusion/model_writer.hpp"
 #include "groundstation/fusion/pose_history.hpp"
 #include "groundstation/mapping/filter.hpp"
-#include "groundstation/mapping/flat_key_map.hpp"
+#include "common/flat_key_map.hpp"
 #include "groundstation/registration/registration.hpp"
 
 namespace teamscan::fusion {
@@ -75,59 +76,49 @@ struct CoreOptions {
   double min_scan_interval_s = to_seconds(kLmsRevolution) / 2;
 };
 
-// One scan as the core takes it: the filters' view of it (mapping::ScanView: robot, sequence number,
-// stamp, sensor origin, map-frame points before map_from_odom in metres, their onboard flags in the
-// data set's vocabulary, common/point_flags.hpp), when it arrived and each point's beam. The core
-// decides its pose and team state (view.map_from_robot and view.team are not read) and copies the
-// spans, so they need to live only for add_scan.
+// One scan as the core takes, holds and releases it: who measured it, its sequence number and stamp,
+// its sensor origin and map-frame points before map_from_odom in metres with their onboard flags in the
+// data set's vocabulary (common/point_flags.hpp) and their beams, and when it arrived. Made once per
+// source: the station's scan_input from a stored scan, the evaluation from a data set's scan. It owns
+// its points: the core keeps a copy until the scan is released (in a reused slot, without allocating
+// once the slots have grown), corrects it in place, and shows it to the filters and the release
+// callback through view(), which it completes with the scan's pose and team state.
 struct ScanInput {
-  mapping::ScanView view;
-  std::int64_t arrival_ns = 0;           // offline: the stamp
-  std::span<const std::uint16_t> beams;  // empty or one per point
+  std::uint8_t robot = 0;       // 1..kMaxRobots: checked where the scan entered (the station's sample
+                                // validation, the data set and session readers), not again here
+  std::uint32_t scan = 0;       // the robot's sequence number
+  std::int64_t stamp_ns = 0;
+  Vec3 origin_m;                // sensor origin, map frame
+  std::int64_t arrival_ns = 0;  // offline: the stamp
+  std::vector<mapping::MapPoint> points;
+  std::vector<std::uint16_t> flags;  // empty or one per point
+  std::vector<std::uint16_t> beams;  // empty or one per point
+  // The filters' view of it: robot, seq, stamp, origin, points and flags (map_from_robot and team unset).
+  [[nodiscard]] mapping::ScanView view() const {
+    mapping::ScanView v;
+    v.robot = robot;
+    v.scan = scan;
+    v.stamp_ns = stamp_ns;
+    v.origin_m = origin_m;
+    v.points = points;
+    v.flags = flags;
+    return v;
+  }
 };
 
 // A released scan, as the core decided it (handed to the release callback).
 struct FusedScan {
-  const mapping::ScanView* view = nullptr;    // robot, seq, stamp, pose, team, points (map frame), flags
+  const mapping::ScanView* view = nullptr;    // the released ScanInput's view, with its pose and team
   std::int64_t arrival_ns = 0;
   bool forced = false;                        // released by hold_s, not by the poses
   std::span<const std::uint16_t> beams;
   std::span<const std::uint8_t> bits;         // the point part per point
   std::span<const std::uint8_t> removed;      // the decision at release (map so far)
-};
-
-// Model rows with their decisions (FusionCore::snapshot_model_part): a copy, so it can be written on
-// another thread while the core goes on.
-struct ModelSnapshot {
-  std::vector<ModelPoint> points;
-  std::vector<std::uint8_t> removed;  // one per point: the decision when it was taken
-  std::uint64_t kept = 0;
-};
-
-struct ModelFigures {
-  std::uint64_t kept = 0, removed = 0;
-};
-
-// The model files streamed from rows with their decisions, in any number of parts, on any one thread:
-// `kept_path` (binary PCD of the kept points: x y z robot scan beam) and, if not empty, `all_path`
-// (every row, plus keep and live_keep). The rows go through a 64 KiB buffer into NAME.rows.tmp;
-// finish() writes NAME.tmp (the header, whose point count is known only then, and the rows) and renames
-// it into place, so a reader never sees a half file and the model is never held twice in memory.
-class ModelFileWriter {
- public:
-  ModelFileWriter(std::string kept_path, std::string all_path);
-  ~ModelFileWriter();  // an unfinished write leaves no file behind
-  ModelFileWriter(const ModelFileWriter&) = delete;
-  ModelFileWriter& operator=(const ModelFileWriter&) = delete;
-
-  void add(std::span<const ModelPoint> points, std::span<const std::uint8_t> removed);
-  void add(const ModelSnapshot& part) { add(part.points, part.removed); }
-  [[nodiscard]] Result<ModelFigures> finish();
-
- private:
-  struct File;
-  std::unique_ptr<File> kept_, all_;
-  ModelFigures figures_;
+  // Per point: 1 if it was stored in the model store (not capped, finite); empty without a model store
+  // (CoreOptions::max_points_per_voxel 0). The stored points are the fused model's.
+  std::span<const std::uint8_t> stored;
+  // The core's instant: this scan is the release-th released (CoreCounters::scans_released after it).
+  std::uint64_t release = 0;
 };
 
 struct CoreCounters {
@@ -138,6 +129,10 @@ struct CoreCounters {
   // Released after a scan stamped later (with the registration: it arrived later than the release
   // order allowed for, e.g. stamped closer to its predecessor than min_scan_interval_s).
   std::uint64_t scans_out_of_stamp_order = 0;
+  // Of those, released stamped more than hold_s before a scan released earlier: a scan that arrived after
+  // the core had moved on past its stamp (a robot's back-fill after a radio shadow), not a transport's
+  // jitter of a few milliseconds. The station catches up after them (station/fusion.hpp).
+  std::uint64_t scans_late = 0;
   std::uint64_t poses_in = 0;
   std::uint64_t poses_rejected = 0;    // duplicates, bad ids, non-finite
   std::uint64_t points = 0;
@@ -148,13 +143,22 @@ struct CoreCounters {
   std::uint64_t registration_corrections = 0;    // corrections set in the pose history
 };
 
+// The core's figures for one robot: its scans released, their points and their decisions at release.
+struct RobotCounters {
+  std::uint64_t scans_released = 0;
+  std::uint64_t points = 0;
+  std::uint64_t removed_at_release = 0;  // points of this robot's scans removed when released
+  std::uint64_t stored_points = 0;       // points of this robot's scans in the model store
+};
+
 class FusionCore {
  public:
   // Fails on an unknown method or bad options.
   [[nodiscard]] static Result<std::unique_ptr<FusionCore>> create(const CoreOptions& options);
 
   void add_pose(const PoseInput& pose);
-  // false: a replay of a (robot, seq) fused recently, not fused again.
+  // false: a replay of a (robot, seq) fused recently, not fused again. The scan is copied (the caller
+  // may reuse it at once).
   bool add_scan(const ScanInput& scan);
   // Releases every held scan (end of the data; shutdown).
   void flush();
@@ -164,6 +168,11 @@ class FusionCore {
   // The arrival clock jumped (a restarted station resumes after replaying its session): the held scans
   // and the robots' last pose arrivals count from `arrival_ns`, so the outage itself forces nothing.
   void resume_at(std::int64_t arrival_ns);
+
+  // Back to a fresh core with the same options, as create() makes it (the station's catch-up replays
+  // its session into it): held scans, poses, map, model store and registration dropped, the release
+  // callback kept. The object stays, so references to it and to its pose history stay valid.
+  [[nodiscard]] Status reset();
 
   // Called for every released scan, in release order.
   void set_release_callback(std::function<void(const FusedScan&)> f) { on_release_ = std::move(f); }
@@ -180,8 +189,6 @@ class FusionCore {
   // voxel to take. Voxels are never removed or reordered, so a model taken in parts holds every point
   // stored before it started (each voxel's decisions as of the part that took it).
   std::size_t snapshot_model_part(ModelSnapshot& out, std::size_t from, std::size_t count) const;
-  // The whole model in parts through a ModelFileWriter, on the caller's thread (one instant).
-  [[nodiscard]] Result<ModelFigures> write_model(const std::string& kept_path, const std::string& all_path) const;
 
   [[nodiscard]] PoseHistory& poses() { return poses_; }
   [[nodiscard]] const PoseHistory& poses() const { return poses_; }
@@ -189,6 +196,10 @@ class FusionCore {
   // The registration (nullptr when CoreOptions::registration is off).
   [[nodiscard]] const registration::Registration* registration() const { return registration_.get(); }
   [[nodiscard]] const CoreCounters& counters() const { return counters_; }
+  // Robot 1..kMaxRobots (any other id: index 0, the scans released without a valid robot id).
+  [[nodiscard]] const RobotCounters& robot_counters(std::uint32_t robot) const {
+    return robot_counters_[robot <= kMaxRobots ? robot : 0];
+  }
   [[nodiscard]] const CoreOptions& options() const { return options_; }
   [[nodiscard]] std::size_t held_scans() const { return held_.size(); }
   [[nodiscard]] std::size_t model_voxels() const { return model_.voxels(); }
@@ -198,37 +209,31 @@ class FusionCore {
 
  private:
   FusionCore(const CoreOptions& options, std::unique_ptr<mapping::Filter> filter);
-  // A scan waiting for its team state: its input with the spans copied into owned storage (the view's
-  // spans are pointed at it on release). Kept in slots_ and reused: a released scan's vectors keep
-  // their capacity for the next one.
-  struct HeldScan {
-    mapping::ScanView view;
-    std::vector<mapping::MapPoint> points;
-    std::vector<std::uint16_t> flags, beams;
-  };
+  FusionCore& operator=(FusionCore&&) = default;  // reset()
   // A held scan in the queue: what release_ready() tests, and its slot. Small, so that a pass over a
   // long queue (a station catching up holds thousands) and taking the ready ones out stay cheap.
   struct Held {
     std::int64_t stamp_ns;
     std::int64_t arrival_ns;
     std::uint32_t scan;
-    std::uint32_t slot;  // in slots_
+    std::uint32_t slot;  // in slots_: the held copy of the scan
     std::uint8_t robot;
     bool forced;  // released by hold_s (set when it is released)
   };
   bool seen_before(std::uint8_t robot, std::uint32_t seq);
   void release_ready(std::int64_t now_arrival_ns, bool all);
-  void release(HeldScan& s, std::int64_t arrival_ns, bool forced);
-  void store(const HeldScan& s);
+  void release(ScanInput& s, std::int64_t arrival_ns, bool forced);
+  void store(const ScanInput& s);
   void decide_voxel(std::size_t k, std::vector<ModelPoint>& points, std::vector<mapping::MapPoint>& pts,
                     std::vector<std::uint8_t>& bits, std::vector<std::uint8_t>& removed) const;
-  void register_scan(const HeldScan& s);
+  void register_scan(const ScanInput& s);
 
   CoreOptions options_;
   std::unique_ptr<mapping::Filter> filter_;
   PoseHistory poses_;
   std::vector<Held> held_;  // arrival order
-  std::vector<HeldScan> slots_;
+  // The held scans' copies, reused: a released scan's vectors keep their capacity for the next one.
+  std::vector<ScanInput> slots_;
   std::vector<std::uint32_t> free_slots_;
   std::int64_t newest_arrival_ns_ = INT64_MIN;
   std::int64_t first_arrival_ns_ = INT64_MIN;
@@ -255,13 +260,14 @@ class FusionCore {
   ModelStore model_;
   std::unique_ptr<registration::Registration> registration_;
   // Scratch of a release.
-  std::vector<std::uint8_t> bits_, removed_;
+  std::vector<std::uint8_t> bits_, removed_, stored_;
   std::vector<ModelPoint> model_points_;  // store()'s scratch
   std::vector<Held> releasing_;
   std::vector<Vec3> registration_points_;
   std::vector<std::uint8_t> registration_usable_;
   std::vector<mapping::MapPoint> registration_corrected_;  // register_scan's points in the corrected frame
   CoreCounters counters_;
+  std::array<RobotCounters, kMaxRobots + 1> robot_counters_{};
 };
 
 }  // namespace teamscan::fusion

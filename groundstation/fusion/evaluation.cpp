@@ -10,10 +10,20 @@
 #include <sstream>
 #include <tuple>
 
+#include "common/error_message.hpp"
 #include "common/units.hpp"
 #include "groundstation/fusion/core.hpp"
+#include "groundstation/fusion/time_line.hpp"
 
-namespace teamscan::mapping {
+namespace teamscan::fusion {
+
+using mapping::Filter;
+using mapping::MapPoint;
+using mapping::MethodOptions;
+using mapping::RegistrationReport;
+using mapping::ScanView;
+using mapping::TeamTracker;
+using mapping::TrackerOptions;
 
 ScanView PreparedDataset::view(std::size_t scan_index) const {
   const PreparedScan& s = scans[scan_index];
@@ -153,12 +163,14 @@ PreparedDataset prepare_dataset(const Dataset& dataset, const TrackerOptions& tr
   return out;
 }
 
-std::vector<std::uint8_t> decide_through_core(const Dataset& dataset, const std::string& method, const MethodOptions& options,
-                                              const TrackerOptions& tracker, const PoseNoise& noise) {
+Result<std::vector<std::uint8_t>> decide_through_core(const Dataset& dataset, const std::string& method, const MethodOptions& options,
+                                                      const TrackerOptions& tracker, const PoseNoise& noise) {
   CoreRunOptions run;
   run.tracker = tracker;
   run.noise = noise;
-  return run_through_core(dataset, method, options, run).removed;
+  Result<CoreRun> r = run_through_core(dataset, method, options, run);
+  if (!r) return r.error();
+  return std::move(r.value().removed);
 }
 
 bool level_lasers(const Dataset& dataset) {
@@ -167,7 +179,8 @@ bool level_lasers(const Dataset& dataset) {
   return level;
 }
 
-CoreRun run_through_core(const Dataset& dataset, const std::string& method, const MethodOptions& options, const CoreRunOptions& run) {
+Result<CoreRun> run_through_core(const Dataset& dataset, const std::string& method, const MethodOptions& options,
+                                 const CoreRunOptions& run) {
   const PoseNoise& noise = run.noise;
   fusion::CoreOptions co;
   co.method = method;
@@ -177,39 +190,12 @@ CoreRun run_through_core(const Dataset& dataset, const std::string& method, cons
   co.registration = run.registration;
   co.registration_options = run.registration_options;
   auto created = fusion::FusionCore::create(co);
-  TEAMSCAN_EXPECTS(created.ok());
+  if (!created) return with_context(method, created.error());
   fusion::FusionCore& core = *created.value();
 
-  // Points grouped by (robot, scan), in data set order within a scan.
-  std::map<std::pair<std::uint8_t, std::uint32_t>, std::vector<std::size_t>> by_scan;
-  for (std::size_t i = 0; i < dataset.points.size(); ++i) by_scan[{dataset.points[i].robot, dataset.points[i].scan}].push_back(i);
-  std::vector<ScanRecord> records;
-  std::map<std::pair<std::uint8_t, std::uint32_t>, bool> known;
-  for (const ScanRecord& r : dataset.scans)
-    if (known.emplace(std::make_pair(r.robot, r.scan), true).second) records.push_back(r);
-  for (const auto& [key, indices] : by_scan) {
-    if (known.count(key)) continue;
-    ScanRecord r;  // a scan with points but no row in scans.csv: at time 0 (no team state)
-    r.robot = key.first;
-    r.scan = key.second;
-    records.push_back(r);
-  }
-  // One time line: poses before scans of the same stamp (the pose at the scan's stamp is its pose).
-  struct Event {
-    std::int64_t stamp_ns;
-    int kind;  // 0 pose, 1 scan
-    std::uint8_t robot;
-    std::uint32_t scan;
-    std::size_t index;
-  };
-  std::vector<Event> events;
-  events.reserve(dataset.odom.size() + records.size());
-  for (std::size_t i = 0; i < dataset.odom.size(); ++i)
-    events.push_back({dataset.odom[i].stamp_ns, 0, dataset.odom[i].robot, 0, i});
-  for (std::size_t i = 0; i < records.size(); ++i) events.push_back({records[i].stamp_ns, 1, records[i].robot, records[i].scan, i});
-  std::stable_sort(events.begin(), events.end(), [](const Event& a, const Event& b) {
-    return std::tie(a.stamp_ns, a.kind, a.robot, a.scan) < std::tie(b.stamp_ns, b.kind, b.robot, b.scan);
-  });
+  // The one time order (fusion/time_line.hpp), the station's catch-up's too.
+  const fusion::TimeLine time_line(dataset);
+  const auto& by_scan = time_line.points_by_scan();
 
   // Scan rows by (robot, scan) for the poses the core decided them with.
   std::map<std::pair<std::uint8_t, std::uint32_t>, std::size_t> row_of;
@@ -233,47 +219,22 @@ CoreRun run_through_core(const Dataset& dataset, const std::string& method, cons
     }
   });
   PoseErrorProcess pose_error(noise);
-  std::vector<MapPoint> points;
-  std::vector<std::uint16_t> flags, beams;
-  for (const Event& e : events) {
-    if (e.kind == 0) {
-      const TrajectorySample& s = dataset.odom[e.index];
-      fusion::PoseInput p{s.robot, s.stamp_ns, s.stamp_ns, s.pose, s.v_mps, s.w_radps};
-      if (noise.active()) {
-        const Pose2 err = pose_error.at(s.robot, s.stamp_ns);
-        p.odom = {s.pose.x_m + err.x_m, s.pose.y_m + err.y_m, s.pose.theta_rad + err.theta_rad};
-      }
-      core.add_pose(p);
-      continue;
-    }
-    const ScanRecord& r = records[e.index];
-    points.clear();
-    flags.clear();
-    beams.clear();
-    auto it = by_scan.find({r.robot, r.scan});
-    if (it != by_scan.end()) {
-      for (std::size_t i : it->second) {
-        const LabelledPoint& lp = dataset.points[i];
-        points.push_back({lp.x, lp.y, lp.z});
-        flags.push_back(lp.flags);
-        beams.push_back(lp.beam);
-      }
-    }
-    fusion::ScanInput in;
-    in.view.robot = r.robot;
-    in.view.scan = r.scan;
-    in.view.stamp_ns = r.stamp_ns;
-    in.view.origin_m = r.origin;
-    if (noise.active()) {
-      const Pose2 err = pose_error.at(r.robot, r.stamp_ns);
-      in.view.origin_m = {r.origin.x + err.x_m, r.origin.y + err.y_m, r.origin.z};
-    }
-    in.view.points = points;
-    in.view.flags = flags;
-    in.arrival_ns = r.stamp_ns;
-    in.beams = beams;
-    core.add_scan(in);
-  }
+  time_line.feed(
+      [&](fusion::PoseInput& p) {
+        if (noise.active()) {
+          const Pose2 err = pose_error.at(p.robot, p.stamp_ns);
+          p.odom = {p.odom.x_m + err.x_m, p.odom.y_m + err.y_m, p.odom.theta_rad + err.theta_rad};
+        }
+        core.add_pose(p);
+      },
+      [&](fusion::ScanInput& in) {
+        if (noise.active()) {
+          const Pose2 err = pose_error.at(in.robot, in.stamp_ns);
+          in.origin_m = {in.origin_m.x + err.x_m, in.origin_m.y + err.y_m, in.origin_m.z};
+        }
+        (void)core.add_scan(in);
+      },
+      run.progress);
   core.flush();
   // The decision now, for every point where the core put it.
   out.removed.assign(dataset.points.size(), 0);
@@ -344,14 +305,14 @@ Result<std::vector<MethodSpec>> parse_methods(const std::string& list, std::opti
                                               std::optional<double> half_angle_deg, const MethodOptions& base) {
   std::vector<std::string> names;
   if (list == "all") {
-    names = known_methods();
+    names = mapping::known_methods();
   } else {
     std::stringstream in(list);
     std::string item;
     while (std::getline(in, item, ',')) {
       if (item.empty()) continue;
-      if (std::find(known_methods().begin(), known_methods().end(), item) == known_methods().end() &&
-          std::find(extended_methods().begin(), extended_methods().end(), item) == extended_methods().end())
+      if (std::find(mapping::known_methods().begin(), mapping::known_methods().end(), item) == mapping::known_methods().end() &&
+          std::find(mapping::extended_methods().begin(), mapping::extended_methods().end(), item) == mapping::extended_methods().end())
         return Error{"unknown method (known: frequency, visibility, position, direction, combined, freespace, tracked, best, all)"};
       names.push_back(item);
     }
@@ -375,7 +336,7 @@ Result<std::vector<MethodSpec>> parse_methods(const std::string& list, std::opti
   return out;
 }
 
-EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
+Result<EvalReport> evaluate(const Dataset& dataset, const EvalOptions& options) {
   EvalReport report;
   report.scenario = dataset.scenario;
   report.seed = dataset.seed;
@@ -404,16 +365,25 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
   RegistrationReport& g = report.registration;
   g.enabled = options.registration;
   g.have_truth = !dataset.truth.empty();
-  measure_errors(dataset, g.pose_m_before, g.pose_deg_before, g.point_m_before);
-  g.consistency_before = revisit_consistency(dataset);
-  for (const MethodSpec& m : options.methods) {
-    if (options.progress) options.progress(m.name + (options.registration ? " (fusion core, registration on)" : " (fusion core)"));
-    CoreRun r = run_through_core(dataset, m.method, m.options, run);
+  mapping::measure_errors(dataset, g.pose_m_before, g.pose_deg_before, g.point_m_before);
+  g.consistency_before = mapping::revisit_consistency(dataset);
+  // The share of the whole evaluation: each method one part, table 1 and the metrics one more.
+  const double parts = static_cast<double>(options.methods.size() + 1);
+  for (std::size_t mi = 0; mi < options.methods.size(); ++mi) {
+    const MethodSpec& m = options.methods[mi];
+    const std::string stage = m.name + (options.registration ? " (fusion core, registration on)" : " (fusion core)");
+    if (options.progress) {
+      options.progress(stage, static_cast<double>(mi) / parts);
+      run.progress = [&](double f) { options.progress(stage, (static_cast<double>(mi) + f) / parts); };
+    }
+    Result<CoreRun> ran = run_through_core(dataset, m.method, m.options, run);
+    if (!ran) return ran.error();
+    CoreRun& r = ran.value();
     if (removed_by_method.empty()) {
-      measure_errors(dataset, g.pose_m_after, g.pose_deg_after, g.point_m_after, r.placed, r.scan_poses, r.scan_decided);
+      mapping::measure_errors(dataset, g.pose_m_after, g.pose_deg_after, g.point_m_after, r.placed, r.scan_poses, r.scan_decided);
       g.robots = std::move(r.robots);
       g.masked_points = r.masked_points;
-      if (options.registration) g.consistency_after = revisit_consistency(dataset, r.placed);
+      if (options.registration) g.consistency_after = mapping::revisit_consistency(dataset, r.placed);
       report.placed = std::move(r.placed);
       report.scan_poses = std::move(r.scan_poses);
       report.scan_decided = std::move(r.scan_decided);
@@ -426,8 +396,8 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
   }
   const std::vector<MapPoint>& cloud = report.placed;
 
-  if (options.progress) options.progress("table 1 (floor plane with and without the ghosts)");
-  report.table1 = table1(dataset.points, cloud, options.ransac);
+  if (options.progress) options.progress("table 1 (floor plane with and without the ghosts)", (parts - 1.0) / parts);
+  report.table1 = mapping::table1(dataset.points, cloud, options.ransac);
   report.plane_before = report.table1.with_ghosts;
   const bool have_reference = report.table1.without_ghosts.found;
   {
@@ -443,267 +413,32 @@ EvalReport evaluate(const Dataset& dataset, const EvalOptions& options) {
       for (std::size_t i = 0; i < cloud.size(); ++i)
         if (!ghost[i] && std::abs(report.floor_reference.signed_distance(cloud[i])) <= options.ransac.threshold_m) inliers.push_back(i);
       if (inliers.size() < 3 || (iteration > 0 && inliers.size() == previous)) break;
-      report.floor_reference = fit_plane_least_squares(cloud, inliers);
+      report.floor_reference = mapping::fit_plane_least_squares(cloud, inliers);
     }
-    report.floor_bias_before_m = have_reference ? floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m) : std::numeric_limits<double>::quiet_NaN();
-    report.floor_bias_ghost_free_m = have_reference ? floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m, ghost) : std::numeric_limits<double>::quiet_NaN();
+    report.floor_bias_before_m = have_reference ? mapping::floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m) : std::numeric_limits<double>::quiet_NaN();
+    report.floor_bias_ghost_free_m = have_reference ? mapping::floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m, ghost) : std::numeric_limits<double>::quiet_NaN();
   }
   for (std::size_t k = 0; k < options.methods.size(); ++k) {
     const MethodSpec& m = options.methods[k];
-    std::unique_ptr<Filter> filter = make_filter(m.method, m.options);
+    if (options.progress)
+      options.progress(m.name + " (metrics, floor plane)",
+                       (parts - 1.0 + static_cast<double>(k) / static_cast<double>(options.methods.size())) / parts);
+    std::unique_ptr<Filter> filter = mapping::make_filter(m.method, m.options);
     TEAMSCAN_EXPECTS(filter != nullptr);
     MethodResult r;
     r.name = m.name;
     r.method = m.method;
     r.params = filter->params();
     r.removed = std::move(removed_by_method[k]);
-    r.removal = removal_metrics(dataset.points, r.removed);
-    r.plane_after = fit_plane_ransac(cloud, options.ransac, r.removed);
-    r.plane_error_improvement_pct = plane_error_improvement_pct(report.plane_before, r.plane_after);
-    r.plane_inlier_improvement_pct = plane_inlier_improvement_pct(report.plane_before, r.plane_after);
-    r.floor_bias_after_m = have_reference ? floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m, r.removed) : std::numeric_limits<double>::quiet_NaN();
-    r.floor_bias_improvement_pct = floor_bias_improvement_pct(report.floor_bias_before_m, r.floor_bias_after_m);
+    r.removal = mapping::removal_metrics(dataset.points, r.removed);
+    r.plane_after = mapping::fit_plane_ransac(cloud, options.ransac, r.removed);
+    r.plane_error_improvement_pct = mapping::plane_error_improvement_pct(report.plane_before, r.plane_after);
+    r.plane_inlier_improvement_pct = mapping::plane_inlier_improvement_pct(report.plane_before, r.plane_after);
+    r.floor_bias_after_m = have_reference ? mapping::floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m, r.removed) : std::numeric_limits<double>::quiet_NaN();
+    r.floor_bias_improvement_pct = mapping::floor_bias_improvement_pct(report.floor_bias_before_m, r.floor_bias_after_m);
     report.methods.push_back(std::move(r));
   }
   return report;
 }
 
-// ---- report writers -------------------------------------------------------------------------------
-namespace {
-
-const char* class_name(std::size_t c) {
-  static const char* const kNames[kPointClasses] = {"none", "floor", "wall", "ceiling", "furniture", "robot"};
-  return c < kPointClasses ? kNames[c] : "?";
-}
-
-std::string json_number(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.10g", v);
-  return buf;
-}
-
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      out += buf;
-    } else {
-      out += c;
-    }
-  }
-  return out + "\"";
-}
-
-std::string json_plane(const PlaneFit& f) {
-  std::ostringstream o;
-  o << "{\"found\": " << (f.found ? "true" : "false") << ", \"a\": " << json_number(f.plane.normal.x())
-    << ", \"b\": " << json_number(f.plane.normal.y()) << ", \"c\": " << json_number(f.plane.normal.z())
-    << ", \"d\": " << json_number(f.plane.d) << ", \"points\": " << f.points << ", \"inliers\": " << f.inliers
-    << ", \"inlier_share\": " << json_number(f.inlier_share)
-    << ", \"signed_mean_error_mm\": " << json_number(f.signed_mean_error_m * 1e3)
-    << ", \"mean_abs_error_mm\": " << json_number(f.mean_abs_error_m * 1e3)
-    << ", \"rms_error_mm\": " << json_number(f.rms_error_m * 1e3) << "}";
-  return o.str();
-}
-
-std::string md(double v, int decimals = 1) { return std::isfinite(v) ? format_number(v, decimals) : "–"; }
-
-// Scene classes reported as "kept" (issue 5: floor, wall, ceiling, furniture).
-constexpr std::size_t kSceneClasses[] = {1, 2, 3, 4};
-
-}  // namespace
-
-std::string report_json(const EvalReport& r, const std::string& command) {
-  std::ostringstream o;
-  const RansacOptions& rs = r.options.ransac;
-  const TrackerOptions& tr = r.options.tracker;
-  o << "{\n  \"scenario\": " << json_string(r.scenario) << ",\n  \"seed\": " << r.seed << ",\n";
-  o << "  \"counts\": {\"points\": " << r.points << ", \"ghosts\": " << r.ghosts << ", \"others\": " << (r.points - r.ghosts)
-    << ", \"scans\": " << r.scans << ", \"robots\": " << r.robots << ", \"orphan_points\": " << r.orphan_points;
-  if (!r.methods.empty()) {
-    o << ", \"by_class\": {";
-    for (std::size_t c = 0; c < kPointClasses; ++c)
-      o << (c ? ", " : "") << json_string(class_name(c)) << ": " << r.methods.front().removal.by_class[c].total;
-    o << "}";
-  }
-  o << "},\n";
-  o << "  \"ransac\": {\"threshold_m\": " << json_number(rs.threshold_m) << ", \"iterations\": " << rs.iterations
-    << ", \"seed\": " << rs.seed << ", \"max_tilt_deg\": " << json_number(rs.max_tilt_deg)
-    << ", \"max_height_m\": " << json_number(rs.max_height_m) << ", \"error_reference\": "
-    << (rs.error_reference == PlaneErrorReference::sample ? "\"sample\"" : "\"refit\"") << "},\n";
-  o << "  \"tracker\": {\"accel_noise_mps2\": " << json_number(tr.accel_noise_mps2)
-    << ", \"position_noise_m\": " << json_number(tr.position_noise_m)
-    << ", \"velocity_noise_mps\": " << json_number(tr.velocity_noise_mps)
-    << ", \"use_velocity\": " << (tr.use_velocity ? "true" : "false") << ", \"lost_after_s\": " << json_number(tr.lost_after_s)
-    << ", \"drift_m_per_m\": " << json_number(tr.drift_m_per_m)
-    << ", \"drift_heading_rad_per_m\": " << json_number(tr.drift_heading_rad_per_m)
-    << ", \"drift_heading_rad_per_rad\": " << json_number(tr.drift_heading_rad_per_rad) << "},\n";
-  o << "  \"table1\": {\"with_ghosts\": " << json_plane(r.table1.with_ghosts)
-    << ",\n             \"without_ghosts\": " << json_plane(r.table1.without_ghosts)
-    << ",\n             \"ghost_share_of_inliers_pct\": " << json_number(r.table1.ghost_share_of_inliers_pct)
-    << ", \"plane_error_improvement_pct\": " << json_number(r.table1.error_improvement_pct)
-    << ", \"plane_inlier_improvement_pct\": " << json_number(r.table1.inlier_improvement_pct) << "},\n";
-  o << "  \"floor_bias\": {\"reference\": {\"a\": " << json_number(r.floor_reference.normal.x())
-    << ", \"b\": " << json_number(r.floor_reference.normal.y()) << ", \"c\": " << json_number(r.floor_reference.normal.z())
-    << ", \"d\": " << json_number(r.floor_reference.d) << "}, \"all_points_mm\": " << json_number(r.floor_bias_before_m * 1e3)
-    << ", \"ghosts_removed_mm\": " << json_number(r.floor_bias_ghost_free_m * 1e3) << ", \"ghosts_removed_improvement_pct\": "
-    << json_number(floor_bias_improvement_pct(r.floor_bias_before_m, r.floor_bias_ghost_free_m)) << "},\n";
-  o << "  \"methods\": [";
-  for (std::size_t i = 0; i < r.methods.size(); ++i) {
-    const MethodResult& m = r.methods[i];
-    o << (i ? ",\n" : "\n") << "    {\"name\": " << json_string(m.name) << ", \"params\": {";
-    for (std::size_t p = 0; p < m.params.size(); ++p)
-      o << (p ? ", " : "") << json_string(m.params[p].first) << ": " << json_number(m.params[p].second);
-    o << "}, \"ghost_removed_pct\": " << json_number(m.removal.ghost_removed_pct)
-      << ", \"other_removed_pct\": " << json_number(m.removal.other_removed_pct)
-      << ", \"plane_error_improvement_pct\": " << json_number(m.plane_error_improvement_pct)
-      << ", \"plane_inlier_improvement_pct\": " << json_number(m.plane_inlier_improvement_pct)
-      << ", \"floor_bias_mm\": " << json_number(m.floor_bias_after_m * 1e3)
-      << ", \"floor_bias_improvement_pct\": " << json_number(m.floor_bias_improvement_pct)
-      << ", \"SA\": " << json_number(m.removal.sa) << ", \"DA\": " << json_number(m.removal.da)
-      << ", \"AA\": " << json_number(m.removal.aa) << ", \"HA\": " << json_number(m.removal.ha) << ", \"kept_by_class\": {";
-    bool first = true;
-    for (std::size_t c : kSceneClasses) {
-      o << (first ? "" : ", ") << json_string(class_name(c)) << ": " << json_number(m.removal.by_class[c].kept_pct());
-      first = false;
-    }
-    o << "}}";
-  }
-  o << "\n  ],\n";
-  {
-    const RegistrationReport& g = r.registration;
-    auto share_on_earlier = [](const RevisitConsistency& k) {
-      return k.points ? static_cast<double>(k.on_earlier_points) / static_cast<double>(k.points) : 0.0;
-    };
-    auto js = [&](const ErrorStats& e) {
-      return "{\"p50\": " + json_number(e.p50) + ", \"p99\": " + json_number(e.p99) + ", \"max\": " + json_number(e.max) +
-             ", \"count\": " + std::to_string(e.count) + "}";
-    };
-    o << "  \"registration\": {\"enabled\": " << (g.enabled ? "true" : "false") << ", \"have_truth\": " << (g.have_truth ? "true" : "false")
-      << ", \"consistency_before_median_m\": " << json_number(g.consistency_before.median_m)
-      << ", \"consistency_after_median_m\": " << json_number(g.enabled ? g.consistency_after.median_m : g.consistency_before.median_m)
-      << ", \"consistency_before_on_earlier_share\": " << json_number(share_on_earlier(g.consistency_before))
-      << ", \"consistency_after_on_earlier_share\": " << json_number(share_on_earlier(g.enabled ? g.consistency_after : g.consistency_before));
-    if (g.have_truth) {
-      o << ", \"pose_m_before\": " << js(g.pose_m_before) << ", \"pose_deg_before\": " << js(g.pose_deg_before)
-        << ", \"point_m_before\": " << js(g.point_m_before);
-      if (g.enabled)
-        o << ", \"pose_m_after\": " << js(g.pose_m_after) << ", \"pose_deg_after\": " << js(g.pose_deg_after)
-          << ", \"point_m_after\": " << js(g.point_m_after);
-    }
-    o << ", \"robots\": [";
-    for (std::size_t i = 0; i < g.robots.size(); ++i) {
-      const registration::RobotCorrection& c = g.robots[i];
-      o << (i ? ", " : "") << "{\"robot\": " << int(c.robot) << ", \"matches\": " << c.matches << ", \"accepted\": " << c.accepted
-        << ", \"degenerate\": " << c.degenerate << ", \"standing_still\": " << c.standing_still << ", \"first_lap\": " << c.first_lap
-        << ", \"rejected_overlap\": " << c.rejected_overlap << ", \"rejected_fit\": " << c.rejected_fit
-        << ", \"rejected_step\": " << c.rejected_step << ", \"too_few_features\": " << c.too_few_features
-        << ", \"scale\": " << c.scale << ", \"drift_rad_per_m\": " << c.drift_rad_per_m << ", \"turn\": " << c.turn << "}";
-    }
-    o << "]},\n";
-  }
-  o << "  \"plane_fits\": {\"before\": " << json_plane(r.plane_before);
-  for (const MethodResult& m : r.methods) o << ",\n                 " << json_string(m.name) << ": " << json_plane(m.plane_after);
-  o << "},\n  \"command\": " << json_string(command) << "\n}\n";
-  return o.str();
-}
-
-std::string report_markdown(const EvalReport& r, const std::string& command) {
-  std::ostringstream o;
-  const RansacOptions& rs = r.options.ransac;
-  o << "## Data set `" << r.scenario << "` (seed " << r.seed << ")\n\n";
-  o << r.points << " points, " << r.ghosts << " ghost points (" << md(r.points ? 100.0 * static_cast<double>(r.ghosts) / static_cast<double>(r.points) : 0.0)
-    << " %), " << r.scans << " scans, " << r.robots << " robots";
-  if (r.orphan_points) o << ", " << r.orphan_points << " points without a scans.csv row";
-  o << ".\n\n";
-  o << "| method | % ghost | % other | % impr. plane error | % impr. inliers | SA | DA | AA | HA | floor kept | wall kept | ceiling kept | furniture kept | % impr. floor bias |\n";
-  o << "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
-  for (const MethodResult& m : r.methods) {
-    o << "| " << m.name << " | " << md(m.removal.ghost_removed_pct) << " | " << md(m.removal.other_removed_pct) << " | "
-      << md(m.plane_error_improvement_pct) << " | " << md(m.plane_inlier_improvement_pct) << " | " << md(m.removal.sa)
-      << " | " << md(m.removal.da) << " | " << md(m.removal.aa) << " | " << md(m.removal.ha);
-    for (std::size_t c : kSceneClasses) o << " | " << md(m.removal.by_class[c].kept_pct());
-    o << " | " << md(m.floor_bias_improvement_pct) << " |\n";
-  }
-  if (r.registration.have_truth) {
-    const RegistrationReport& g = r.registration;
-    o << "\n**Registration** (pose error per scan and point error per non-ghost point, against the truth; "
-      << (g.enabled ? "scan-to-map registration, docs/registration.md" : "registration off: odometry alone") << "):\n\n";
-    o << "| poses | translation p50 / p99 / max (cm) | rotation p50 / p99 / max (°) | point error p50 / p99 / max (cm) |\n";
-    o << "| --- | ---: | ---: | ---: |\n";
-    auto stats = [&](const ErrorStats& e, double scale, int decimals) {
-      return md(e.p50 * scale, decimals) + " / " + md(e.p99 * scale, decimals) + " / " + md(e.max * scale, decimals);
-    };
-    o << "| odometry | " << stats(g.pose_m_before, 100, 1) << " | " << stats(g.pose_deg_before, 1, 2) << " | "
-      << stats(g.point_m_before, 100, 1) << " |\n";
-    if (g.enabled)
-      o << "| registered | " << stats(g.pose_m_after, 100, 1) << " | " << stats(g.pose_deg_after, 1, 2) << " | "
-        << stats(g.point_m_after, 100, 1) << " |\n";
-  }
-  if (r.registration.consistency_before.points > 0) {
-    const RegistrationReport& g = r.registration;
-    auto c = [&](const RevisitConsistency& k) {
-      const double n = k.points ? static_cast<double>(k.points) : 1.0;
-      return md(k.median_m * 100, 1) + " / " + md(k.p90_m * 100, 1) + " cm (" + md(100.0 * static_cast<double>(k.revisit_points) / n) +
-             " % of the points; within " + md(k.on_earlier_m * 100, 0) + " cm of the earlier pass: " +
-             md(100.0 * static_cast<double>(k.on_earlier_points) / n) + " % of the points)";
-    };
-    o << "\nRevisit consistency (median / p90 distance of a revisit's points to the earlier pass, ≥ 30 s before, within 0.5 m; "
-         "docs/registration.md): odometry "
-      << c(g.consistency_before);
-    if (g.enabled) o << ", registered " << c(g.consistency_after);
-    o << ".\n";
-  }
-  if (r.registration.enabled) {
-    // The drift rates at the end (the odometry prior they started from: docs/registration.md "Odometry prior and calibration").
-    o << "\n| robot | matches | accepted | degenerate | standing still | first lap | too few features | rejected overlap / fit / step "
-         "| rates at the end: scale % / drift °/m / turn % |\n";
-    o << "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
-    for (const registration::RobotCorrection& c : r.registration.robots)
-      o << "| " << int(c.robot) << " | " << c.matches << " | " << c.accepted << " | " << c.degenerate << " | " << c.standing_still
-        << " | " << c.first_lap << " | " << c.too_few_features << " | " << c.rejected_overlap << " / " << c.rejected_fit << " / " << c.rejected_step
-        << " | " << md(100.0 * c.scale, 3) << " / " << md(rad_to_deg(c.drift_rad_per_m), 4) << " / " << md(100.0 * c.turn, 3) << " |\n";
-    o << "\nPoints kept out of the match (onboard-flagged, inside a teammate's tracked body): " << r.registration.masked_points << ".\n";
-  }
-  const Table1& t = r.table1;
-  o << "\n**Table 1** (floor plane by RANSAC, ghosts removed by label):\n\n";
-  o << "| cloud | signed error (mm) | mean abs (mm) | RMS (mm) | inliers | inlier share % |\n";
-  o << "| --- | ---: | ---: | ---: | ---: | ---: |\n";
-  auto row = [&](const char* name, const PlaneFit& f) {
-    o << "| " << name << " | " << md(f.signed_mean_error_m * 1e3, 3) << " | " << md(f.mean_abs_error_m * 1e3, 3) << " | "
-      << md(f.rms_error_m * 1e3, 3) << " | " << f.inliers << " / " << f.points << " | " << md(100.0 * f.inlier_share) << " |\n";
-  };
-  row("all points", t.with_ghosts);
-  row("ghosts removed", t.without_ghosts);
-  o << "\nGhosts among the inliers with all points: " << md(t.ghost_share_of_inliers_pct) << " %; improvement in plane error "
-    << md(t.error_improvement_pct) << " %, in inliers " << md(t.inlier_improvement_pct) << " %.\n\n";
-  o << "Floor bias (deterministic; signed mean distance of the points within " << json_number(rs.threshold_m)
-    << " m of the fixed least-squares floor of the ghost-free cloud): all points " << md(r.floor_bias_before_m * 1e3, 4)
-    << " mm, ghosts removed " << md(r.floor_bias_ghost_free_m * 1e3, 4) << " mm (improvement "
-    << md(floor_bias_improvement_pct(r.floor_bias_before_m, r.floor_bias_ghost_free_m)) << " %).\n\n";
-  o << "Parameters:\n\n";
-  for (const MethodResult& m : r.methods) {
-    o << "- " << m.name << ":";
-    for (const auto& [name, value] : m.params) o << " " << name << "=" << json_number(value);
-    o << "\n";
-  }
-  o << "- RANSAC: threshold " << json_number(rs.threshold_m) << " m, " << rs.iterations << " iterations, seed " << rs.seed
-    << ", normal within " << json_number(rs.max_tilt_deg) << "° of +z, plane height ≤ " << json_number(rs.max_height_m)
-    << " m, signed error against the " << (rs.error_reference == PlaneErrorReference::sample ? "best sample" : "refit")
-    << " plane\n";
-  const TrackerOptions& tr = r.options.tracker;
-  o << "- tracker: constant velocity, σ_a " << json_number(tr.accel_noise_mps2) << " m/s², σ_pos "
-    << json_number(tr.position_noise_m) << " m, σ_vel " << json_number(tr.velocity_noise_mps) << " m/s, velocity "
-    << (tr.use_velocity ? "measured" : "not measured") << ", drift " << json_number(tr.drift_m_per_m) << " m/m, "
-    << json_number(tr.drift_heading_rad_per_m) << " rad/m, " << json_number(tr.drift_heading_rad_per_rad) << " rad/rad\n\n";
-  o << "Reproduce: `" << command << "`\n";
-  return o.str();
-}
-
-}  // namespace teamscan::mapping
+}  // namespace teamscan::fusion

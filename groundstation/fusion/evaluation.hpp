@@ -16,7 +16,7 @@
 #include "groundstation/mapping/metrics.hpp"
 #include "groundstation/mapping/tracker.hpp"
 
-namespace teamscan::mapping {
+namespace teamscan::fusion {
 
 // The data set rearranged for filtering: points grouped by scan in time order, each scan with the
 // team's tracked state at its stamp.
@@ -27,16 +27,16 @@ struct PreparedScan {
 };
 
 struct PreparedDataset {
-  std::vector<MapPoint> points;          // scan-grouped order
+  std::vector<mapping::MapPoint> points;          // scan-grouped order
   std::vector<std::uint16_t> flags;      // per point, same order
   std::vector<std::size_t> source_index; // prepared index → index in Dataset::points
   std::vector<PreparedScan> scans;       // time order (stamp, robot, scan)
-  std::vector<TeamState> teams;          // one per scan
+  std::vector<mapping::TeamState> teams;          // one per scan
   std::uint64_t orphan_points = 0;       // points whose scan is missing from scans.csv
-  [[nodiscard]] ScanView view(std::size_t scan_index) const;
+  [[nodiscard]] mapping::ScanView view(std::size_t scan_index) const;
 };
 
-// Localisation noise added to what the filters see (issue 7: σ 5 cm and 2°), for data sets whose
+// Localisation noise added to what the filters see (σ 5 cm and 2°), for data sets whose
 // simulator cannot inject it: every robot's odometry poses (fed to the tracker) and scan origins /
 // poses are offset by a per-robot first-order Gauss–Markov error with stationary σ `sigma_m` per axis
 // and `sigma_rad` in heading and correlation time `correlation_s`. The cloud itself is unchanged:
@@ -49,34 +49,36 @@ struct PoseNoise {
   [[nodiscard]] bool active() const { return sigma_m > 0.0 || sigma_rad > 0.0; }
 };
 
-[[nodiscard]] PreparedDataset prepare_dataset(const Dataset& dataset, const TrackerOptions& tracker,
+[[nodiscard]] PreparedDataset prepare_dataset(const Dataset& dataset, const mapping::TrackerOptions& tracker,
                                               const PoseNoise& noise = {});
 
 // Offline: observe every scan, then classify every scan. Live: observe and classify each scan as it
 // arrives (decisions against the map so far). Both return removed flags in Dataset::points order.
-[[nodiscard]] std::vector<std::uint8_t> run_offline(const PreparedDataset& prepared, Filter& filter);
-[[nodiscard]] std::vector<std::uint8_t> run_live(const PreparedDataset& prepared, Filter& filter);
+[[nodiscard]] std::vector<std::uint8_t> run_offline(const PreparedDataset& prepared, mapping::Filter& filter);
+[[nodiscard]] std::vector<std::uint8_t> run_live(const PreparedDataset& prepared, mapping::Filter& filter);
 
 // One evaluated method: a name for the report (e.g. "visibility@0.05m"), the method and its options.
 struct MethodSpec {
   std::string name;
   std::string method;
-  MethodOptions options;
+  mapping::MethodOptions options;
 };
 
 // How the fusion core is set up for a data set (beyond the method): the tracker, the pose noise, and
 // the scan-to-map registration (fusion/core.hpp CoreOptions::registration; off: odometry alone).
 struct CoreRunOptions {
-  TrackerOptions tracker;
+  mapping::TrackerOptions tracker;
   PoseNoise noise;
   bool registration = false;
   registration::RegistrationOptions registration_options{};
+  // Called with the share of the data set's time line fed so far (0..1), about every 1 %.
+  std::function<void(double)> progress;
 };
 
 // What the fusion core made of a data set.
 struct CoreRun {
   std::vector<std::uint8_t> removed;       // per point, 1 = removed (Dataset::points order)
-  std::vector<MapPoint> placed;            // per point, where the core put it (registration applied)
+  std::vector<mapping::MapPoint> placed;            // per point, where the core put it (registration applied)
   std::vector<Pose2> scan_poses;           // per Dataset::scans row, the pose the core decided it with
   std::vector<std::uint8_t> scan_decided;  // per Dataset::scans row, 1 = released by the core
   std::vector<registration::RobotCorrection> robots;  // registration counters per robot (when on)
@@ -85,15 +87,16 @@ struct CoreRun {
 
 // The fusion core fed the data set's odometry and scans in time order (a pose before a scan of the
 // same stamp), with `method`; no model store (the decisions are kept per point). With `noise` active,
-// the poses and scan origins the core sees carry the PoseNoise error.
-[[nodiscard]] CoreRun run_through_core(const Dataset& dataset, const std::string& method, const MethodOptions& options,
+// the poses and scan origins the core sees carry the PoseNoise error. An error (naming the option) when
+// the core refuses the options.
+[[nodiscard]] Result<CoreRun> run_through_core(const Dataset& dataset, const std::string& method, const mapping::MethodOptions& options,
                                        const CoreRunOptions& run);
 // Whether every robot of a data set has a level 2-D laser (no roll, no pitch: an imported CARMEN log),
 // whose walls the registration sees edge-on (SurfaceOptions::planar_scans).
 [[nodiscard]] bool level_lasers(const Dataset& dataset);
 // Every point's decision (run_through_core(...).removed), odometry alone.
-[[nodiscard]] std::vector<std::uint8_t> decide_through_core(const Dataset& dataset, const std::string& method,
-                                                             const MethodOptions& options, const TrackerOptions& tracker,
+[[nodiscard]] Result<std::vector<std::uint8_t>> decide_through_core(const Dataset& dataset, const std::string& method,
+                                                             const mapping::MethodOptions& options, const mapping::TrackerOptions& tracker,
                                                              const PoseNoise& noise = {});
 
 // Method list from the command line: "all" or a comma list of known_methods(). Without an explicit
@@ -101,15 +104,16 @@ struct CoreRun {
 // to 5° and 7° (the paper's Tables 2, 3 and 5); with them, each method runs once at that setting.
 [[nodiscard]] Result<std::vector<MethodSpec>> parse_methods(const std::string& list, std::optional<double> resolution_m,
                                                             std::optional<double> half_angle_deg,
-                                                            const MethodOptions& base = {});
+                                                            const mapping::MethodOptions& base = {});
 
 struct EvalOptions {
   std::vector<MethodSpec> methods;
-  RansacOptions ransac;
-  TrackerOptions tracker;
-  PoseNoise pose_noise;  // issue 7: off by default
-  // Called before each stage ("table 1", each method name) so long runs can show progress.
-  std::function<void(const std::string&)> progress;
+  mapping::RansacOptions ransac;
+  mapping::TrackerOptions tracker;
+  PoseNoise pose_noise;  // off by default
+  // Called at each stage ("table 1", each method name) and as a stage advances, with the share of the
+  // whole evaluation done (0..1), so long runs can show progress.
+  std::function<void(const std::string& stage, double fraction)> progress;
   // Scan-to-map registration inside the fusion core (docs/registration.md); off: odometry alone.
   bool registration = false;
   registration::RegistrationOptions registration_options{};
@@ -118,9 +122,9 @@ struct EvalOptions {
 struct MethodResult {
   std::string name;
   std::string method;
-  FilterParams params;
-  RemovalMetrics removal;
-  PlaneFit plane_after;
+  mapping::FilterParams params;
+  mapping::RemovalMetrics removal;
+  mapping::PlaneFit plane_after;
   double plane_error_improvement_pct = 0;
   double plane_inlier_improvement_pct = 0;
   // Deterministic floor bias against the fixed reference (metrics.hpp floor_bias_m) and its improvement.
@@ -134,30 +138,28 @@ struct EvalReport {
   std::uint64_t seed = 0;
   std::uint64_t points = 0, ghosts = 0, scans = 0, robots = 0, orphan_points = 0;
   EvalOptions options;
-  PlaneFit plane_before;
-  Table1 table1;
+  mapping::PlaneFit plane_before;
+  mapping::Table1 table1;
   // Floor-bias reference: the least-squares floor of the ghost-free cloud; bias of all points and of
   // the ghost-free cloud against it (the latter ~0: the ideal filter's result).
-  Plane floor_reference;
+  mapping::Plane floor_reference;
   double floor_bias_before_m = 0;
   double floor_bias_ghost_free_m = 0;
   std::vector<MethodResult> methods;
   // Pose and point error against the truth with odometry alone and as the fusion core placed the
   // scans (registration on), the registration's counters, revisit consistency.
-  RegistrationReport registration;
+  mapping::RegistrationReport registration;
   // Every point where the core put it (registration applied; Dataset::points order): the cloud the
   // metrics above were computed on.
-  std::vector<MapPoint> placed;
+  std::vector<mapping::MapPoint> placed;
   // Per Dataset::scans row, the pose the core decided the scan with (registration applied); empty
   // when the core decided none.
   std::vector<Pose2> scan_poses;
   std::vector<std::uint8_t> scan_decided;
 };
 
-[[nodiscard]] EvalReport evaluate(const Dataset& dataset, const EvalOptions& options);
+[[nodiscard]] Result<EvalReport> evaluate(const Dataset& dataset, const EvalOptions& options);
 
-// Report writers. `command` is the command line that reproduces the report.
-[[nodiscard]] std::string report_json(const EvalReport& report, const std::string& command);
-[[nodiscard]] std::string report_markdown(const EvalReport& report, const std::string& command);
+// The reports of an evaluation are written by the tools (tools/demo/eval_report.hpp).
 
-}  // namespace teamscan::mapping
+}  // namespace teamscan::fusion

@@ -33,7 +33,8 @@ bool ModelStore::add(const ModelPoint& m) {
   return add_keyed(m, key_of(m));
 }
 
-std::size_t ModelStore::add_all(std::span<const ModelPoint> points) {
+std::size_t ModelStore::add_all(std::span<const ModelPoint> points, std::span<std::uint8_t> stored_out) {
+  std::fill(stored_out.begin(), stored_out.end(), std::uint8_t{0});
   if (cap_ == 0) return 0;
   const std::size_t n = points.size();
   batch_keys_.resize(n);
@@ -55,7 +56,11 @@ std::size_t ModelStore::add_all(std::span<const ModelPoint> points) {
     if (s.count < cap_ && s.count % kChunkPoints != 0) __builtin_prefetch(&chunk(s.last), 1);
   }
   std::size_t stored = 0;
-  for (std::size_t i = 0; i < n; ++i) stored += add_keyed(points[i], batch_keys_[i]) ? 1 : 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool in = add_keyed(points[i], batch_keys_[i]);
+    stored += in ? 1 : 0;
+    if (i < stored_out.size()) stored_out[i] = in ? 1 : 0;
+  }
   return stored;
 }
 

@@ -1,4 +1,4 @@
-// The fused model's points, bounded by the mapped space (DESIGN.md "groundstation/fusion", issue 11):
+// The fused model's points, bounded by the mapped space (DESIGN.md "groundstation/fusion"):
 // at most `max_points_per_voxel` points per voxel of `resolution_m`, each with its identity (robot, seq,
 // beam) and its decision's point part. Beyond the cap a voxel's points are counted, not stored (the
 // session files keep every point). Storage is a paged arena of small chunks: no per-voxel allocation,
@@ -14,7 +14,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "groundstation/mapping/flat_key_map.hpp"
+#include "common/flat_key_map.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
 
 namespace teamscan::fusion {
@@ -41,8 +41,9 @@ class ModelStore {
   bool add(const ModelPoint& m);
   // add() for each point of `points` in order (the same stores, the same voxel numbering), the voxels'
   // index slots, records and chunks prefetched first so their cache misses overlap (a scan's points
-  // land in voxels all over a map of hundreds of MiB). Returns how many were stored.
-  std::size_t add_all(std::span<const ModelPoint> points);
+  // land in voxels all over a map of hundreds of MiB). Returns how many were stored; `stored` (empty, or
+  // one per point) is set to 1 for each point stored, 0 for each capped or not finite.
+  std::size_t add_all(std::span<const ModelPoint> points, std::span<std::uint8_t> stored = {});
 
   [[nodiscard]] std::size_t voxels() const { return slots_.size(); }
   [[nodiscard]] std::uint64_t points() const { return points_; }
@@ -85,15 +86,15 @@ class ModelStore {
   [[nodiscard]] Chunk& chunk(std::uint32_t c) { return pages_[c / kChunksPerPage][c % kChunksPerPage]; }
   std::uint32_t new_chunk();
   // The packed voxel key of a finite point (kNoKey otherwise).
-  static constexpr std::uint64_t kNoKey = mapping::FlatKeyMap<std::uint32_t>::kEmpty;
+  static constexpr std::uint64_t kNoKey = FlatKeyMap<std::uint32_t>::kEmpty;
   [[nodiscard]] std::uint64_t key_of(const ModelPoint& m) const;
   bool add_keyed(const ModelPoint& m, std::uint64_t key);
 
   double inverse_resolution_;
   std::uint32_t cap_;
-  mapping::FlatKeyMap<std::uint32_t> index_;  // packed voxel key -> index in slots_
+  FlatKeyMap<std::uint32_t> index_;  // packed voxel key -> index in slots_
   std::vector<Slot> slots_;
-  std::uint64_t last_key_ = mapping::FlatKeyMap<std::uint32_t>::kEmpty;  // the voxel of the last add
+  std::uint64_t last_key_ = FlatKeyMap<std::uint32_t>::kEmpty;  // the voxel of the last add
   std::uint32_t last_slot_ = 0;
   std::vector<std::unique_ptr<Chunk[], FreePage>> pages_;
   std::uint32_t chunks_ = 0;

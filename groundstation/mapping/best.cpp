@@ -1,4 +1,4 @@
-// The winning combination (issue 7 "best"), chosen in docs/beyond.md from `teamscan eval` figures.
+// The winning combination, chosen in docs/beyond.md from `teamscan eval` figures.
 #include "groundstation/mapping/best.hpp"
 
 #include <algorithm>

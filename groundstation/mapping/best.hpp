@@ -1,4 +1,4 @@
-// `best` (issue 7, docs/beyond.md): the combination that won on the numbers. A point goes when
+// `best` (docs/beyond.md): the combination that won on the numbers. A point goes when
 //   - it lies in a teammate's body box inflated by the Kalman covariance (tracked, no drift), or
 //   - its voxel is void by strict free-space evidence (freespace at best_freespace: 8 passes per hit,
 //     every third ray of a scan cast), or

@@ -2,6 +2,7 @@
 #include "groundstation/mapping/dynamicmap_export.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -9,6 +10,8 @@
 #include <map>
 #include <tuple>
 #include <vector>
+
+#include "common/error_message.hpp"
 
 namespace teamscan::mapping {
 
@@ -66,7 +69,7 @@ Status write_pcd_xyzi(const std::string& path, std::span<const MapPoint> points,
   const bool with_i = !intensity.empty();
   if (with_i && intensity.size() != points.size()) return Error{"intensity count differs from point count"};
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) return Error{"cannot open PCD file for writing"};
+  if (!out) return make_error(path + ": cannot open for writing", errno);
   char header[1024];
   std::snprintf(header, sizeof header,
                 "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z%s\nSIZE 4 4 4%s\n"
@@ -84,14 +87,14 @@ Status write_pcd_xyzi(const std::string& path, std::span<const MapPoint> points,
     if (with_i) row.push_back(intensity[i]);
   }
   out.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(row.size() * sizeof(float)));
-  if (!out) return Error{"write to PCD file failed"};
+  if (!out) return make_error(path + ": write failed", errno);
   return ok_status();
 }
 
 Result<ExportSummary> export_dynamicmap(const Dataset& dataset, const std::string& out_dir) {
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(out_dir) / "pcd", ec);
-  if (ec) return Error{"cannot create the output folder", ec.value()};
+  if (ec) return make_error(out_dir + "/pcd: cannot create the folder", ec.value());
 
   std::map<std::pair<std::uint8_t, std::uint32_t>, std::vector<std::size_t>> by_scan;
   for (std::size_t i = 0; i < dataset.points.size(); ++i)

@@ -6,23 +6,15 @@
 
 #include "common/dataset/dataset.hpp"
 #include "common/result.hpp"
+#include "common/units.hpp"
 #include "groundstation/mapping/best.hpp"
 #include "groundstation/mapping/freespace_filter.hpp"
 #include "groundstation/mapping/tracked_filter.hpp"
-#include "onboard/core/direction_filter.hpp"
+#include "onboard/cone/direction_cone.hpp"
 
 namespace teamscan::mapping {
 
 namespace {
-// Map-frame metres to the wire's int32 millimetres (DESIGN.md "Frames, units, time"), rounded to
-// nearest and clamped; the onboard filter leaves anything beyond ±2^21 mm alone.
-std::int32_t to_mm(double m) {
-  const double mm = std::nearbyint(m * 1000.0);
-  if (!(mm > -2.0e9)) return -2'000'000'000;
-  if (mm > 2.0e9) return 2'000'000'000;
-  return static_cast<std::int32_t>(mm);
-}
-
 // The onboard filter's parameters from ours (the stale-team policy does not apply offline: the tracker
 // already marks a lost teammate invalid).
 onboard::DirectionFilterParams onboard_params(const DirectionOptions& o) {

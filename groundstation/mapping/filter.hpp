@@ -20,9 +20,10 @@
 namespace teamscan::mapping {
 
 // One scan as a filter sees it: who measured it, when, from where, its points and their onboard
-// flags (common/dataset point_flags), and the team's tracked state at the scan's time. The fusion
-// core's form of a scan (groundstation/fusion/core.hpp ScanInput carries one; the core sets
-// map_from_robot and team).
+// flags (common/dataset point_flags), and the team's tracked state at the scan's time. Non-owning: the
+// fusion core shows its held scan (groundstation/fusion/core.hpp ScanInput::view) to the filters and
+// the release callback through one, with map_from_robot and team set; the evaluation views its
+// prepared data set.
 struct ScanView {
   std::uint8_t robot = 0;
   std::uint32_t scan = 0;
@@ -102,7 +103,7 @@ enum class DirectionSource : std::uint8_t {
 
 // Eq. 7: filter p if it lies ahead of R1 along the horizontal line L from R1 to R2 and
 // d_p(p, L) < d_r(p_L)·tan(ha). Recomputed offline with the robot's own fixed-point code
-// (onboard/core/direction_filter.hpp: prepare_cone + cone_contains on int32 mm), so offline and live
+// (onboard/cone/direction_cone.hpp: prepare_cone + cone_contains on int32 mm), so offline and live
 // decisions are the same arithmetic. Gates off = the paper's rule, unchanged.
 struct DirectionOptions {
   double half_angle_rad = 0.12217304763960307;  // 7° (paper: 5° and 7°); the onboard code caps it at 60°
@@ -241,7 +242,7 @@ struct MethodOptions {
   double combined_half_angle_rad = 0.12217304763960307;  // 7°
   double combined_resolution_m = 0.1;
   double combined_grid_origin_z_m = 0.0;
-  // Issue 7 (docs/beyond.md): freespace, tracked, and best = tracked ∪ freespace(best_freespace).
+  // Beyond the paper (docs/beyond.md): freespace, tracked, and best = tracked ∪ freespace(best_freespace).
   FreespaceOptions freespace;
   TrackedOptions tracked;
   // best's freespace part demands 8 passes per hit: chosen on tables4/team3 (docs/beyond.md); it casts
@@ -260,7 +261,7 @@ struct MethodOptions {
 
 // The methods this library knows, in report order.
 [[nodiscard]] const std::vector<std::string>& known_methods();
-// The methods beyond the paper (issue 7): accepted by name, not part of "all".
+// The methods beyond the paper: accepted by name, not part of "all".
 [[nodiscard]] const std::vector<std::string>& extended_methods();
 // A filter for `method` ("frequency", "visibility", "position", "direction", "combined"), or nullptr.
 [[nodiscard]] std::unique_ptr<Filter> make_filter(const std::string& method, const MethodOptions& options);

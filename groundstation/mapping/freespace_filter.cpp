@@ -1,4 +1,4 @@
-// Free-space ray casting (issue 7): Amanatides & Woo, "A fast voxel traversal algorithm for ray
+// Free-space ray casting: Amanatides & Woo, "A fast voxel traversal algorithm for ray
 // tracing" (1987), on the VoxelMap key layout (21-bit fields, VoxelMap::pack).
 #include "groundstation/mapping/freespace_filter.hpp"
 

@@ -1,4 +1,4 @@
-// `freespace` (issue 7, docs/beyond.md): free-space ray casting through a sparse voxel grid with the
+// `freespace` (docs/beyond.md): free-space ray casting through a sparse voxel grid with the
 // Amanatides–Woo traversal. Each voxel counts the points that hit it and the rays that passed through
 // it; a point is transient when its voxel was seen empty (DUFOMap's void evidence, ANCHORS.md §2) often
 // enough. insert() is the same code live and offline; decide() only reads.
@@ -14,7 +14,7 @@
 
 #include "groundstation/mapping/freespace_tracked_options.hpp"
 #include "groundstation/mapping/filter.hpp"
-#include "groundstation/mapping/flat_key_map.hpp"
+#include "common/flat_key_map.hpp"
 
 namespace teamscan::mapping {
 

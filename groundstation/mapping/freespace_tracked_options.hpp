@@ -57,8 +57,8 @@ struct TrackedOptions {
   double half_length_m = 0.313;
   double half_width_m = 0.2525;
   double height_m = 0.52;
-  // Points below this height are never a body hit. The wheels reach z = 0: on lap2 2.4 % of the ghosts
-  // are wheel hits below 1 cm (docs/beyond.md), so by default the box reaches below the floor's noise
+  // Points below this height are never a body hit. The wheels reach z = 0: some ghosts are wheel hits
+  // below 1 cm (docs/beyond.md), so by default the box reaches below the floor's noise
   // and takes the few floor points inside the inflated footprint with it.
   double floor_clearance_m = -0.05;
   // Below this height (wheel contact, floor noise) the box is the bare footprint + margin_m, without
@@ -71,7 +71,7 @@ struct TrackedOptions {
   double wheel_half_length_m = 0.2415;
   // Margin of the wheel strips: 4σ of the 5 mm range noise of a wheel-face hit (< 0: margin_m); the
   // pose error is covered by the Kalman σ. The floor beside a wheel is scanned far more than the
-  // wheel's lowest 2 cm, so this margin costs floor (docs/beyond.md: 0.04 m took 0.08–7 % of it).
+  // wheel's lowest 2 cm, so this margin costs floor (docs/beyond.md has the figures).
   double low_margin_m = 0.02;
   double wheel_inner_y_m = 0.1425;
   // Floor-consistent low points (docs/beyond.md "Floor beside the wheels"): a point whose height is

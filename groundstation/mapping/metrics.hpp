@@ -38,7 +38,7 @@ struct RemovalMetrics {
 // Relative change of the inlier share in percent (NaN if a fit is missing).
 [[nodiscard]] double plane_inlier_improvement_pct(const PlaneFit& before, const PlaneFit& after);
 
-// Deterministic floor-bias measure (issue 7, docs/beyond.md "Floor-plane error"): the signed mean
+// Deterministic floor-bias measure (docs/beyond.md "Floor-plane error"): the signed mean
 // distance to a FIXED reference plane of the kept points within `threshold_m` of it. The paper's
 // signed error is measured against each cloud's own best RANSAC sample, so it changes with which
 // 3-point sample wins (docs/evaluation.md note 4); against one reference for every cloud, the

@@ -1,4 +1,4 @@
-// The Kalman-linked robot-body filter (issue 7 "tracked").
+// The Kalman-linked robot-body filter.
 #include "groundstation/mapping/tracked_filter.hpp"
 
 #include <algorithm>

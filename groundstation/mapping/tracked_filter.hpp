@@ -1,4 +1,4 @@
-// `tracked` (issue 7, docs/beyond.md): the position and direction filters (PAPER_NOTES eqs. 6–7)
+// `tracked` (docs/beyond.md): the position and direction filters (PAPER_NOTES eqs. 6–7)
 // replaced by one 3-D test against each teammate's real body: the Pioneer 3-AT's bounding box,
 // oriented by its heading, at its Kalman estimate moved to the beam's time, inflated by n·σ of the
 // Kalman position covariance at the scan's time along each box axis and by the heading uncertainty.

@@ -1,4 +1,4 @@
-// Per-robot Kalman tracker of the team (issue 5 "Tracker"): constant-velocity state (x, y, vx, vy)
+// Per-robot Kalman tracker of the team: constant-velocity state (x, y, vx, vy)
 // in the map frame, fed with the odometry poses the robots publish, predicted to any time.
 //
 // Why constant velocity and not (x, y, θ, v, ω): the filters only need a teammate's horizontal
@@ -49,7 +49,7 @@ struct TrackerOptions {
   // team_lag_s, by which decisions look back), and not after: a silent client changes nothing. From then on the estimate follows the last command's arc
   // (constant speed and yaw rate), the velocity uncertainty reached still spreading the position.
   double coast_s = 2.0;
-  // Odometry drift (issue 7, docs/beyond.md "Drift"). The Kalman filter smooths the poses a robot
+  // Odometry drift (docs/beyond.md "Drift"). The Kalman filter smooths the poses a robot
   // reports, but those poses are dead reckoning from the robot's registration: their error against the
   // map grows with what the robot did since, and nothing in the pose stream shows it. Dead-reckoning
   // errors are dominated by systematic ones (wheel diameter, wheelbase, skid-steer slip in turns:

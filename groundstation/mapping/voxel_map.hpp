@@ -8,7 +8,7 @@
 #include <optional>
 #include <span>
 
-#include "groundstation/mapping/flat_key_map.hpp"
+#include "common/flat_key_map.hpp"
 
 namespace teamscan::mapping {
 

@@ -15,18 +15,6 @@
 
 namespace teamscan::station {
 
-mapping::TrackerOptions tracker_options(const KalmanConfig& k) {
-  mapping::TrackerOptions o;
-  o.accel_noise_mps2 = k.accel_noise_mps2;
-  o.position_noise_m = k.position_noise_m;
-  o.velocity_noise_mps = k.velocity_noise_mps;
-  o.lost_after_s = k.lost_after_s;
-  o.drift_m_per_m = k.drift_m_per_m;
-  o.drift_heading_rad_per_m = deg_to_rad(k.drift_deg_per_m);
-  o.drift_heading_rad_per_rad = k.drift_deg_per_deg;  // deg/deg = rad/rad
-  return o;
-}
-
 namespace {
 
 // The odometry-prior keys of [registration] or of one [[registration.robot]] table onto `prior` (absent
@@ -92,11 +80,49 @@ void read_priors(TomlReader& r, const toml::table* reg, registration::Registrati
   o.robot_priors = std::move(priors);
 }
 
-}  // namespace
+// [[ros2.laser_mount]] tables: a robot id (once each) and its mount.
+void read_laser_mounts(TomlReader& r, const toml::table* ros2, Ros2Config& o) {
+  if (ros2 == nullptr) return;
+  const toml::node* mounts = r.node(ros2, "laser_mount");
+  if (mounts == nullptr || r.failed()) return;
+  const toml::array* list = mounts->as_array();
+  if (list == nullptr || !list->is_array_of_tables()) {
+    r.fail("ros2.laser_mount", "must be [[ros2.laser_mount]] tables", mounts);
+    return;
+  }
+  for (const toml::node& n : *list) {
+    const toml::table* t = n.as_table();
+    r.only(t, "ros2.laser_mount", {"id", "x_m", "y_m", "z_m", "roll_deg", "pitch_deg", "yaw_deg"});
+    std::int64_t id = 0;
+    if (!r.integer(t, "ros2.laser_mount", "id", id, true)) return;
+    if (id < 1 || id > static_cast<std::int64_t>(kMaxRobots)) {
+      r.fail("ros2.laser_mount.id", "must be in [1, " + std::to_string(kMaxRobots) + "], got " + std::to_string(id),
+             r.node(t, "id"));
+      return;
+    }
+    for (const Ros2Config::RobotLaserMount& m : o.laser_mounts)
+      if (m.robot_id == id) {
+        r.fail("ros2.laser_mount.id", std::to_string(id) + " is listed twice", r.node(t, "id"));
+        return;
+      }
+    Ros2Config::RobotLaserMount m{static_cast<std::uint32_t>(id), {}};
+    double roll_deg = 0, pitch_deg = 0, yaw_deg = 0;
+    r.number_in(t, "ros2.laser_mount", "x_m", m.mount.x_m, -10.0, 10.0, true);
+    r.number_in(t, "ros2.laser_mount", "y_m", m.mount.y_m, -10.0, 10.0, true);
+    r.number_in(t, "ros2.laser_mount", "z_m", m.mount.z_m, -10.0, 10.0, true);
+    r.number_in(t, "ros2.laser_mount", "roll_deg", roll_deg, -180.0, 180.0, true);
+    r.number_in(t, "ros2.laser_mount", "pitch_deg", pitch_deg, -180.0, 180.0, true);
+    r.number_in(t, "ros2.laser_mount", "yaw_deg", yaw_deg, -180.0, 180.0, true);
+    if (r.failed()) return;
+    m.mount.roll_rad = deg_to_rad(roll_deg);
+    m.mount.pitch_rad = deg_to_rad(pitch_deg);
+    m.mount.yaw_rad = deg_to_rad(yaw_deg);
+    o.laser_mounts.push_back(m);
+  }
+}
 
-bool parse_groundstation_config(const std::string& toml_text, const std::string& source_name, GroundStationConfig& out,
-                                ConfigError& error) {
-  toml::table root;
+// The TOML text as a table; a syntax error as "<source>:<line>:<column>: <what>".
+bool parse_toml(const std::string& toml_text, const std::string& source_name, toml::table& root, ConfigError& error) {
   try {
     root = toml::parse(toml_text, source_name);
   } catch (const toml::parse_error& e) {
@@ -105,33 +131,43 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
     error.message = m.str();
     return false;
   }
-  TomlReader r(root, error.message);
-  GroundStationConfig c = out;
+  return true;
+}
+
+void read_station(TomlReader& r, GroundStationConfig& c) {
   double sync_s = to_seconds(c.sync_interval);
   double status_s = to_seconds(c.status_interval);
-  std::int64_t domain = -1;
-  std::int64_t depth = c.station.scan_history_depth;
-  std::int64_t batch = c.station.take_batch;
-  double rate_hz = 1.0 / to_seconds(c.station.team_period);
-  double lease_s = to_seconds(c.station.team_liveliness_lease);
-  double silence_s = to_seconds(c.station.silence_timeout);
-  std::string source = c.team_source == TeamSourceKind::kKalman ? "kalman" : "last_pose";
-  r.top_level({"station", "dds", "team", "fusion", "registration", "ros2", "view", "validation"});
-
   const toml::table* station = r.section("station", false);
   r.only(station, "station", {"session_root", "sync_interval_s", "status_interval_s"});
   if (r.string(station, "station", "session_root", c.session_root, false) && c.session_root.empty())
     r.fail("station.session_root", "must not be empty", r.node(station, "session_root"));
   r.number_in(station, "station", "sync_interval_s", sync_s, 0.0, 3600.0);
   r.number_in(station, "station", "status_interval_s", status_s, 0.0, 3600.0);
+  c.sync_interval = from_seconds(sync_s);
+  c.status_interval = from_seconds(status_s);
+}
 
+void read_dds(TomlReader& r, StationOptions& o) {
+  std::int64_t domain = -1;  // absent: Cyclone's default domain
+  std::int64_t depth = o.scan_history_depth;
+  std::int64_t batch = o.take_batch;
   const toml::table* dds = r.section("dds", false);
   r.only(dds, "dds", {"domain_id", "scan_history_depth", "take_batch", "batch_receive_threads"});
   r.integer_in(dds, "dds", "domain_id", domain, -1, 232);
   r.integer_in(dds, "dds", "scan_history_depth", depth, 1, 100000);
   r.integer_in(dds, "dds", "take_batch", batch, 1, 4096);
-  r.boolean(dds, "dds", "batch_receive_threads", c.station.batch_receive_threads);
+  r.boolean(dds, "dds", "batch_receive_threads", o.batch_receive_threads);
+  o.domain_id = domain < 0 ? 0xFFFFFFFFu : static_cast<std::uint32_t>(domain);
+  o.scan_history_depth = static_cast<std::uint32_t>(depth);
+  o.take_batch = static_cast<std::uint32_t>(batch);
+}
 
+// [team], [team.body] and [team.last_pose]; the source's name is checked last (check_team_source).
+const toml::table* read_team(TomlReader& r, GroundStationConfig& c, std::string& source) {
+  StationOptions& o = c.station;
+  double rate_hz = 1.0 / to_seconds(o.team_period);
+  double lease_s = to_seconds(o.team_liveliness_lease);
+  double silence_s = to_seconds(o.silence_timeout);
   const toml::table* team = r.section("team", false);
   r.only(team, "team", {"publish_rate_hz", "liveliness_lease_s", "silence_timeout_s", "body", "last_pose", "source",
                         "kalman"});
@@ -150,18 +186,52 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   r.number_in(last, "team.last_pose", "sigma0_m", c.last_pose.sigma0_m, 0.0, 100.0, true);
   r.number_in(last, "team.last_pose", "sigma_velocity_mps", c.last_pose.sigma_velocity_mps, 0.0, 100.0, true);
   r.number_in(last, "team.last_pose", "max_extrapolation_s", c.last_pose.max_extrapolation_s, 0.0, 60.0, true);
+  o.team_period = from_seconds(1.0 / rate_hz);
+  o.team_liveliness_lease = from_seconds(lease_s);
+  o.silence_timeout = from_seconds(silence_s);
+  return team;
+}
+
+// [team.kalman]: the tracker's options in the config's units (degrees per metre; deg/deg = rad/rad).
+void read_kalman(TomlReader& r, mapping::TrackerOptions& o) {
   const toml::table* kalman = r.section("team.kalman", false);
   r.only(kalman, "team.kalman", {"accel_noise_mps2", "position_noise_m", "velocity_noise_mps", "lost_after_s",
                                  "drift_m_per_m", "drift_deg_per_m", "drift_deg_per_deg"});
-  r.number_in(kalman, "team.kalman", "accel_noise_mps2", c.kalman.accel_noise_mps2, 0.0, 100.0);
-  r.number_in(kalman, "team.kalman", "position_noise_m", c.kalman.position_noise_m, 0.0, 100.0);
-  r.number_in(kalman, "team.kalman", "velocity_noise_mps", c.kalman.velocity_noise_mps, 0.0, 100.0);
-  r.number_in(kalman, "team.kalman", "lost_after_s", c.kalman.lost_after_s, 0.0, 3600.0);
-  r.number_in(kalman, "team.kalman", "drift_m_per_m", c.kalman.drift_m_per_m, 0.0, 1.0, true);
-  r.number_in(kalman, "team.kalman", "drift_deg_per_m", c.kalman.drift_deg_per_m, 0.0, 90.0, true);
-  r.number_in(kalman, "team.kalman", "drift_deg_per_deg", c.kalman.drift_deg_per_deg, 0.0, 1.0, true);
+  r.number_in(kalman, "team.kalman", "accel_noise_mps2", o.accel_noise_mps2, 0.0, 100.0);
+  r.number_in(kalman, "team.kalman", "position_noise_m", o.position_noise_m, 0.0, 100.0);
+  r.number_in(kalman, "team.kalman", "velocity_noise_mps", o.velocity_noise_mps, 0.0, 100.0);
+  r.number_in(kalman, "team.kalman", "lost_after_s", o.lost_after_s, 0.0, 3600.0);
+  r.number_in(kalman, "team.kalman", "drift_m_per_m", o.drift_m_per_m, 0.0, 1.0, true);
+  double deg_per_m = rad_to_deg(o.drift_heading_rad_per_m);
+  if (r.number_in(kalman, "team.kalman", "drift_deg_per_m", deg_per_m, 0.0, 90.0, true))
+    o.drift_heading_rad_per_m = deg_to_rad(deg_per_m);
+  r.number_in(kalman, "team.kalman", "drift_deg_per_deg", o.drift_heading_rad_per_rad, 0.0, 1.0, true);
+}
 
-  FusionConfig& f = c.fusion;
+// [fusion]'s keys of the filters (mapping::MethodOptions): one voxel edge, grid offset and cone for
+// every method that has one.
+void read_methods(TomlReader& r, const toml::table* fusion, mapping::MethodOptions& m) {
+  double resolution_m = m.frequency.resolution_m;
+  if (r.number_in(fusion, "fusion", "resolution_m", resolution_m, 0.0, 10.0))
+    m.frequency.resolution_m = m.visibility.resolution_m = m.combined_resolution_m = resolution_m;
+  double half_angle_deg = rad_to_deg(m.direction.half_angle_rad);
+  if (r.number_in(fusion, "fusion", "half_angle_deg", half_angle_deg, 0.0, 60.0))
+    m.direction.half_angle_rad = m.combined_half_angle_rad = deg_to_rad(half_angle_deg);
+  double origin_z_m = m.frequency.grid_origin_z_m;
+  if (r.number_in(fusion, "fusion", "grid_origin_z_m", origin_z_m, -10.0, 10.0, true))
+    m.frequency.grid_origin_z_m = m.visibility.grid_origin_z_m = m.combined_grid_origin_z_m = origin_z_m;
+  r.number_in(fusion, "fusion", "frequency_k", m.frequency.k, -100.0, 100.0, true);
+  r.number_in(fusion, "fusion", "position_sigma_m", m.position.sigma_m, 0.0, 100.0);
+  r.number_in(fusion, "fusion", "position_n", m.position.n, 0.0, 100.0);
+  bool from_flags = m.direction.source == mapping::DirectionSource::flags;
+  if (r.boolean(fusion, "fusion", "direction_from_flags", from_flags))
+    m.direction.source = from_flags ? mapping::DirectionSource::flags : mapping::DirectionSource::recompute;
+}
+
+// [fusion]: the stage's files and cadence, the filters, the core; the methods' names are checked last
+// (check_methods).
+const toml::table* read_fusion(TomlReader& r, FusionOptions& f) {
+  fusion::CoreOptions& core = f.core;
   double write_s = to_seconds(f.write_interval);
   double map_s = to_seconds(f.map_interval);
   const toml::table* fusion = r.section("fusion", false);
@@ -172,77 +242,84 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
                             "model_resolution_m", "max_points_per_voxel", "compare_methods", "write_slice_ms", "writer_cpus",
                             "registration"});
   r.boolean(fusion, "fusion", "enabled", f.enabled);
-  if (r.string(fusion, "fusion", "method", f.method, false) && f.method.empty())
+  if (r.string(fusion, "fusion", "method", core.method, false) && core.method.empty())
     r.fail("fusion.method", "must not be empty", r.node(fusion, "method"));
-  r.number_in(fusion, "fusion", "resolution_m", f.resolution_m, 0.0, 10.0);
-  r.number_in(fusion, "fusion", "half_angle_deg", f.half_angle_deg, 0.0, 60.0);
-  r.number_in(fusion, "fusion", "grid_origin_z_m", f.grid_origin_z_m, -10.0, 10.0, true);
-  r.number_in(fusion, "fusion", "frequency_k", f.frequency_k, -100.0, 100.0, true);
-  r.number_in(fusion, "fusion", "position_sigma_m", f.position_sigma_m, 0.0, 100.0);
-  r.number_in(fusion, "fusion", "position_n", f.position_n, 0.0, 100.0);
-  r.boolean(fusion, "fusion", "direction_from_flags", f.direction_from_flags);
+  read_methods(r, fusion, core.methods);
   r.strings(fusion, "fusion", "compare_methods", f.compare_methods);
   r.number_in(fusion, "fusion", "write_slice_ms", f.write_slice_ms, 0.0, 1000.0, true);
   std::vector<std::int64_t> writer_cpus(f.writer_cpus.begin(), f.writer_cpus.end());
   if (r.integers_in(fusion, "fusion", "writer_cpus", writer_cpus, 0, CPU_SETSIZE - 1))
     f.writer_cpus.assign(writer_cpus.begin(), writer_cpus.end());
   r.number_in(fusion, "fusion", "write_interval_s", write_s, 0.0, 86400.0, true);
-  r.boolean(fusion, "fusion", "write_all_points", f.write_all_points);
-  r.boolean(fusion, "fusion", "latency_log", f.latency_log);
+  bool all_points = !f.all_points_pcd.empty();
+  if (r.boolean(fusion, "fusion", "write_all_points", all_points)) f.all_points_pcd = all_points ? "fused_all.pcd" : "";
+  bool latency_log = !f.latency_log_csv.empty();
+  if (r.boolean(fusion, "fusion", "latency_log", latency_log)) f.latency_log_csv = latency_log ? "fused_latency.csv" : "";
   r.number_in(fusion, "fusion", "map_interval_s", map_s, 0.0, 3600.0, true);
   r.number_in(fusion, "fusion", "map_resolution_m", f.map_resolution_m, 0.0, 10.0);
-  r.number_in(fusion, "fusion", "hold_s", f.hold_s, 0.0, 60.0, true);
-  r.number_in(fusion, "fusion", "team_lag_s", f.team_lag_s, 0.0, 10.0, true);
-  r.number_in(fusion, "fusion", "min_scan_interval_s", f.min_scan_interval_s, 0.0, 1.0, true);
-  r.number_in(fusion, "fusion", "model_resolution_m", f.model_resolution_m, 0.0, 10.0);
-  std::int64_t max_per_voxel = f.max_points_per_voxel;
+  r.number_in(fusion, "fusion", "hold_s", core.hold_s, 0.0, 60.0, true);
+  r.number_in(fusion, "fusion", "team_lag_s", core.tracker.team_lag_s, 0.0, 10.0, true);
+  r.number_in(fusion, "fusion", "min_scan_interval_s", core.min_scan_interval_s, 0.0, 1.0, true);
+  r.number_in(fusion, "fusion", "model_resolution_m", core.model_resolution_m, 0.0, 10.0);
+  std::int64_t max_per_voxel = core.max_points_per_voxel;
   r.integer_in(fusion, "fusion", "max_points_per_voxel", max_per_voxel, 0, 1'000'000);
-  f.max_points_per_voxel = static_cast<std::uint32_t>(max_per_voxel);
-  r.boolean(fusion, "fusion", "registration", f.registration);
+  core.max_points_per_voxel = static_cast<std::uint32_t>(max_per_voxel);
+  r.boolean(fusion, "fusion", "registration", core.registration);
+  f.write_interval = from_seconds(write_s);
+  f.map_interval = from_seconds(map_s);
+  return fusion;
+}
+
+// [registration]: its presence turns the core's registration on (unless `enabled = false`).
+void read_registration(TomlReader& r, fusion::CoreOptions& core) {
+  registration::RegistrationOptions& o = core.registration_options;
   const toml::table* reg = r.section("registration", false);
   r.only(reg, "registration",
          {"enabled", "window_s", "match_every_s", "match_delay_s", "cpus", "min_map_features", "robot", TEAMSCAN_PRIOR_KEYS});
   if (reg != nullptr) {
-    f.registration = true;
-    r.boolean(reg, "registration", "enabled", f.registration);
+    core.registration = true;
+    r.boolean(reg, "registration", "enabled", core.registration);
   }
-  r.number_in(reg, "registration", "window_s", c.registration.window_s, 0.0, 60.0);
-  r.number_in(reg, "registration", "match_every_s", c.registration.match_every_s, 0.0, 60.0, true);
-  r.number_in(reg, "registration", "match_delay_s", c.registration.match_delay_s, 0.0, 10.0, true);
-  std::vector<std::int64_t> match_cpus(c.registration.cpus.begin(), c.registration.cpus.end());
-  if (r.integers_in(reg, "registration", "cpus", match_cpus, 0, CPU_SETSIZE - 1))
-    c.registration.cpus.assign(match_cpus.begin(), match_cpus.end());
-  std::int64_t min_features = c.registration.min_map_features;
+  r.number_in(reg, "registration", "window_s", o.window_s, 0.0, 60.0);
+  r.number_in(reg, "registration", "match_every_s", o.match_every_s, 0.0, 60.0, true);
+  r.number_in(reg, "registration", "match_delay_s", o.match_delay_s, 0.0, 10.0, true);
+  std::vector<std::int64_t> match_cpus(o.cpus.begin(), o.cpus.end());
+  if (r.integers_in(reg, "registration", "cpus", match_cpus, 0, CPU_SETSIZE - 1)) o.cpus.assign(match_cpus.begin(), match_cpus.end());
+  std::int64_t min_features = o.min_map_features;
   r.integer_in(reg, "registration", "min_map_features", min_features, 0, 1'000'000);
-  c.registration.min_map_features = static_cast<std::uint32_t>(min_features);
-  read_priors(r, reg, c.registration);
+  o.min_map_features = static_cast<std::uint32_t>(min_features);
+  read_priors(r, reg, o);
+}
 
-  Ros2Config& ros = c.ros2;
+void read_ros2(TomlReader& r, Ros2Config& ros) {
   double cloud_s = to_seconds(ros.map_interval);
   const toml::table* ros2 = r.section("ros2", false);
-  r.only(ros2, "ros2", {"enabled", "map_interval_s", "pose_rate_hz", "heading_sigma_deg"});
+  r.only(ros2, "ros2", {"enabled", "map_interval_s", "pose_rate_hz", "heading_sigma_deg", "laser_mount"});
   r.boolean(ros2, "ros2", "enabled", ros.enabled);
   r.number_in(ros2, "ros2", "map_interval_s", cloud_s, 0.0, 3600.0);
   r.number_in(ros2, "ros2", "pose_rate_hz", ros.pose_rate_hz, 0.0, 1000.0);
   r.number_in(ros2, "ros2", "heading_sigma_deg", ros.heading_sigma_deg, 0.0, 180.0, true);
+  read_laser_mounts(r, ros2, ros);
+  ros.map_interval = from_seconds(cloud_s);
+}
 
-  // The browser view: listen may be empty (off); a present value must be HOST:PORT.
+// The browser view: listen may be empty (off); a present value must be HOST:PORT.
+void read_view(TomlReader& r, ViewConfig& o) {
   const toml::table* view = r.section("view", false);
   r.only(view, "view", {"listen", "web_root", "period_s", "cpus"});
-  if (r.string(view, "view", "listen", c.view.listen, false) && !c.view.listen.empty()) {
+  if (r.string(view, "view", "listen", o.listen, false) && !o.listen.empty()) {
     view::ListenAddress address;
     std::string why;
-    if (!view::parse_listen(c.view.listen, address, why)) r.fail("view.listen", why, r.node(view, "listen"));
+    if (!view::parse_listen(o.listen, address, why)) r.fail("view.listen", why, r.node(view, "listen"));
   }
-  r.string(view, "view", "web_root", c.view.web_root, false);
-  r.number_in(view, "view", "period_s", c.view.period_s, 0.0, 60.0);
-  std::vector<std::int64_t> view_cpus(c.view.cpus.begin(), c.view.cpus.end());
-  if (r.integers_in(view, "view", "cpus", view_cpus, 0, CPU_SETSIZE - 1)) c.view.cpus.assign(view_cpus.begin(), view_cpus.end());
-  if (r.failed()) return false;
-  ros.map_interval = from_seconds(cloud_s);
+  r.string(view, "view", "web_root", o.web_root, false);
+  r.number_in(view, "view", "period_s", o.period_s, 0.0, 60.0);
+  std::vector<std::int64_t> view_cpus(o.cpus.begin(), o.cpus.end());
+  if (r.integers_in(view, "view", "cpus", view_cpus, 0, CPU_SETSIZE - 1)) o.cpus.assign(view_cpus.begin(), view_cpus.end());
+}
 
-  // [validation] (sample_validation.hpp, docs/validation.md).
-  ValidationOptions& v = c.station.validation;
+// [validation] (sample_validation.hpp, docs/validation.md), the site's box checked as a whole.
+bool read_validation(TomlReader& r, ValidationOptions& v) {
   double age_s = to_seconds(v.max_stamp_age), ahead_s = to_seconds(v.max_stamp_ahead);
   double warn_s = to_seconds(v.clock_offset_warn), vlog_s = to_seconds(v.log_interval);
   std::int64_t jump = v.max_seq_jump;
@@ -272,7 +349,12 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   v.clock_offset_warn = from_seconds(warn_s);
   v.log_interval = from_seconds(vlog_s);
   v.max_seq_jump = static_cast<std::uint32_t>(jump);
-  // The paper's methods and the ones beyond it (groundstation/mapping make_filter; docs/beyond.md).
+  return true;
+}
+
+// The primary method and the compared ones (groundstation/mapping make_filter; docs/beyond.md): known,
+// and each compared one not the primary (it is decided anyway) and listed once: refused, not ignored.
+bool check_methods(TomlReader& r, const FusionOptions& f, const toml::table* fusion) {
   static const char* const kMethods[] = {"frequency", "visibility", "position", "direction", "combined",
                                          "freespace", "tracked",    "best"};
   auto known = [&](const std::string& method) {
@@ -280,11 +362,11 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
       if (method == m) return true;
     return false;
   };
-  if (!known(f.method)) {
+  const std::string& primary = f.core.method;
+  if (!known(primary)) {
     return r.fail("fusion.method", "must be frequency, visibility, position, direction, combined, freespace, tracked "
-                                   "or best, got \"" + f.method + "\"", r.node(fusion, "method"));
+                                   "or best, got \"" + primary + "\"", r.node(fusion, "method"));
   }
-  // Compared methods: known, not the primary (it is decided anyway), each once: refused, not ignored.
   for (std::size_t i = 0; i < f.compare_methods.size(); ++i) {
     const std::string& m = f.compare_methods[i];
     const toml::node* at = r.node(fusion, "compare_methods");
@@ -292,29 +374,57 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
       return r.fail("fusion.compare_methods", "must list methods among frequency, visibility, position, direction, "
                                               "combined, freespace, tracked and best, got \"" + m + "\"", at);
     }
-    if (m == f.method) {
+    if (m == primary) {
       return r.fail("fusion.compare_methods", "\"" + m + "\" is fusion.method (the primary model); list only other methods", at);
     }
     for (std::size_t j = 0; j < i; ++j)
       if (f.compare_methods[j] == m) return r.fail("fusion.compare_methods", "\"" + m + "\" is listed twice", at);
   }
-  f.write_interval = from_seconds(write_s);
-  f.map_interval = from_seconds(map_s);
+  return true;
+}
+
+bool check_team_source(TomlReader& r, const std::string& source, const toml::table* team, TeamSourceKind& kind) {
   if (source == "kalman") {
-    c.team_source = TeamSourceKind::kKalman;
+    kind = TeamSourceKind::kKalman;
   } else if (source == "last_pose") {
-    c.team_source = TeamSourceKind::kLastPose;
+    kind = TeamSourceKind::kLastPose;
   } else {
     return r.fail("team.source", "must be \"kalman\" or \"last_pose\", got \"" + source + "\"", r.node(team, "source"));
   }
-  c.sync_interval = from_seconds(sync_s);
-  c.status_interval = from_seconds(status_s);
-  c.station.domain_id = domain < 0 ? 0xFFFFFFFFu : static_cast<std::uint32_t>(domain);
-  c.station.scan_history_depth = static_cast<std::uint32_t>(depth);
-  c.station.take_batch = static_cast<std::uint32_t>(batch);
-  c.station.team_period = from_seconds(1.0 / rate_hz);
-  c.station.team_liveliness_lease = from_seconds(lease_s);
-  c.station.silence_timeout = from_seconds(silence_s);
+  return true;
+}
+
+}  // namespace
+
+FusionOptions station_fusion_defaults() {
+  FusionOptions o;
+  o.core.methods.frequency.resolution_m = 0.1;
+  o.core.methods.visibility.resolution_m = 0.1;
+  return o;
+}
+
+// Every section in the order of deploy/groundstation.toml; the first error is the one reported, and
+// `out` is changed only when the whole text is good.
+bool parse_groundstation_config(const std::string& toml_text, const std::string& source_name, GroundStationConfig& out,
+                                ConfigError& error) {
+  toml::table root;
+  if (!parse_toml(toml_text, source_name, root, error)) return false;
+  TomlReader r(root, error.message);
+  GroundStationConfig c = out;
+  std::string source = c.team_source == TeamSourceKind::kKalman ? "kalman" : "last_pose";
+  r.top_level({"station", "dds", "team", "fusion", "registration", "ros2", "view", "validation"});
+  read_station(r, c);
+  read_dds(r, c.station);
+  const toml::table* team = read_team(r, c, source);
+  read_kalman(r, c.fusion.core.tracker);
+  const toml::table* fusion = read_fusion(r, c.fusion);
+  read_registration(r, c.fusion.core);
+  read_ros2(r, c.ros2);
+  read_view(r, c.view);
+  if (r.failed()) return false;
+  if (!read_validation(r, c.station.validation)) return false;
+  if (!check_methods(r, c.fusion, fusion)) return false;
+  if (!check_team_source(r, source, team, c.team_source)) return false;
   out = c;
   return true;
 }
@@ -334,11 +444,12 @@ bool load_groundstation_config(const std::string& path, GroundStationConfig& out
 
 bool load_registration_priors(const std::string& path, registration::RegistrationOptions& options, ConfigError& error) {
   GroundStationConfig c;
-  c.registration.prior = options.prior;
-  c.registration.robot_priors = options.robot_priors;
+  registration::RegistrationOptions& read = c.fusion.core.registration_options;
+  read.prior = options.prior;
+  read.robot_priors = options.robot_priors;
   if (!load_groundstation_config(path, c, error)) return false;
-  options.prior = c.registration.prior;
-  options.robot_priors = c.registration.robot_priors;
+  options.prior = read.prior;
+  options.robot_priors = read.robot_priors;
   return true;
 }
 

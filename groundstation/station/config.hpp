@@ -6,73 +6,26 @@
 #include <vector>
 
 #include "common/result.hpp"
-#include "groundstation/fusion/core.hpp"
-#include "groundstation/mapping/tracker.hpp"
+#include "dds/ros2/frames.hpp"
+#include "groundstation/registration/registration.hpp"
+#include "groundstation/station/fusion.hpp"
 #include "groundstation/station/station.hpp"
 #include "groundstation/station/team_source.hpp"
 
 namespace teamscan::station {
 
-// Parameters of the Kalman tracker ([team.kalman]) in the config's units; tracker_options() turns
-// them into groundstation/mapping's TrackerOptions for the team source and the fusion stage alike.
-struct KalmanConfig {
-  double accel_noise_mps2 = 0.5;
-  double position_noise_m = 0.02;
-  double velocity_noise_mps = 0.05;
-  double lost_after_s = 1.0;
-  // Odometry drift model (TrackerOptions::drift_*, docs/beyond.md "Drift"): grows the position
-  // covariance the fusion stage's filters and the published team state see.
-  double drift_m_per_m = 0.005;
-  double drift_deg_per_m = 0.0;
-  double drift_deg_per_deg = 0.0;
-};
+// Each section is read straight into the options struct of the part it configures, whose defaults are
+// the one place for them: [team.kalman] into the station's one tracker (mapping::TrackerOptions, the
+// fusion core's and the team source's: `fusion.core.tracker`), [fusion] into station::FusionOptions
+// (fusion.hpp: its core's fusion::CoreOptions and mapping::MethodOptions), [registration] into the
+// core's registration::RegistrationOptions (`fusion.core.registration_options`; the section's presence
+// turns the registration on unless `enabled = false`; docs/registration.md "Odometry prior and
+// calibration"). Units: the config's (degrees, seconds) are converted where they are read.
 
-// The one conversion of [team.kalman] into the tracker's options (degrees -> radians).
-[[nodiscard]] mapping::TrackerOptions tracker_options(const KalmanConfig& kalman);
-
-// The live fusion stage (groundstation/station/fusion.hpp), plain values so the config parses without
-// the mapping library. Default method: `best` (issue 7: chosen by the numbers, docs/beyond.md); the
-// paper's combined method (direction 7°, then visibility 0.1 m) keeps its parameters below.
-struct FusionConfig {
-  bool enabled = true;
-  std::string method = "best";         // frequency | visibility | position | direction | combined | freespace | tracked | best
-  // Further methods decided side by side, each by its own core with its own model store (memory: one
-  // more model store, map and pose history per method), written as fused.<method>.pcd (and
-  // fused_all.<method>.pcd) at the same times; only `method` feeds teamscan/map, the view and ROS 2.
-  std::vector<std::string> compare_methods;
-  double write_slice_ms = 2.0;         // a periodic write's snapshot takes at most this much of one loop turn
-  std::vector<int> writer_cpus;        // the model writer thread's CPUs (empty: the process's)
-  double resolution_m = 0.1;           // frequency / visibility / combined voxel edge
-  double half_angle_deg = 7.0;         // direction / combined cone half-angle
-  double grid_origin_z_m = 0.0;        // vertical voxel grid offset (paper: 0)
-  double frequency_k = 0.0;            // eq. 4: removed below mean − k·σ
-  double position_sigma_m = 0.35;      // eq. 6
-  double position_n = 1.0;
-  bool direction_from_flags = false;   // use the onboard decisions instead of recomputing eq. 7
-  Duration write_interval = std::chrono::seconds(10);  // fused PCD; 0 = only on shutdown
-  bool write_all_points = false;       // also fused_all.pcd with a `keep` field
-  bool latency_log = false;            // also fused_latency.csv: one line per fused scan (docs/demo.md)
-  Duration map_interval = std::chrono::seconds(1);     // teamscan/map; 0 = off
-  double map_resolution_m = 0.1;
-  // The fusion core (groundstation/fusion/core.hpp): how long a scan waits for every robot's poses to
-  // pass its stamp, and the model store (points kept per voxel of model_resolution_m).
-  double hold_s = fusion::CoreOptions{}.hold_s;
-  // The decision lag (mapping::TrackerOptions::team_lag_s): 0 = the exact team at each scan's stamp.
-  double team_lag_s = 0.0;
-  // With the registration: a robot's scans are stamped at least this far apart (fusion::CoreOptions).
-  double min_scan_interval_s = fusion::CoreOptions{}.min_scan_interval_s;
-  double model_resolution_m = fusion::CoreOptions{}.model_resolution_m;
-  std::uint32_t max_points_per_voxel = fusion::CoreOptions{}.max_points_per_voxel;
-  // Scan-to-map registration in the fusion core (docs/registration.md; `teamscan eval --registration`
-  // runs the same): on with `registration = true` here or with a [registration] section.
-  bool registration = false;
-};
-
-// [registration]: its presence turns the registration on (unless `enabled = false`); its keys set the
-// registration's options, whose defaults live in registration::RegistrationOptions (the one place): the
-// matching cadence and each robot's odometry prior (the team's default in [registration], a calibrated
-// robot's in a [[registration.robot]] table: docs/registration.md "Odometry prior and calibration").
-struct RegistrationConfig : registration::RegistrationOptions {};
+// The station's [fusion] defaults: the owners' (FusionOptions, fusion::CoreOptions, MethodOptions),
+// but for the map-based methods' voxel edge (fusion.resolution_m): 0.1 m, the paper's combined method's,
+// for frequency and visibility too (the library's default for them, and `teamscan eval`'s, is 0.05 m).
+[[nodiscard]] FusionOptions station_fusion_defaults();
 
 // [ros2]: the fused map and the tracked robots on ROS 2 wire names (ros2_publisher.hpp, docs/ros2.md).
 // On by default: RViz2 and Foxglove see the survey without a ROS 2 install on the station, and the cost
@@ -83,6 +36,14 @@ struct Ros2Config {
   double pose_rate_hz = 10.0;                        // rt/tf and rt/robotN/odom
   // The tracker estimates no heading: the odometry's yaw variance is this sigma squared.
   double heading_sigma_deg = 3.0;
+  // Each robot's laser mount ([[ros2.laser_mount]]: id, and x_m y_m z_m roll_deg pitch_deg yaw_deg as in
+  // the robot's own [mount]): robotN/base_link -> robotN/laser on rt/tf_static and the view's /tf_static.
+  // None listed: no static transforms.
+  struct RobotLaserMount {
+    std::uint32_t robot_id = 0;
+    dds::ros2::LaserMount mount;  // radians inside
+  };
+  std::vector<RobotLaserMount> laser_mounts;
 };
 
 // The browser view (groundstation/view, docs/view.md): HTTP + WebSocket on `listen`; empty: off.
@@ -103,9 +64,7 @@ struct GroundStationConfig {
   LastPoseOptions last_pose;
   // "kalman" (default) or "last_pose".
   TeamSourceKind team_source = TeamSourceKind::kKalman;
-  KalmanConfig kalman;
-  FusionConfig fusion;
-  RegistrationConfig registration;
+  FusionOptions fusion = station_fusion_defaults();  // [fusion], [team.kalman] and [registration]
   Ros2Config ros2;
   ViewConfig view;
 };

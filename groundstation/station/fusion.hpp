@@ -9,21 +9,11 @@
 // the same order (live and in the replay), each with its own model store and model file
 // (method_file_name); only the primary core feeds teamscan/map, the latency and the counters.
 //
-// Model writes: request_write() starts taking every core's model store with its decisions in the
-// caller's loop, in slices of at most write_slice_ms per request_write()/poll_write() (the only part
-// that holds the loop); each slice's rows go through a bounded queue to a writer thread that streams
-// them into the files (fusion::ModelFileWriter). One write in flight, a request meanwhile is coalesced
-// into one that follows. write_model() is the synchronous write (shutdown, tests).
-//
-// The writer thread yields to the receive loop: it runs SCHED_IDLE (and nice 19, should the kernel
-// refuse SCHED_IDLE), so on a CPU it shares with the loop (the station may be pinned to one) it only
-// takes time the loop leaves idle, and a waking loop preempts it at once (a CPU that is never idle
-// finishes no periodic write until it is: requests coalesce, the queue stays bounded, the shutdown
-// write still completes). It is not pinned away from the loop's CPU: idle time there is its to use,
-// while another CPU may be busy with other processes.
-// The loop never waits for the writer in its per-turn calls (poll_write, request_write): they only
-// try its mutex and come back next turn when the writer holds it (its critical sections are a queue
-// operation each, but an idle-class thread can be preempted inside one).
+// Model writes (fusion::ModelWriter, groundstation/fusion/model_writer.hpp): request_write() starts
+// taking every core's model store with its decisions in the caller's loop, in slices of at most
+// write_slice_ms per request_write()/poll_write() (the only part that holds the loop); the files are
+// written on an idle-class writer thread. One write in flight, a request meanwhile is coalesced into
+// one that follows. write_model() is the synchronous write (shutdown, tests).
 #pragma once
 
 #include <array>
@@ -42,18 +32,28 @@
 #include "common/clock.hpp"
 #include "common/result.hpp"
 #include "common/thread_placement.hpp"
+#include "common/time.hpp"
 #include "groundstation/fusion/core.hpp"
+#include "groundstation/fusion/core_set.hpp"
+#include "groundstation/fusion/model_writer.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
 #include "groundstation/station/latency_histogram.hpp"
 #include "groundstation/station/live_map.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "groundstation/station/team_source.hpp"
+#include "groundstation/trajectory/tum.hpp"
 
 struct teamscan_msg_MapVoxel;
 
 namespace teamscan::station {
 
+// The stage's options, read from the daemon's [fusion], [team.kalman] and [registration] (config.hpp).
 struct FusionOptions {
+  // The daemon runs the stage (fusion.enabled), writes the model every write_interval (0: only on
+  // shutdown) and publishes teamscan/map every map_interval (0: off).
+  bool enabled = true;
+  Duration write_interval = std::chrono::seconds(10);
+  Duration map_interval = std::chrono::seconds(1);
   // The core: method (mapping::known_methods() / extended_methods()), its options, the tracker, the
   // hold time and the model store's cap (fusion/core.hpp CoreOptions).
   fusion::CoreOptions core;
@@ -75,6 +75,11 @@ struct FusionOptions {
   // A periodic write's snapshot takes at most this much of one loop turn (request_write, poll_write);
   // the rest waits for the next turns. 0: one step (64 model voxels per core) per turn.
   double write_slice_ms = 2.0;
+  // The catch-up (catch_up()): due once this many scans were released late (fusion::CoreCounters
+  // scans_late: a robot's back-fill after a radio shadow) since the last one and none for catch_up_quiet_s of the loop's
+  // clock (the back-fill is over). 0 scans: never in the loop; flush() catches up whenever one is due.
+  std::uint32_t catch_up_min_scans = 75;
+  double catch_up_quiet_s = 2.0;
   // The CPUs the model writer thread may run on (empty: the process's affinity). A station whose loop
   // is pinned to one core keeps the writer's file work (page-cache copies, kernel sections that the
   // loop cannot preempt) off that core with this; the snapshot itself stays in the loop.
@@ -91,13 +96,10 @@ struct FusionOptions {
 
 // A received pose / scan as the core's input (one conversion, used live and by the session replay).
 [[nodiscard]] fusion::PoseInput pose_input(const PoseObservation& pose);
-// Fills `points`/`flags`/`beams` with the scan's placed points (beams without a 3-D point are stored in
-// scans.bin but are not part of the model) and returns the input viewing them.
-struct ScanBuffers {
-  std::vector<mapping::MapPoint> points;
-  std::vector<std::uint16_t> flags, beams;
-};
-[[nodiscard]] fusion::ScanInput scan_input(const StoredScan& scan, ScanBuffers& buffers);
+// The scan's placed points (beams without a 3-D point are stored in scans.bin but are not part of the
+// model) in metres with the data set's flags, into `out` (its vectors reused); returns `out`. The robot
+// id is the one the sample validation accepted (a replayed session's: replay_session_files).
+const fusion::ScanInput& scan_input(const StoredScan& scan, fusion::ScanInput& out);
 
 struct FusionCounters {
   std::uint64_t scans = 0;            // scans fused (released by the core)
@@ -106,6 +108,10 @@ struct FusionCounters {
   std::uint64_t live_removed = 0;     // points removed at release (the map so far)
   std::uint64_t duplicates = 0;       // scans received again (DDS history replay): stored, not fused twice
   std::uint64_t replayed_scans = 0;   // scans of the session folder replayed at start-up
+  std::uint64_t catch_ups = 0;        // cores rebuilt in time order from the session folder (catch_up)
+  std::uint64_t caught_up_scans = 0;  // scans the last catch-up fed
+  double last_catch_up_s = 0.0;       // how long the last catch-up held the loop (CLOCK_MONOTONIC)
+  std::uint64_t catch_up_failures = 0;  // the session folder could not be read back (the cores as they were)
   std::uint64_t writes = 0;           // model writes done (every core's files written)
   std::uint64_t write_failures = 0;   // writes with a file not written (the first error: last_write())
   std::uint64_t writes_coalesced = 0; // request_write() while a write was in flight (served by one write after it)
@@ -113,28 +119,7 @@ struct FusionCounters {
   std::uint64_t last_write_removed = 0;
 };
 
-// One model write (every core's files), as it finished.
-struct ModelWriteReport {
-  bool ok = true;
-  Error error{};              // the first file that failed
-  bool on_writer_thread = false;
-  double snapshot_s = 0;      // the stores copied with their decisions, in the caller's loop (all slices)
-  double snapshot_slice_max_s = 0;  // the longest slice: the loop's longest stall for this write
-  std::uint32_t snapshot_slices = 0;
-  double snapshot_span_s = 0; // first slice to the hand-over to the writer thread
-  double write_s = 0;         // formatted and written (the writer thread, or the caller's for write_model())
-  std::uint64_t points = 0;   // every core's snapshot
-  std::uint64_t kept = 0, removed = 0;  // the primary model's
-};
-
-struct FusionConfig;
-struct KalmanConfig;
-struct RegistrationConfig;
-// The daemon's [fusion], [team.kalman] and [registration] config as FusionOptions (the tracker is the
-// team source's; without `registration`: its defaults).
-[[nodiscard]] FusionOptions fusion_options_from_config(const FusionConfig& fusion, const KalmanConfig& kalman);
-[[nodiscard]] FusionOptions fusion_options_from_config(const FusionConfig& fusion, const KalmanConfig& kalman,
-                                                       const RegistrationConfig& registration);
+using ModelWriteReport = fusion::ModelWriteReport;
 
 class FusionStage {
  public:
@@ -149,9 +134,25 @@ class FusionStage {
   // Rebuilds the core from the session folder's scans.bin and poses.csv (a restart): every sample in
   // arrival order through the same code, before the loop takes new ones. Returns the samples replayed.
   [[nodiscard]] Result<std::uint64_t> replay_session(const std::string& dir);
-  // Releases every scan the cores hold (shutdown).
+  // The catch-up: every core reset and fed the session folder in the time order `teamscan eval SESSION`
+  // feeds it (fusion/time_line.hpp), the newest scans left held, the live map rebuilt from the primary's
+  // model; the live samples go on from there (the arrival clock resumes at `realtime_ns`). A back-fill
+  // arrives after the core released its teammates' scans of that time, so its scans were released late,
+  // out of stamp order, with the team state there was: after a catch-up every decision, the model store's
+  // choice of points per voxel and the decisions at release are those of `teamscan eval` of the session
+  // so far. Holds the loop for a replay of the whole session (counters().last_catch_up_s).
+  [[nodiscard]] Status catch_up(std::int64_t realtime_ns);
+  // Called after every catch-up with the counters (caught_up_scans, last_catch_up_s), on its thread.
+  void set_catch_up_callback(std::function<void(const FusionCounters&)> f) { on_catch_up_ = std::move(f); }
+  // Scans released late (CoreCounters::scans_late) since the last catch-up (the primary core's count).
+  [[nodiscard]] std::uint64_t late_since_catch_up() const;
+  // Releases every scan the cores hold (shutdown), after a catch-up if any scan was released late in
+  // this run (since the start or its session replay): the final model is then the one of
+  // `teamscan eval`'s time order on the session, byte for byte. Without: the arrival order's (equal to it
+  // when no scan was released late).
   void flush();
-  // The loop's clock (CLOCK_REALTIME, the receive times' clock): held scans that waited long enough go.
+  // The loop's clock (CLOCK_REALTIME, the receive times' clock): held scans that waited long enough go;
+  // a catch-up once one is due (FusionOptions::catch_up_min_scans, catch_up_quiet_s).
   void tick(std::int64_t realtime_ns);
 
   // Writes every core's model from memory into the session folder (fused.pcd, and fused_all.pcd when
@@ -160,18 +161,20 @@ class FusionStage {
   [[nodiscard]] Status write_model();
   // The same write off the caller's loop: the snapshot here, the files on the writer thread. While a
   // write is in flight the request is counted (writes_coalesced) and one write follows it.
-  void request_write();
+  void request_write() {
+    if (!writer_->request()) ++counters_.writes_coalesced;
+  }
   // From the loop: true when a write finished since the last call (its report: last_write(), and the
   // write callback); starts a coalesced write if the writer is free.
-  bool poll_write();
-  [[nodiscard]] bool write_in_flight() const;
+  bool poll_write() { return writer_->poll(); }
+  [[nodiscard]] bool write_in_flight() const { return writer_->in_flight(); }
   // The writer thread's scheduling read back from the kernel (pthread_getschedparam, getpriority on its
   // thread id); `policy` -1 before the first request_write() started it.
-  [[nodiscard]] ThreadScheduling writer_scheduling() const;
+  [[nodiscard]] ThreadScheduling writer_scheduling() const { return writer_->scheduling(); }
   // Finishes a snapshot in progress on this thread and waits for the writer; the report comes with
   // the next poll_write().
-  void wait_for_write();
-  [[nodiscard]] const ModelWriteReport& last_write() const { return last_write_; }
+  void wait_for_write() { writer_->wait(); }
+  [[nodiscard]] const ModelWriteReport& last_write() const { return writer_->last(); }
   // Called with every finished write's report, on the thread that calls write_model / request_write /
   // poll_write (the loop), never on the writer thread.
   void set_write_callback(std::function<void(const ModelWriteReport&)> f) { on_write_ = std::move(f); }
@@ -182,21 +185,27 @@ class FusionStage {
   [[nodiscard]] const LatencyHistogram& fused_latency() const { return fused_latency_; }
   [[nodiscard]] const LatencyHistogram& stored_latency() const { return stored_latency_; }
 
-  // The occupied voxels of the live map as teamscan/map voxels (flags 1: every point in the voxel
-  // was removed at release).
-  void map_voxels(std::vector<teamscan_msg_MapVoxel>& out) const { map_.voxels(out); }
+  // The occupied voxels of the live map (the primary core's model store binned at map_resolution_m,
+  // corrected positions) as teamscan/map voxels (flags 1: every point in the voxel was removed at
+  // release); `robots`, if given, the robot of each. map_release(): the core's instant they show.
+  void map_voxels(std::vector<teamscan_msg_MapVoxel>& out, std::vector<std::uint8_t>* robots = nullptr) const {
+    map_.voxels(out, robots);
+  }
   // Only the voxels that changed (new points) since the last call or clear_map_changes(), with their
   // whole counts and flags (a viewer replaces its voxel), then forgets them.
-  void map_voxels_changed(std::vector<teamscan_msg_MapVoxel>& out) { map_.changed_voxels(out); }
+  void map_voxels_changed(std::vector<teamscan_msg_MapVoxel>& out, std::vector<std::uint8_t>* robots = nullptr) {
+    map_.changed_voxels(out, robots);
+  }
+  [[nodiscard]] std::uint64_t map_release() const { return map_.release(); }
   void clear_map_changes() { map_.forget_changes(); }
   [[nodiscard]] std::uint32_t map_total_voxels() const { return static_cast<std::uint32_t>(map_.occupied_voxels()); }
   [[nodiscard]] const LiveMap& live_map() const { return map_; }
   [[nodiscard]] std::uint32_t map_resolution_mm() const;
 
-  [[nodiscard]] const fusion::FusionCore& core() const { return *models_.front()->core; }
-  [[nodiscard]] fusion::FusionCore& core() { return *models_.front()->core; }
+  [[nodiscard]] const fusion::FusionCore& core() const { return cores_->primary(); }
+  [[nodiscard]] fusion::FusionCore& core() { return cores_->primary(); }
   // A compared method's core (compare_methods), or nullptr.
-  [[nodiscard]] const fusion::FusionCore* compared_core(const std::string& method) const;
+  [[nodiscard]] const fusion::FusionCore* compared_core(const std::string& method) const { return cores_->compared(method); }
   // Every core's model store (the primary's and the compared methods'), bytes.
   [[nodiscard]] std::size_t model_memory_bytes() const;
   // Every core's filter map state (voxel counts, free-space grids), bytes.
@@ -209,62 +218,30 @@ class FusionStage {
   FusionStage& operator=(const FusionStage&) = delete;
 
  private:
-  // A core and its model files; models_[0] is the primary method's.
-  struct Model {
-    std::unique_ptr<fusion::FusionCore> core;
-    std::string kept_path, all_path;
-    std::size_t snapshot_next = 0, snapshot_end = 0;  // a periodic write: the model voxels still to take
-  };
-  // A part of a periodic write for the writer thread: one model's rows; `last`: the write ends here
-  // (`abandon`: without files: a synchronous write replaces it).
-  struct WriterPart {
-    std::size_t model = 0;
-    fusion::ModelSnapshot rows;
-    bool last = false;
-    bool abandon = false;
-  };
-  FusionStage(const FusionOptions& options, std::string session_dir, std::vector<std::unique_ptr<Model>> models);
+  FusionStage(const FusionOptions& options, std::string session_dir, std::unique_ptr<fusion::CoreSet> cores);
   void on_release(const fusion::FusedScan& scan);
   void add_scan_to_cores(const fusion::ScanInput& in);
-  void begin_snapshot();
-  bool advance_snapshot(bool all);
-  void writer_main();
-  void wait_writer_idle();
-  // `wait`: block on the writer's mutex (the synchronous write); else only try it (the loop's turn).
-  bool collect_finished(bool wait);
-  void finish_write();
+  void finish_write(const ModelWriteReport& report);
 
   FusionOptions options_;
   std::string session_dir_;
-  std::vector<std::unique_ptr<Model>> models_;
+  std::unique_ptr<trajectory::TumAppender> trajectories_;  // robot<N>.tum in the session folder (docs/slam.md)
+  std::unique_ptr<fusion::CoreSet> cores_;  // the primary core and the compared methods' (fusion/core_set.hpp)
   LiveMap map_;
-  ScanBuffers scratch_;
+  fusion::ScanInput scratch_;
   LatencyHistogram fused_latency_;
   LatencyHistogram stored_latency_;
   FusionCounters counters_;
   std::FILE* latency_log_ = nullptr;
   bool replaying_ = false;  // replay_session(): no latency samples (they are not this run's)
   bool resume_ = false;     // the first live sample after a replay resumes the core's arrival clock
-  // The writer thread (started by the first request_write()). Guarded by writer_mutex_: the queue, the
-  // spare parts (their capacity reused), the flags and writer_report_. snapshot_report_ is the loop's
-  // until it queues the write's last part (under the mutex); the writer reads it only after taking it.
-  ModelWriteReport last_write_;
+  bool catching_up_ = false;  // catch_up(): released scans are counted as the cores' again, not as live
+  std::uint64_t late_base_ = 0;  // the primary's scans_late after the last catch-up
+  std::uint64_t late_seen_ = 0;  // ... at the last tick, and when it last grew
+  std::int64_t late_at_ns_ = 0;
   std::function<void(const ModelWriteReport&)> on_write_;
-  bool write_pending_ = false;  // a request coalesced while one was in flight (loop thread only)
-  bool snapshotting_ = false;   // a periodic write's snapshot in progress (loop thread only)
-  std::size_t snapshot_model_ = 0;  // the model being taken
-  Time snapshot_started_{};
-  ModelWriteReport snapshot_report_;
-  std::thread writer_;
-  std::thread::native_handle_type writer_handle_{};  // writer_'s, for writer_scheduling()
-  std::atomic<int> writer_tid_{0};  // the writer's kernel thread id, set by it at start
-  std::atomic<int> writer_affinity_error_{0};  // pthread_setaffinity_np of options_.writer_cpus
-  mutable std::mutex writer_mutex_;
-  std::condition_variable writer_cv_;
-  std::deque<WriterPart> writer_queue_;
-  std::vector<fusion::ModelSnapshot> writer_spare_;
-  bool writer_begin_ = false, writer_busy_ = false, writer_done_ = false, writer_stop_ = false;
-  ModelWriteReport writer_report_;
+  std::function<void(const FusionCounters&)> on_catch_up_;
+  std::unique_ptr<fusion::ModelWriter> writer_;  // after cores_: destroyed (its thread joined) first
 };
 
 // Hands each robot's correction, as the fusion core applies it at a time (PoseHistory::correction_at:

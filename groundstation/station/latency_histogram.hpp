@@ -1,5 +1,5 @@
 // A fixed-bucket latency histogram (0.1 ms buckets up to 1 s, then one overflow bucket with the maximum
-// kept exactly): records per scan without allocating, answers p50/p99 at any time (issue 6, docs/demo.md).
+// kept exactly): records per scan without allocating, answers p50/p99 at any time (docs/demo.md).
 #pragma once
 
 #include <algorithm>

@@ -13,18 +13,27 @@ std::uint64_t LiveMap::key_of(const mapping::MapPoint& p) const {
   return mapping::VoxelMap::in_range(k) ? mapping::VoxelMap::pack(k) : kOutOfRange;
 }
 
-void LiveMap::add(const mapping::MapPoint& p, bool removed) { add_keyed(key_of(p), removed); }
+void LiveMap::add(const mapping::MapPoint& p, bool removed) { add_keyed(key_of(p), removed, 0); }
 
-void LiveMap::add_all(std::span<const mapping::MapPoint> points, std::span<const std::uint8_t> removed) {
+void LiveMap::add_all(std::span<const mapping::MapPoint> points, std::span<const std::uint8_t> removed,
+                      std::span<const std::uint8_t> stored, std::uint8_t robot, std::uint64_t release) {
+  constexpr std::uint64_t kSkip = kOutOfRange - 1;  // not a model point: not mapped, not counted
   batch_keys_.resize(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!stored.empty() && (i >= stored.size() || stored[i] == 0)) {
+      batch_keys_[i] = kSkip;
+      continue;
+    }
     batch_keys_[i] = key_of(points[i]);
     if (batch_keys_[i] != kOutOfRange) cells_.prefetch(batch_keys_[i]);
   }
-  for (std::size_t i = 0; i < points.size(); ++i) add_keyed(batch_keys_[i], i < removed.size() && removed[i] != 0);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (batch_keys_[i] != kSkip) add_keyed(batch_keys_[i], i < removed.size() && removed[i] != 0, robot);
+  }
+  if (release > release_) release_ = release;
 }
 
-void LiveMap::add_keyed(std::uint64_t key, bool removed) {
+void LiveMap::add_keyed(std::uint64_t key, bool removed, std::uint8_t robot) {
   if (key == kOutOfRange) {
     ++rejected_;
     return;
@@ -32,6 +41,7 @@ void LiveMap::add_keyed(std::uint64_t key, bool removed) {
   Cell& c = cells_.get_or_insert(key, Cell{});
   if (c.hits < UINT32_MAX) ++c.hits;
   if (!removed && c.kept < UINT16_MAX) ++c.kept;
+  if (c.robot == 0) c.robot = robot;
   if (c.changed == 0) {
     c.changed = 1;
     changed_.push_back(key);
@@ -49,18 +59,24 @@ teamscan_msg_MapVoxel LiveMap::message(std::uint64_t key, const Cell& c) const {
   return v;
 }
 
-void LiveMap::voxels(std::vector<teamscan_msg_MapVoxel>& out) const {
+void LiveMap::voxels(std::vector<teamscan_msg_MapVoxel>& out, std::vector<std::uint8_t>* robots) const {
   out.clear();
   out.reserve(cells_.size());
-  cells_.for_each([&](std::uint64_t key, const Cell& c) { out.push_back(message(key, c)); });
+  if (robots != nullptr) robots->clear();
+  cells_.for_each([&](std::uint64_t key, const Cell& c) {
+    out.push_back(message(key, c));
+    if (robots != nullptr) robots->push_back(c.robot);
+  });
 }
 
-void LiveMap::changed_voxels(std::vector<teamscan_msg_MapVoxel>& out) {
+void LiveMap::changed_voxels(std::vector<teamscan_msg_MapVoxel>& out, std::vector<std::uint8_t>* robots) {
   out.clear();
   out.reserve(changed_.size());
+  if (robots != nullptr) robots->clear();
   for (std::uint64_t key : changed_) {
     Cell& c = cells_.get_or_insert(key, Cell{});
     out.push_back(message(key, c));
+    if (robots != nullptr) robots->push_back(c.robot);
     c.changed = 0;
   }
   changed_.clear();

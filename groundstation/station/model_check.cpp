@@ -4,17 +4,19 @@
 #include <unordered_map>
 
 #include "common/dataset/pcd.hpp"
+#include "common/error_message.hpp"
 #include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/station/session_replay.hpp"
 
 namespace teamscan::station {
 
 Result<ModelCheck> check_model_against_eval(const std::string& session, const FusionOptions& options) {
-  auto cloud = read_pcd(session + "/" + (options.all_points_pcd.empty() ? std::string("fused_all.pcd") : options.all_points_pcd));
-  if (!cloud) return cloud.error();
+  const std::string name = options.all_points_pcd.empty() ? std::string("fused_all.pcd") : options.all_points_pcd;
+  auto cloud = read_pcd(session + "/" + name);
+  if (!cloud) return with_context(name, cloud.error());
   const PcdCloud& c = cloud.value();
   const int fr = c.field("robot"), fs = c.field("scan"), fb = c.field("beam"), fk = c.field("keep"), fl = c.field("live_keep");
-  if (fr < 0 || fs < 0 || fb < 0 || fk < 0) return Error{"fused_all.pcd lacks robot/scan/beam/keep"};
+  if (fr < 0 || fs < 0 || fb < 0 || fk < 0) return make_error(name + " lacks robot/scan/beam/keep");
   std::unordered_map<std::uint64_t, std::uint8_t> model;  // bit 0: removed, bit 1: removed at release, bit 2: matched
   model.reserve(c.size());
   for (std::size_t i = 0; i < c.size(); ++i) {
@@ -25,11 +27,13 @@ Result<ModelCheck> check_model_against_eval(const std::string& session, const Fu
   SessionReadStats stats;
   auto ds = read_session_dataset(session, stats);
   if (!ds) return ds.error();
-  mapping::CoreRunOptions run;
+  fusion::CoreRunOptions run;
   run.tracker = options.core.tracker;
   run.registration = options.core.registration;
   run.registration_options = options.core.registration_options;
-  const std::vector<std::uint8_t> eval = mapping::run_through_core(ds.value(), options.core.method, options.core.methods, run).removed;
+  Result<fusion::CoreRun> ran = fusion::run_through_core(ds.value(), options.core.method, options.core.methods, run);
+  if (!ran) return ran.error();
+  const std::vector<std::uint8_t>& eval = ran.value().removed;
   ModelCheck out;
   out.model_points = c.size();
   out.points.reserve(ds->points.size());

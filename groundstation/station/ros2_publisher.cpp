@@ -33,6 +33,13 @@ struct VoxelKeyHash {
 
 }  // namespace
 
+std::vector<dds::ros2::FrameTransform> laser_transforms(const Ros2Config& config, std::int64_t stamp_ns) {
+  std::vector<dds::ros2::FrameTransform> out;
+  for (const Ros2Config::RobotLaserMount& m : config.laser_mounts)
+    out.push_back(dds::ros2::laser_transform(m.robot_id, m.mount, stamp_ns));
+  return out;
+}
+
 double heading_at(const Heading& h, Time at) {
   const double dt = std::clamp((at - h.stamp).count() * 1e-9, 0.0, kMaxHeadingExtrapolationS);
   return std::remainder(h.yaw_rad + h.yaw_rate_radps * dt, 2.0 * std::numbers::pi);
@@ -70,6 +77,12 @@ Result<std::unique_ptr<Ros2Publisher>> Ros2Publisher::create(const Ros2Config& c
   auto writers = dds::ros2::Ros2Writers::create(participant);
   if (!writers) return writers.error();
   worker->writers = std::move(writers.value());
+  // rt/tf_static once (transient local: a later tf2 listener gets it): each configured laser mount.
+  if (!config.laser_mounts.empty()) {
+    dds::ros2::TfMessage mounts;
+    mounts.set_transforms(laser_transforms(config, now_realtime().ns()));
+    if (Status st = worker->writers->write_tf_static(mounts); !st) return st.error();
+  }
   return std::unique_ptr<Ros2Publisher>(new Ros2Publisher(config, std::move(worker)));
 }
 
@@ -93,6 +106,26 @@ void Ros2Publisher::add_pose(const PoseObservation& pose) {
   Heading& h = headings_[pose.robot_id];
   if (h.known && pose.stamp < h.stamp) return;  // a replayed older pose does not turn the robot back
   h = Heading{true, pose.stamp, pose.yaw_rad, pose.yaw_rate_radps};
+}
+
+void Ros2Publisher::add_scan(const StoredScan& scan, const Pose2* odom_from_base) {
+  if (scan.rejected != 0 || scan.robot_id == 0 || scan.robot_id > kMaxRobots) return;
+  if (loop_scans_.scans.size() >= kMaxPendingScans) {  // the worker is behind: keep the newest
+    ++loop_scans_dropped_;
+    return;
+  }
+  PendingScan p{scan.robot_id, scan.stamp_ns, loop_scans_.points.size(), 0, odom_from_base != nullptr};
+  const Pose2 base_from_odom = odom_from_base != nullptr ? odom_from_base->inverse() : Pose2{};
+  for (std::uint32_t i = 0; i < scan.count && i < kMaxBeams; ++i) {
+    const ScanPoint& q = scan.points[i];
+    if (q.flags & kPointUnplaced) continue;
+    const Vec2 xy = base_from_odom.apply(Vec2{q.x_mm * 1e-3, q.y_mm * 1e-3});
+    loop_scans_.points.push_back({static_cast<float>(xy.x), static_cast<float>(xy.y), static_cast<float>(q.z_mm * 1e-3),
+                                  static_cast<float>(q.flags)});
+    ++p.count;
+  }
+  loop_scans_.scans.push_back(p);
+  hand_over();
 }
 
 void Ros2Publisher::offer_map(std::span<const teamscan_msg_MapVoxel> voxels, std::uint32_t total_voxels) {
@@ -138,6 +171,20 @@ void Ros2Publisher::hand_over() {
     pending_updates_ += loop_updates_;
     loop_updates_ = 0;
   }
+  if (!loop_scans_.scans.empty()) {
+    if (pending_scans_.scans.empty()) {
+      std::swap(pending_scans_, loop_scans_);  // O(1): the loop gets the worker's emptied buffers
+    } else if (pending_scans_.scans.size() + loop_scans_.scans.size() <= kMaxPendingScans) {
+      for (PendingScan p : loop_scans_.scans) {
+        p.first += pending_scans_.points.size();
+        pending_scans_.scans.push_back(p);
+      }
+      pending_scans_.points.insert(pending_scans_.points.end(), loop_scans_.points.begin(), loop_scans_.points.end());
+    } else {
+      loop_scans_dropped_ += loop_scans_.scans.size();
+    }
+    loop_scans_.clear();
+  }
   if (loop_team_pending_) {
     pending_team_.assign(loop_team_.begin(), loop_team_.begin() + static_cast<std::ptrdiff_t>(loop_team_count_));
     pending_headings_ = headings_;
@@ -153,6 +200,7 @@ Ros2Counters Ros2Publisher::counters() const {
   Ros2Counters c = counters_;
   c.offer_max = offer_max_;  // the loop's own figures: read from the loop's thread
   c.handovers_deferred = deferred_;
+  c.scans_dropped = loop_scans_dropped_;
   return c;
 }
 
@@ -160,6 +208,8 @@ void Ros2Publisher::run() {
   Worker& w = *worker_;
   std::vector<teamscan_msg_MapVoxel> map_work;
   std::vector<TeamMemberEstimate> team_work;
+  ScanBatch scan_work;
+  dds::ros2::PointCloudMessage scan_cloud("flags");
   std::array<Heading, kMaxRobots + 1> headings{};
   const double yaw_var = std::pow(config_.heading_sigma_deg * std::numbers::pi / 180.0, 2);
   Time next_cloud = now_monotonic();
@@ -170,7 +220,7 @@ void Ros2Publisher::run() {
       std::unique_lock lock(mutex_);
       const Duration until_cloud = std::max(Duration{0}, next_cloud - now_monotonic());
       wake_.wait_for(lock, w.voxels.empty() ? Duration(std::chrono::seconds(1)) : until_cloud,
-                     [&] { return stop_ || pending_updates_ > 0 || team_pending_; });
+                     [&] { return stop_ || pending_updates_ > 0 || team_pending_ || !pending_scans_.scans.empty(); });
       if (stop_) return;
       map_work.swap(pending_map_);
       pending_map_.clear();
@@ -178,6 +228,8 @@ void Ros2Publisher::run() {
       pending_full_ = false;
       updates = pending_updates_;
       pending_updates_ = 0;
+      std::swap(scan_work, pending_scans_);
+      pending_scans_.clear();
       if (team_pending_) {
         team_work.swap(pending_team_);
         headings = pending_headings_;
@@ -190,6 +242,12 @@ void Ros2Publisher::run() {
 
     Ros2Counters done;  // this round's additions
     done.map_updates = updates;
+    for (const PendingScan& p : scan_work.scans) {
+      scan_cloud.set(p.stamp_ns, p.in_base_link ? dds::ros2::base_link_frame(p.robot_id) : dds::ros2::odom_frame(p.robot_id),
+                     std::span<const dds::ros2::CloudPoint>(scan_work.points.data() + p.first, p.count));
+      if (w.writers->write_scan(p.robot_id, scan_cloud).ok()) ++done.scans; else ++done.write_errors;
+    }
+    scan_work.clear();
     if (team) {
       w.states.clear();
       for (const TeamMemberEstimate& e : team_work) {
@@ -208,6 +266,10 @@ void Ros2Publisher::run() {
         s.cov_xy_m2 = e.cov_xy_m2;
         s.cov_yy_m2 = e.cov_yy_m2;
         s.yaw_var_rad2 = yaw_var;
+        const Pose2 map_from_odom = e.correction.map_from_odom();  // REP-105: map -> odom -> base_link
+        s.map_from_odom_x_m = map_from_odom.x_m;
+        s.map_from_odom_y_m = map_from_odom.y_m;
+        s.map_from_odom_yaw_rad = map_from_odom.theta_rad;
         w.states.push_back(s);
       }
       if (!w.states.empty()) {
@@ -240,6 +302,7 @@ void Ros2Publisher::run() {
     counters_.clouds += done.clouds;
     counters_.tf_messages += done.tf_messages;
     counters_.odometry += done.odometry;
+    counters_.scans += done.scans;
     counters_.write_errors += done.write_errors;
     if (done.cloud_total.count() > 0) {
       counters_.last_cloud_points = done.last_cloud_points;

@@ -36,6 +36,7 @@ const char* topic_name(SampleTopic t) {
     case SampleTopic::kPose: return "pose";
     case SampleTopic::kScan: return "scan";
     case SampleTopic::kStatus: return "status";
+    case SampleTopic::kBackfill: return "backfill";
   }
   return "?";
 }
@@ -83,16 +84,17 @@ void SampleValidator::observe_clock(std::uint32_t id, std::int64_t stamp_ns, Tim
   c.off = !c.unset && (c.offset_ns > warn || c.offset_ns < -warn);
 }
 
-Verdict SampleValidator::check_header(SampleTopic /*topic*/, std::uint32_t id, std::int64_t stamp_ns, Time received) {
+Verdict SampleValidator::check_header(SampleTopic topic, std::uint32_t id, std::int64_t stamp_ns, Time received) {
   if (id == 0 || id > kMaxRobots) return {Reject::kRobotId, static_cast<std::int64_t>(id)};
-  observe_clock(id, stamp_ns, received);
+  const bool backfill = topic == SampleTopic::kBackfill;
+  if (!backfill) observe_clock(id, stamp_ns, received);
   if (stamp_ns < options_.clock_set_after_ns) return {Reject::kClockUnset, stamp_ns};
   // Compared as differences from the receive time: stamps are past 2020 here, so no overflow.
   const std::int64_t age_ns = received.ns() - stamp_ns;
   if (stamp_ns > received.ns() && stamp_ns - received.ns() > options_.max_stamp_ahead.count()) {
     return {Reject::kStampAhead, stamp_ns - received.ns()};
   }
-  if (age_ns > options_.max_stamp_age.count()) return {Reject::kStampBehind, age_ns};
+  if (age_ns > (backfill ? options_.max_backfill_age : options_.max_stamp_age).count()) return {Reject::kStampBehind, age_ns};
   return {};
 }
 
@@ -170,25 +172,34 @@ Verdict SampleValidator::check_scan(const teamscan_msg_ScanPoints& s, Time recei
   constexpr SampleTopic t = SampleTopic::kScan;
   Verdict v = check_header(t, s.robot_id, s.stamp_ns, received);
   if (!v.ok()) return count(t, s.robot_id, v);
-  if (s.count > kMaxBeams) return count(t, s.robot_id, {Reject::kBeamCount, s.count});
+  v = check_scan_body(s);
+  if (!v.ok()) return count(t, s.robot_id, v);
+  return count(t, s.robot_id, check_seq(t, s.robot_id, s.seq));
+}
+
+Verdict SampleValidator::check_backfill(const teamscan_msg_ScanPoints& s, Time received) {
+  constexpr SampleTopic t = SampleTopic::kBackfill;
+  Verdict v = check_header(t, s.robot_id, s.stamp_ns, received);
+  if (!v.ok()) return count(t, s.robot_id, v);
+  return count(t, s.robot_id, check_scan_body(s));
+}
+
+Verdict SampleValidator::check_scan_body(const teamscan_msg_ScanPoints& s) {
+  if (s.count > kMaxBeams) return {Reject::kBeamCount, s.count};
   const OdomCorrection applied{s.corr_x_mm, s.corr_y_mm, s.corr_yaw_urad, s.corr_seq};
   if (applied.none() ? (applied.x_mm != 0 || applied.y_mm != 0 || applied.yaw_urad != 0)
                      : (!applied.yaw_in_range() || std::llabs(std::int64_t{applied.x_mm}) > max_x_mm_ - min_x_mm_ ||
                         std::llabs(std::int64_t{applied.y_mm}) > max_y_mm_ - min_y_mm_)) {
-    return count(t, s.robot_id, {Reject::kCorrection, applied.yaw_in_range() ? applied.x_mm : applied.yaw_urad});
+    return {Reject::kCorrection, applied.yaw_in_range() ? applied.x_mm : applied.yaw_urad};
   }
-  if (!inside_site(s.origin_x_mm, s.origin_y_mm, s.origin_z_mm)) {
-    return count(t, s.robot_id, {Reject::kOutsideSite, s.origin_x_mm});
-  }
+  if (!inside_site(s.origin_x_mm, s.origin_y_mm, s.origin_z_mm)) return {Reject::kOutsideSite, s.origin_x_mm};
   for (std::uint16_t i = 0; i < s.count; ++i) {
     const teamscan_msg_ScanPoint& q = s.points[i];
-    if (q.beam >= kMaxBeams) return count(t, s.robot_id, {Reject::kBeamIndex, q.beam});
+    if (q.beam >= kMaxBeams) return {Reject::kBeamIndex, q.beam};
     // Beams without a 3-D point (no echo, dazzled, unplaced) carry no coordinates the map uses.
-    if ((q.flags & kPointUnplaced) == 0 && !inside_site(q.x_mm, q.y_mm, q.z_mm)) {
-      return count(t, s.robot_id, {Reject::kOutsideSite, q.x_mm});
-    }
+    if ((q.flags & kPointUnplaced) == 0 && !inside_site(q.x_mm, q.y_mm, q.z_mm)) return {Reject::kOutsideSite, q.x_mm};
   }
-  return count(t, s.robot_id, check_seq(t, s.robot_id, s.seq));
+  return {};
 }
 
 Verdict SampleValidator::check_status(const teamscan_msg_RobotStatus& s, Time received) {

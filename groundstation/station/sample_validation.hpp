@@ -39,9 +39,10 @@ enum class Reject : std::uint16_t {
 inline constexpr std::size_t kRejectReasons = 13;  // including kNone
 [[nodiscard]] const char* reject_name(Reject r);    // "robot_id", "beam_count", ... ("accepted" for kNone)
 
-enum class SampleTopic : std::uint8_t { kPose = 0, kScan = 1, kStatus = 2 };
-inline constexpr std::size_t kSampleTopics = 3;
-[[nodiscard]] const char* topic_name(SampleTopic t);  // "pose", "scan", "status"
+// kBackfill: teamscan/backfill, scans a robot re-publishes from its ring (docs/onboard.md "The ring").
+enum class SampleTopic : std::uint8_t { kPose = 0, kScan = 1, kStatus = 2, kBackfill = 3 };
+inline constexpr std::size_t kSampleTopics = 4;
+[[nodiscard]] const char* topic_name(SampleTopic t);  // "pose", "scan", "status", "backfill"
 
 struct ValidationOptions {
   // The site's bounds in the map frame (metres): poses, scan origins and placed points outside are
@@ -54,6 +55,10 @@ struct ValidationOptions {
   // and a loaded station's backlog.
   Duration max_stamp_age = std::chrono::seconds(30);
   Duration max_stamp_ahead = std::chrono::seconds(2);
+  // A back-filled scan (teamscan/backfill) is as old as the radio shadow it was taken in, plus its queue
+  // in the robot's ring: its stamp may lie this far before receipt. Its seq is not checked against the
+  // live numbering (a back-fill goes back by the whole shadow); the station stores each seq once.
+  Duration max_backfill_age = std::chrono::hours(24);
   // A stamp before this is a clock that was never set (stamps near 1970). 2020-01-01T00:00:00Z.
   std::int64_t clock_set_after_ns = 1'577'836'800'000'000'000;
   // A robot whose stamps lie further than this from the receive times (minimum over clock_window) is
@@ -114,6 +119,9 @@ class SampleValidator {
   Verdict check_pose(const teamscan_msg_RobotPose& pose, Time received);
   Verdict check_scan(const teamscan_msg_ScanPoints& scan, Time received);
   Verdict check_status(const teamscan_msg_RobotStatus& status, Time received);
+  // A back-filled scan: check_scan's checks but for the seq, with the stamp window max_backfill_age; its
+  // stamp is not taken into the robot's clock offset (it is old by design).
+  Verdict check_backfill(const teamscan_msg_ScanPoints& scan, Time received);
 
   // The rate-limited log line for a refusal (empty: not due). `now` is CLOCK_MONOTONIC.
   [[nodiscard]] std::string log_line(const Verdict& v, SampleTopic topic, std::uint32_t robot_id, Time now);
@@ -140,6 +148,8 @@ class SampleValidator {
     std::uint32_t pending_run = 0;
   };
   Verdict check_header(SampleTopic topic, std::uint32_t robot_id, std::int64_t stamp_ns, Time received);
+  // The checks of a scan's body (count, correction, origin, points) after its header.
+  Verdict check_scan_body(const teamscan_msg_ScanPoints& scan);
   Verdict check_seq(SampleTopic topic, std::uint32_t robot_id, std::uint32_t seq);
   void observe_clock(std::uint32_t robot_id, std::int64_t stamp_ns, Time received);
   Verdict count(SampleTopic topic, std::uint32_t robot_id, Verdict v);

@@ -7,6 +7,7 @@
 
 #include "common/point_flags.hpp"
 #include "common/scan_points.hpp"
+#include "common/units.hpp"
 
 namespace teamscan::station {
 namespace {
@@ -79,8 +80,8 @@ void undo_applied_correction(StoredScan& scan) {
   const Pose2 odom_from_map = scan.applied.map_from_odom().inverse();
   const auto move = [&](std::int32_t& x_mm, std::int32_t& y_mm) {
     const Vec2 p = odom_from_map.apply(Vec2{x_mm * 1e-3, y_mm * 1e-3});
-    x_mm = metres_to_mm_i32(p.x);
-    y_mm = metres_to_mm_i32(p.y);
+    x_mm = to_mm(p.x);
+    y_mm = to_mm(p.y);
   };
   move(scan.origin_x_mm, scan.origin_y_mm);
   const std::uint16_t n = std::min<std::uint16_t>(scan.count, static_cast<std::uint16_t>(kMaxBeams));

@@ -156,6 +156,15 @@ class PoseFileStream {
   std::ifstream in_;
 };
 
+// The session files are an edge like the network: an accepted sample's robot id was checked at receipt,
+// but a file may come from elsewhere. One with an id out of 1..kMaxRobots is skipped and counted here,
+// so that no consumer checks it again.
+bool valid_robot(std::uint32_t robot_id, SessionReadStats& stats) {
+  if (robot_id >= 1 && robot_id <= kMaxRobots) return true;
+  ++stats.bad_robot_ids;
+  return false;
+}
+
 }  // namespace
 
 Status replay_session_files(const std::string& dir, const std::function<void(const PoseObservation&)>& on_pose,
@@ -171,13 +180,15 @@ Status replay_session_files(const std::string& dir, const std::function<void(con
   // first, station.cpp).
   while (have_pose || have_scan) {
     if (have_pose && (!have_scan || pose.received.ns() <= scan->recv_realtime_ns)) {
-      ++stats.poses;
-      on_pose(pose);
+      if (valid_robot(pose.robot_id, stats)) {
+        ++stats.poses;
+        on_pose(pose);
+      }
       have_pose = poses.next(pose);
     } else {
       if (scan->rejected != 0) {
         ++stats.refused_scans;  // refused at the edge: stored raw, never fused (live or replayed)
-      } else {
+      } else if (valid_robot(scan->robot_id, stats)) {
         ++stats.scans;
         on_scan(*scan);
       }
@@ -192,20 +203,17 @@ Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& s
   ds.scenario = "session";
   std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
   std::set<std::uint8_t> robots;
-  ScanBuffers buffers;
+  fusion::ScanInput input;
   Status st = replay_session_files(
       dir,
       [&](const PoseObservation& p) {
-        if (p.robot_id == 0 || p.robot_id > kMaxRobots) return;
         const fusion::PoseInput in = pose_input(p);
         ds.odom.push_back({in.robot, in.stamp_ns, in.odom, in.v_mps, in.w_radps});
         robots.insert(in.robot);
       },
       [&](const StoredScan& s) {
-        if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
         if (!seen.emplace(s.robot_id, s.seq).second) return;  // a DDS history replay: stored twice
-        const fusion::ScanInput input = scan_input(s, buffers);
-        const mapping::ScanView& in = input.view;
+        const fusion::ScanInput& in = scan_input(s, input);
         ScanRecord r;
         r.robot = in.robot;
         r.scan = in.scan;
@@ -224,7 +232,7 @@ Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& s
           lp.tz = lp.z;
           lp.robot = in.robot;
           lp.scan = in.scan;
-          lp.beam = input.beams[i];
+          lp.beam = in.beams[i];
           lp.flags = in.flags[i];
           ds.points.push_back(lp);
         }

@@ -22,6 +22,7 @@ struct SessionReadStats {
   std::uint64_t refused_poses = 0;     // marked refused at receipt (sample_validation.hpp): not replayed
   std::uint64_t refused_scans = 0;
   std::uint64_t bad_scan_records = 0;  // CRC / length failures (the decoder resyncs past them)
+  std::uint64_t bad_robot_ids = 0;     // accepted samples with a robot id out of 1..kMaxRobots: skipped
   bool scans_torn_tail = false;        // scans.bin ends inside a record (a crash mid-write)
 };
 
@@ -30,7 +31,9 @@ struct SessionReadStats {
 [[nodiscard]] bool parse_pose_line(const char* line, PoseObservation& out, std::uint16_t* rejected = nullptr);
 
 // Streams `dir`/poses.csv and `dir`/scans.bin in receive order (recv_realtime_ns; a missing file is
-// empty). Fails only when a file exists but cannot be read or scans.bin has no teamscan header.
+// empty). Fails only when a file exists but cannot be read or scans.bin has no teamscan header. Only
+// accepted samples with a robot id in 1..kMaxRobots are handed on (the rest counted): the consumers
+// need not check either again.
 [[nodiscard]] Status replay_session_files(const std::string& dir, const std::function<void(const PoseObservation&)>& on_pose,
                                           const std::function<void(const StoredScan&)>& on_scan, SessionReadStats& stats);
 

@@ -12,7 +12,9 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <utility>
 
+#include "common/error_message.hpp"
 #include "teamscan.h"
 
 namespace teamscan::station {
@@ -51,7 +53,7 @@ Time realtime_now() {
 Result<SessionStore> SessionStore::create(const std::string& root) {
   std::error_code ec;
   std::filesystem::create_directories(root, ec);
-  if (ec) return Error{"storage: cannot create the session root directory", ec.value()};
+  if (ec) return make_error("storage: cannot create the session root directory " + root, ec.value());
   const std::string dir = root + "/session-" + utc_stamp(realtime_now(), true) + "-" + std::to_string(::getpid());
   return open(dir);
 }
@@ -59,7 +61,7 @@ Result<SessionStore> SessionStore::create(const std::string& root) {
 Result<SessionStore> SessionStore::open(const std::string& dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (ec) return Error{"storage: cannot create the session directory", ec.value()};
+  if (ec) return make_error("storage: cannot create the session directory " + dir, ec.value());
   SessionStore s;
   s.dir_ = dir;
   bool created_scans = false;
@@ -72,9 +74,11 @@ Result<SessionStore> SessionStore::open(const std::string& dir) {
   s.status_fd_ = open_append(dir + "/status.csv", created_status);
   s.events_fd_ = open_append(dir + "/events.log", created_events);
   s.rejected_fd_ = open_append(dir + "/rejected.csv", created_rejected);
-  if (s.scans_fd_ < 0 || s.poses_fd_ < 0 || s.status_fd_ < 0 || s.events_fd_ < 0 || s.rejected_fd_ < 0) {
-    return Error{"storage: cannot open the session files", errno};
-  }
+  const int open_errno = errno;
+  const std::pair<int, const char*> files[] = {{s.scans_fd_, "scans.bin"}, {s.poses_fd_, "poses.csv"}, {s.status_fd_, "status.csv"},
+                                               {s.events_fd_, "events.log"}, {s.rejected_fd_, "rejected.csv"}};
+  for (const auto& [fd, name] : files)
+    if (fd < 0) return make_error("storage: cannot open " + dir + "/" + name, open_errno);
   if (created_scans) {
     std::uint8_t header[kScanFileHeaderBytes];
     encode_scan_file_header(header);
@@ -92,7 +96,8 @@ Result<SessionStore> SessionStore::open(const std::string& dir) {
         "sip_rate_mhz,scan_rate_mhz,arcos_bad_packets,lms_bad_telegrams,lms_resyncs,scans_published,"
         "points_direction_filtered,dds_write_errors,uptime_s,arcos_reopens,lms_reopens,points_team_stale,"
         "points_no_pose,loop_max_us,clock_sync,teams_rejected,last_team_reject,corrections_applied,"
-        "corrections_rejected,rejected\n";
+        "corrections_rejected,ring_unconfirmed,ring_dropped,shadow_ms,last_shadow_ms,backfill_total,"
+        "backfill_remaining,rejected\n";
     s.write_all(s.status_fd_, kHeader, sizeof kHeader - 1);
   }
   if (created_rejected) {
@@ -168,13 +173,15 @@ void SessionStore::append_status(const teamscan_msg_RobotStatus& s, const Receiv
       line, sizeof line,
       "%" PRId64 ",%" PRId64 ",%" PRIu32 ",%" PRIu32 ",%" PRId64 ",%u,%u,%u,%" PRIu32 ",%" PRIu32 ",%" PRIu32
       ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32
-      ",%" PRIu32 ",%" PRIu32 ",%u,%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%u\n",
+      ",%" PRIu32 ",%" PRIu32 ",%u,%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%" PRIu32
+      ",%" PRIu32 ",%" PRIu32 ",%" PRIu32 ",%u\n",
       at.realtime.ns(), at.monotonic.ns(), s.robot_id, s.seq, s.stamp_ns, static_cast<unsigned>(s.arcos_state),
       static_cast<unsigned>(s.lms_state), static_cast<unsigned>(s.team_fresh), s.sip_rate_mhz, s.scan_rate_mhz,
       s.arcos_bad_packets, s.lms_bad_telegrams, s.lms_resyncs, s.scans_published, s.points_direction_filtered,
       s.dds_write_errors, s.uptime_s, s.arcos_reopens, s.lms_reopens, s.points_team_stale, s.points_no_pose,
       s.loop_max_us, static_cast<unsigned>(s.clock_sync), s.teams_rejected, s.last_team_reject,
-      s.corrections_applied, s.corrections_rejected, static_cast<unsigned>(rejected));
+      s.corrections_applied, s.corrections_rejected, s.ring_unconfirmed, s.ring_dropped, s.shadow_ms,
+      s.last_shadow_ms, s.backfill_total, s.backfill_remaining, static_cast<unsigned>(rejected));
   write_all(status_fd_, line, static_cast<std::size_t>(n));
   ++counters_.statuses;
 }

@@ -1,5 +1,5 @@
 // The ground station's session folder: everything received, with its receive time, in append-only
-// files written with one write(2) per record (DESIGN.md "Files"; issue 5 "stores everything it receives").
+// files written with one write(2) per record (DESIGN.md "Files": the station stores everything it receives).
 //   session-<UTC time>-<pid>/scans.bin   every scan (format in scan_record.hpp)
 //   session-.../poses.csv                every pose
 //   session-.../status.csv               every status sample

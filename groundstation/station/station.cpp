@@ -10,19 +10,23 @@
 #include <dds/dds.h>
 
 #include "common/clock.hpp"
+#include "common/units.hpp"
 #include "dds/participant.hpp"
 #include "dds/receive_threads.hpp"
 #include "dds/qos.hpp"
 #include "dds/security/credentials.hpp"
 #include "dds/take.hpp"
+#include "groundstation/station/session_replay.hpp"
 #include "teamscan.h"
 
 namespace teamscan::station {
 
 namespace {
 
-enum Topic : int { kPose = 0, kScan = 1, kStatus = 2 };
-constexpr const char* kTopicNames[3] = {"pose", "scan", "status"};
+// The readers (kBackfill: teamscan/backfill, the scans robots re-publish from their ring).
+enum Topic : int { kPose = 0, kScan = 1, kStatus = 2, kBackfill = 3 };
+constexpr int kTopics = 4;
+constexpr const char* kTopicNames[kTopics] = {"pose", "scan", "status", "backfill"};
 
 void liveliness_listener(dds_entity_t /*reader*/, const dds_liveliness_changed_status_t status, void* arg) {
   static_cast<Station*>(arg)->push_liveliness(status.last_publication_handle, status.alive_count_change,
@@ -41,17 +45,12 @@ std::uint32_t publication_robot(dds_entity_t reader, dds_instance_handle_t handl
   std::uint32_t n = 0;
   char** names = nullptr;
   if (dds_qget_partition(ep->qos, &n, &names)) {
-    if (n == 1) id = security::robot_id_of_identity(names[0]);  // a writer in several partitions names no one
+    if (n == 1) id = dds::security::robot_id_of_identity(names[0]);  // a writer in several partitions names no one
     for (std::uint32_t i = 0; i < n; ++i) dds_free(names[i]);
     dds_free(names);
   }
   dds_builtintopic_free_endpoint(ep);
   return id;
-}
-
-std::int32_t to_mm(double m) {
-  const double mm = std::round(m * 1000.0);
-  return static_cast<std::int32_t>(std::clamp(mm, -2.0e9, 2.0e9));
 }
 
 std::uint16_t to_mm_u16(double m) {
@@ -114,8 +113,9 @@ const StoredScan& stored_from(const teamscan_msg_ScanPoints& s, const ReceiveTim
 struct Station::Dds {
   explicit Dds(std::size_t batch) : poses{batch}, scans{batch}, statuses{batch} {}
   dds::Participant participant;  // deleting it deletes every entity below
-  dds_entity_t readers[3] = {0, 0, 0};
+  dds_entity_t readers[kTopics] = {0, 0, 0, 0};
   dds_entity_t team_writer = 0;
+  dds_entity_t stored_writer = 0;
   dds_entity_t map_writer = 0;
   dds_entity_t waitset = 0;
   dds_entity_t guard = 0;
@@ -123,6 +123,7 @@ struct Station::Dds {
   dds::TakeBuffer<teamscan_msg_ScanPoints> scans;
   dds::TakeBuffer<teamscan_msg_RobotStatus> statuses;
   teamscan_msg_TeamState team{};
+  teamscan_msg_StoredState stored_state{};
   std::array<TeamMemberEstimate, kMaxRobots> estimates{};
   StoredScan stored{};
 
@@ -179,34 +180,69 @@ Result<std::unique_ptr<Station>> Station::create(const StationOptions& options, 
   dds_delete_qos(q);
   q = dds::make_scan_reader_qos();
   Result<dds_entity_t> scan_reader = dds::create_reader<teamscan_msg_ScanPoints>(d.participant, q, listener);
+  Result<dds_entity_t> backfill_reader =
+      dds::create_reader<teamscan_msg_ScanPoints>(d.participant, q, listener, dds::kTopicBackfill);
   dds_delete_qos(q);
   dds_delete_listener(listener);
   q = dds::make_team_writer_qos(options.team_liveliness_lease);
   Result<dds_entity_t> team_writer = dds::create_writer<teamscan_msg_TeamState>(d.participant, q);
+  Result<dds_entity_t> stored_writer = dds::create_writer<teamscan_msg_StoredState>(d.participant, q);
   dds_delete_qos(q);
   q = dds::make_map_qos();
   Result<dds_entity_t> map_writer = dds::create_writer<teamscan_msg_MapUpdate>(d.participant, q);
   dds_delete_qos(q);
-  for (const Result<dds_entity_t>* e : {&pose_reader, &status_reader, &scan_reader, &team_writer, &map_writer}) {
+  for (const Result<dds_entity_t>* e :
+       {&pose_reader, &status_reader, &scan_reader, &backfill_reader, &team_writer, &stored_writer, &map_writer}) {
     if (!e->ok()) return Error{"station: cannot create a DDS topic, reader or writer", 0, e->error().detail};
   }
   d.readers[kPose] = pose_reader.value();
   d.readers[kStatus] = status_reader.value();
   d.readers[kScan] = scan_reader.value();
+  d.readers[kBackfill] = backfill_reader.value();
   d.team_writer = team_writer.value();
+  d.stored_writer = stored_writer.value();
   d.map_writer = map_writer.value();
 
   d.waitset = dds_create_waitset(d.participant.handle());
   d.guard = dds_create_guardcondition(d.participant.handle());
   if (d.waitset < 0 || d.guard < 0) return Error{"station: cannot create the waitset"};
   (void)dds_waitset_attach(d.waitset, d.guard, 0);
-  for (int t = 0; t < 3; ++t) {
+  for (int t = 0; t < kTopics; ++t) {
     const dds_entity_t rc = dds_create_readcondition(d.readers[t], DDS_ANY_STATE);
     if (rc < 0) return Error{"station: cannot create a read condition"};
     (void)dds_waitset_attach(d.waitset, rc, t + 1);
   }
-  st->event("station started: listening to teamscan/pose, teamscan/scan, teamscan/status");
+  st->recover_stored();
+  st->event("station started: listening to teamscan/pose, teamscan/scan, teamscan/status, teamscan/backfill");
   return st;
+}
+
+void Station::recover_stored() {
+  // A restart on the same session folder: the scans stored before are not stored again (the robots' DDS
+  // history replays them) and the confirmations go on from what the session holds, so a robot back-fills
+  // exactly the station's outage. Reads scans.bin once (bounded memory: record by record).
+  SessionReadStats stats;
+  const Status s = replay_session_files(
+      store_.dir(), [](const PoseObservation&) {},
+      [this](const StoredScan& scan) {
+        if (scan.rejected != 0 || scan.robot_id == 0 || scan.robot_id > kMaxRobots) return;
+        if (stored_[scan.robot_id].insert(scan.seq)) ++counters_.recovered_scans;
+      },
+      stats);
+  if (!s.ok()) {
+    event(std::string("stored scans not recovered from the session folder: ") + s.error().what);
+    return;
+  }
+  if (counters_.recovered_scans == 0) return;
+  std::string text = "recovered " + std::to_string(counters_.recovered_scans) + " stored scans from the session folder:";
+  for (std::uint32_t id = 1; id <= kMaxRobots; ++id) {
+    const StoredSeqs& q = stored_[id];
+    if (!q.any()) continue;
+    text += " robot " + std::to_string(id) + " seq " + std::to_string(q.first()) + ".." + std::to_string(q.contiguous()) +
+            (q.holes() > 0 ? " (" + std::to_string(q.holes()) + " missing above)" : "") + ";";
+  }
+  stored_changed_ = true;
+  event(text);
 }
 
 void Station::wake() { (void)dds_set_guardcondition(dds_->guard, true); }
@@ -236,7 +272,7 @@ std::size_t Station::poll(Duration max_wait) {
     matched_work_.swap(matched_);
   }
   for (const auto& [reader, handle] : matched_work_) {
-    for (int t = 0; t < 3; ++t)
+    for (int t = 0; t < kTopics; ++t)
       if (dds_->readers[t] == reader) senders_.matched(t, handle);
   }
   matched_work_.clear();
@@ -244,6 +280,8 @@ std::size_t Station::poll(Duration max_wait) {
   take<teamscan_msg_RobotPose>(kPose, [this](const auto& p, RobotRecord& r, const ReceiveTime& at) { on_pose(p, r, at); });
   take<teamscan_msg_RobotStatus>(kStatus, [this](const auto& s, RobotRecord& r, const ReceiveTime& at) { on_status(s, r, at); });
   take<teamscan_msg_ScanPoints>(kScan, [this](const auto& s, RobotRecord& r, const ReceiveTime& at) { on_scan(s, r, at); });
+  take<teamscan_msg_ScanPoints>(kBackfill,
+                                [this](const auto& s, RobotRecord& r, const ReceiveTime& at) { on_backfill(s, r, at); });
   handle_liveliness_events();
   check_silence(now_monotonic());
   validator_.clock_changes([&](std::uint32_t, const std::string& text) { event(text); });
@@ -337,7 +375,7 @@ void Station::take(int topic, OnSample&& on_sample) {
         // Validate at the edge (sample_validation.hpp), before anything but the raw store sees the sample:
         // a refused one is stored raw, marked with its reason, and goes nowhere else (not the robot's
         // bookkeeping, the team source or the hooks: tracker, filters, map, latency statistics).
-        const Verdict v = check_and_store_if_refused(sample, at);
+        const Verdict v = check_and_store_if_refused(sample, at, topic);
         if (!v.ok()) return;
         RobotRecord* r = heard(sample.robot_id, topic, info.publication_handle, info.instance_handle, at.monotonic);
         if (r == nullptr) {
@@ -360,7 +398,7 @@ void Station::store_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime&
 }
 
 template <class Sample>
-Verdict Station::check_and_store_if_refused(const Sample& sample, const ReceiveTime& at) {
+Verdict Station::check_and_store_if_refused(const Sample& sample, const ReceiveTime& at, int reader) {
   Verdict v;
   SampleTopic topic;
   if constexpr (std::is_same_v<Sample, teamscan_msg_RobotPose>) {
@@ -369,6 +407,9 @@ Verdict Station::check_and_store_if_refused(const Sample& sample, const ReceiveT
   } else if constexpr (std::is_same_v<Sample, teamscan_msg_RobotStatus>) {
     v = validator_.check_status(sample, at.realtime);
     topic = SampleTopic::kStatus;
+  } else if (reader == kBackfill) {
+    v = validator_.check_backfill(sample, at.realtime);
+    topic = SampleTopic::kBackfill;
   } else {
     v = validator_.check_scan(sample, at.realtime);
     topic = SampleTopic::kScan;
@@ -380,21 +421,26 @@ Verdict Station::check_and_store_if_refused(const Sample& sample, const ReceiveT
   return v;
 }
 
-void Station::on_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at) {
-  store_.append_pose(p, at);
-  ++r.poses;
-  ++counters_.poses;
+PoseObservation pose_observation(const teamscan_msg_RobotPose& p, Time received) {
   PoseObservation obs;
   obs.robot_id = p.robot_id;
   obs.seq = p.seq;
   obs.stamp = Time::from_ns(p.stamp_ns);
-  obs.received = at.realtime;
+  obs.received = received;
   obs.x_m = p.x_mm * 1e-3;
   obs.y_m = p.y_mm * 1e-3;
   obs.yaw_rad = p.yaw_urad * 1e-6;
   obs.vx_mps = p.vx_mmps * 1e-3;
   obs.vy_mps = p.vy_mmps * 1e-3;
   obs.yaw_rate_radps = p.yaw_rate_mradps * 1e-3;
+  return obs;
+}
+
+void Station::on_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at) {
+  store_.append_pose(p, at);
+  ++r.poses;
+  ++counters_.poses;
+  const PoseObservation obs = pose_observation(p, at.realtime);
   team_.add_pose(obs);
   for (const PoseHook& h : pose_hooks_) {
     try {
@@ -421,11 +467,43 @@ void Station::on_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const
           std::to_string(s.corrections_rejected - r.corrections_rejected) +
           " odometry correction(s) as an absurd step from the one it applies");
   }
+  on_ring_status(s, r, at);
   r.clock_sync = s.clock_sync;
   r.teams_rejected = s.teams_rejected;
   r.corrections_rejected = s.corrections_rejected;
   ++r.statuses;
   ++counters_.statuses;
+}
+
+void Station::on_ring_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const ReceiveTime& at) {
+  // The operator's view of a robot's radio shadow: "robot 2 back after a shadow of 43.0 s: back-filling
+  // 3200 scans", progress every 5 s, and when it is whole again.
+  const std::string robot = "robot " + std::to_string(s.robot_id);
+  r.ring_unconfirmed = s.ring_unconfirmed;
+  r.last_shadow_ms = s.last_shadow_ms;
+  r.backfill_total = s.backfill_total;
+  r.backfill_remaining = s.backfill_remaining;
+  if (s.backfill_remaining > 0 && s.backfill_total > 0) {
+    if (!r.backfilling) {
+      r.backfilling = true;
+      char text[200];
+      std::snprintf(text, sizeof text, " back after a shadow of %.1f s: back-filling %u scans from its ring (%u unconfirmed)",
+                    s.last_shadow_ms / 1000.0, s.backfill_total, s.ring_unconfirmed);
+      event(robot + text);
+      r.last_backfill_event = at.monotonic;
+    } else if (at.monotonic - r.last_backfill_event >= std::chrono::seconds(5)) {
+      char text[160];
+      std::snprintf(text, sizeof text, " back-filling %.0f %% (%u of %u scans left)",
+                    100.0 * (s.backfill_total - s.backfill_remaining) / s.backfill_total, s.backfill_remaining, s.backfill_total);
+      event(robot + text);
+      r.last_backfill_event = at.monotonic;
+    }
+  } else if (r.backfilling) {
+    r.backfilling = false;
+    r.whole_again = at.realtime;
+    event(robot + " whole again: " + std::to_string(s.backfill_total) + " scans back-filled, " +
+          std::to_string(stored_[s.robot_id].holes()) + " missing in the session");
+  }
 }
 
 void Station::on_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at) {
@@ -448,13 +526,32 @@ void Station::on_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const Re
       if (r.last_scan_seq - s.seq > options_.scan_history_depth) {
         event("robot " + std::to_string(s.robot_id) + " scan seq restarted at " + std::to_string(s.seq) +
               " after " + std::to_string(r.last_scan_seq));
+        stored_[s.robot_id].reset();  // a new numbering (the robot lost its ring): its seqs are new scans
       }
-      // Otherwise a replayed sweep: stored again (receive time differs), seq bookkeeping unchanged.
+      // Otherwise a replayed sweep: a duplicate (store_scan), seq bookkeeping unchanged.
     }
   }
   if (r.scans == 0 || s.seq > r.last_scan_seq || r.last_scan_seq - s.seq > options_.scan_history_depth) {
     r.last_scan_seq = s.seq;
   }
+  (void)store_scan(s, r, at);
+}
+
+void Station::on_backfill(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at) {
+  if (!store_scan(s, r, at)) return;
+  ++r.scans_backfilled;
+  ++counters_.scans_backfilled;
+}
+
+bool Station::store_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at) {
+  // Each (robot, seq) enters the session once: a history replay or a back-fill of a scan the session
+  // holds is counted, neither stored nor fused again.
+  if (!stored_[s.robot_id].insert(s.seq)) {
+    ++r.scans_duplicate;
+    ++counters_.duplicate_scans;
+    return false;
+  }
+  stored_changed_ = true;
   const StoredScan& out = stored_from(s, at, Reject::kNone, dds_->stored);
   store_.append_scan(out);  // stored before any fusion code runs
   ++r.scans;
@@ -467,6 +564,7 @@ void Station::on_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const Re
       event(std::string("scan hook failed: ") + e.what());
     }
   }
+  return true;
 }
 
 void Station::handle_liveliness_events() {
@@ -513,12 +611,40 @@ bool Station::publish_team_if_due(Time now_mono) {
     // The station's own liveliness view wins over a tracker that does not know yet.
     team_member_from(e, e.lost || (e.robot_id <= kMaxRobots && robots_[e.robot_id].lost), t.members[i]);
   }
+  (void)publish_stored(now_mono);
   if (dds_write(d.team_writer, &t) < 0) {
     ++counters_.team_write_errors;
     return false;
   }
   ++counters_.teams_published;
   return true;
+}
+
+bool Station::publish_stored(Time now_mono) {
+  if (!stored_changed_ && now_mono - last_stored_ < std::chrono::seconds(1)) return false;
+  teamscan_msg_StoredState& st = dds_->stored_state;
+  st.seq = ++stored_seq_;
+  st.stamp_ns = now_realtime().ns();
+  st.count = 0;
+  for (std::uint32_t id = 1; id <= kMaxRobots; ++id) {
+    const StoredSeqs& q = stored_[id];
+    if (!q.any()) continue;
+    teamscan_msg_RobotStored& e = st.robots[st.count++];
+    e.robot_id = id;
+    e.contiguous_seq = q.contiguous();
+    e.first_seq = q.first();
+    e.stored = static_cast<std::uint32_t>(std::min<std::uint64_t>(q.count(), 0xFFFFFFFFu));
+  }
+  if (dds_write(dds_->stored_writer, &st) < 0) return false;
+  stored_changed_ = false;
+  last_stored_ = now_mono;
+  ++counters_.stored_published;
+  return true;
+}
+
+const StoredSeqs& Station::stored(std::uint32_t robot_id) const {
+  TEAMSCAN_EXPECTS(robot_id >= 1 && robot_id <= kMaxRobots);
+  return stored_[robot_id];
 }
 
 Status Station::publish_map(std::span<const teamscan_msg_MapVoxel> voxels, std::uint32_t resolution_mm,
@@ -569,6 +695,19 @@ std::string Station::status_line() const {
     if (robots_[id].seen && robots_[id].clock_sync == 2) unsynced += (unsynced.empty() ? "r" : ", r") + std::to_string(id);
   }
   if (!unsynced.empty()) out += "; clock not synchronised (robots say): " + unsynced;
+  // Store and forward: robots in a shadow (lost, with their last report) and back-filling ones.
+  for (std::uint32_t id = 1; id <= kMaxRobots; ++id) {
+    const RobotRecord& r = robots_[id];
+    char text[160];
+    if (r.seen && r.lost) {
+      std::snprintf(text, sizeof text, "; r%u silent for %.0f s", id, to_seconds(now_monotonic() - r.last_heard));
+      out += text;
+    } else if (r.backfilling && r.backfill_total > 0) {
+      std::snprintf(text, sizeof text, "; r%u back-filling %.0f %% (%u of %u left)", id,
+                    100.0 * (r.backfill_total - r.backfill_remaining) / r.backfill_total, r.backfill_remaining, r.backfill_total);
+      out += text;
+    }
+  }
   const std::string validation = validator_.status_text();
   return validation.empty() ? out : out + "; " + validation;
 }

@@ -1,4 +1,4 @@
-// The ground station's receiving side (issue 5): subscribes to teamscan/pose, /scan and /status of up
+// The ground station's receiving side: subscribes to teamscan/pose, /scan and /status of up
 // to 32 robots, stores every sample with its receive time (SessionStore) before anything else sees it,
 // detects robots that stop (liveliness / no-writers / dispose, DDS_SYSTEMD.md 3.2) and marks them lost,
 // publishes teamscan/team from a TeamSource at a fixed rate, and hands every scan to the mapping hooks.
@@ -19,6 +19,7 @@
 #include "groundstation/station/scan_record.hpp"
 #include "groundstation/station/sender_identity.hpp"
 #include "groundstation/station/session_store.hpp"
+#include "groundstation/station/stored_seqs.hpp"
 #include "groundstation/station/team_source.hpp"
 
 struct teamscan_msg_MapVoxel;
@@ -36,6 +37,10 @@ namespace teamscan::station {
 // everything after it (the fusion core, its registration, `teamscan eval` of the session) see the frame
 // of teamscan/pose; a refused one is stored as received.
 const StoredScan& stored_from(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject verdict, StoredScan& out);
+
+// A received pose in the station's units (the one conversion of teamscan/pose), received at `received`
+// (CLOCK_REALTIME).
+[[nodiscard]] PoseObservation pose_observation(const teamscan_msg_RobotPose& p, Time received);
 
 // One member of teamscan/team from the team source's estimate (mm, mm/s, mm², µrad; the robot's
 // odometry correction with its σ), marked lost if `lost`.
@@ -72,6 +77,16 @@ struct RobotRecord {
   std::uint64_t statuses = 0;
   std::uint64_t scans_missing = 0;     // gaps in seq (writer history overrun while we were away)
   std::uint64_t scans_repeated = 0;    // seq not above the last one (robot restart or duplicate)
+  std::uint64_t scans_duplicate = 0;   // a seq the session holds already (history replay, back-fill): not stored again
+  std::uint64_t scans_backfilled = 0;  // stored from teamscan/backfill (the robot's ring)
+  // The robot's store and forward as its teamscan/status reports it (docs/onboard.md "The ring").
+  std::uint32_t ring_unconfirmed = 0;    // scans in its ring the station has not confirmed
+  std::uint32_t backfill_total = 0;      // to back-fill since it came back
+  std::uint32_t backfill_remaining = 0;
+  std::uint32_t last_shadow_ms = 0;      // its last shadow
+  bool backfilling = false;
+  Time whole_again;                    // CLOCK_REALTIME of the last back-fill's end (0: none yet)
+  Time last_backfill_event;            // CLOCK_MONOTONIC: progress events every 5 s at most
   std::uint32_t last_scan_seq = 0;
   Time last_heard;                     // CLOCK_MONOTONIC
   Time lost_at;                        // CLOCK_MONOTONIC of the last transition to lost
@@ -82,8 +97,8 @@ struct RobotRecord {
   std::uint8_t clock_sync = 0;         // the robot's own report (RobotStatus.clock_sync): 0 unknown, 1 yes, 2 no
   std::uint32_t teams_rejected = 0;    // the robot's count of refused team states (RobotStatus)
   std::uint32_t corrections_rejected = 0;  // the robot's count of refused own corrections (RobotStatus)
-  std::uint64_t writer_handles[3] = {0, 0, 0};    // pose, scan, status publication handles
-  std::uint64_t instance_handles[3] = {0, 0, 0};  // this robot's instance on each reader
+  std::uint64_t writer_handles[4] = {0, 0, 0, 0};    // pose, scan, status, backfill publication handles
+  std::uint64_t instance_handles[4] = {0, 0, 0, 0};  // this robot's instance on each reader
 };
 
 struct StationCounters {
@@ -98,6 +113,10 @@ struct StationCounters {
   std::uint64_t hook_failures = 0;     // a mapping hook threw; the station carried on
   std::uint64_t robots_lost = 0;       // transitions to lost
   std::uint64_t identity_mismatches = 0;  // a sample whose robot_id is not its sender's: refused, not stored
+  std::uint64_t duplicate_scans = 0;   // a (robot, seq) the session holds already: not stored, not fused again
+  std::uint64_t scans_backfilled = 0;  // stored from teamscan/backfill
+  std::uint64_t stored_published = 0;  // teamscan/stored samples
+  std::uint64_t recovered_scans = 0;   // (robot, seq) found in the session folder's scans.bin at start-up
 };
 
 using ScanHook = std::function<void(const StoredScan&)>;
@@ -115,7 +134,9 @@ class Station {
   // Waits up to max_wait for data, then takes and handles everything available. Returns the number of
   // valid samples handled.
   std::size_t poll(Duration max_wait);
-  // Publishes teamscan/team if a period has passed since the last publication (CLOCK_MONOTONIC).
+  // Publishes teamscan/team if a period has passed since the last publication (CLOCK_MONOTONIC), and
+  // teamscan/stored (what the session holds of each robot's scans) with it when that changed, or at
+  // least once a second.
   bool publish_team_if_due(Time now_monotonic);
   // Checks the silence timeout (also done in poll).
   void check_silence(Time now_monotonic);
@@ -136,6 +157,8 @@ class Station {
                                    std::uint32_t total_voxels);
 
   [[nodiscard]] const RobotRecord& robot(std::uint32_t robot_id) const;  // 1..32
+  // The scans of robot robot_id (1..32) the session holds (store and forward's confirmations).
+  [[nodiscard]] const StoredSeqs& stored(std::uint32_t robot_id) const;
   [[nodiscard]] std::uint32_t robots_seen() const;
   [[nodiscard]] std::uint32_t robots_lost() const;
   [[nodiscard]] const StationCounters& counters() const { return counters_; }
@@ -172,10 +195,19 @@ class Station {
   void store_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject reason);
   // Validates a received sample; a refused one is stored raw, marked, counted and logged (refused()).
   template <class Sample>
-  Verdict check_and_store_if_refused(const Sample& sample, const ReceiveTime& at);
+  Verdict check_and_store_if_refused(const Sample& sample, const ReceiveTime& at, int topic);
   void on_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at);
   void on_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const ReceiveTime& at);
+  // The robot's ring report in its status: shadow, back-fill progress, whole again (events).
+  void on_ring_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const ReceiveTime& at);
   void on_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at);
+  // A scan from the robot's ring (teamscan/backfill): stored unless the session holds its seq, then the hooks.
+  void on_backfill(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at);
+  // Stores an accepted scan (once per seq) and runs the scan hooks; false: a duplicate, counted.
+  bool store_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at);
+  // The (robot, seq) of every accepted scan already in the session folder (a restart on the same folder).
+  void recover_stored();
+  bool publish_stored(Time now_monotonic);
   void handle_liveliness_events();
   RobotRecord* heard(std::uint32_t robot_id, int topic, std::uint64_t writer, std::uint64_t instance, Time now_mono);
   // An invalid sample (dispose / no writers) on `topic`: the robot whose instance it is goes lost.
@@ -192,6 +224,10 @@ class Station {
   std::unique_ptr<Dds> dds_;
   SampleValidator validator_;
   std::array<RobotRecord, kMaxRobots + 1> robots_{};
+  std::array<StoredSeqs, kMaxRobots + 1> stored_{};
+  bool stored_changed_ = false;
+  Time last_stored_;
+  std::uint32_t stored_seq_ = 0;
   StationCounters counters_{};
   Time last_team_;
   std::uint32_t team_seq_ = 0;

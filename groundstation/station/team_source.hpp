@@ -1,5 +1,5 @@
 // Where teamscan/team comes from: the ground station feeds every received pose into a TeamSource and
-// publishes its estimates at a fixed rate (DESIGN.md "DDS topics", issue 5 "Tracker"). The station's
+// publishes its estimates at a fixed rate (DESIGN.md "DDS topics"). The station's
 // one Kalman tracker, the fusion core's pose history, implements it (pose_history_team_source.hpp);
 // LastPoseTeamSource is the simple stand-in (last pose, extrapolated, with a covariance that grows
 // with the pose's age).

@@ -1,8 +1,8 @@
 // ViewFeed: the bounded, lock-protected hand-off from the station's receive loop to the view's server
 // thread. The loop copies what it offers into preallocated buffers under a mutex held for a copy at
 // most; the view swaps the buffers out under the same mutex (O(1)) and works on them outside it. Nothing
-// here waits for the view: a view that falls behind loses tap scans (counted; only the robot colour of
-// their voxels is unknown) and its pending voxel changes (counted; the loop then offers the whole map,
+// here waits for the view: a view that falls behind loses tap scans (counted; the Foxglove /robotN/scan
+// channels miss them) and its pending voxel changes (counted; the loop then offers the whole map,
 // wants_full_map()), never the station's memory or time.
 #pragma once
 

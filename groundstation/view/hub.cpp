@@ -65,6 +65,7 @@ StateHeader ViewHub::header(bool whole) const {
   if (latest_) {
     h.stamp_ns = latest_->stamp_ns;
     if (latest_->map_voxels != 0) h.map_voxels = latest_->map_voxels;
+    h.map_release = latest_->map_release;
   }
   return h;
 }
@@ -90,16 +91,9 @@ std::vector<RobotView> ViewHub::robot_views(bool whole_tracks) const {
 
 void ViewHub::apply(const FeedBatch& batch, std::vector<SharedMessage>& out) {
   ++counters_.batches;
-  // Robot attribution first: a voxel changed in this batch was hit by a scan of this batch or before.
-  for (std::size_t i = 0; i < batch.scan_count; ++i) {
-    const TapScan& s = batch.scans[i];
-    ++counters_.tap_scans;
-    for (std::uint32_t k = 0; k < s.count; ++k) {
-      const TapPoint& p = s.points[k];
-      WireVoxel& v = voxels_[key_of(p.x_mm, p.y_mm, p.z_mm)];
-      if (v.robot == 0) v.robot = static_cast<std::uint8_t>(s.robot_id);
-    }
-  }
+  // The tap scans are the Foxglove channels' (/robotN/scan); a voxel's robot comes with its update, from
+  // the fused model, never from the points as received.
+  counters_.tap_scans += batch.scan_count;
   if (batch.voxels_are_full_map) ++counters_.whole_maps;
   changed_scratch_.clear();
   for (const VoxelUpdate& u : batch.voxels) {
@@ -110,6 +104,7 @@ void ViewHub::apply(const FeedBatch& batch, std::vector<SharedMessage>& out) {
     v.z_mm = u.z_mm;
     v.hits = u.hits;
     v.flags = u.removed ? 1 : 0;
+    if (u.robot != 0) v.robot = u.robot;
     changed_scratch_.push_back(v);
   }
   counters_.voxels_changed += changed_scratch_.size();

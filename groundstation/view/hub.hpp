@@ -47,6 +47,12 @@ class ViewHub {
   // /api/state: the newest state (no tracks), or state `seq` while still held; nullopt if none.
   [[nodiscard]] std::optional<std::string> state_json(std::optional<std::uint64_t> seq) const;
 
+  // Calls f(const WireVoxel&) for every voxel in the map (hits > 0), removed ones included (flags bit 0).
+  template <class F>
+  void for_each_map_voxel(F&& f) const {
+    for (const auto& entry : voxels_)
+      if (entry.second.hits != 0) f(entry.second);
+  }
   [[nodiscard]] std::size_t map_voxels() const { return in_map_; }
   [[nodiscard]] std::uint64_t state_seq() const { return seq_; }
   [[nodiscard]] const HubCounters& counters() const { return counters_; }

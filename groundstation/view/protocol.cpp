@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <cstring>
 
+#include <nlohmann/json.hpp>
+
 namespace teamscan::view {
 namespace {
 
@@ -86,36 +88,9 @@ Result<VoxelMessage> decode_voxels(std::string_view bytes) {
 }
 
 std::string json_escape(std::string_view s) {
-  std::string o;
-  o.reserve(s.size());
-  for (const char c : s) {
-    switch (c) {
-      case '"':
-        o += "\\\"";
-        break;
-      case '\\':
-        o += "\\\\";
-        break;
-      case '\n':
-        o += "\\n";
-        break;
-      case '\r':
-        o += "\\r";
-        break;
-      case '\t':
-        o += "\\t";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char b[8];
-          std::snprintf(b, sizeof b, "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(c)));
-          o += b;
-        } else {
-          o.push_back(c);
-        }
-    }
-  }
-  return o;
+  // nlohmann-json escapes (quotes, backslash, control characters; invalid UTF-8 replaced by U+FFFD).
+  const std::string quoted = nlohmann::json(std::string{s}).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  return quoted.substr(1, quoted.size() - 2);
 }
 
 std::string encode_error(std::string_view what) {
@@ -133,6 +108,8 @@ std::string encode_state(const StateHeader& h, std::span<const RobotView> robots
   o += std::to_string(h.stamp_ns);
   o += ",\"map_voxels\":";
   append_u64(o, h.map_voxels);
+  o += ",\"map_release\":";
+  append_u64(o, h.map_release);
   o += ",\"resolution_m\":";
   append_number(o, "%.3f", h.map_resolution_mm * 1e-3);
   o += ",\"robots\":[";
@@ -167,6 +144,16 @@ std::string encode_state(const StateHeader& h, std::span<const RobotView> robots
     append_number(o, "%.1f", s.latency_ms);
     o += ",\"ghosts_removed\":";
     append_u64(o, s.ghosts_removed);
+    o += ",\"shadow_s\":";
+    append_number(o, "%.1f", s.shadow_s);
+    o += ",\"scans_buffered\":";
+    append_u64(o, s.scans_buffered);
+    o += ",\"backfill_pct\":";
+    append_number(o, "%.1f", s.backfill_pct);
+    o += ",\"last_shadow_s\":";
+    append_number(o, "%.1f", s.last_shadow_s);
+    o += ",\"whole_again_ns\":";
+    o += std::to_string(s.whole_again_ns);
     if (include_tracks) {
       o += r.track_whole ? ",\"track\":[" : ",\"track_add\":[";
       for (std::size_t i = 0; i < r.track_xy.size(); ++i) {

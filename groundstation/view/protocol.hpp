@@ -72,18 +72,21 @@ struct StateHeader {
   bool whole = false;  // a whole state (tracks complete), sent first and after a skip
   std::uint32_t map_voxels = 0;
   std::uint32_t map_resolution_mm = 0;
+  std::uint64_t map_release = 0;  // the fusion core's release counter of the map (TeamSnapshot)
 };
 
-// {"type":"state","whole":..,"seq":..,"stamp_ns":..,"map_voxels":..,"resolution_m":..,"robots":[{"id":..,
+// {"type":"state","whole":..,"seq":..,"stamp_ns":..,"map_voxels":..,"map_release":..,"resolution_m":..,"robots":[{"id":..,
 //  "lost":..,"x_m":..,"y_m":..,"yaw_rad":..,"cov_xx_m2":..,"cov_xy_m2":..,"cov_yy_m2":..,"scans":..,
-//  "scan_rate_hz":..,"scans_lost":..,"latency_ms":..,"ghosts_removed":..,"track":[x,y,..] | "track_add":[..]}]}
+//  "scan_rate_hz":..,"scans_lost":..,"latency_ms":..,"ghosts_removed":..,"shadow_s":..,"scans_buffered":..,
+//  "backfill_pct":..,"last_shadow_s":..,"whole_again_ns":..,"track":[x,y,..] | "track_add":[..]}]}
 // With include_tracks false (the /api/state endpoint) no track field is written.
 [[nodiscard]] std::string encode_state(const StateHeader& h, std::span<const RobotView> robots, bool include_tracks);
 
 // {"type":"error","error":"..."}: the answer to anything a client sends (the view is read-only).
 [[nodiscard]] std::string encode_error(std::string_view what);
 
-// Minimal JSON string escaping (quotes, backslash, control characters).
+// A JSON string's contents, escaped by nlohmann-json (quotes, backslash, control characters; invalid
+// UTF-8 replaced by U+FFFD), without its quotes.
 [[nodiscard]] std::string json_escape(std::string_view s);
 
 }  // namespace teamscan::view

@@ -53,12 +53,31 @@ void ViewCounters::count_error(int status) {
   }
 }
 
+bool is_foxglove_upgrade(std::string_view method, std::string_view target, bool websocket_upgrade,
+                         std::string_view protocols_header, std::string_view protocol) {
+  if (!websocket_upgrade || method != "GET") return false;
+  const std::string_view path = target.substr(0, target.find('?'));
+  if (path != "/" && path != "/ws" && path != "/foxglove") return false;
+  while (!protocols_header.empty()) {
+    const std::size_t comma = protocols_header.find(',');
+    std::string_view token = protocols_header.substr(0, comma);
+    while (!token.empty() && (token.front() == ' ' || token.front() == '\t')) token.remove_prefix(1);
+    while (!token.empty() && (token.back() == ' ' || token.back() == '\t')) token.remove_suffix(1);
+    if (token == protocol) return true;
+    if (comma == std::string_view::npos) break;
+    protocols_header.remove_prefix(comma + 1);
+  }
+  return false;
+}
+
 std::string ViewCounters::json() const {
-  char b[640];
+  char b[900];
   std::snprintf(b, sizeof b,
                 "{\"requests\":%llu,\"malformed\":%llu,\"oversized\":%llu,\"not_found\":%llu,\"bad_method\":%llu,"
                 "\"bad_query\":%llu,\"refused\":%llu,\"ws_opened\":%llu,\"ws_open\":%llu,\"ws_rejected\":%llu,"
-                "\"skips\":%llu,\"messages_sent\":%llu,\"bytes_sent\":%llu,\"hub_bytes\":%llu,\"queued_bytes\":%llu}",
+                "\"skips\":%llu,\"messages_sent\":%llu,\"bytes_sent\":%llu,\"hub_bytes\":%llu,\"queued_bytes\":%llu,"
+                "\"foxglove_opened\":%llu,\"foxglove_open\":%llu,\"foxglove_refused\":%llu,\"foxglove_malformed\":%llu,"
+                "\"foxglove_skips\":%llu}",
                 static_cast<unsigned long long>(requests.load()), static_cast<unsigned long long>(malformed.load()),
                 static_cast<unsigned long long>(oversized.load()), static_cast<unsigned long long>(not_found.load()),
                 static_cast<unsigned long long>(bad_method.load()), static_cast<unsigned long long>(bad_query.load()),
@@ -66,20 +85,28 @@ std::string ViewCounters::json() const {
                 static_cast<unsigned long long>(ws_open.load()), static_cast<unsigned long long>(ws_rejected.load()),
                 static_cast<unsigned long long>(skips.load()), static_cast<unsigned long long>(messages_sent.load()),
                 static_cast<unsigned long long>(bytes_sent.load()), static_cast<unsigned long long>(hub_bytes.load()),
-                static_cast<unsigned long long>(queued_bytes.load()));
+                static_cast<unsigned long long>(queued_bytes.load()), static_cast<unsigned long long>(foxglove_opened.load()),
+                static_cast<unsigned long long>(foxglove_open.load()), static_cast<unsigned long long>(foxglove_refused.load()),
+                static_cast<unsigned long long>(foxglove_malformed.load()),
+                static_cast<unsigned long long>(foxglove_skips.load()));
   return b;
 }
 
 std::string ViewCounters::line() const {
-  char b[400];
+  char b[600];
   std::snprintf(b, sizeof b,
                 "view: %llu requests (%llu malformed, %llu oversized, %llu not found, %llu bad method, %llu refused), "
-                "%llu WebSocket clients (%llu open, %llu messages rejected, %llu skips), %llu messages %.1f MB sent",
+                "%llu WebSocket clients (%llu open, %llu messages rejected, %llu skips), %llu Foxglove clients (%llu "
+                "requests refused, %llu malformed, %llu skips), %llu messages %.1f MB sent",
                 static_cast<unsigned long long>(requests.load()), static_cast<unsigned long long>(malformed.load()),
                 static_cast<unsigned long long>(oversized.load()), static_cast<unsigned long long>(not_found.load()),
                 static_cast<unsigned long long>(bad_method.load()), static_cast<unsigned long long>(refused.load()),
                 static_cast<unsigned long long>(ws_opened.load()), static_cast<unsigned long long>(ws_open.load()),
                 static_cast<unsigned long long>(ws_rejected.load()), static_cast<unsigned long long>(skips.load()),
+                static_cast<unsigned long long>(foxglove_opened.load()),
+                static_cast<unsigned long long>(foxglove_refused.load()),
+                static_cast<unsigned long long>(foxglove_malformed.load()),
+                static_cast<unsigned long long>(foxglove_skips.load()),
                 static_cast<unsigned long long>(messages_sent.load()), static_cast<double>(bytes_sent.load()) * 1e-6);
   return b;
 }

@@ -53,6 +53,11 @@ struct ViewCounters {
   std::atomic<std::uint64_t> bytes_sent{0};
   std::atomic<std::uint64_t> hub_bytes{0};     // the hub's memory (map copy, tracks, states)
   std::atomic<std::uint64_t> queued_bytes{0};  // bytes in every client's queue
+  std::atomic<std::uint64_t> foxglove_opened{0};     // Foxglove WebSocket clients (foxglove.websocket.v1)
+  std::atomic<std::uint64_t> foxglove_open{0};
+  std::atomic<std::uint64_t> foxglove_refused{0};    // publish, service, parameter, graph, asset requests
+  std::atomic<std::uint64_t> foxglove_malformed{0};  // not a Foxglove client message
+  std::atomic<std::uint64_t> foxglove_skips{0};      // slow Foxglove clients skipped to the newest messages
   // Counts the error answer `status` under its counter.
   void count_error(int status);
   [[nodiscard]] std::string json() const;
@@ -65,6 +70,11 @@ struct ListenAddress {
 };
 // "127.0.0.1:8080" (port 0: any free port). "localhost" means 127.0.0.1. Errors say what is wrong.
 [[nodiscard]] bool parse_listen(std::string_view text, ListenAddress& out, std::string& error);
+
+// A Foxglove client's WebSocket upgrade: GET of "/", "/ws" or "/foxglove" (any query) whose
+// Sec-WebSocket-Protocol header (comma-separated tokens) offers `protocol`.
+[[nodiscard]] bool is_foxglove_upgrade(std::string_view method, std::string_view target, bool websocket_upgrade,
+                                       std::string_view protocols_header, std::string_view protocol);
 
 // Content type of a web root file by extension.
 [[nodiscard]] std::string_view content_type_of(std::string_view file);

@@ -4,6 +4,7 @@
 #include <boost/asio/bind_executor.hpp>
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
@@ -11,13 +12,19 @@
 #include <pthread.h>
 #include <sched.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <map>
 #include <sstream>
 #include <thread>
 #include <vector>
+
+#include "common/clock.hpp"
+#include "groundstation/view/foxglove_channels.hpp"
 
 namespace teamscan::view {
 
@@ -31,6 +38,7 @@ using error_code = boost::system::error_code;
 namespace {
 
 class WsSession;
+class FoxgloveSession;
 
 std::string_view sv(beast::string_view s) { return {s.data(), s.size()}; }
 
@@ -53,13 +61,20 @@ struct ViewServer::Impl {
   ViewCounters counters;
   std::shared_ptr<std::size_t> connections = std::make_shared<std::size_t>(0);  // server thread only
   std::vector<std::shared_ptr<WsSession>> clients;
+  foxglove::FoxgloveChannels fox;
+  std::vector<foxglove::ChannelMessage> fox_out;
+  std::vector<foxglove::Channel> fox_added;
+  std::vector<std::shared_ptr<FoxgloveSession>> fox_clients;
+  std::string session_id = std::to_string(now_realtime().ns());
   std::uint16_t port = 0;
 
-  Impl(const ServerOptions& o, ViewFeed& f) : options{o}, feed{f}, hub{o.hub} {}
+  Impl(const ServerOptions& o, ViewFeed& f) : options{o}, feed{f}, hub{o.hub}, fox{o.foxglove} {}
   void accept();
   void schedule_tick();
   void tick();
+  [[nodiscard]] bool clients_sent_all() const;
   void remove_client(const WsSession* s);
+  void remove_fox_client(const FoxgloveSession* s);
 };
 
 namespace {
@@ -73,9 +88,14 @@ struct ConnectionSlot {
   ConnectionSlot& operator=(const ConnectionSlot&) = delete;
 };
 
-class WsSession : public std::enable_shared_from_this<WsSession> {
+// What both kinds of WebSocket client share: the stream, the client's bounded queue, and the write loop
+// that sends the `whole_` messages first (the whole state: after connecting or a skip), then the queue.
+// Derived supplies whole(out) (the whole state), its own opened/closed counters (on_opened, on_finished)
+// and on_message (what the client sent).
+template <class Derived>
+class QueuedWebSocket : public std::enable_shared_from_this<Derived> {
  public:
-  WsSession(ViewServer::Impl& srv, beast::tcp_stream&& stream, std::shared_ptr<ConnectionSlot> slot)
+  QueuedWebSocket(ViewServer::Impl& srv, beast::tcp_stream&& stream, std::shared_ptr<ConnectionSlot> slot)
       : srv_{srv}, ws_{std::move(stream)}, queue_{srv.options.queue}, slot_{std::move(slot)} {}
 
   void start(http::request<http::string_body> req) {
@@ -83,18 +103,18 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     beast::get_lowest_layer(ws_).expires_never();
     ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
     ws_.read_message_max(srv_.options.requests.max_ws_message_bytes);
-    ws_.async_accept(req_, [self = shared_from_this()](error_code ec) { self->on_accept(ec); });
+    ws_.async_accept(req_, [self = self_ptr()](error_code ec) { self->on_accept(ec); });
   }
 
-  void push(const SharedMessage& m) {
-    const std::uint64_t skips = queue_.skips();
-    queue_.push(m);
-    if (queue_.skips() != skips) ++srv_.counters.skips;
-  }
   [[nodiscard]] std::size_t queued_bytes() const { return queue_.bytes(); }
+  // Everything queued for this client written to its socket (or the client gone).
+  [[nodiscard]] bool sent_all() const {
+    return closed_ || !opened_ ||
+           (!writing_ && whole_next_ >= whole_.size() && queue_.size() == 0 && !queue_.whole_pending());
+  }
 
   void kick() {
-    if (writing_ || closed_) return;
+    if (writing_ || closed_ || !opened_) return;
     SharedMessage m;
     if (whole_next_ < whole_.size()) {
       m = whole_[whole_next_++];
@@ -105,7 +125,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
         case ClientQueue::Next::kNothing:
           return;
         case ClientQueue::Next::kWholeState:
-          srv_.hub.whole(whole_);
+          derived().whole(whole_);
           if (whole_.empty()) return;
           m = whole_[whole_next_++];
           break;
@@ -117,7 +137,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     current_ = std::move(m);
     ws_.binary(current_->binary);
     ws_.async_write(net::buffer(current_->bytes),
-                    [self = shared_from_this()](error_code ec, std::size_t n) { self->on_write(ec, n); });
+                    [self = self_ptr()](error_code ec, std::size_t n) { self->on_write(ec, n); });
   }
 
   void close() {
@@ -128,22 +148,35 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     beast::get_lowest_layer(ws_).socket().close(ignored);
   }
 
+ protected:
+  // Queues `m`; true if the queue had to skip (dropped, the whole state next).
+  bool push(SharedMessage m) {
+    const std::uint64_t skips = queue_.skips();
+    queue_.push(std::move(m));
+    return queue_.skips() != skips;
+  }
+
+  ViewServer::Impl& srv_;
+  websocket::stream<beast::tcp_stream> ws_;
+  std::vector<SharedMessage> whole_;  // sent before the queue
+
  private:
+  Derived& derived() { return static_cast<Derived&>(*this); }
+  std::shared_ptr<Derived> self_ptr() { return this->shared_from_this(); }
+
   void on_accept(error_code ec) {
     if (ec) {
-      ++srv_.counters.malformed;  // a /ws upgrade that failed its handshake
+      ++srv_.counters.malformed;  // an upgrade that failed its handshake
       return;
     }
-    ++srv_.counters.ws_opened;
-    ++srv_.counters.ws_open;
     opened_ = true;
-    srv_.clients.push_back(shared_from_this());
+    derived().on_opened();
     read();
     kick();
   }
 
   void read() {
-    ws_.async_read(rbuf_, [self = shared_from_this()](error_code ec, std::size_t) { self->on_read(ec); });
+    ws_.async_read(rbuf_, [self = self_ptr()](error_code ec, std::size_t) { self->on_read(ec); });
   }
 
   void on_read(error_code ec) {
@@ -157,12 +190,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       finish();
       return;
     }
-    // The view is read-only: whatever a client sends is answered with an error and counted.
-    ++srv_.counters.ws_rejected;
+    const auto data = rbuf_.cdata();
+    derived().on_message(std::string_view(static_cast<const char*>(data.data()), data.size()), ws_.got_text());
     rbuf_.consume(rbuf_.size());
-    auto m = std::make_shared<Message>();
-    m->bytes = encode_error("the view is read-only: client messages are not accepted");
-    queue_.push(std::move(m));
     kick();
     read();
   }
@@ -182,24 +212,160 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   void finish() {
     if (opened_) {
       opened_ = false;
-      --srv_.counters.ws_open;
-      srv_.remove_client(this);
+      derived().on_finished();
     }
     close();
   }
 
-  ViewServer::Impl& srv_;
-  websocket::stream<beast::tcp_stream> ws_;
   http::request<http::string_body> req_;
   beast::flat_buffer rbuf_;
   ClientQueue queue_;
   std::shared_ptr<ConnectionSlot> slot_;
-  std::vector<SharedMessage> whole_;
   std::size_t whole_next_ = 0;
   SharedMessage current_;
   bool writing_ = false;
   bool closed_ = false;
   bool opened_ = false;
+};
+
+SharedMessage text_message(std::string bytes) {
+  auto m = std::make_shared<Message>();
+  m->bytes = std::move(bytes);
+  return m;
+}
+
+// A browser view client (/ws): the whole map and state first, then the changes.
+class WsSession : public QueuedWebSocket<WsSession> {
+ public:
+  using QueuedWebSocket::QueuedWebSocket;
+
+  void push(const SharedMessage& m) {
+    if (QueuedWebSocket::push(m)) ++srv_.counters.skips;
+  }
+
+  void whole(std::vector<SharedMessage>& out) { srv_.hub.whole(out); }
+  void on_opened() {
+    ++srv_.counters.ws_opened;
+    ++srv_.counters.ws_open;
+    srv_.clients.push_back(shared_from_this());
+  }
+  void on_finished() {
+    --srv_.counters.ws_open;
+    srv_.remove_client(this);
+  }
+  // The view is read-only: whatever a client sends is answered with an error and counted.
+  void on_message(std::string_view, bool) {
+    ++srv_.counters.ws_rejected;
+    (void)QueuedWebSocket::push(text_message(encode_error("the view is read-only: client messages are not accepted")));
+  }
+};
+
+// A Foxglove client (foxglove.websocket.v1, foxglove_protocol.hpp): serverInfo and the channels first;
+// then Message Data of the channels it subscribed to, through its own bounded ClientQueue. A client that
+// falls behind skips to the channels' newest messages (advertised again first). Read-only: requests to
+// publish, call services, get or set parameters are refused with a status message and counted.
+class FoxgloveSession : public QueuedWebSocket<FoxgloveSession> {
+ public:
+  FoxgloveSession(ViewServer::Impl& srv, beast::tcp_stream&& stream, std::shared_ptr<ConnectionSlot> slot)
+      : QueuedWebSocket{srv, std::move(stream), std::move(slot)} {
+    ws_.set_option(websocket::stream_base::decorator([](websocket::response_type& res) {
+      res.set(http::field::sec_websocket_protocol, foxglove::kSubprotocol);
+      res.set(http::field::server, "teamscan-groundstation view");
+    }));
+  }
+
+  // A channel's new message: queued if subscribed.
+  void deliver(const foxglove::ChannelMessage& m) {
+    if (m.channel_id >= subscription_of_.size() || subscription_of_[m.channel_id] == kNone) return;
+    push(data_message(subscription_of_[m.channel_id], m));
+  }
+  void advertise(const std::vector<foxglove::Channel>& added) {
+    push(text_message(foxglove::encode_advertise(added)));
+  }
+
+  // First and after a skip: every channel, then each subscribed channel's newest message.
+  void whole(std::vector<SharedMessage>& out) {
+    out.push_back(text_message(foxglove::encode_advertise(srv_.fox.channels())));
+    for (std::uint32_t channel = 0; channel < subscription_of_.size(); ++channel) {
+      if (subscription_of_[channel] == kNone) continue;
+      if (const foxglove::ChannelMessage* latest = srv_.fox.latest(channel))
+        out.push_back(data_message(subscription_of_[channel], *latest));
+    }
+  }
+  void on_opened() {
+    ++srv_.counters.foxglove_opened;
+    ++srv_.counters.foxglove_open;
+    srv_.fox_clients.push_back(shared_from_this());
+    whole_.push_back(text_message(foxglove::encode_server_info("teamscan-groundstation", srv_.session_id)));
+  }
+  void on_finished() {
+    --srv_.counters.foxglove_open;
+    srv_.remove_fox_client(this);
+  }
+
+  void on_message(std::string_view bytes, bool text) {
+    const foxglove::ClientRequest r = text ? foxglove::decode_client_text(bytes) : foxglove::decode_client_binary(bytes);
+    switch (r.kind) {
+      case foxglove::ClientRequest::Kind::kSubscribe:
+        subscribe(r);
+        break;
+      case foxglove::ClientRequest::Kind::kUnsubscribe:
+        for (std::uint32_t id : r.subscription_ids) {
+          const auto it = channel_of_.find(id);
+          if (it == channel_of_.end()) continue;
+          subscription_of_[it->second] = kNone;
+          channel_of_.erase(it);
+        }
+        break;
+      case foxglove::ClientRequest::Kind::kRefused:
+        ++srv_.counters.foxglove_refused;
+        status(foxglove::StatusLevel::kError, "the teamscan view is read-only: " + r.op + " is refused");
+        break;
+      case foxglove::ClientRequest::Kind::kMalformed:
+        ++srv_.counters.foxglove_malformed;
+        status(foxglove::StatusLevel::kError, "malformed message: " + r.why);
+        break;
+    }
+  }
+
+ private:
+  static constexpr std::uint32_t kNone = ~std::uint32_t{0};
+
+  void push(SharedMessage m) {
+    if (QueuedWebSocket::push(std::move(m))) ++srv_.counters.foxglove_skips;
+  }
+
+  static SharedMessage data_message(std::uint32_t subscription, const foxglove::ChannelMessage& m) {
+    auto out = std::make_shared<Message>();
+    out->binary = true;
+    out->bytes = foxglove::encode_message_data(subscription, m.stamp_ns, *m.payload);
+    return out;
+  }
+
+  void status(foxglove::StatusLevel level, const std::string& message) {
+    push(text_message(foxglove::encode_status(level, message)));
+  }
+
+  void subscribe(const foxglove::ClientRequest& r) {
+    for (const auto& [id, channel] : r.subscriptions) {
+      if (!srv_.fox.has_channel(channel)) {
+        status(foxglove::StatusLevel::kError, "subscribe: no channel " + std::to_string(channel));
+        continue;
+      }
+      if (channel_of_.contains(id)) {
+        status(foxglove::StatusLevel::kError, "subscribe: subscription id " + std::to_string(id) + " is in use");
+        continue;
+      }
+      if (subscription_of_.size() <= channel) subscription_of_.resize(channel + 1, kNone);
+      if (subscription_of_[channel] != kNone) channel_of_.erase(subscription_of_[channel]);  // one per channel
+      subscription_of_[channel] = id;
+      channel_of_[id] = channel;
+      if (const foxglove::ChannelMessage* latest = srv_.fox.latest(channel)) push(data_message(id, *latest));
+    }
+  }
+
+  std::vector<std::uint32_t> subscription_of_;         // index channel id: subscription id, or kNone
+  std::map<std::uint32_t, std::uint32_t> channel_of_;  // subscription id -> channel id
 };
 
 class HttpSession : public std::enable_shared_from_this<HttpSession> {
@@ -252,6 +418,12 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     }
     ++srv_.counters.requests;
     http::request<http::string_body>& req = parser_->get();
+    if (is_foxglove_upgrade(sv(req.method_string()), sv(req.target()), websocket::is_upgrade(req),
+                            sv(req[http::field::sec_websocket_protocol]), foxglove::kSubprotocol)) {
+      auto fox = std::make_shared<FoxgloveSession>(srv_, std::move(stream_), slot_);
+      fox->start(parser_->release());
+      return;
+    }
     const unsigned version = req.version();
     const bool keep_alive = req.keep_alive();
     const RouteDecision d = route_request(
@@ -362,8 +534,19 @@ void ViewServer::Impl::tick() {
       for (const SharedMessage& m : outgoing) c->push(m);
     }
   }
+  fox_out.clear();
+  fox_added.clear();
+  fox.apply(batch, hub, now_realtime().ns(), fox_out, fox_added);
+  for (const std::shared_ptr<FoxgloveSession>& c : fox_clients) {
+    if (!fox_added.empty()) c->advertise(fox_added);
+    for (const foxglove::ChannelMessage& m : fox_out) c->deliver(m);
+  }
   std::size_t queued = 0;
   for (const std::shared_ptr<WsSession>& c : clients) {
+    c->kick();
+    queued += c->queued_bytes();
+  }
+  for (const std::shared_ptr<FoxgloveSession>& c : fox_clients) {
     c->kick();
     queued += c->queued_bytes();
   }
@@ -371,17 +554,67 @@ void ViewServer::Impl::tick() {
   counters.hub_bytes = hub.memory_bytes();
 }
 
+bool ViewServer::Impl::clients_sent_all() const {
+  return std::all_of(clients.begin(), clients.end(), [](const std::shared_ptr<WsSession>& c) { return c->sent_all(); });
+}
+
 void ViewServer::Impl::remove_client(const WsSession* s) {
   std::erase_if(clients, [s](const std::shared_ptr<WsSession>& c) { return c.get() == s; });
 }
 
+void ViewServer::Impl::remove_fox_client(const FoxgloveSession* s) {
+  std::erase_if(fox_clients, [s](const std::shared_ptr<FoxgloveSession>& c) { return c.get() == s; });
+}
+
 ViewServer::ViewServer(std::unique_ptr<Impl> impl) : impl_{std::move(impl)} {}
+
+namespace {
+
+// ViewServer::flush on the server thread: the feed drained, then the clients' queues watched every 10 ms
+// until all are written or the deadline passes.
+struct FlushWatch : std::enable_shared_from_this<FlushWatch> {
+  FlushWatch(ViewServer::Impl& s, std::chrono::steady_clock::time_point d) : srv{s}, timer{s.ioc}, deadline{d} {}
+  void check() {
+    const bool sent = srv.clients_sent_all();
+    if (sent || std::chrono::steady_clock::now() >= deadline) {
+      done.set_value(sent);
+      return;
+    }
+    timer.expires_after(std::chrono::milliseconds(10));
+    timer.async_wait([self = shared_from_this()](error_code ec) {
+      if (ec) {
+        self->done.set_value(false);
+      } else {
+        self->check();
+      }
+    });
+  }
+  ViewServer::Impl& srv;
+  net::steady_timer timer;
+  std::chrono::steady_clock::time_point deadline;
+  std::promise<bool> done;
+};
+
+}  // namespace
+
+bool ViewServer::flush(Duration timeout) {
+  auto watch = std::make_shared<FlushWatch>(*impl_, std::chrono::steady_clock::now() + timeout);
+  std::future<bool> sent = watch->done.get_future();
+  net::post(impl_->ioc, [watch] {
+    watch->srv.tick();
+    watch->check();
+  });
+  if (sent.wait_for(timeout + std::chrono::seconds(1)) != std::future_status::ready) return false;
+  return sent.get();
+}
 
 ViewServer::~ViewServer() {
   impl_->ioc.stop();
   if (impl_->thread.joinable()) impl_->thread.join();
   for (const std::shared_ptr<WsSession>& c : impl_->clients) c->close();
   impl_->clients.clear();
+  for (const std::shared_ptr<FoxgloveSession>& c : impl_->fox_clients) c->close();
+  impl_->fox_clients.clear();
   error_code ignored;
   impl_->acceptor.close(ignored);
 }

@@ -2,7 +2,9 @@
 // It serves the page's files from the web root, /api/state and /api/stats (JSON), and /ws, where every
 // client gets the whole map and state first, then the changes. Every tick (100 ms) it drains the
 // station's ViewFeed into the ViewHub and queues the resulting messages per client (ClientQueue: a slow
-// client skips to the latest state). The station's loop only ever touches the ViewFeed.
+// client skips to the latest state). A WebSocket upgrade offering `foxglove.websocket.v1` (on /, /ws or
+// /foxglove) is a Foxglove client instead: the channels of foxglove_channels.hpp, read-only. The
+// station's loop only ever touches the ViewFeed.
 #pragma once
 
 #include <cstdint>
@@ -15,6 +17,7 @@
 #include "common/time.hpp"
 #include "groundstation/view/client_queue.hpp"
 #include "groundstation/view/feed.hpp"
+#include "groundstation/view/foxglove_channels.hpp"
 #include "groundstation/view/hub.hpp"
 #include "groundstation/view/requests.hpp"
 
@@ -26,6 +29,7 @@ struct ServerOptions {
   RequestLimits requests;
   QueueLimits queue;
   HubOptions hub;
+  foxglove::ChannelOptions foxglove;
   Duration tick = std::chrono::milliseconds(100);
   Duration http_timeout = std::chrono::seconds(10);  // a request not complete by then: connection closed
   std::size_t max_connections = 32;                  // beyond: 503, counted as refused
@@ -41,6 +45,11 @@ class ViewServer {
   ~ViewServer();  // stops the thread, closes every connection
   ViewServer(const ViewServer&) = delete;
   ViewServer& operator=(const ViewServer&) = delete;
+
+  // Drains the feed now and waits, at most `timeout`, until every page client's queue is written to its
+  // socket: the station's last offers (its final map and state at shutdown) reach the open pages before
+  // the server stops. False on the timeout.
+  [[nodiscard]] bool flush(Duration timeout);
 
   [[nodiscard]] std::uint16_t port() const;
   [[nodiscard]] std::string url() const;  // http://HOST:PORT/

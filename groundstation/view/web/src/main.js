@@ -37,6 +37,7 @@ class VoxelCloud {
     this.count = 0;
     this.slots = new Map();
     this.mode = 'robot';
+    this.hideRemoved = false; // the operator's choice: removed ghost voxels drawn or not
     this.resolution = 0.1;
     this.geometry = new THREE.BufferGeometry();
     this.material = new THREE.PointsMaterial({ size: 0.08, vertexColors: true, sizeAttenuation: true });
@@ -47,15 +48,18 @@ class VoxelCloud {
   }
 
   grow(capacity) {
-    const pos = new Float32Array(capacity * 3);
+    const pos = new Float32Array(capacity * 3); // as drawn (NaN: hidden)
+    const at = new Float32Array(capacity * 3);  // the voxel's centre
     const col = new Float32Array(capacity * 3);
     const meta = new Int32Array(capacity * 2); // flags, robot
     if (this.capacity) {
       pos.set(this.pos);
+      at.set(this.at);
       col.set(this.col);
       meta.set(this.meta);
     }
     this.pos = pos;
+    this.at = at;
     this.col = col;
     this.meta = meta;
     this.capacity = capacity;
@@ -73,11 +77,17 @@ class VoxelCloud {
   colourSlot(i, c) {
     const flags = this.meta[2 * i], robot = this.meta[2 * i + 1];
     if (this.mode === 'class') c.copy(flags & 1 ? GHOST : KEPT);
-    else if (this.mode === 'height') heightColour(this.pos[3 * i + 2], c);
+    else if (this.mode === 'height') heightColour(this.at[3 * i + 2], c);
     else c.copy(robotColour(robot));
     this.col[3 * i] = c.r;
     this.col[3 * i + 1] = c.g;
     this.col[3 * i + 2] = c.b;
+  }
+
+  // A hidden voxel (a removed ghost while hideRemoved) is drawn at NaN: WebGL discards the point.
+  placeSlot(i) {
+    const hide = this.hideRemoved && (this.meta[2 * i] & 1);
+    for (let a = 0; a < 3; a++) this.pos[3 * i + a] = hide ? NaN : this.at[3 * i + a];
   }
 
   // Applies one voxel message; returns the number of voxel records in it.
@@ -105,17 +115,24 @@ class VoxelCloud {
         i = this.count++;
         this.slots.set(key, i);
       }
-      this.pos[3 * i] = x / 1000;
-      this.pos[3 * i + 1] = y / 1000;
-      this.pos[3 * i + 2] = z / 1000;
+      this.at[3 * i] = x / 1000;
+      this.at[3 * i + 1] = y / 1000;
+      this.at[3 * i + 2] = z / 1000;
       this.meta[2 * i] = flags;
       if (robot || !this.meta[2 * i + 1]) this.meta[2 * i + 1] = robot;
+      this.placeSlot(i);
       this.colourSlot(i, c);
     }
     this.geometry.setDrawRange(0, this.count);
     this.geometry.attributes.position.needsUpdate = true;
     this.geometry.attributes.color.needsUpdate = true;
     return n;
+  }
+
+  setHideRemoved(hide) {
+    this.hideRemoved = hide;
+    for (let i = 0; i < this.count; i++) this.placeSlot(i);
+    this.geometry.attributes.position.needsUpdate = true;
   }
 
   setMode(mode) {
@@ -125,9 +142,25 @@ class VoxelCloud {
     this.geometry.attributes.color.needsUpdate = true;
   }
 
+  // What is drawn: per voxel in the draw range whose position is not hidden, its integer key (the
+  // drawn centre divided by the voxel edge: the station's voxel indices), flags and robot, as flat
+  // [i, j, k, flags, robot, ...]. For the browser test.
+  drawn() {
+    const pos = this.geometry.attributes.position.array;
+    const n = Math.min(this.count, this.geometry.drawRange.count);
+    const out = [];
+    for (let i = 0; i < n; i++) {
+      const x = pos[3 * i], y = pos[3 * i + 1], z = pos[3 * i + 2];
+      if (Number.isNaN(x) || Number.isNaN(y) || Number.isNaN(z)) continue;
+      out.push(Math.floor(x / this.resolution), Math.floor(y / this.resolution), Math.floor(z / this.resolution),
+        this.meta[2 * i], this.meta[2 * i + 1]);
+    }
+    return out;
+  }
+
   bounds() {
     const b = new THREE.Box3();
-    for (let i = 0; i < this.count; i++) b.expandByPoint(new THREE.Vector3(this.pos[3 * i], this.pos[3 * i + 1], this.pos[3 * i + 2]));
+    for (let i = 0; i < this.count; i++) b.expandByPoint(new THREE.Vector3(this.at[3 * i], this.at[3 * i + 1], this.at[3 * i + 2]));
     return b;
   }
 }
@@ -229,6 +262,7 @@ const view = {
   connected: false,
   stateSeq: 0,
   stateStamp: 0,
+  mapRelease: 0,       // the fusion core's release the map shows (the newest state's map_release)
   voxelMessages: 0,
   voxelRecords: 0,
   stateMessages: 0,
@@ -236,6 +270,8 @@ const view = {
   fitted: false,
   webgl: !!renderer,
   get voxels() { return cloud.count; },
+  // For the browser test: the voxels as drawn now (VoxelCloud.drawn) with the release they show.
+  drawnMap() { return { release: view.mapRelease, resolution_m: cloud.resolution, voxels: cloud.drawn() }; },
   // For the browser test: every robot's marker position as drawn (the three.js object), with its state.
   robots() {
     return [...robots.values()].map((g) => ({
@@ -251,6 +287,9 @@ const view = {
   },
 };
 window.teamscanView = view;
+
+const removedSelect = document.getElementById('removed');
+removedSelect.addEventListener('change', () => cloud.setHideRemoved(removedSelect.value === 'hide'));
 
 const colourSelect = document.getElementById('colour');
 colourSelect.addEventListener('change', () => {
@@ -290,6 +329,7 @@ function updateTable() {
 function onState(s) {
   view.stateSeq = s.seq;
   view.stateStamp = s.stamp_ns;
+  if (typeof s.map_release === 'number') view.mapRelease = s.map_release;
   view.stateMessages++;
   let added = false;
   for (const r of s.robots) {

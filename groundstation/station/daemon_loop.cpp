@@ -1,0 +1,250 @@
+// teamscan-groundstation's run loop and orderly stop (daemon_loop.hpp).
+#include "groundstation/station/daemon_loop.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <csignal>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+
+#include "common/clock.hpp"
+#include "dds/notify.hpp"
+#include "groundstation/station/daemon_log.hpp"
+
+namespace teamscan::station::daemon {
+
+namespace {
+
+volatile std::sig_atomic_t g_stop = 0;
+void on_stop_signal(int) { g_stop = 1; }
+
+// The loop's clocks and counters. Loop-time counters (STYLE.md 8): the longest handling of one poll's
+// samples, and the teamscan/map publications, which run in this loop too and hold the next take back
+// (docs/demo.md "Scale").
+class RunLoop {
+ public:
+  RunLoop(const GroundStationConfig& cfg, Daemon& d, Duration ping_period)
+      : cfg_{cfg}, d_{d}, st_{*d.station}, ping_period_{ping_period} {}
+
+  // The turn after a stop signal is the last: every held scan released and the map published once
+  // more, so the final map reaches teamscan/map and the view at the release the model is written at.
+  void run() {
+    while (!last_turn_) {
+      last_turn_ = g_stop != 0;
+      tick();
+    }
+  }
+  void log_figures() const;
+
+ private:
+  void tick();
+  void write_model_if_due();
+  void publish_map_if_due();
+  void report_status_if_due();
+
+  const GroundStationConfig& cfg_;
+  Daemon& d_;
+  Station& st_;
+  const Duration ping_period_;
+  Time now_ = now_monotonic();
+  Time next_ping_ = now_;
+  Time next_status_ = now_ + cfg_.status_interval;
+  Time next_write_ = now_ + cfg_.fusion.write_interval;
+  Time next_map_ = now_ + cfg_.fusion.map_interval;
+  std::uint64_t scans_at_write_ = 0;
+  std::uint32_t lost_before_ = 0;
+  std::uint64_t rejected_before_ = 0;
+  Time next_reject_log_ = now_;
+  Duration handle_max_{0}, map_max_{0}, map_total_{0};
+  std::uint64_t map_count_ = 0;
+  bool last_turn_ = false;
+};
+
+// One loop, one tick: wait for data at most until the next team publication is due.
+void RunLoop::tick() {
+  const Time before_poll = now_monotonic();
+  const std::size_t handled = st_.poll(std::min<Duration>(cfg_.station.team_period, std::chrono::milliseconds(50)));
+  now_ = now_monotonic();
+  if (handled > 0) handle_max_ = std::max(handle_max_, now_ - before_poll);
+  if (d_.fusion) {
+    // Held scans that waited long enough go now (the clock, not a sample, releases them: a burst, a
+    // feed that stopped); their matches may move a correction, so the correction the core applies now
+    // goes to the team source before the team is published, not only after the next sample.
+    const Time rt = now_realtime();
+    if (last_turn_) d_.fusion->flush();
+    d_.fusion->tick(rt.ns());
+    d_.corrections.share(d_.fusion->core(), *d_.team_source, rt);
+  }
+  st_.publish_team_if_due(now_);
+  if (d_.ros2) d_.ros2->tick(now_, *d_.team_source);
+  if (d_.view_feeder) d_.view_feeder->tick(now_);
+  if (ping_period_.count() > 0 && now_ >= next_ping_) {
+    dds::notify_watchdog();
+    next_ping_ = now_ + ping_period_;
+  }
+  if (d_.fusion) (void)d_.fusion->poll_write();  // a finished write logged; a coalesced one started
+  write_model_if_due();
+  publish_map_if_due();
+  report_status_if_due();
+}
+
+// The periodic model write: the snapshot in this loop, the files on the writer thread (events.log).
+void RunLoop::write_model_if_due() {
+  if (!d_.fusion || cfg_.fusion.write_interval.count() <= 0 || now_ < next_write_) return;
+  if (d_.fusion->counters().scans != scans_at_write_) {
+    scans_at_write_ = d_.fusion->counters().scans;
+    d_.fusion->request_write();
+    now_ = now_monotonic();
+  }
+  next_write_ = now_ + cfg_.fusion.write_interval;
+}
+
+void RunLoop::publish_map_if_due() {
+  if (!d_.fusion || cfg_.fusion.map_interval.count() <= 0 || (now_ < next_map_ && !last_turn_)) return;
+  // Only the voxels changed since the last publication, and the whole map every kFullMapEvery-th
+  // (teamscan/map is keep-last 1, volatile: a late or lagging viewer catches up from a full one;
+  // total_voxels == the update's length marks a full map). The whole map every time would cost this
+  // loop time in proportion to the mapped space (docs/demo.md "Scale").
+  constexpr std::uint64_t kFullMapEvery = 10;
+  FusionStage& fusion = *d_.fusion;
+  const bool whole = map_count_ % kFullMapEvery == 0 || (d_.view_feeder && d_.view_feeder->wants_whole_map());
+  if (whole) {
+    fusion.map_voxels(d_.map_voxels, &d_.map_robots);
+    fusion.clear_map_changes();
+  } else {
+    fusion.map_voxels_changed(d_.map_voxels, &d_.map_robots);
+  }
+  const std::uint32_t total = fusion.map_total_voxels();
+  if (!d_.map_voxels.empty() && !st_.publish_map(d_.map_voxels, fusion.map_resolution_mm(), total).ok()) {
+    log(kWarning, "fusion: teamscan/map write failed");
+  }
+  if (d_.ros2 && !d_.map_voxels.empty()) d_.ros2->offer_map(d_.map_voxels, total);
+  if (d_.view_feeder) d_.view_feeder->offer_map(d_.map_voxels, d_.map_robots, whole, total, fusion.map_release());
+  const Duration took = now_monotonic() - now_;
+  map_max_ = std::max(map_max_, took);
+  map_total_ += took;
+  ++map_count_;
+  now_ = now_monotonic();
+  next_map_ = now_ + cfg_.fusion.map_interval;
+}
+
+void RunLoop::report_status_if_due() {
+  if (now_ < next_status_) return;
+  const std::string line = st_.status_line();
+  dds::notify_status(line.c_str());
+  if (st_.robots_lost() != lost_before_) {
+    log(kWarning, line);
+    lost_before_ = st_.robots_lost();
+  }
+  // Refused samples and clock reports (docs/validation.md): in the journal at most every 10 s.
+  if (st_.counters().rejected != rejected_before_ && now_ >= next_reject_log_) {
+    log(kWarning, line);
+    rejected_before_ = st_.counters().rejected;
+    next_reject_log_ = now_ + std::chrono::seconds(10);
+  }
+  if (!st_.write_validation()) log(kWarning, "cannot write validation.csv in the session folder");
+  next_status_ = now_ + cfg_.status_interval;
+}
+
+void RunLoop::log_figures() const {
+  char line[200];
+  std::snprintf(line, sizeof line, "loop: longest poll (wait + handling) that took samples %.1f ms; teamscan/map %llu publications, longest %.1f ms, mean %.1f ms",
+                to_seconds(handle_max_) * 1e3, static_cast<unsigned long long>(map_count_), to_seconds(map_max_) * 1e3,
+                map_count_ ? to_seconds(map_total_) * 1e3 / static_cast<double>(map_count_) : 0.0);
+  d_.store->log_event(now_realtime(), line);
+}
+
+void log_ros2_figures(Daemon& d) {
+  const Ros2Counters c = d.ros2->counters();
+  char line[400];
+  std::snprintf(line, sizeof line, "ros2: %llu map updates, %llu clouds (last %llu points, longest %.1f ms, mean %.1f ms on "
+                "its thread), %llu tf, %llu odometry, %llu scans (%llu dropped), %llu write errors; loop's longest "
+                "hand-over %.3f ms, %llu deferred",
+                static_cast<unsigned long long>(c.map_updates), static_cast<unsigned long long>(c.clouds),
+                static_cast<unsigned long long>(c.last_cloud_points), to_seconds(c.cloud_max) * 1e3,
+                c.clouds ? to_seconds(c.cloud_total) * 1e3 / static_cast<double>(c.clouds) : 0.0,
+                static_cast<unsigned long long>(c.tf_messages), static_cast<unsigned long long>(c.odometry),
+                static_cast<unsigned long long>(c.scans), static_cast<unsigned long long>(c.scans_dropped),
+                static_cast<unsigned long long>(c.write_errors), to_seconds(c.offer_max) * 1e3,
+                static_cast<unsigned long long>(c.handovers_deferred));
+  d.store->log_event(now_realtime(), line);
+}
+
+void log_disk_sync_figures(Daemon& d) {
+  const DiskSyncFigures f = d.disk_sync->figures();
+  char text[160];
+  std::snprintf(text, sizeof text, "disk sync: %llu rounds off the loop, %llu failed fdatasync, slowest %.1f ms",
+                static_cast<unsigned long long>(f.syncs), static_cast<unsigned long long>(f.failures),
+                static_cast<double>(f.longest_ns) * 1e-6);
+  d.store->log_event(now_realtime(), text);
+  if (f.failures > 0) log(kErr, text);
+}
+
+}  // namespace
+
+void install_stop_signals() {
+  struct sigaction sa{};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGTERM, &sa, nullptr);
+  sigaction(SIGINT, &sa, nullptr);
+}
+
+std::optional<int> run_until_stopped(const GroundStationConfig& cfg, Daemon& d) {
+  const Duration wd = dds::watchdog_interval();
+  const Duration ping_period = wd.count() > 0 ? wd / 2 : Duration{0};
+  dds::notify_ready();
+  dds::notify_status(("receiving; session " + d.store->dir()).c_str());
+  log(kInfo, "ready" + std::string(wd.count() > 0 ? ", watchdog on" : ""));
+
+  // The session files reach the disk every sync_interval from a thread of their own (disk_sync.hpp):
+  // a slow fdatasync never holds the receive loop.
+  auto disk_sync = DiskSync::start(d.store->file_descriptors(), cfg.sync_interval);
+  if (!disk_sync) {
+    log(kErr, disk_sync.error().what);
+    return 1;
+  }
+  d.disk_sync = std::move(disk_sync.value());
+
+  RunLoop loop{cfg, d, ping_period};
+  loop.run();
+  dds::notify_stopping();
+  if (d.fusion) {
+    const std::string release = std::to_string(d.fusion->map_release());
+    const std::string voxels = std::to_string(d.fusion->map_total_voxels());
+    const std::string released = std::to_string(d.fusion->core().counters().scans_released);
+    d.store->log_event(now_realtime(), "live map: last published at release " + release + " (" + voxels +
+                                           " voxels); the core released " + released + " scans");
+  }
+  if (d.view_feeder) d.view_feeder->offer_snapshot();  // the state with the final map's release
+  if (d.view_server && !d.view_server->flush(std::chrono::seconds(2))) {
+    log(kWarning, "view: the last map did not reach every page in 2 s");
+  }
+  loop.log_figures();
+  return std::nullopt;
+}
+
+void stop_daemon(Daemon& d) {
+  if (d.ros2) {
+    log_ros2_figures(d);
+    d.ros2.reset();
+  }
+  if (d.view_server) {
+    d.store->log_event(now_realtime(), d.view_server->counters().line());
+    d.view_server.reset();  // its thread stops before the station's state goes
+  }
+  log(kInfo, "stopping: " + d.station->status_line());
+  (void)d.station->write_validation();
+  d.store->log_event(now_realtime(), "station stopping: " + d.station->status_line());
+  d.station.reset();  // leave DDS before closing the files
+  d.disk_sync->stop();
+  log_disk_sync_figures(d);
+  d.store->sync();  // the session is complete on disk before the final model write
+  if (d.fusion) {
+    d.fusion->flush();              // every held scan decided with what arrived
+    (void)d.fusion->write_model();  // after any write in flight, synchronous: the models are complete at exit
+  }
+}
+
+}  // namespace teamscan::station::daemon
