@@ -3,7 +3,9 @@
 # machine with apt-get (root), and checks the installed result: the teamscan user, no service enabled,
 # `--version` of the three programs, `--check-config` on the installed example configs,
 # `systemd-analyze verify` (silent) and `systemd-analyze security` (exposure <= 2.0) on the installed
-# units, and a short `teamscan demo` from /usr/bin with the installed loopback DDS config.
+# units, a short `teamscan demo` from /usr/bin with the installed loopback DDS config, and the upgrade
+# path (scripts/check-upgrade.sh): `apt-get install` of newer packages restarts a running station,
+# `apt-get remove` stops it.
 # The packages are removed again at the end (also on failure) unless --keep is given; the teamscan
 # user stays, as Debian leaves system users. Called by .ci/run; runnable by hand as root.
 #   bash scripts/check-install.sh [--keep] [--skip-build]
@@ -108,5 +110,8 @@ rc=0
 grep -q "on loopback (/usr/share/teamscan/cyclonedds-lo.xml)" "$tmp/demo.log" ||
   { head -n 5 "$tmp/demo.log"; fail "the demo did not use the installed loopback DDS config"; }
 tail -n 12 "$tmp/demo.log"
+
+phase "upgrade restarts a running station, remove stops it"
+bash scripts/check-upgrade.sh "$debs" || fail "scripts/check-upgrade.sh"
 
 phase "passed"

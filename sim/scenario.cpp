@@ -363,7 +363,7 @@ ScenarioLoad load_scenario_file(const std::string& path) {
   return parse_scenario(text.str(), path);
 }
 
-std::vector<std::string> builtin_scenario_names() { return {"lap2", "fig8", "team3"}; }
+std::vector<std::string> builtin_scenario_names() { return {"lap2", "fig8", "team3", "loops2-drift"}; }
 
 ScenarioLoad resolve_scenario(const std::string& name_or_path) {
   namespace fs = std::filesystem;

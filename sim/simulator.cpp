@@ -196,6 +196,7 @@ RobotStats run_direct(Run& run, std::size_t ri) {
     ds.odom.push_back({spec.id, run.t0_ns + t_ns, registration * odom, client.forward_velocity_mps(sip), client.yaw_rate_radps(sip)});
     if (t_ns > run.duration_ns) break;
   }
+  if (!run.options.scans) return {.id = spec.id};
 
   // Scans: every beam cast at its own time (laser_geometry.hpp beam_age).
   RobotStats stats;

@@ -67,6 +67,9 @@ struct SimOptions {
   // Called now and then with the fraction done (0..1); for progress on stderr.
   std::function<void(double)> progress;
   bool device_streams = true;
+  // Direct path only (device_streams = false): false = the odometry and the truth alone, no scan and
+  // no point (a long scenario's dead reckoning checked without its ray casts).
+  bool scans = true;
   // Device streams: the links start this long before t = 0 so both devices are up when the robots
   // start to drive (the robots stand still until then).
   double bringup_s = 5.0;

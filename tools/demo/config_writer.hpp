@@ -4,6 +4,7 @@
 
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "common/pose.hpp"
@@ -16,6 +17,8 @@ struct OnboardConfigInput {
   Pose2 registration;                      // map_from_odom: where the robot starts in the map frame
   int domain = 0;                          // DDS domain
   std::optional<double> max_hold_s;        // [odometry] max_hold_s (unset: the daemon's default)
+  std::string ring_path;                   // [ring] path (empty: no store and forward)
+  double ring_capacity_s = 1800.0;         // [ring] capacity_s
 };
 [[nodiscard]] std::string onboard_config(const sim::RobotSpec& spec, const OnboardConfigInput& in);
 
@@ -31,7 +34,12 @@ struct StationConfigInput {
   // A calibration (`teamscan calibrate`'s [[registration.robot]] tables), appended as it is (checked by the
   // caller: station::load_registration_priors); empty: none.
   std::string calibration_toml;
+  std::vector<sim::RobotSpec> robots;  // [[ros2.laser_mount]] per robot: its mount, for /tf_static
 };
 [[nodiscard]] std::string station_config(const StationConfigInput& in);
+
+// `s` as a TOML basic string with its quotes (toml++ formats it: quotes, backslashes and control
+// characters escaped), for the paths and names the configs carry.
+[[nodiscard]] std::string toml_string(std::string_view s);
 
 }  // namespace teamscan::demo

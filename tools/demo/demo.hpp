@@ -65,6 +65,13 @@ struct DemoOptions {
   // Each robot's odometry prior for the registration (`teamscan calibrate`'s output): appended to the
   // station's config and taken by the demo's evaluations; empty: none (docs/registration.md).
   std::string calibration_path;
+  // Radio link faults (docs/radio.md "Link faults"): every process in a network namespace of its own
+  // (needs root), packet loss on every link (--link-loss "20", "20%" or "200pm") and shadows (--shadow
+  // ROBOT:AT:FOR, a robot's link down for a while); the namespaces' names start with netns_prefix
+  // (empty: "tsdemo<pid>-").
+  std::string link_loss;
+  std::vector<std::string> shadows;
+  std::string netns_prefix;
 };
 
 // Whether a scenario's odometry drifts: a robot with a skid-steer term in its [robot.odometry]

@@ -17,7 +17,9 @@
 #include "common/pose.hpp"
 #include "groundstation/station/config.hpp"
 #include "groundstation/fusion/core.hpp"
+#include "groundstation/fusion/core_set.hpp"
 #include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/fusion/time_line.hpp"
 #include "groundstation/station/model_check.hpp"
 #include "groundstation/station/scan_record_read.hpp"
 #include "groundstation/station/session_replay.hpp"
@@ -305,11 +307,11 @@ SessionEvalCheck check_station_against_session_eval(const std::string& session, 
   SessionEvalCheck sc;
   station::GroundStationConfig gcfg;
   if (!read_station_config(station_config, gcfg, sc.error)) return sc;
-  sc.primary = method.empty() || method == gcfg.fusion.method;
-  sc.method = sc.primary ? gcfg.fusion.method : method;
+  sc.primary = method.empty() || method == gcfg.fusion.core.method;
+  sc.method = sc.primary ? gcfg.fusion.core.method : method;
   // With its [registration] (on and its keys): the eval of the session runs with the registration as the
   // station did (`teamscan eval SESSION --registration`), so the identity holds with it on.
-  const station::FusionOptions station_options = station::fusion_options_from_config(gcfg.fusion, gcfg.kalman, gcfg.registration);
+  const station::FusionOptions& station_options = gcfg.fusion;
   auto check = station::check_model_against_eval(
       session, sc.primary ? station_options : station::compared_options(station_options, sc.method));
   if (!check) {
@@ -370,23 +372,23 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
   SessionReplay out;
   station::GroundStationConfig gcfg;
   if (!read_station_config(station_config, gcfg, out.error)) return out;
-  const station::FusionOptions options = station::fusion_options_from_config(gcfg.fusion, gcfg.kalman, gcfg.registration);
-  std::vector<std::string> methods{options.core.method};
-  methods.insert(methods.end(), options.compare_methods.begin(), options.compare_methods.end());
+  const station::FusionOptions& options = gcfg.fusion;
+  // The station's set of cores (fusion/core_set.hpp), fed as the station's restart replay feeds it.
+  auto created = fusion::CoreSet::create(options.core, options.compare_methods);
+  if (!created) {
+    out.error = std::string("fusion cores: ") + created.error().what;
+    return out;
+  }
+  fusion::CoreSet& cores = *created.value();
+  std::vector<std::string> methods;
   std::vector<station::FusionOptions> per_method;
-  std::vector<std::unique_ptr<fusion::FusionCore>> cores;
-  for (const std::string& m : methods) {
-    per_method.push_back(station::compared_options(options, m));
-    auto core = fusion::FusionCore::create(per_method.back().core);
-    if (!core) {
-      out.error = std::string("fusion core for ") + m + ": " + core.error().what;
-      return out;
-    }
-    cores.push_back(std::move(core.value()));
+  for (std::size_t k = 0; k < cores.size(); ++k) {
+    methods.push_back(cores.at(k).options().method);
+    per_method.push_back(station::compared_options(options, methods.back()));
   }
   // With the registration on, where the primary core put every scan and point (off: where the robots did).
   if (options.core.registration) {
-    cores.front()->set_release_callback([&](const fusion::FusedScan& f) {
+    cores.primary().set_release_callback([&](const fusion::FusedScan& f) {
       out.scan_pose[{f.view->robot, f.view->scan}] = f.view->map_from_robot;
       for (std::size_t i = 0; i < f.view->points.size() && i < f.beams.size(); ++i)
         out.placed[station::point_key(f.view->robot, f.view->scan, f.beams[i])] = f.view->points[i];
@@ -394,35 +396,42 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
   }
   // Every sample in arrival order with its receive time, as the station took them (its restart replay).
   station::SessionReadStats stats;
-  station::ScanBuffers buffers;
+  fusion::ScanInput scan;
   const Status st = station::replay_session_files(
-      session,
-      [&](const station::PoseObservation& p) {
-        if (p.robot_id == 0 || p.robot_id > kMaxRobots) return;
-        const fusion::PoseInput in = station::pose_input(p);
-        for (auto& c : cores) c->add_pose(in);
-      },
-      [&](const station::StoredScan& s) {
-        if (s.robot_id == 0 || s.robot_id > kMaxRobots) return;
-        const fusion::ScanInput in = station::scan_input(s, buffers);
-        for (auto& c : cores) (void)c->add_scan(in);
-      },
+      session, [&](const station::PoseObservation& p) { cores.add_pose(station::pose_input(p)); },
+      [&](const station::StoredScan& s) { (void)cores.add_scan(station::scan_input(s, scan)); },
       stats);
   if (!st.ok()) {
     out.error = std::string("session: ") + st.error().what;
     return out;
   }
+  // A scan released late (a robot's back-fill): the station caught up, its final model is
+  // the time order's (station/fusion.hpp FusionStage::flush), and so is the replay's.
+  if (cores.primary().counters().scans_late > 0) {
+    station::SessionReadStats again;
+    Result<Dataset> ds = station::read_session_dataset(session, again);
+    if (!ds) {
+      out.error = std::string("session: ") + ds.error().what;
+      return out;
+    }
+    out.scan_pose.clear();
+    out.placed.clear();
+    if (Result<std::size_t> fed = fusion::refeed_in_time_order(ds.value(), cores); !fed) {
+      out.error = std::string("fusion cores: ") + fed.error().what;
+      return out;
+    }
+  }
   std::error_code ec;
   std::filesystem::create_directories(scratch_dir, ec);
   for (std::size_t k = 0; k < cores.size(); ++k) {
-    cores[k]->flush();
+    cores.at(k).flush();
     ReplayModelCheck mc;
     mc.method = methods[k];
     mc.primary = k == 0;
     const std::string all_name = per_method[k].all_points_pcd.empty() ? station::method_file_name("fused_all.pcd", methods[k])
                                                                       : per_method[k].all_points_pcd;
     const std::string replayed_path = scratch_dir + "/" + all_name;
-    auto written = cores[k]->write_model(scratch_dir + "/" + per_method[k].kept_pcd, replayed_path);
+    auto written = fusion::write_model_files(cores.at(k), scratch_dir + "/" + per_method[k].kept_pcd, replayed_path);
     auto station_cloud = read_pcd(session + "/" + all_name);
     auto replay_cloud = read_pcd(replayed_path);
     if (!written || !station_cloud || !replay_cloud) {
@@ -459,7 +468,7 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
                    mc.decisions_differ == 0 && mc.placed_differ == 0;
     out.models.push_back(mc);
   }
-  if (const registration::Registration* reg = cores.front()->registration()) {
+  if (const registration::Registration* reg = cores.primary().registration()) {
     for (std::uint8_t id = 1; id <= kMaxRobots; ++id)
       if (const registration::RobotCorrection* c = reg->correction(id)) out.robots.push_back(*c);
   }
@@ -471,7 +480,7 @@ LiveRegistrationScore score_live_registration(const std::string& session, const 
   LiveRegistrationScore out;
   station::GroundStationConfig gcfg;
   if (!read_station_config(station_config, gcfg, out.error)) return out;
-  out.enabled = station::fusion_options_from_config(gcfg.fusion, gcfg.kalman, gcfg.registration).core.registration;
+  out.enabled = gcfg.fusion.core.registration;
   if (!replay.error.empty()) {
     out.error = replay.error;
     return out;

@@ -105,7 +105,9 @@ struct SessionEvalCheck {
     const std::vector<std::uint32_t>& point_seq);
 
 // The station's models against its own fusion core replaying its session in arrival order (each
-// sample with its receive time, as the station's restart rebuilds it: FusionStage::replay_session):
+// sample with its receive time, as the station's restart rebuilds it: FusionStage::replay_session; when
+// a scan was released late (CoreCounters::scans_late), a robot's back-fill, the session again in time order, as the
+// station's catch-up feeds it: FusionStage::flush):
 // every model row's decision (keep) and position compared, per model (its [fusion] method first, then
 // each compare_method). With the registration on, this is the identity the demo requires: the
 // registration's corrections follow the order the core releases scans in, which live is the arrival

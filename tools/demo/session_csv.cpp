@@ -109,26 +109,32 @@ Result<std::vector<StatusRow>> read_status_csv(const std::string& path, std::siz
   if (!table) return table.error();
   const CsvTable& t = table.value();
   static const char* const kNames[] = {"robot_id",          "stamp_ns",          "lms_state",           "scans_published",
-                                       "lms_reopens",       "points_team_stale", "corrections_applied", "corrections_rejected"};
+                                       "lms_reopens",       "points_team_stale", "corrections_applied", "corrections_rejected",
+                                       "ring_unconfirmed",  "shadow_ms",         "last_shadow_ms",      "backfill_total",
+                                       "backfill_remaining"};
   // Error texts are static (common/result.hpp): one per column, the missing one named.
   static const char* const kMissing[] = {
       "status.csv lacks the column robot_id",        "status.csv lacks the column stamp_ns",
       "status.csv lacks the column lms_state",       "status.csv lacks the column scans_published",
       "status.csv lacks the column lms_reopens",     "status.csv lacks the column points_team_stale",
-      "status.csv lacks the column corrections_applied", "status.csv lacks the column corrections_rejected"};
-  std::size_t cols[8];
-  if (const std::size_t m = columns(t, kNames, cols); m < 8) return Error{kMissing[m]};
+      "status.csv lacks the column corrections_applied", "status.csv lacks the column corrections_rejected",
+      "status.csv lacks the column ring_unconfirmed", "status.csv lacks the column shadow_ms",
+      "status.csv lacks the column last_shadow_ms",  "status.csv lacks the column backfill_total",
+      "status.csv lacks the column backfill_remaining"};
+  constexpr std::size_t kColumns = std::size(kNames);
+  std::size_t cols[kColumns];
+  if (const std::size_t m = columns(t, kNames, cols); m < kColumns) return Error{kMissing[m]};
   std::vector<StatusRow> out;
   std::size_t bad = t.bad_rows();
   for (std::size_t r = 0; r < t.rows(); ++r) {
-    std::int64_t v[8];
+    std::int64_t v[kColumns];
     if (!integers(t, r, cols, v)) {
       ++bad;
       continue;
     }
-    out.push_back({static_cast<std::uint32_t>(v[0]), v[1], static_cast<unsigned>(v[2]), static_cast<std::uint32_t>(v[3]),
-                   static_cast<std::uint32_t>(v[4]), static_cast<std::uint32_t>(v[5]), static_cast<std::uint64_t>(v[6]),
-                   static_cast<std::uint64_t>(v[7])});
+    const auto u32 = [&](std::size_t k) { return static_cast<std::uint32_t>(v[k]); };
+    out.push_back({u32(0), v[1], static_cast<unsigned>(v[2]), u32(3), u32(4), u32(5), static_cast<std::uint64_t>(v[6]),
+                   static_cast<std::uint64_t>(v[7]), u32(8), u32(9), u32(10), u32(11), u32(12)});
   }
   if (bad_rows) *bad_rows = bad;
   return out;

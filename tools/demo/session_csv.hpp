@@ -46,6 +46,8 @@ struct StatusRow {
   std::uint32_t points_team_stale = 0;
   std::uint64_t corrections_applied = 0;   // its own odometry corrections taken from teamscan/team
   std::uint64_t corrections_rejected = 0;  // … and refused (an absurd step)
+  // Store and forward (docs/onboard.md "The ring"): as the robot reported them.
+  std::uint32_t ring_unconfirmed = 0, shadow_ms = 0, last_shadow_ms = 0, backfill_total = 0, backfill_remaining = 0;
 };
 
 // One pose as stored in poses.csv (wire units).

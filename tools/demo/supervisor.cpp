@@ -32,16 +32,20 @@ Result<pid_t> Supervisor::spawn(const std::vector<std::string>& argv, const std:
       ::dup2(fd, 1);
       ::dup2(fd, 2);
     }
-    std::vector<char*> args;
-    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    ::execv(args[0], args.data());
-    std::fprintf(stderr, "exec %s: %s\n", args[0], std::strerror(errno));
-    ::_exit(127);
+    exec_or_exit(argv);
   }
   ::setpgid(pid, pgid_);  // also from the parent: no race with the child's own call
   if (pgid_ == 0) pgid_ = pid;
   return pid;
+}
+
+void exec_or_exit(const std::vector<std::string>& argv) {
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  ::execv(args[0], args.data());
+  std::fprintf(stderr, "exec %s: %s\n", args[0], std::strerror(errno));
+  ::_exit(127);
 }
 
 void Supervisor::kill_group() {

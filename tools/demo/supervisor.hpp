@@ -41,6 +41,9 @@ class Supervisor {
   pid_t pgid_ = 0;
 };
 
+// In a forked child: replaces it with argv[0] (a path) and `argv`; on failure says why on stderr and exits 127.
+[[noreturn]] void exec_or_exit(const std::vector<std::string>& argv);
+
 // Collects `c`'s exit if it has exited (block: waits for it).
 void reap(Child& c, bool block);
 // SIGTERM, then SIGKILL after `grace`; reaps.

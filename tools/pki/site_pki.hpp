@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "common/result.hpp"
 #include "dds/security/openssl_util.hpp"
 
 namespace teamscan::pki {
@@ -30,15 +31,15 @@ struct SiteOptions {
   std::int64_t identity_days = 365;
 };
 
-// Each returns "" on success, else a clear reason.
-[[nodiscard]] std::string create_site(const std::string& dir, const SiteOptions& options);
+// Each returns an error that names what failed (a file, an identity, OpenSSL's reason).
+[[nodiscard]] Status create_site(const std::string& dir, const SiteOptions& options);
 // A new (or renewed) identity `name` (robotN or station) valid from not_before_s to not_after_s; its
 // permissions grant has the same validity.
-[[nodiscard]] std::string issue_identity(const std::string& dir, const std::string& name, std::int64_t not_before_s,
-                                         std::int64_t not_after_s);
+[[nodiscard]] Status issue_identity(const std::string& dir, const std::string& name, std::int64_t not_before_s,
+                                    std::int64_t not_after_s);
 // Adds name's certificate to the site CRL, copies the new CRL into every remaining bundle, and moves the
 // bundle to revoked/<name>/ without its key. Install the new crl.pem on every host, then restart.
-[[nodiscard]] std::string revoke_identity(const std::string& dir, const std::string& name, std::int64_t now_s);
+[[nodiscard]] Status revoke_identity(const std::string& dir, const std::string& name, std::int64_t now_s);
 
 struct SiteReport {
   std::vector<std::string> lines;            // one per participant and for the CA
@@ -54,19 +55,19 @@ struct SiteReport {
 
 // The pieces, for tools and tests that build credentials by hand (another CA, an expired identity).
 struct CertAuthority {
-  security::EvpKeyPtr key;
-  security::X509Ptr cert;
+  dds::security::EvpKeyPtr key;
+  dds::security::X509Ptr cert;
 };
-[[nodiscard]] security::EvpKeyPtr make_key();  // EC P-256
+[[nodiscard]] dds::security::EvpKeyPtr make_key();  // EC P-256
 [[nodiscard]] CertAuthority make_ca(const std::string& organization, std::int64_t not_before_s, std::int64_t not_after_s);
-[[nodiscard]] security::X509Ptr issue_cert(const CertAuthority& ca, EVP_PKEY* key, const std::string& cn,
+[[nodiscard]] dds::security::X509Ptr issue_cert(const CertAuthority& ca, EVP_PKEY* key, const std::string& cn,
                                            const std::string& organization, std::int64_t not_before_s,
                                            std::int64_t not_after_s);
 [[nodiscard]] std::string sign_smime(const CertAuthority& ca, const std::string& text);  // "" on failure
 [[nodiscard]] std::string crl_pem(const CertAuthority& ca, const std::vector<X509*>& revoked, std::int64_t now_s);
 // Writes a private key with mode 0600 (created so, and fchmod'ed if it existed).
-[[nodiscard]] std::string write_private_key(const std::string& path, EVP_PKEY* key);
-[[nodiscard]] std::string write_text(const std::string& path, const std::string& text);
+[[nodiscard]] Status write_private_key(const std::string& path, EVP_PKEY* key);
+[[nodiscard]] Status write_text(const std::string& path, const std::string& text);
 [[nodiscard]] std::string cert_pem(X509* cert);
 
 }  // namespace teamscan::pki

@@ -356,6 +356,26 @@ Camera camera_for(const RenderInput& input, const RenderOptions& options) {
   return Camera::fit(options.view, lo, hi, plot_rect(options), samples);
 }
 
+// The robots' tracks on the floor (DESIGN: "each robot path is shown"), a line two pixels wide.
+static void draw_tracks(Canvas& canvas, const Camera& camera, const RenderInput& in, const RenderOptions& o, std::vector<float>& zbuf) {
+  if (!o.draw_tracks || o.view == View::side) return;
+  for (std::size_t t = 0; t < in.tracks.size(); ++t) {
+    const auto& pts = in.tracks[t].points_m;
+    for (std::size_t k = 1; k < pts.size(); ++k) {
+      const auto a = camera.project(pts[k - 1]), b = camera.project(pts[k]);
+      if (!a.visible || !b.visible) continue;
+      const int steps = std::max(1, static_cast<int>(std::ceil(std::max(std::fabs(b.u - a.u), std::fabs(b.v - a.v)))));
+      if (steps > 100000) continue;  // a jump across the picture: data error, skip the segment
+      for (int s = 0; s <= steps; ++s) {
+        const double f = static_cast<double>(s) / steps;
+        // In perspective the track is hidden behind walls but drawn over the floor: 0.1 m depth bias.
+        const double depth = o.view == View::perspective ? a.depth + f * (b.depth - a.depth) - 0.1 : -1e30;
+        canvas.splat(a.u + f * (b.u - a.u), a.v + f * (b.v - a.v), depth, 2, track_colour(t), zbuf);
+      }
+    }
+  }
+}
+
 Result<Image> render(const RenderInput& in, const RenderOptions& o) {
   if (o.width_px < 32 || o.height_px < 32 || o.width_px > 16384 || o.height_px > 16384)
     return Error{"image size must be 32..16384 pixels each way"};
@@ -433,24 +453,7 @@ Result<Image> render(const RenderInput& in, const RenderOptions& o) {
     const auto px = camera.project({p.x, p.y, p.z});
     if (px.visible) canvas.splat(px.u, px.v, px.depth, size, shade(c, px.depth), zbuf);
   }
-  // Tracks on the floor (DESIGN: "each robot path is shown"), a line two pixels wide.
-  if (o.draw_tracks && o.view != View::side) {
-    for (std::size_t t = 0; t < in.tracks.size(); ++t) {
-      const auto& pts = in.tracks[t].points_m;
-      for (std::size_t k = 1; k < pts.size(); ++k) {
-        const auto a = camera.project(pts[k - 1]), b = camera.project(pts[k]);
-        if (!a.visible || !b.visible) continue;
-        const int steps = std::max(1, static_cast<int>(std::ceil(std::max(std::fabs(b.u - a.u), std::fabs(b.v - a.v)))));
-        if (steps > 100000) continue;  // a jump across the picture: data error, skip the segment
-        for (int s = 0; s <= steps; ++s) {
-          const double f = static_cast<double>(s) / steps;
-          // In perspective the track is hidden behind walls but drawn over the floor: 0.1 m depth bias.
-          const double depth = o.view == View::perspective ? a.depth + f * (b.depth - a.depth) - 0.1 : -1e30;
-          canvas.splat(a.u + f * (b.u - a.u), a.v + f * (b.v - a.v), depth, 2, track_colour(t), zbuf);
-        }
-      }
-    }
-  }
+  draw_tracks(canvas, camera, in, o, zbuf);
   std::fill(zbuf.begin(), zbuf.end(), std::numeric_limits<float>::infinity());
   for (const std::size_t i : overlay) {
     const auto& p = in.points[i];

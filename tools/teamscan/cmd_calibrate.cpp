@@ -21,7 +21,7 @@ namespace {
 struct CalibrateArgs {
   std::vector<std::string> dirs;
   std::string out;
-  mapping::CalibrationOptions options;
+  fusion::CalibrationOptions options;
 };
 
 // A data set folder (`teamscan sim`, `teamscan import`) or a ground-station session folder.
@@ -34,7 +34,7 @@ Result<Dataset> read_drive(const std::string& dir) {
 }
 
 int run_calibrate(const CalibrateArgs& a) {
-  std::vector<mapping::Calibration> drives;
+  std::vector<fusion::Calibration> drives;
   std::string comment = "teamscan calibrate: each robot's odometry prior for the station's [registration] or\n"
                         "`teamscan eval --calibration` (docs/registration.md \"Odometry prior and calibration\"), from:";
   for (const std::string& dir : a.dirs) {
@@ -44,9 +44,14 @@ int run_calibrate(const CalibrateArgs& a) {
       std::fprintf(stderr, "teamscan calibrate: %s: %s\n", dir.c_str(), drive.error().what);
       return 1;
     }
-    drives.push_back(mapping::calibrate_drive(drive.value(), a.options));
+    Result<fusion::Calibration> calibrated = fusion::calibrate_drive(drive.value(), a.options);
+    if (!calibrated) {
+      std::fprintf(stderr, "teamscan calibrate: %s: %s\n", dir.c_str(), calibrated.error().what);
+      return 1;
+    }
+    drives.push_back(std::move(calibrated.value()));
     comment += "\n  " + dir + " (scenario " + drive.value().scenario + ", seed " + std::to_string(drive.value().seed) + ")";
-    for (const mapping::RobotCalibration& r : drives.back().robots)
+    for (const fusion::RobotCalibration& r : drives.back().robots)
       std::fprintf(stderr, "  robot %d: scale %+.3f %%, drift %+.4f deg/m, turn %+.3f %% (σ %.3f %%, %.4f deg/m, %.3f %%), "
                            "%llu of %llu matches, %.1f m%s\n",
                    int{r.robot}, 100.0 * r.estimate.scale, rad_to_deg(r.estimate.drift_rad_per_m),
@@ -55,8 +60,8 @@ int run_calibrate(const CalibrateArgs& a) {
                    static_cast<unsigned long long>(r.accepted), static_cast<unsigned long long>(r.matches), r.path_m,
                    r.calibrated ? "" : " (not calibrated: too little path or too few matches)");
   }
-  const mapping::Calibration combined = mapping::combine_drives(drives, a.options);
-  const std::string text = mapping::calibration_toml(combined, comment);
+  const fusion::Calibration combined = fusion::combine_drives(drives, a.options);
+  const std::string text = fusion::calibration_toml(combined, comment);
   if (a.out.empty() || a.out == "-") {
     std::fputs(text.c_str(), stdout);
     return 0;

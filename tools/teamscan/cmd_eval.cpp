@@ -1,7 +1,8 @@
 // `teamscan eval DIR…`: runs the tracker and the paper's filters on labelled data sets and prints,
-// per data set, the paper's metrics, SA/DA/AA/HA, the share kept per class and Table 1 (issue 5).
+// per data set, the paper's metrics, SA/DA/AA/HA, the share kept per class and Table 1.
 // Thin: the work is in groundstation/fusion/evaluation.hpp.
 #include <cctype>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -16,7 +17,10 @@
 #include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/station/config.hpp"
 #include "groundstation/station/session_replay.hpp"
+#include "tools/demo/eval_report.hpp"
+#include "tools/demo/progress.hpp"
 #include "tools/teamscan/subcommand.hpp"
+#include "tools/teamscan/support_slam.hpp"
 #if __has_include("tools/render/render.hpp")
 #include "tools/render/render.hpp"
 #endif
@@ -25,8 +29,8 @@ namespace teamscan::tool {
 namespace {
 
 using mapping::DirectionSource;
-using mapping::EvalOptions;
-using mapping::EvalReport;
+using fusion::EvalOptions;
+using fusion::EvalReport;
 using mapping::MethodOptions;
 using mapping::PlaneErrorReference;
 
@@ -51,6 +55,7 @@ struct EvalArgs {
   std::optional<double> prior_turn_percent, prior_turn_sigma_percent;
   std::string json_path;
   std::string out_dir;
+  bool quiet = false;  // no progress on stderr
   // Named interpretations of the paper (PAPER_NOTES.md), defaults as there.
   double frequency_k = 0.0;
   double grid_origin_z_m = 0.0;
@@ -66,16 +71,16 @@ struct EvalArgs {
   double floor_max_tilt_deg = 15.0;
   double floor_max_height_m = 0.5;
   std::string plane_error = "sample";
-  double accel_noise_mps2 = 0.5;
-  double position_noise_m = 0.02;
-  double velocity_noise_mps = 0.05;
+  double accel_noise_mps2 = mapping::TrackerOptions{}.accel_noise_mps2;
+  double position_noise_m = mapping::TrackerOptions{}.position_noise_m;
+  double velocity_noise_mps = mapping::TrackerOptions{}.velocity_noise_mps;
   // Odometry drift model of the tracker (TrackerOptions::drift_*; docs/beyond.md "Drift").
   double drift_m_per_m = mapping::TrackerOptions{}.drift_m_per_m;
   double drift_deg_per_m = mapping::TrackerOptions{}.drift_heading_rad_per_m * 180.0 / 3.14159265358979323846;
   double drift_deg_per_deg = mapping::TrackerOptions{}.drift_heading_rad_per_rad;
   // The fusion core's decision lag (TrackerOptions::team_lag_s; the station's fusion.team_lag_s).
   double team_lag_s = mapping::TrackerOptions{}.team_lag_s;
-  // Issue 7 (docs/beyond.md): localisation noise on what the filters see, and the new methods' knobs.
+  // Beyond the paper (docs/beyond.md): localisation noise on what the filters see, and the new methods' knobs.
   double pose_noise_m = 0.0;
   double pose_noise_deg = 0.0;
   double pose_noise_correlation_s = 1.0;
@@ -96,6 +101,7 @@ struct EvalArgs {
   double tracked_low_outline_margin_m = mapping::TrackedOptions{}.low_outline_margin_m;
   // Table-top heights (m): report the kept share of furniture points whose true z is within 3 cm of one.
   std::vector<double> top_heights_m;
+  SlamEvalArgs slam;  // --trajectory-out, --relations (support_slam.hpp)
 };
 
 std::string number(double v) {
@@ -163,10 +169,12 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.tracked_low_outline_margin_m != d.tracked_low_outline_margin_m)
     o << " --tracked-low-outline-margin " << number(a.tracked_low_outline_margin_m);
   for (double h : a.top_heights_m) o << " --top-height " << number(h);
+  if (a.slam.pose_graph) o << " --pose-graph";
+  if (!a.slam.relations_path.empty()) o << " --relations " << a.slam.relations_path;
   return o.str();
 }
 
-// Issue 7 "furniture-top kept": the simulator labels a table top like any furniture, so tops are
+// "Furniture-top kept": the simulator labels a table top like any furniture, so tops are
 // measured by geometry: furniture points whose true height is within 3 cm of a given top height.
 std::string furniture_top_table(const Dataset& d, const EvalReport& report, const std::vector<double>& heights_m) {
   std::vector<std::size_t> tops;
@@ -183,7 +191,7 @@ std::string furniture_top_table(const Dataset& d, const EvalReport& report, cons
   o << "Furniture tops (furniture points with true z within 3 cm of";
   for (double h : heights_m) o << " " << number(h);
   o << " m): " << tops.size() << " points\n\n| method | furniture-top kept % |\n| --- | ---: |\n";
-  for (const mapping::MethodResult& m : report.methods) {
+  for (const fusion::MethodResult& m : report.methods) {
     std::size_t kept = 0;
     for (std::size_t i : tops) kept += m.removed[i] ? 0 : 1;
     char buf[32];
@@ -219,7 +227,7 @@ std::string write_pictures(const Dataset& dataset, const EvalReport& report, con
   const std::string all = prefix + "-all-top.png";
   if (render::render_dataset_png(out_dir + "/" + all, dataset, {}, options)) md += "![all points](" + all + ")\n";
   options.color = render::ColorMode::filter;
-  for (const mapping::MethodResult& m : report.methods) {
+  for (const fusion::MethodResult& m : report.methods) {
     std::vector<std::uint8_t> keep(m.removed.size());
     for (std::size_t i = 0; i < keep.size(); ++i) keep[i] = m.removed[i] ? 0 : 1;
     std::string shown = m.name;  // the picture font has no '@'
@@ -282,9 +290,8 @@ bool odometry_priors(const EvalArgs& a, registration::RegistrationOptions& o) {
   return true;
 }
 
-int run_eval(const EvalArgs& a) {
-  registration::RegistrationOptions priors;  // only its prior and robot_priors are used
-  if (!odometry_priors(a, priors)) return 2;
+// The filters' options from the command line (the named interpretations of the paper and beyond).
+MethodOptions method_options(const EvalArgs& a) {
   MethodOptions base;
   base.frequency.k = a.frequency_k;
   base.frequency.grid_origin_z_m = base.visibility.grid_origin_z_m = base.combined_grid_origin_z_m = a.grid_origin_z_m;
@@ -312,13 +319,13 @@ int run_eval(const EvalArgs& a) {
   base.tracked.low_margin_m = a.tracked_low_margin_m;
   base.tracked.low_floor_n_sigma = a.tracked_low_floor_n_sigma;
   base.tracked.low_outline_margin_m = a.tracked_low_outline_margin_m;
-  auto methods = mapping::parse_methods(a.methods, a.resolution_m, a.half_angle_deg, base);
-  if (!methods) {
-    std::fprintf(stderr, "teamscan eval: --method %s: %s\n", a.methods.c_str(), methods.error().what);
-    return 2;
-  }
+  return base;
+}
+
+// The evaluation's options from the command line, but for its methods and the registration's options,
+// which depend on the data set.
+EvalOptions eval_options(const EvalArgs& a) {
   EvalOptions options;
-  options.methods = methods.value();
   options.ransac.threshold_m = a.ransac_threshold_m;
   options.ransac.iterations = a.ransac_iterations;
   options.ransac.seed = a.seed;
@@ -337,33 +344,63 @@ int run_eval(const EvalArgs& a) {
   options.pose_noise.correlation_s = a.pose_noise_correlation_s;
   options.pose_noise.seed = a.seed;
   options.registration = a.registration && !a.no_registration;
+  return options;
+}
 
-  std::string markdown, json;
+// A data set folder (`teamscan sim`'s) or a ground-station session folder (scans.bin, no dataset.toml),
+// read as what the station received and decided by the same fusion core
+// (groundstation/station/session_replay.hpp).
+Result<Dataset> read_eval_input(const std::string& dir) {
+  if (std::filesystem::exists(dir + "/dataset.toml") || !std::filesystem::exists(dir + "/scans.bin")) return read_dataset(dir);
+  station::SessionReadStats stats;
+  Result<Dataset> dataset = station::read_session_dataset(dir, stats);
+  if (stats.bad_pose_lines + stats.bad_scan_records > 0)
+    std::fprintf(stderr, "teamscan eval: %s: skipped %llu bad poses.csv lines and %llu bad scans.bin records\n", dir.c_str(),
+                 static_cast<unsigned long long>(stats.bad_pose_lines), static_cast<unsigned long long>(stats.bad_scan_records));
+  return dataset;
+}
+
+// One data set: the report object; several: an array of them.
+std::string joined_json(const std::vector<std::string>& jsons) {
+  if (jsons.size() == 1) return jsons.front();
+  std::string json = "[\n";
+  for (std::size_t i = 0; i < jsons.size(); ++i) json += (i ? ",\n" : "") + jsons[i];
+  json += "]\n";
+  return json;
+}
+
+int run_eval(const EvalArgs& a) {
+  registration::RegistrationOptions priors;  // only its prior and robot_priors are used
+  if (!odometry_priors(a, priors)) return 2;
+  const MethodOptions base = method_options(a);
+  auto methods = fusion::parse_methods(a.methods, a.resolution_m, a.half_angle_deg, base);
+  if (!methods) {
+    std::fprintf(stderr, "teamscan eval: --method %s: %s\n", a.methods.c_str(), methods.error().what);
+    return 2;
+  }
+  EvalOptions options = eval_options(a);
+  options.methods = methods.value();
+  std::string markdown;
   std::vector<std::string> jsons;
   int status = 0;
+  // Progress on stderr: a bar on a terminal, a line every few seconds otherwise (--quiet: none).
+  demo::Progress progress(a.quiet);
+  const auto started = std::chrono::steady_clock::now();
   for (const std::string& dir : a.dirs) {
-    std::fprintf(stderr, "teamscan eval: reading %s\n", dir.c_str());
-    // A ground-station session folder (scans.bin, no dataset.toml) is read as what the station received
-    // and decided by the same fusion core (groundstation/station/session_replay.hpp).
-    Result<Dataset> dataset = Error{""};
-    if (!std::filesystem::exists(dir + "/dataset.toml") && std::filesystem::exists(dir + "/scans.bin")) {
-      station::SessionReadStats stats;
-      dataset = station::read_session_dataset(dir, stats);
-      if (stats.bad_pose_lines + stats.bad_scan_records > 0)
-        std::fprintf(stderr, "teamscan eval: %s: skipped %llu bad poses.csv lines and %llu bad scans.bin records\n", dir.c_str(),
-                     static_cast<unsigned long long>(stats.bad_pose_lines), static_cast<unsigned long long>(stats.bad_scan_records));
-    } else {
-      dataset = read_dataset(dir);
-    }
+    progress.stage("teamscan eval: reading " + dir);
+    Result<Dataset> dataset = read_eval_input(dir);
     if (!dataset) {
       std::fprintf(stderr, "teamscan eval: %s: %s\n", dir.c_str(), describe(dataset.error()).c_str());
       status = 1;
       continue;
     }
-    options.progress = [&](const std::string& stage) { std::fprintf(stderr, "teamscan eval: %s: %s\n", dir.c_str(), stage.c_str()); };
+    options.progress = [&](const std::string& stage, double fraction) {
+      const double at_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      progress.update(fraction, at_s, dir + ": " + stage);
+    };
     // An imported 2-D log (level lasers; not a session folder, whose robots carry no mount): the
     // registration's policy for sparse planar scans.
-    const bool planar = std::filesystem::exists(dir + "/dataset.toml") && mapping::level_lasers(dataset.value());
+    const bool planar = std::filesystem::exists(dir + "/dataset.toml") && fusion::level_lasers(dataset.value());
     options.registration_options = planar ? registration::planar_scan_options() : registration::RegistrationOptions{};
     if (a.registration_window_s) {
       options.registration_options.window_s = *a.registration_window_s;
@@ -373,7 +410,19 @@ int run_eval(const EvalArgs& a) {
     options.registration_options.robot_priors = priors.robot_priors;
     if (a.registration_min_correspondences)
       options.registration_options.match.min_correspondences = static_cast<std::size_t>(*a.registration_min_correspondences);
-    EvalReport report = mapping::evaluate(dataset.value(), options);
+    Result<EvalReport> evaluated = fusion::evaluate(dataset.value(), options);
+    progress.finish();
+    if (!evaluated) {
+      std::fprintf(stderr, "teamscan eval: %s: %s\n", dir.c_str(), evaluated.error().what);
+      status = 1;
+      continue;
+    }
+    EvalReport& report = evaluated.value();
+    const SlamEvalOutput slam =
+        a.slam.pose_graph ? slam_eval_outputs(a.slam, dataset.value(), pose_graph_poses(dataset.value()), {}, "pose graph")
+                          : slam_eval_outputs(a.slam, dataset.value(), report.scan_poses, report.scan_decided,
+                                              options.registration ? "registration" : "odometry");
+    status = slam.ok ? status : 1;
     // The pictures show the cloud the metrics were computed on: where the fusion core put every point.
     if (options.registration)
       for (std::size_t i = 0; i < report.placed.size() && i < dataset.value().points.size(); ++i) {
@@ -393,7 +442,7 @@ int run_eval(const EvalArgs& a) {
       dataset.value().odom = std::move(track);
     }
     const std::string command = reproduce_command(a, dir);
-    const std::string md = mapping::report_markdown(report, command);
+    const std::string md = demo::report_markdown(report, command);
     std::fputs(md.c_str(), stdout);
     std::fputs("\n", stdout);
     markdown += md + "\n";
@@ -408,16 +457,16 @@ int run_eval(const EvalArgs& a) {
       std::filesystem::create_directories(a.out_dir, ec);
       markdown += write_pictures(dataset.value(), report, a.out_dir) + "\n";
     }
-    jsons.push_back(mapping::report_json(report, command));
+    if (!slam.markdown.empty()) {
+      std::fputs(slam.markdown.c_str(), stdout);
+      std::fputs("\n", stdout);
+      markdown += slam.markdown + "\n";
+    }
+    demo::ReportJson report_value = demo::report_json_value(report, command);
+    if (!slam.relations.is_null()) report_value["relations"] = slam.relations;
+    jsons.push_back(demo::json_report(report_value));
   }
-  // One data set: the report object; several: an array of them.
-  if (jsons.size() == 1) {
-    json = jsons.front();
-  } else {
-    json = "[\n";
-    for (std::size_t i = 0; i < jsons.size(); ++i) json += (i ? ",\n" : "") + jsons[i];
-    json += "]\n";
-  }
+  const std::string json = joined_json(jsons);
   if (!a.json_path.empty() && !write_file(a.json_path, json)) {
     std::fprintf(stderr, "teamscan eval: cannot write %s\n", a.json_path.c_str());
     status = 1;
@@ -430,7 +479,7 @@ int run_eval(const EvalArgs& a) {
       std::fprintf(stderr, "teamscan eval: cannot write the report into %s\n", a.out_dir.c_str());
       status = 1;
     } else {
-      std::fprintf(stderr, "teamscan eval: wrote %s/report.md and report.json\n", a.out_dir.c_str());
+      progress.stage("teamscan eval: wrote " + a.out_dir + "/report.md and report.json");
     }
   }
   return status;
@@ -454,7 +503,7 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
   app.add_flag("--no-registration", a->no_registration, "Odometry alone (the default)");
   app.add_option("--registration-window", a->registration_window_s,
                  "Registration: a robot's recent points matched as one rigid piece, seconds ([registration] window_s; "
-                 "default 3; an imported 2-D log: the last scan, by path, docs/registration.md)")
+                 "default 2.5; an imported 2-D log: the last scan, by path, docs/registration.md)")
       ->check(CLI::Range(0.1, 60.0));
   app.add_option("--registration-min-correspondences", a->registration_min_correspondences,
                  "Registration: a match needs at least this many features with a correspondence (default 25)")
@@ -479,6 +528,7 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
                  "… and its σ (%, default " + number(100.0 * d.sigma_turn) + ")");
   app.add_option("--seed", a->seed, "RANSAC seed (the report is deterministic for a seed)")->capture_default_str();
   app.add_option("--json", a->json_path, "Write the JSON report to FILE");
+  app.add_flag("--quiet,-q", a->quiet, "No progress on stderr (errors only)");
   app.add_option("--out", a->out_dir, "Write report.md and report.json (and pictures) into REPORTDIR");
   app.add_option("--k", a->frequency_k, "Frequency filter: remove if count < mean - k*stddev (paper: no value)")
       ->capture_default_str();
@@ -526,7 +576,7 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
                  "(the station's fusion.team_lag_s; 0: exact)")
       ->check(CLI::Range(0.0, 10.0))->capture_default_str();
   app.add_option("--pose-noise-m", a->pose_noise_m,
-                 "Localisation noise added to the poses the filters see: sigma per axis (m; issue 7, docs/beyond.md)")
+                 "Localisation noise added to the poses the filters see: sigma per axis (m; docs/beyond.md)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--pose-noise-deg", a->pose_noise_deg, "Localisation noise: heading sigma (deg)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
@@ -571,6 +621,7 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
   app.add_option("--tracked-low-outline-margin", a->tracked_low_outline_margin_m,
                  "tracked/best: margin of the wheel outline for floor-consistent low points (m; negative = off)")
       ->capture_default_str();
+  add_slam_eval_options(app, a->slam);
   app.add_option("--top-height", a->top_heights_m,
                  "Table-top height (m, repeatable): also report the kept share of furniture points within 3 cm of it");
   return [a] { return run_eval(*a); };

@@ -36,16 +36,16 @@ bool parse_domains(const std::string& s, pki::SiteOptions& o) {
   return true;
 }
 
-int report(const char* what, const std::string& error) {
-  if (!error.empty()) {
-    std::fprintf(stderr, "teamscan pki %s: %s\n", what, error.c_str());
+int report(const char* what, const Status& s) {
+  if (!s.ok()) {
+    std::fprintf(stderr, "teamscan pki %s: %s\n", what, s.error().what);
     return 1;
   }
   return 0;
 }
 
 int run_init(PkiArgs& a) {
-  if (!parse_domains(a.domains, a.site)) return report("init", "--domains takes N or N-M");
+  if (!parse_domains(a.domains, a.site)) return report("init", Error{"--domains takes N or N-M"}) == 0 ? 0 : 2;  // usage
   a.site.now_s = now_s();
   a.site.identity_days = a.days;
   if (report("init", pki::create_site(a.dir, a.site)) != 0) return 1;

@@ -67,7 +67,7 @@ int run_record(const RecordOptions& opt) {
   const DeviceKind kind = device_kind_from_string(opt.device_kind);
   if (!serial::is_supported_baud(opt.baud)) {
     std::fprintf(stderr, "teamscan record: unsupported --baud %u\n", opt.baud);
-    return 1;
+    return 2;
   }
   auto device = serial::SerialPort::open(opt.device_path.c_str(), opt.baud);
   if (!device) {

@@ -28,18 +28,24 @@ int fail(const std::string& where, const Error& e) {
   return 1;
 }
 
+// A bad option value: a usage error, exit 2.
+int usage(const std::string& where, const Error& e) {
+  fail(where, e);
+  return 2;
+}
+
 int run_render(const RenderArgs& a) {
   render::RenderOptions o;
   const auto view = render::view_from_string(a.view);
-  if (!view) return fail("--view " + a.view, view.error());
+  if (!view) return usage("--view " + a.view, view.error());
   const auto color = render::color_from_string(a.color);
-  if (!color) return fail("--color " + a.color, color.error());
+  if (!color) return usage("--color " + a.color, color.error());
   o.view = *view;
   o.color = *color;
   unsigned w = 0, h = 0;
   char tail = 0;
   if (std::sscanf(a.size.c_str(), "%ux%u%c", &w, &h, &tail) != 2 || w < 32 || h < 32 || w > 16384 || h > 16384)
-    return fail("--size " + a.size, Error{"expected WxH, 32..16384 pixels each, e.g. 1200x900"});
+    return usage("--size " + a.size, Error{"expected WxH, 32..16384 pixels each, e.g. 1200x900"});
   o.width_px = static_cast<int>(w);
   o.height_px = static_cast<int>(h);
   o.draw_tracks = !a.no_tracks;

@@ -64,10 +64,26 @@ bool write_master(int fd, const std::vector<std::uint8_t>& bytes) {
   return true;
 }
 
+// Closing the pty hangs up the host and drops what it has not read yet: wait for it (bounded by
+// `limit`). The pty moves written bytes to the host's queue asynchronously, so "nothing unread" must
+// hold for a while (50 ms) before it is believed.
+void wait_host_drained(serial::PtyPair& pty, Duration limit) {
+  const Time give_up = now_monotonic() + limit;
+  Time empty_since = now_monotonic();
+  for (;;) {
+    auto unread = pty.host_unread_bytes();
+    const Time t = now_monotonic();
+    if (!unread || t > give_up) break;
+    if (*unread != 0) empty_since = t;
+    else if (t - empty_since >= 50ms) break;
+    ::usleep(2000);
+  }
+}
+
 int run_replay(const ReplayOptions& opt) {
   if (!(opt.speed > 0)) {
     std::fprintf(stderr, "teamscan replay: --speed must be > 0\n");
-    return 1;
+    return 2;
   }
   auto cap = load_capture(opt.file);
   if (!cap) {
@@ -188,19 +204,7 @@ int run_replay(const ReplayOptions& opt) {
       ++next;
     }
     if (next == records.size()) {
-      // Closing the pty hangs up the host and drops what it has not read yet: wait for it (bounded).
-      // The pty moves written bytes to the host's queue asynchronously, so "nothing unread" must hold
-      // for a while (50 ms) before it is believed.
-      const Time give_up = now_monotonic() + silence_limit;
-      Time empty_since = now_monotonic();
-      for (;;) {
-        auto unread = pty->host_unread_bytes();
-        const Time t = now_monotonic();
-        if (!unread || t > give_up) break;
-        if (*unread != 0) empty_since = t;
-        else if (t - empty_since >= 50ms) break;
-        ::usleep(2000);
-      }
+      wait_host_drained(*pty, silence_limit);
       if (!opt.quiet)
         std::fprintf(stderr, "teamscan replay: done, %zu tx bytes matched\n", matched);
       return 0;

@@ -10,6 +10,8 @@
 #include <type_traits>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "common/capture.hpp"
 #include "common/result.hpp"
 
@@ -174,23 +176,9 @@ class JsonLine {
     ended_ = true;
   }
 
-  // JSON string with quotes; escapes ", \, control characters (\u00XX) and passes UTF-8 through.
+  // JSON string with quotes, escaped by nlohmann-json (invalid UTF-8 replaced, not refused).
   static void write_string(std::FILE* out, std::string_view s) {
-    std::fputc('"', out);
-    for (char ch : s) {
-      const auto c = static_cast<unsigned char>(ch);
-      switch (c) {
-        case '"': std::fputs("\\\"", out); break;
-        case '\\': std::fputs("\\\\", out); break;
-        case '\n': std::fputs("\\n", out); break;
-        case '\r': std::fputs("\\r", out); break;
-        case '\t': std::fputs("\\t", out); break;
-        default:
-          if (c < 0x20 || c == 0x7F) std::fprintf(out, "\\u%04x", c);
-          else std::fputc(c, out);
-      }
-    }
-    std::fputc('"', out);
+    std::fputs(nlohmann::json(std::string{s}).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str(), out);
   }
   static void write_number(std::FILE* out, double v) {
     if (!std::isfinite(v)) std::fputs("null", out);

@@ -34,7 +34,9 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version exit 0; every usage error exits 2 (the project's convention; CLI11's own
+    // codes are 105-109).
+    return app.exit(e) == 0 ? 0 : 2;
   }
   for (auto& [sub_app, run] : runners)
     if (sub_app->parsed()) return run();

@@ -1,0 +1,41 @@
+// `teamscan eval`'s trajectory outputs: `--trajectory-out DIR` (robot<N>.tum per robot) and
+// `--relations FILE` (Kümmerle et al. 2009's figures for the corrected trajectory beside odometry
+// alone, in the report and its JSON). Kept apart from cmd_eval.cpp so the evaluation stays thin.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "common/dataset/dataset.hpp"
+#include "common/pose.hpp"
+
+namespace teamscan::tool {
+
+struct SlamEvalArgs {
+  std::string trajectory_dir;  // empty: none written
+  std::string relations_path;  // empty: no relations figures
+  bool pose_graph = false;     // --pose-graph: the trajectory of the pose graph (groundstation/posegraph)
+};
+
+void add_slam_eval_options(CLI::App& app, SlamEvalArgs& args);
+
+struct SlamEvalOutput {
+  std::string markdown;     // the relations table (empty without --relations)
+  nlohmann::ordered_json relations;  // the report's "relations" member (null without --relations)
+  bool ok = true;           // false: a file could not be read or written (the reason is on stderr)
+};
+
+// `corrected[i]` is the pose the run decided scan i with (`decided[i]` = 1 where it did); `method`
+// names it in the table ("odometry" when the run had no correction: then only odometry is shown).
+[[nodiscard]] SlamEvalOutput slam_eval_outputs(const SlamEvalArgs& args, const Dataset& dataset, const std::vector<Pose2>& corrected,
+                                               const std::vector<std::uint8_t>& decided, const std::string& method);
+
+// `--pose-graph`: every scan of the data set, in its order, through the team's 2-D SLAM
+// (groundstation/posegraph); one pose per scan. Prints what it did and its time on stderr.
+[[nodiscard]] std::vector<Pose2> pose_graph_poses(const Dataset& dataset);
+
+}  // namespace teamscan::tool
