@@ -23,6 +23,11 @@
 
 namespace teamscan::mapping {
 namespace {
+using fusion::PreparedDataset;
+using fusion::PreparedScan;
+using fusion::prepare_dataset;
+using fusion::run_live;
+using fusion::run_offline;
 
 constexpr double kTeamLoadPointsPerS = 32.0 * 75.0 * 361.0;
 

@@ -1,4 +1,4 @@
-// Mapping benchmarks (issue 5 "Benchmarks"). Figures, not pass/fail:
+// Mapping benchmarks. Figures, not pass/fail:
 //  - points per second of each filter (offline and live) at 0.05 and 0.1 m on a lap2-like survey;
 //  - bytes per occupied voxel, and map memory against room size (a hollow room's occupancy grows
 //    with its surface, not its volume: the paper's reason for a sparse map);
@@ -19,6 +19,11 @@
 
 namespace teamscan::mapping {
 namespace {
+using fusion::PreparedDataset;
+using fusion::PreparedScan;
+using fusion::prepare_dataset;
+using fusion::run_live;
+using fusion::run_offline;
 
 // TEAMSCAN_BENCH_DATASET=DIR runs the filter benchmarks on a data set from `teamscan sim` (e.g. lap2);
 // otherwise two robots in a 10 m room, 60 s of scans at 10 Hz (the paper's lap is about a minute).

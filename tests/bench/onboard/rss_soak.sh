@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Memory soak of teamscan-onboard (issue 4, "resident memory ... flat over an hour of streaming"): one
+# Memory soak of teamscan-onboard ("resident memory ... flat over an hour of streaming"): one
 # emulated robot (lap2 robot 1, `teamscan emulate --loop`: Pioneer + LMS-200 on ptys fed by the
 # simulator in real time), the real daemon, and a DDS sink that reads and drops every scan
 # (`teamscan_dds_test_peer drain`), all on the loopback Cyclone config. Samples the daemon's

@@ -133,11 +133,11 @@ BENCHMARK(BM_RegistrationAddScan)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)
 // The fusion core on the survey, method best, registration off (0) / on (1): CPU per scan.
 void BM_CoreBest(benchmark::State& state) {
   const Dataset& d = survey();
-  mapping::CoreRunOptions run;
+  fusion::CoreRunOptions run;
   run.registration = state.range(0) != 0;
   std::uint64_t accepted = 0;
   for (auto _ : state) {
-    const mapping::CoreRun r = mapping::run_through_core(d, "best", {}, run);
+    const fusion::CoreRun r = fusion::run_through_core(d, "best", {}, run).value();
     for (const registration::RobotCorrection& c : r.robots) accepted += c.accepted;
     benchmark::DoNotOptimize(r.removed.data());
   }

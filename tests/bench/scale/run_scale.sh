@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Scale benchmark for the live system (issue 6 "Scale"): N emulated robots (each an oval in its own cell
+# Scale benchmark for the live system: N emulated robots (each an oval in its own cell
 # of a large room, down- and up-lasers alternating, LMS-200 at 500 kBd = 75 scans/s) through real
 # teamscan-onboard processes and one teamscan-groundstation on loopback DDS, at real time.
 # Prints per N: scans sent by the emulated scanners / published by the daemons (their last status) /

@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
     r.x_m = -4.5 + 1.5 * ((first + i - 1) % 7);
     r.y_m = -4.5 + 1.5 * ((first + i - 1) / 7);
     dds_qos_t* pq = dds_create_qos();
-    if (site != nullptr) security::add_security_properties(pq, std::string(site) + "/" + security::robot_identity(r.id));
+    if (site != nullptr) dds::security::add_security_properties(pq, std::string(site) + "/" + dds::security::robot_identity(r.id));
     r.participant = dds_create_participant(domain, pq, nullptr);
     dds_delete_qos(pq);
     if (r.participant < 0) {

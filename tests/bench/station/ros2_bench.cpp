@@ -1,4 +1,4 @@
-// Cost of the ROS 2 publishers (issue 13, docs/ros2.md "Cost"). The receive loop's side: handing a
+// Cost of the ROS 2 publishers (docs/ros2.md "Cost"). The receive loop's side: handing a
 // teamscan/map update (D changed voxels) or the team's 32 estimates to Ros2Publisher. The worker
 // thread's side: building and writing the map cloud of V voxels (no reader / one local RViz-like reader)
 // and one /tf + 32 odometry messages.

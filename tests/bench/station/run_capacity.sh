@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Station capacity (issue 11 "Capacity"): station_feeder publishes N robots x 75 Hz scans + 10 Hz poses
+# Station capacity: station_feeder publishes N robots x 75 Hz scans + 10 Hz poses
 # over loopback DDS to a real teamscan-groundstation pinned to one CPU (the feeder on the other), for each
 # N; prints one line per N and the largest N with scan -> fused-map p99 <= 50 ms and nothing lost.
 # Figures, not a test. Then, unless SKIP_COLOCATED=1, the co-located figure: tests/bench/scale/run_scale.sh

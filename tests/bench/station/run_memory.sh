@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# Station memory over a long mission (issue 11 "Memory"): eight robots for one hour of robot time, as fast
+# Station memory over a long mission: eight robots for one hour of robot time, as fast
 # as the machine allows (WARP robot seconds per wall second; stamps stay the feeder's real clock, so the
 # station's stamp validation needs no bench mode), with a fused-model write every 60 s of robot time.
 # Prints the station's RSS curve (start, each quarter, end), the write times with each write's loop stall
 # (the snapshot taken in the receive loop) and its time on the writer thread, and the scan -> fused-map
 # p99 of the scans fused during a write and outside; then the same feed without writes (unless
-# SKIP_NO_WRITES=1) and the two runs' scan -> fused-map p99 side by side (issue 11: within 10 %).
+# SKIP_NO_WRITES=1) and the two runs' scan -> fused-map p99 side by side (within 10 %).
 # COMPARE=frequency,position,...: the station also decides these methods (fusion.compare_methods, one
 # more core and model store each). A guard stops the feed if the station's RSS passes RSS_GUARD_MIB (a shared
 # host must not run out of memory), MAX_WALL_S bounds each run. Figures, not a test.
@@ -48,7 +48,7 @@ if [ "${SKIP_NO_WRITES:-0}" != 1 ]; then
   with_p99="$(p99_of "$out/with.txt")"; without_p99="$(p99_of "$out/without.txt")"
   if [ -n "$with_p99" ] && [ -n "$without_p99" ]; then
     awk -v a="$with_p99" -v b="$without_p99" 'BEGIN {
-      printf "## scan -> fused map p99: with writes %.1f ms, without %.1f ms: %+.1f %% (issue 11: within 10 %%)\n", a, b, (b > 0 ? 100 * (a - b) / b : 0) }'
+      printf "## scan -> fused map p99: with writes %.1f ms, without %.1f ms: %+.1f %% (within 10 %%)\n", a, b, (b > 0 ? 100 * (a - b) / b : 0) }'
   else
     echo "## scan -> fused map p99: a run printed no station line (see above)"
   fi

@@ -1,4 +1,4 @@
-// The view's cost to the fusion (issue 13: "with 32 robots x 75 Hz live and three browsers connected, scan
+// The view's cost to the fusion ("with 32 robots x 75 Hz live and three browsers connected, scan
 // -> map p99 within 10 % of a run without the view, the station's memory bounded"), without DDS, robot
 // daemons or emulated devices, so the figure is the view's and not the machine's: the station's loop
 // (Kalman team source, the live fusion stage `best`, the map tick every 1 s) fed a synthetic 32-robot
@@ -166,7 +166,8 @@ void run(const Feed& f, bool with_view, double speed, const char* method) {
     server = std::move(s.value());
     feeder = std::make_unique<ViewFeeder>(
         *feed, [&](std::uint32_t id) -> const RobotRecord& { return records[id]; }, team,
-        std::chrono::milliseconds(100), 100);
+        std::chrono::milliseconds(100), 100,
+        [&](std::uint32_t id) { return fusion.core().robot_counters(id).removed_at_release; });
     for (std::size_t c = 0; c < figures.size(); ++c) {
       clients.emplace_back(bench::run_view_client, server->port(), std::cref(stop_clients), 0, std::ref(figures[c]));
     }
@@ -177,6 +178,7 @@ void run(const Feed& f, bool with_view, double speed, const char* method) {
   std::vector<std::int64_t> work;  // the loop's own work per scan, exact (well below the histogram's 0.1 ms)
   work.reserve(f.scans.size());
   std::vector<teamscan_msg_MapVoxel> voxels;
+  std::vector<std::uint8_t> robots;
   const long rss_before = rss_kb();
   const double cpu_before = thread_cpu_s();
   const Time t0 = now_monotonic();
@@ -188,8 +190,8 @@ void run(const Feed& f, bool with_view, double speed, const char* method) {
   auto ticks = [&](Time now) {
     if (feeder) feeder->tick(now);
     if (now >= next_map) {
-      fusion.map_voxels_changed(voxels);
-      if (feeder) feeder->offer_map(voxels, false, fusion.map_total_voxels());
+      fusion.map_voxels_changed(voxels, &robots);
+      if (feeder) feeder->offer_map(voxels, robots, false, fusion.map_total_voxels(), fusion.map_release());
       ++map_ticks;
       next_map = now + std::chrono::seconds(1);
     }
@@ -213,7 +215,7 @@ void run(const Feed& f, bool with_view, double speed, const char* method) {
     r.seen = true;
     ++r.scans;
     fusion.add_scan(s);
-    if (feeder) feeder->on_scan(s, fusion.counters().live_removed);
+    if (feeder) feeder->on_scan(s);
     const Time done = now_monotonic();
     scan_to_map.add((done - arrival).count());
     work.push_back((done - start).count());

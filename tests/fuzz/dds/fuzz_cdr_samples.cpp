@@ -1,5 +1,5 @@
 // Fuzz target: random CDR for each teamscan type through the receive path of the station and of the
-// onboard daemon (issue 15). As Cyclone does for a received sample: the encapsulation header picks the
+// onboard daemon. As Cyclone does for a received sample: the encapsulation header picks the
 // byte order, dds_stream_normalize_data checks (and byte-swaps) the bytes against the type's ops from
 // the idlc-generated descriptor, and only a sample that passes is read with dds_stream_read. Then the
 // station's SampleValidator (pose, scan, status), its stored form (stored_from: the robot's applied

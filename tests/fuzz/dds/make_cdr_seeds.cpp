@@ -1,5 +1,5 @@
 // Writes the seed corpus of fuzz_cdr_samples (cdr_input.hpp format): a sane sample of every teamscan type
-// and issue 15's bad values (robot ids 0 / 33 / 999999, count 65535 / 402, stamps 0 / INT64_MIN /
+// and the bad values the edge refuses (robot ids 0 / 33 / 999999, count 65535 / 402, stamps 0 / INT64_MIN /
 // INT64_MAX, coordinates ±2^31 mm, yaw 2^31 µrad, NaN covariances, absurd odometry corrections),
 // serialised by Cyclone's dds_stream_write from the generated descriptors, little- and big-endian.
 // usage: make_cdr_seeds DIR

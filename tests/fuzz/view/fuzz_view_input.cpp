@@ -1,10 +1,13 @@
 // Fuzz target: everything the view parses from outside — a voxel message (decode_voxels), a request line
-// (route_request), a listen address (parse_listen) — on arbitrary bytes. It must never crash; a decoded
-// voxel message must re-encode to the same bytes; a route is either an answer or an error with a 4xx.
+// (route_request), a listen address (parse_listen), a Foxglove client's text and binary messages
+// (decode_client_text / decode_client_binary) and its upgrade (is_foxglove_upgrade) — on arbitrary bytes.
+// It must never crash; a decoded voxel message must re-encode to the same bytes; a route is either an
+// answer or an error with a 4xx; a malformed Foxglove message says why, a refused one names its op.
 #include <cstdint>
 #include <string>
 #include <string_view>
 
+#include "groundstation/view/foxglove_protocol.hpp"
 #include "groundstation/view/protocol.hpp"
 #include "groundstation/view/requests.hpp"
 
@@ -27,5 +30,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   std::string why;
   if (!parse_listen(bytes, a, why) && why.empty()) __builtin_trap();
   (void)json_escape(bytes);
+  for (const foxglove::ClientRequest& r : {foxglove::decode_client_text(bytes), foxglove::decode_client_binary(bytes)}) {
+    if (r.kind == foxglove::ClientRequest::Kind::kMalformed && r.why.empty()) __builtin_trap();
+    if (r.kind == foxglove::ClientRequest::Kind::kRefused && r.op.empty()) __builtin_trap();
+  }
+  (void)is_foxglove_upgrade(method, target, upgrade, bytes, foxglove::kSubprotocol);
   return 0;
 }

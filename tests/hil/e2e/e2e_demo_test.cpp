@@ -7,6 +7,8 @@
 // measured scan -> fused map, and every process stopped cleanly with exit code 0.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "tests/hil/e2e/e2e_support.hpp"
 
 namespace teamscan::e2e {
@@ -15,7 +17,7 @@ namespace {
 TEST(E2eDemo, Lap2LiveRunDeliversEveryScanAndAgreesWithOfflineEval) {
   const std::string dir = std::filesystem::temp_directory_path().string() + "/teamscan-e2e-demo-" + std::to_string(::getpid());
   const int rc = run_demo(dir, "--scenario lap2 --duration 20 --bringup 4");
-  const std::string log = read_file(dir + "/demo.out");
+  const std::string log = demo_log(dir);
   const std::string s = read_file(dir + "/summary.json");
   ASSERT_FALSE(s.empty()) << log;
   EXPECT_EQ(rc, 0) << log;
@@ -90,8 +92,20 @@ TEST(E2eDemo, Lap2LiveRunDeliversEveryScanAndAgreesWithOfflineEval) {
   const std::size_t onboard = s.find("\"name\": \"direction-onboard-flags\"");
   ASSERT_NE(onboard, std::string::npos) << s;
   EXPECT_GT(json_number(s, "live_da", onboard), 80.0) << s;
-  EXPECT_TRUE(std::filesystem::exists(dir + "/fused.pcd"));
-  EXPECT_TRUE(std::filesystem::exists(dir + "/report.md"));
+  // stdout is the short summary (at most 15 lines, the verdict last); every figure is in report.md.
+  const std::string summary = read_file(dir + "/demo.out");
+  EXPECT_LE(std::count(summary.begin(), summary.end(), '\n'), 15) << summary;
+  EXPECT_NE(summary.find("nothing lost"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("verdict: PASS"), std::string::npos) << summary;
+  const std::string report = read_file(dir + "/report.md");
+  for (const char* part : {"## Delivery", "robot1: ", "robot2: ", "station model vs `teamscan eval SESSION` (best",
+                           "station model vs `teamscan eval SESSION` (combined", "| direction@7.0deg |", "| direction-onboard-flags |",
+                           "scan -> fused map latency in the run window", "point error vs truth", "CPU over the run",
+                           "## Live report", "## Offline report", "**Table 1**", "teamscan-groundstation: `"})
+    EXPECT_NE(report.find(part), std::string::npos) << part;
+  // The demo's fused.pcd is the station's model: its session's fused.pcd, byte for byte.
+  EXPECT_EQ(read_file(dir + "/fused.pcd"), read_file(dir + "/session/fused.pcd"));
+  EXPECT_FALSE(read_file(dir + "/fused.pcd").empty());
   if (!HasFailure()) std::filesystem::remove_all(dir);
 }
 

@@ -22,7 +22,7 @@ TEST(E2eRegistrationDemo, DriftingLap2IsCorrectedLiveAndTheModelIsItsSessionRepl
   const std::string dir =
       std::filesystem::temp_directory_path().string() + "/teamscan-e2e-registration-" + std::to_string(::getpid());
   const int rc = run_demo(dir, "--scenario lap2-drift --duration 20 --bringup 4 --method best --station-compare position");
-  const std::string log = read_file(dir + "/demo.out");
+  const std::string log = demo_log(dir);
   const std::string s = read_file(dir + "/summary.json");
   ASSERT_FALSE(s.empty()) << log;
   EXPECT_EQ(rc, 0) << log;

@@ -13,7 +13,7 @@ namespace {
 TEST(E2eSecureDemo, Lap2WithDdsSecurityLosesNothingAndAgreesWithOfflineEval) {
   const std::string dir = std::filesystem::temp_directory_path().string() + "/teamscan-e2e-secure-" + std::to_string(::getpid());
   const int rc = run_demo(dir, "--secure --scenario lap2 --duration 12 --bringup 4");
-  const std::string log = read_file(dir + "/demo.out");
+  const std::string log = demo_log(dir);
   const std::string s = read_file(dir + "/summary.json");
   ASSERT_FALSE(s.empty()) << log;
   EXPECT_EQ(rc, 0) << log;

@@ -17,11 +17,12 @@ inline std::string teamscan_binary() {
   return std::string{b ? b : "."} + "/tools/teamscan/teamscan";
 }
 
-// Runs the demo (its output goes to DIR/demo.out); returns its exit status.
+// Runs the demo (its stdout, the summary, goes to DIR/demo.out; its stderr, progress and events, to
+// DIR/demo.err); returns its exit status.
 inline int run_demo(const std::string& dir, const std::string& args) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
-  const std::string cmd = teamscan_binary() + " demo --quiet --out " + dir + " " + args + " > " + dir + "/demo.out 2>&1";
+  const std::string cmd = teamscan_binary() + " demo --quiet --out " + dir + " " + args + " > " + dir + "/demo.out 2> " + dir + "/demo.err";
   const int rc = std::system(cmd.c_str());
   return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
 }
@@ -31,6 +32,11 @@ inline std::string read_file(const std::string& path) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+// The demo's output for a failure message: its summary, then its progress and events.
+inline std::string demo_log(const std::string& dir) {
+  return read_file(dir + "/demo.out") + "\n--- stderr ---\n" + read_file(dir + "/demo.err");
 }
 
 // The text of `"key": value` (number, true/false, or [..]) after position `from` in a JSON text.

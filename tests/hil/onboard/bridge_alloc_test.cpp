@@ -1,4 +1,4 @@
-// Firmware discipline of the DDS bridge (issue 4, DDS_SYSTEMD.md 1.8): 10 000 publish_scan calls
+// Firmware discipline of the DDS bridge (DDS_SYSTEMD.md 1.8): 10 000 publish_scan calls
 // allocate nothing in our code and the same constant number of blocks inside Cyclone's dds_write on
 // every call, while a subscriber in another process receives all of them in order.
 #include <gtest/gtest.h>

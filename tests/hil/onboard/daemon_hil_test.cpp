@@ -36,6 +36,7 @@
 #include "onboard/bridge/bridge.hpp"
 #include "dds/qos.hpp"
 #include "teamscan.h"
+#include "tests/hil/onboard/daemon_process.hpp"
 #include "tests/support/dds_test_subscriber.hpp"
 
 namespace teamscan {
@@ -44,17 +45,11 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::string tmpl = (fs::temp_directory_path() / "teamscan-onboard-XXXXXX").string();
-    path = ::mkdtemp(tmpl.data());
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
+using test::daemon_path;
+using test::file_text;
+using test::source_dir;
+using test::spawn;
+using test::TempDir;
 
 // Every beam 3 m (a wall all round).
 class FlatRanges final : public lms200::RangeSource {
@@ -218,32 +213,6 @@ std::string recent_states(StatusWatch& w, std::size_t n = 40) {
   return out;
 }
 
-std::string daemon_path() {
-  const char* b = std::getenv("TEAMSCAN_BINARY_DIR");
-  return std::string(b != nullptr ? b : ".") + "/onboard/daemon/teamscan-onboard";
-}
-
-std::string source_dir() {
-  const char* d = std::getenv("TEAMSCAN_SOURCE_DIR");
-  return d != nullptr ? d : ".";
-}
-
-pid_t spawn(const std::vector<std::string>& args, const std::vector<std::string>& env_add, const fs::path& log_file) {
-  const pid_t pid = ::fork();
-  if (pid != 0) return pid;
-  const int fd = ::open(log_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  if (fd >= 0) {
-    ::dup2(fd, 1);
-    ::dup2(fd, 2);
-  }
-  for (const auto& e : env_add) ::putenv(const_cast<char*>(e.c_str()));
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  ::execv(argv[0], argv.data());
-  ::_exit(127);
-}
-
 // Waits for the child to exit; its status, or -1 after `timeout` (then it is killed).
 int wait_exit(pid_t pid, std::chrono::milliseconds timeout) {
   const auto deadline = Clock::now() + timeout;
@@ -260,13 +229,6 @@ int wait_exit(pid_t pid, std::chrono::milliseconds timeout) {
 bool alive(pid_t pid) {
   int status = 0;
   return ::waitpid(pid, &status, WNOHANG) == 0;
-}
-
-std::string file_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
 }
 
 TEST(OnboardDaemonProcess, CheckConfigAcceptsTheExamplesAndRefusesBadFiles) {

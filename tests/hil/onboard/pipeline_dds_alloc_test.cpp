@@ -1,4 +1,4 @@
-// Firmware discipline end to end (issue 4): 10 000 scans through the full robot data path - LMS
+// Firmware discipline end to end: 10 000 scans through the full robot data path - LMS
 // telegram decode -> 3-D points -> direction filter against 8 teammates -> DdsBridge::publish_scan
 // (dds_write) - allocate nothing in our code and a constant number of blocks inside Cyclone's write.
 // Uses the loopback DDS config (CYCLONEDDS_URI, set by ctest) in a domain of its own.

@@ -36,6 +36,7 @@
 #include "common/clock.hpp"
 #include "common/odometry_history.hpp"
 #include "common/scan_points.hpp"
+#include "common/units.hpp"
 #include "drivers/arcos/emulator.hpp"
 #include "drivers/arcos/odometry.hpp"
 #include "drivers/lms200/emulator_pty.hpp"
@@ -513,7 +514,7 @@ TEST(OnboardSimCompareHil, DaemonPointsEqualTheSimulatorsAndFlagsTheOfflineFilte
       if ((a.flags & kPointDirectionFiltered) != 0) ++flagged_points;
     }
     const std::uint16_t kFilterFlags = kPointDirectionFiltered | kPointTeamStale;
-    const auto apex_x = metres_to_mm_i32(ref.map_from_robot.x_m), apex_y = metres_to_mm_i32(ref.map_from_robot.y_m);
+    const auto apex_x = to_mm(ref.map_from_robot.x_m), apex_y = to_mm(ref.map_from_robot.y_m);
     auto decisions = [&](const onboard::TeamSnapshot* snap, std::int32_t dx, std::int32_t dy) {
       onboard::DirectionFilter f = filter.value();
       if (snap != nullptr) f.set_team(*snap);

@@ -1,4 +1,4 @@
-// Issue 15 on the robots, over DDS: a ground station publishes a good team state at 20 Hz on
+// Malformed team states on the robots, over DDS: a ground station publishes a good team state at 20 Hz on
 // teamscan/team while a second participant publishes malformed team states at 50 Hz on the same topic.
 // A robot's DdsBridge takes the team every 10 ms (as the daemon's loop does) into the pipeline, and every
 // scan's direction-filter flags equal those of a reference pipeline that only ever sees the good states.
@@ -62,7 +62,7 @@ void good_team(teamscan_msg_TeamState& t, std::uint32_t seq, std::int64_t now_ns
   }
 }
 
-// Member 0 moved to a plausible other place, member 1 carries the fault (issue 15's publisher).
+// Member 0 moved to a plausible other place, member 1 carries the fault (the malformed publisher).
 void malformed_team(teamscan_msg_TeamState& t, std::uint32_t k, std::int64_t now_ns) {
   good_team(t, 1000 + k, now_ns);
   t.members[0].y_mm = -2000;

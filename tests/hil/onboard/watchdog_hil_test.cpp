@@ -1,4 +1,4 @@
-// Hung-loop detection against the real teamscan-onboard (issue 4, "a hung loop is detected"): the
+// Hung-loop detection against the real teamscan-onboard ("a hung loop is detected"): the
 // notify harness plays systemd (NOTIFY_SOCKET, WATCHDOG_USEC, WATCHDOG_PID) for the daemon running
 // against emulated devices on ptys; once READY=1 and the periodic WATCHDOG=1 flow, the daemon is
 // SIGSTOPped (its loop stops as a hung loop would, as systemd sees it) and the harness must notice the

@@ -45,7 +45,7 @@ class DaemonCredentials : public ::testing::Test {
     o.robots = 2;
     o.domain_min = o.domain_max = teamscan::test::test_domain_id();
     o.now_s = now_s();
-    ASSERT_EQ(teamscan::pki::create_site((dir_ / "site").string(), o), "");
+    ASSERT_TRUE(teamscan::pki::create_site((dir_ / "site").string(), o).ok());
     std::ofstream(dir_ / "robot1.toml") << teamscan::test::pipeline_test_config_toml(1, true);
   }
   void TearDown() override { fs::remove_all(dir_); }
@@ -83,7 +83,7 @@ TEST_F(DaemonCredentials, MissingExpiredOrAnothersCredentialsExitTwoWithTheReaso
   EXPECT_EQ(r.rc, 2) << r.out;
   EXPECT_NE(r.out.find("the identity of robot2, not of robot1"), std::string::npos) << r.out;
 
-  ASSERT_EQ(teamscan::pki::issue_identity((dir_ / "site").string(), "robot1", now_s() - 10 * 86400, now_s() - 86400), "");
+  ASSERT_TRUE(teamscan::pki::issue_identity((dir_ / "site").string(), "robot1", now_s() - 10 * 86400, now_s() - 86400).ok());
   r = onboard(dir_ / "site" / "robot1");
   EXPECT_EQ(r.rc, 2) << r.out;
   EXPECT_NE(r.out.find("cert.pem: certificate has expired on"), std::string::npos) << r.out;

@@ -46,7 +46,7 @@ dds_entity_t make_participant(int argc, char** argv) {
   const auto domain = static_cast<dds_domainid_t>(std::atoi(arg(argc, argv, "--domain", "0")));
   dds_qos_t* q = dds_create_qos();
   const char* pki = arg(argc, argv, "--pki", nullptr);
-  if (pki != nullptr) teamscan::security::add_security_properties(q, pki);
+  if (pki != nullptr) teamscan::dds::security::add_security_properties(q, pki);
   const dds_entity_t pp = dds_create_participant(domain, q, nullptr);
   dds_delete_qos(q);
   std::printf("participant %d\n", pp < 0 ? pp : 0);

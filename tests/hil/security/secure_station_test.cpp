@@ -96,10 +96,10 @@ class SecureStation : public ::testing::Test {
     o.robots = 3;
     o.domain_min = o.domain_max = test::test_domain_id();
     o.now_s = now_s();
-    ASSERT_EQ(pki::create_site(site("").string(), o), "");
+    ASSERT_TRUE(pki::create_site(site("").string(), o).ok());
     // robot3 is revoked; its old bundle (with the CRL of before) is kept to try it.
     fs::copy(site("robot3"), root_ / "robot3-revoked");
-    ASSERT_EQ(pki::revoke_identity(site("").string(), "robot3", now_s()), "");
+    ASSERT_TRUE(pki::revoke_identity(site("").string(), "robot3", now_s()).ok());
     auto s = SessionStore::open((root_ / "session").string());
     ASSERT_TRUE(s.ok()) << s.error().what;
     store_.emplace(std::move(s.value()));
@@ -191,14 +191,14 @@ TEST_F(SecureStation, ForeignExpiredRevokedAndTamperedCredentialsNeverReachTheSt
   o.robots = 1;
   o.domain_min = o.domain_max = test::test_domain_id();
   o.now_s = now_s();
-  ASSERT_EQ(pki::create_site((root_ / "rogue").string(), o), "");
+  ASSERT_TRUE(pki::create_site((root_ / "rogue").string(), o).ok());
   // robot2 expired yesterday; robot1's permissions with one byte changed.
-  ASSERT_EQ(pki::issue_identity(site("").string(), "robot2", now_s() - 10 * 86400, now_s() - 86400), "");
+  ASSERT_TRUE(pki::issue_identity(site("").string(), "robot2", now_s() - 10 * 86400, now_s() - 86400).ok());
   const fs::path tampered = root_ / "robot1-tampered";
   fs::copy(site("robot1"), tampered);
-  std::string perm = slurp(tampered / security::kPermissionsFile);
+  std::string perm = slurp(tampered / dds::security::kPermissionsFile);
   perm[perm.find("<partition>robot1") + 16] = '*';
-  std::ofstream(tampered / security::kPermissionsFile, std::ios::trunc) << perm;
+  std::ofstream(tampered / dds::security::kPermissionsFile, std::ios::trunc) << perm;
 
   Peer foreign(args({"publish", "--robot", "1", "--partition", "robot1", "--seconds", "4"}, root_ / "rogue" / "robot1"),
                root_ / "foreign.out");

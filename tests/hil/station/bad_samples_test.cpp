@@ -1,4 +1,4 @@
-// Issue 15 "Validate at the edge", against the real teamscan-groundstation process over loopback DDS: a
+// "Validate at the edge", against the real teamscan-groundstation process over loopback DDS: a
 // participant publishes scans, poses and status with robot ids 0, 33 and 999999, count 65535 and 402,
 // stamps 0, INT64_MIN and INT64_MAX, coordinates at ±2^31 mm, yaw 2^31 µrad and wrapping / jumping
 // sequence numbers, beside good samples of the same robots. Checked from the outside: every reason is

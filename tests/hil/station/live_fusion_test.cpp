@@ -1,4 +1,4 @@
-// Issue 5, live fusion: a teamscan-groundstation process fed by two test robots (DdsBridge in this
+// Live fusion: a teamscan-groundstation process fed by two test robots (DdsBridge in this
 // process, loopback DDS) with a small labelled survey writes, on SIGTERM, a fused PCD whose per-point
 // keep/remove decisions equal the offline evaluation (`teamscan eval`: the fusion core fed the data set
 // in time order) run on the same survey as it goes over the wire (millimetres, microradians), and
@@ -273,7 +273,7 @@ TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
   // The offline evaluation on the same data.
   mapping::MethodOptions options;  // the config's defaults: resolution 0.1 m, half-angle 7°
   options.frequency.resolution_m = options.visibility.resolution_m = 0.1;
-  const std::vector<std::uint8_t> removed = mapping::decide_through_core(wire, method, options, tracker);
+  const std::vector<std::uint8_t> removed = fusion::decide_through_core(wire, method, options, tracker).value();
 
   auto all = read_pcd(session + "/fused_all.pcd");
   ASSERT_TRUE(all.ok()) << all.error().what;
@@ -309,7 +309,7 @@ TEST_P(LiveFusion, FinalPcdEqualsOfflineEvalAndTeamTopicCarriesTheTracker) {
   auto received = station::read_session_dataset(session, read_stats);
   ASSERT_TRUE(received.ok()) << received.error().what;
   ASSERT_EQ(received->points.size(), wire.points.size());
-  const std::vector<std::uint8_t> removed_received = mapping::decide_through_core(received.value(), method, options, tracker);
+  const std::vector<std::uint8_t> removed_received = fusion::decide_through_core(received.value(), method, options, tracker).value();
   std::size_t received_mismatches = 0;
   for (std::size_t i = 0; i < received->points.size(); ++i) {
     const LabelledPoint& p = received->points[i];
@@ -342,7 +342,7 @@ TEST(LiveFusionCompared, EveryMethodsModelEqualsEvalOfTheSessionAcrossARestart) 
   station::GroundStationConfig cfg;
   station::ConfigError cerr;
   ASSERT_TRUE(station::load_groundstation_config(config, cfg, cerr)) << cerr.message;
-  const station::FusionOptions options = station::fusion_options_from_config(cfg.fusion, cfg.kalman);
+  const station::FusionOptions& options = cfg.fusion;
 
   const std::int64_t base_ns = now_realtime().ns() - 4'000'000'000;
   const Dataset survey = make_survey(base_ns);

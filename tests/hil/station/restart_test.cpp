@@ -1,4 +1,4 @@
-// Issue 5/6: a ground station killed and restarted within the robots' scan-history window receives
+// A ground station killed and restarted within the robots' scan-history window receives
 // every scan it missed. A robot (DdsBridge in this process) publishes 50 scans to a running
 // teamscan-groundstation, the station is SIGKILLed, 200 more scans are published while it is down, and
 // the restarted station's session holds every seq 1..250 (transient-local history of depth 300).

@@ -1,10 +1,10 @@
-// Issue 13, on the real daemon: a teamscan-groundstation process fed by two test robots (DdsBridge in
+// On the real daemon: a teamscan-groundstation process fed by two test robots (DdsBridge in
 // this process, loopback DDS, a domain of this test's own) publishes, beside its own topics, what a ROS 2
 // node reads through rmw_cyclonedds. Readers set up as rmw sets them up (ROS type names, XCDR1 only, no
 // type information; the QoS of a late transient-local RViz2, of tf2 and of the ROS default) receive:
 //  - rt/teamscan/map_cloud: a PointCloud2 in frame `map` whose points are the voxel centres of the
 //    fused map (the kept voxels of teamscan/map, merged as a viewer merges them), one point per voxel;
-//  - rt/tf: map -> robotN/base_link equal to the station's tracked pose (a Kalman tracker fed with the
+//  - rt/tf: map -> robotN/odom -> robotN/base_link composing to the station's tracked pose (a Kalman tracker fed with the
 //    same poses, predicted to the transform's stamp) within 1 mm, heading that of the odometry;
 //  - rt/robotN/odom: the same pose, the tracker's covariance, the velocity in the robot's frame.
 #include <gtest/gtest.h>
@@ -138,7 +138,8 @@ TEST(StationRos2, MapCloudTfAndOdometryReachRmwLikeReaders) {
   {
     std::ofstream c(config);
     c << "[team.kalman]\nlost_after_s = 60.0\n"
-      << "[fusion]\nmethod = \"direction\"\nwrite_interval_s = 0.0\nmap_interval_s = 0.3\n"
+      // No cap on the model store: the map is the model's points, here every point sent.
+      << "[fusion]\nmethod = \"direction\"\nwrite_interval_s = 0.0\nmap_interval_s = 0.3\nmax_points_per_voxel = 1000000\n"
       << "[ros2]\nmap_interval_s = 0.3\npose_rate_hz = 20\n";
   }
   const dds_entity_t ros = dds_create_participant(test::test_domain_id(), nullptr, nullptr);
@@ -261,35 +262,53 @@ TEST(StationRos2, MapCloudTfAndOdometryReachRmwLikeReaders) {
                                 << " kept voxels of " << viewer.map.size() << ", map hits " << viewer.hits() << " of "
                                 << points_sent;
 
-  // rt/tf and rt/robotN/odom, stamped after every pose was stored: the tracker's prediction to the stamp.
+  // rt/tf and rt/robotN/odom, stamped after every pose was stored: the tracker's prediction to the stamp,
+  // through the REP-105 chain map -> robotN/odom (the correction) -> robotN/base_link.
+  struct Planar {
+    double x, y, yaw;
+  };
+  auto planar = [](const geometry_msgs_msg_dds__Transform_& t) {
+    return Planar{t.translation.x, t.translation.y, yaw_of(t.rotation)};
+  };
+  std::map<std::pair<std::uint32_t, std::int64_t>, Planar> corrections;  // (robot, stamp) -> map_from_odom
   int transforms_checked = 0;
   const auto tf_deadline = std::chrono::steady_clock::now() + 10s;
   while (transforms_checked < 4 && std::chrono::steady_clock::now() < tf_deadline) {
     take_all<tf2_msgs_msg_dds__TFMessage_>(tf_reader, [&](const tf2_msgs_msg_dds__TFMessage_& m) {
-      for (std::uint32_t i = 0; i < m.transforms._length; ++i) {
-        const auto& t = m.transforms._buffer[i];
-        const std::int64_t stamp = ns_of(t.header.stamp);
+      std::map<std::string, const geometry_msgs_msg_dds__TransformStamped_*> by_child;
+      for (std::uint32_t i = 0; i < m.transforms._length; ++i) by_child[m.transforms._buffer[i].child_frame_id] = &m.transforms._buffer[i];
+      for (std::uint32_t id : {1u, 2u}) {
+        const auto odom = by_child.find(dds::ros2::odom_frame(id));
+        const auto base = by_child.find(dds::ros2::base_link_frame(id));
+        if (odom == by_child.end() && base == by_child.end()) continue;
+        ASSERT_TRUE(odom != by_child.end() && base != by_child.end()) << "robot " << id << ": half a chain";
+        const std::int64_t stamp = ns_of(base->second->header.stamp);
+        EXPECT_EQ(ns_of(odom->second->header.stamp), stamp);
+        EXPECT_STREQ(odom->second->header.frame_id, "map");
+        EXPECT_EQ(std::string(base->second->header.frame_id), dds::ros2::odom_frame(id));
+        const Planar c = planar(odom->second->transform), o = planar(base->second->transform);
+        corrections[{id, stamp}] = c;
         if (stamp <= all_stored_ns) continue;
-        EXPECT_STREQ(t.header.frame_id, "map");
-        const std::string child = t.child_frame_id;
-        ASSERT_TRUE(child == "robot1/base_link" || child == "robot2/base_link") << child;
-        const std::uint8_t id = child == "robot1/base_link" ? 1 : 2;
+        const double x = c.x + std::cos(c.yaw) * o.x - std::sin(c.yaw) * o.y;
+        const double y = c.y + std::sin(c.yaw) * o.x + std::cos(c.yaw) * o.y;
         const mapping::TeamState predicted = reference.predict(stamp);
-        const mapping::RobotEstimate* e = predicted.find(id);
+        const mapping::RobotEstimate* e = predicted.find(static_cast<std::uint8_t>(id));
         ASSERT_NE(e, nullptr);
-        EXPECT_NEAR(t.transform.translation.x, e->position_m.x, 1e-3) << child;
-        EXPECT_NEAR(t.transform.translation.y, e->position_m.y, 1e-3) << child;
-        EXPECT_EQ(t.transform.translation.z, 0.0);
-        const auto& q = t.transform.rotation;
-        EXPECT_NEAR(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w, 1.0, 1e-9);
-        EXPECT_NEAR(yaw_of(q), robot_yaw(id), 2e-6) << child;
+        EXPECT_NEAR(x, e->position_m.x, 1e-3) << id;
+        EXPECT_NEAR(y, e->position_m.y, 1e-3) << id;
+        EXPECT_EQ(base->second->transform.translation.z, 0.0);
+        for (const auto* t : {odom->second, base->second}) {
+          const auto& q = t->transform.rotation;
+          EXPECT_NEAR(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w, 1.0, 1e-9);
+        }
+        EXPECT_NEAR(std::remainder(c.yaw + o.yaw - robot_yaw(id), 2 * M_PI), 0.0, 2e-6) << id;
         ++transforms_checked;
       }
     });
     std::this_thread::sleep_for(20ms);
   }
   EXPECT_GE(transforms_checked, 4);
-  std::printf("map cloud: %u points = the kept voxels (%zu voxels in teamscan/map), %u clouds read; %d transforms checked\n",
+  std::printf("map cloud: %u points = the kept voxels (%zu voxels in teamscan/map), %u clouds read; %d robot chains checked\n",
               width, viewer.map.size(), clouds, transforms_checked);
   EXPECT_LT(kept.size(), viewer.map.size()) << "the filter removed no voxel: the kept/removed split is not exercised";
 
@@ -297,20 +316,35 @@ TEST(StationRos2, MapCloudTfAndOdometryReachRmwLikeReaders) {
     bool checked = false;
     const auto deadline = std::chrono::steady_clock::now() + 10s;
     while (!checked && std::chrono::steady_clock::now() < deadline) {
+      take_all<tf2_msgs_msg_dds__TFMessage_>(tf_reader, [&](const tf2_msgs_msg_dds__TFMessage_& m) {
+        for (std::uint32_t i = 0; i < m.transforms._length; ++i) {
+          const auto& t = m.transforms._buffer[i];
+          if (std::string(t.child_frame_id) == dds::ros2::odom_frame(id))
+            corrections[{id, ns_of(t.header.stamp)}] = planar(t.transform);
+        }
+      });
       take_all<nav_msgs_msg_dds__Odometry_>(odom_readers[id - 1], [&](const nav_msgs_msg_dds__Odometry_& m) {
         const std::int64_t stamp = ns_of(m.header.stamp);
-        if (stamp <= all_stored_ns || checked) return;
+        const auto corr = corrections.find({id, stamp});  // the /tf of the same tick
+        if (stamp <= all_stored_ns || checked || corr == corrections.end()) return;
         checked = true;
-        EXPECT_STREQ(m.header.frame_id, "map");
+        EXPECT_EQ(std::string(m.header.frame_id), dds::ros2::odom_frame(id));
         EXPECT_EQ(std::string(m.child_frame_id), dds::ros2::base_link_frame(id));
         const mapping::TeamState predicted = reference.predict(stamp);
         const mapping::RobotEstimate* e = predicted.find(static_cast<std::uint8_t>(id));
         ASSERT_NE(e, nullptr);
-        EXPECT_NEAR(m.pose.pose.position.x, e->position_m.x, 1e-3);
-        EXPECT_NEAR(m.pose.pose.position.y, e->position_m.y, 1e-3);
-        EXPECT_NEAR(yaw_of(m.pose.pose.orientation), robot_yaw(id), 2e-6);
-        EXPECT_NEAR(m.pose.covariance[0], e->position_cov_m2(0, 0), 1e-3 * e->position_cov_m2(0, 0) + 1e-12);
-        EXPECT_NEAR(m.pose.covariance[7], e->position_cov_m2(1, 1), 1e-3 * e->position_cov_m2(1, 1) + 1e-12);
+        const Planar k = corr->second;
+        const double cc = std::cos(k.yaw), sc = std::sin(k.yaw);
+        const double px = m.pose.pose.position.x, py = m.pose.pose.position.y;
+        EXPECT_NEAR(k.x + cc * px - sc * py, e->position_m.x, 1e-3);
+        EXPECT_NEAR(k.y + sc * px + cc * py, e->position_m.y, 1e-3);
+        EXPECT_NEAR(std::remainder(k.yaw + yaw_of(m.pose.pose.orientation) - robot_yaw(id), 2 * M_PI), 0.0, 2e-6);
+        // The covariance back in the map frame: R C R^T.
+        const double* pc = m.pose.covariance;
+        const double xx = cc * cc * pc[0] - 2 * cc * sc * pc[1] + sc * sc * pc[7];
+        const double yy = sc * sc * pc[0] + 2 * cc * sc * pc[1] + cc * cc * pc[7];
+        EXPECT_NEAR(xx, e->position_cov_m2(0, 0), 1e-3 * e->position_cov_m2(0, 0) + 1e-12);
+        EXPECT_NEAR(yy, e->position_cov_m2(1, 1), 1e-3 * e->position_cov_m2(1, 1) + 1e-12);
         EXPECT_GT(m.pose.covariance[35], 0.0);  // heading_sigma_deg's square
         // The tracked velocity in the robot's frame: forward at about the speed driven.
         const double c = std::cos(robot_yaw(id)), s = std::sin(robot_yaw(id));

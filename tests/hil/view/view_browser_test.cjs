@@ -5,100 +5,29 @@
 // (the moment the demo prints it). Saves a screenshot.
 // usage: node view_browser_test.cjs TEAMSCAN_BIN OUT_DIR SCREENSHOT.png   (NODE_PATH: the view's node_modules)
 'use strict';
-const { spawn } = require('node:child_process');
 const fs = require('node:fs');
-const http = require('node:http');
-const net = require('node:net');
-const os = require('node:os');
 const path = require('node:path');
-const { chromium } = require('playwright-core');
+const { check, failed, sleep, freePort, getJson, waitFor, spawnDemo, stopDemo, openDemoView } =
+  require(path.join(__dirname, '..', '..', 'support', 'node', 'harness.cjs'));
 
 const [teamscan, outDir, screenshot] = process.argv.slice(2);
 const KILLED_ROBOT = 2;
 const KILL_AT_S = 24;          // world time of the kill (the robots drive from ~6 s of bring-up)
 const MARKER_TOLERANCE_M = 0.05;
 const LOST_WITHIN_MS = 2000;
-const CHROMIUM_FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-  '--disable-background-networking', '--disable-component-update', '--disable-sync',
-  // WebGL without a GPU: SwiftShader (Chromium no longer falls back to it silently).
-  '--use-angle=swiftshader', '--enable-unsafe-swiftshader'];
-
-let failures = 0;
-function check(ok, what) {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!ok) failures++;
-}
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-
-function freePort() {
-  return new Promise((resolve, reject) => {
-    const s = net.createServer();
-    s.listen(0, '127.0.0.1', () => {
-      const { port } = s.address();
-      s.close(() => resolve(port));
-    });
-    s.on('error', reject);
-  });
-}
-
-function getJson(url) {
-  return new Promise((resolve) => {
-    http.get(url, (res) => {
-      let body = '';
-      res.on('data', (d) => (body += d));
-      res.on('end', () => resolve({ status: res.statusCode, json: res.statusCode === 200 ? JSON.parse(body) : null }));
-    }).on('error', () => resolve({ status: 0, json: null }));
-  });
-}
-
-async function waitFor(what, timeoutMs, fn) {
-  const end = Date.now() + timeoutMs;
-  for (;;) {
-    const v = await fn();
-    if (v) return v;
-    if (Date.now() > end) throw new Error(`timed out waiting for ${what}`);
-    await sleep(100);
-  }
-}
 
 async function main() {
   const port = await freePort();
   fs.rmSync(outDir, { recursive: true, force: true });
-  const demo = spawn(teamscan, ['demo', '--scenario', 'lap2', '--duration', '45', '--view', String(port), '--out', outDir,
-    '--kill-robot', String(KILLED_ROBOT), '--kill-robot-at', String(KILL_AT_S), '--quiet'],
-  { stdio: ['ignore', 'pipe', 'inherit'], env: process.env });
-  let stdout = '';
   let killedAtMs = 0;
-  let demoExited = false;
-  demo.on('exit', () => (demoExited = true));
-  demo.stdout.on('data', (d) => {
-    const text = d.toString();
-    process.stdout.write(text.split('\n').filter((l) => l).map((l) => `demo| ${l}`).join('\n') + '\n');
-    stdout += text;
-    if (!killedAtMs && /fault: robot\d+ daemon killed/.test(stdout)) killedAtMs = Date.now();
+  const demo = spawnDemo(teamscan, ['demo', '--scenario', 'lap2', '--duration', '45', '--view', String(port), '--out', outDir,
+    '--kill-robot', String(KILLED_ROBOT), '--kill-robot-at', String(KILL_AT_S), '--quiet'], (output) => {
+    if (!killedAtMs && /fault: robot\d+ daemon killed/.test(output)) killedAtMs = Date.now();
   });
-  const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'teamscan-view-chromium-'));
-  let context = null;
+  let browser = null;
   try {
-    const url = await waitFor('the demo to print the view URL', 120000, () => {
-      if (demoExited) throw new Error('the demo exited early');
-      const m = /live view at (http:\/\/127\.0\.0\.1:\d+\/)/.exec(stdout);
-      return m && m[1];
-    });
-    context = await chromium.launchPersistentContext(profile, {
-      executablePath: '/usr/bin/chromium', headless: true, args: CHROMIUM_FLAGS, viewport: { width: 1280, height: 800 },
-    });
-    const page = context.pages()[0] || (await context.newPage());
-    page.on('console', (m) => { if (m.type() === 'error') console.log(`page error: ${m.text()}`); });
-    await waitFor('the page to load', 120000, async () => {
-      try {
-        await page.goto(url, { timeout: 15000 });
-        return true;
-      } catch (e) {
-        return false;
-      }
-    });
-    check(await page.evaluate(() => !!window.teamscanView && window.teamscanView.webgl), 'the page draws with WebGL');
+    browser = await openDemoView(demo);
+    const { page, url } = browser;
 
     // Map points arrive (the whole map, then changes) and both robots appear.
     const arrived = await waitFor('map points and two robots', 90000, () => page.evaluate(() => {
@@ -153,17 +82,11 @@ async function main() {
   } catch (e) {
     check(false, String(e.message || e));
   } finally {
-    if (context) await context.close().catch(() => {});
-    fs.rmSync(profile, { recursive: true, force: true });
-    if (!demoExited) {
-      demo.kill('SIGINT');  // the demo stops its daemons and the station in order
-      const end = Date.now() + 30000;
-      while (!demoExited && Date.now() < end) await sleep(100);
-      if (!demoExited) demo.kill('SIGKILL');
-    }
+    if (browser) await browser.close();
+    await stopDemo(demo);
   }
-  console.log(failures === 0 ? 'view browser test: passed' : `view browser test: ${failures} failed`);
-  process.exit(failures === 0 ? 0 : 1);
+  console.log(failed() === 0 ? 'view browser test: passed' : `view browser test: ${failed()} failed`);
+  process.exit(failed() === 0 ? 0 : 1);
 }
 
 main();

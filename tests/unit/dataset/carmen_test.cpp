@@ -49,5 +49,87 @@ TEST(Carmen, DatasetPutsBeamsRightToLeftAtTheMountHeight) {
   EXPECT_FALSE(carmen_to_dataset(parse_carmen("ODOM 0 0 0 0 0 0 1 h 1\n"), o));
 }
 
+TEST(Carmen, StampsAreExactMicroseconds) {
+  std::int64_t us = 0;
+  ASSERT_TRUE(parse_carmen_stamp_us("976052857.337284", us));
+  EXPECT_EQ(us, 976052857337284);
+  ASSERT_TRUE(parse_carmen_stamp_us("12.5", us));
+  EXPECT_EQ(us, 12500000);
+  ASSERT_TRUE(parse_carmen_stamp_us("7", us));
+  EXPECT_EQ(us, 7000000);
+  ASSERT_TRUE(parse_carmen_stamp_us("1.0000005", us));  // the seventh decimal rounds
+  EXPECT_EQ(us, 1000001);
+  EXPECT_FALSE(parse_carmen_stamp_us("1.2e3", us));
+  EXPECT_FALSE(parse_carmen_stamp_us("", us));
+  EXPECT_FALSE(parse_carmen_stamp_us(".", us));
+  EXPECT_FALSE(parse_carmen_stamp_us("abc", us));
+}
+
+// File order is the true order: a stamp that steps back keeps its exact value as the source stamp,
+// and the processing stamps (scans and ODOM lines on one clock) never step back.
+TEST(Carmen, StampsThatStepBackKeepFileOrder) {
+  const CarmenLog log = parse_carmen(
+      "ODOM 0 0 0 0 0 0 976052857.337284 h 976052857.337284\n"
+      "FLASER 2 1 1 0 0 0 0.0 0 0 976052857.500000 h 0\n"
+      "ODOM 0.1 0 0 0 0 0 976052857.600001 h 0\n"
+      "FLASER 2 1 1 0 0 0 0.1 0 0 976052857.300123 h 0\n"   // steps back 0.3 s
+      "ODOM 0.2 0 0 0 0 0 976052857.300200 h 0\n"
+      "FLASER 2 1 1 0 0 0 0.2 0 0 976052857.900000 h 0\n");
+  ASSERT_EQ(log.lasers.size(), 3u);
+  ASSERT_EQ(log.odom.size(), 3u);
+  EXPECT_EQ(log.lasers[1].stamp_us, 976052857300123);
+  const Result<Dataset> d = carmen_to_dataset(log, CarmenImportOptions{});
+  ASSERT_TRUE(d);
+  ASSERT_EQ(d->scans.size(), 3u);
+  EXPECT_EQ(d->scans[0].source_stamp_us, 976052857500000);
+  EXPECT_EQ(d->scans[1].source_stamp_us, 976052857300123);
+  EXPECT_EQ(d->scans[2].source_stamp_us, 976052857900000);
+  // Processing stamps from the first line (the first ODOM): 162 716 µs, then 1 µs after the ODOM line
+  // stamped 600 001 (the scan stamped before it), then its source stamp again.
+  EXPECT_EQ(d->scans[0].stamp_ns, 162'716'000);
+  EXPECT_EQ(d->scans[1].stamp_ns, (600'001 - 337'284 + 1) * 1000);
+  EXPECT_EQ(d->scans[2].stamp_ns, (900'000 - 337'284) * 1000);
+  ASSERT_EQ(d->odom.size(), 3u);  // the ODOM lines, not the scans' poses
+  EXPECT_EQ(d->odom[0].stamp_ns, 0);
+  EXPECT_EQ(d->odom[2].stamp_ns, (600'001 - 337'284 + 2) * 1000);
+  for (std::size_t i = 1; i < d->odom.size(); ++i) EXPECT_GT(d->odom[i].stamp_ns, d->odom[i - 1].stamp_ns);
+  EXPECT_DOUBLE_EQ(d->scans[1].pose.x_m, 0.1);
+}
+
+// ROBOTLASER1: its own start angle and step, the laser's pose beside the robot's (the mount).
+TEST(Carmen, RobotLaser1UsesItsAnglesAndLaserOffset) {
+  // Robot at (1, 0) facing +y; its laser 0.2 m ahead of it: at (1, 0.2). Two beams: −90° and 0°.
+  const CarmenLog log = parse_carmen(
+      "ROBOTLASER1 0 -1.5707963267948966 1.5707963267948966 1.5707963267948966 80 0.01 0 2 1.0 2.0 0 "
+      "1.0 0.2 1.5707963267948966 1.0 0.0 1.5707963267948966 0 0 0 0 0 100.000001 h 100.000001\n"
+      "ROBOTLASER1 0 -1.5 1.5 1.5 80 0.01 0 2 1.0 2.0 1 5 1 1 0 1 1 0\n");  // too few fields
+  ASSERT_EQ(log.lasers.size(), 1u) << log.first_error;
+  EXPECT_EQ(log.malformed, 1u);
+  EXPECT_EQ(log.lasers[0].stamp_us, 100000001);
+  const Result<Dataset> d = carmen_to_dataset(log, CarmenImportOptions{});
+  ASSERT_TRUE(d);
+  EXPECT_NEAR(d->robots[0].mount_xyz_m[0], 0.2, 1e-12);
+  EXPECT_NEAR(d->robots[0].mount_xyz_m[1], 0.0, 1e-12);
+  EXPECT_NEAR(d->robots[0].mount_rpy_rad[2], 0.0, 1e-12);
+  EXPECT_DOUBLE_EQ(d->scans[0].pose.x_m, 1.0);  // the robot's odometry, not the laser's
+  EXPECT_NEAR(d->scans[0].origin.y, 0.2, 1e-12);
+  ASSERT_EQ(d->points.size(), 2u);
+  EXPECT_NEAR(d->points[0].x, 2.0, 1e-6);  // beam 0: to the right of +y = +x, 1 m from the laser
+  EXPECT_NEAR(d->points[0].y, 0.2, 1e-6);
+  EXPECT_NEAR(d->points[1].x, 1.0, 1e-6);  // beam 1: straight ahead, 2 m
+  EXPECT_NEAR(d->points[1].y, 2.2, 1e-6);
+}
+
+TEST(Carmen, FlaserStepConvention) {
+  const CarmenLog log = parse_carmen("FLASER 4 1 1 1 1 0 0 0 0 0 0 1 h 1\n");
+  CarmenImportOptions o;
+  o.flaser_step_is_fov_over_n = true;  // 45° apart: −90, −45, 0, 45
+  const Result<Dataset> d = carmen_to_dataset(log, o);
+  ASSERT_TRUE(d);
+  ASSERT_EQ(d->points.size(), 4u);
+  EXPECT_NEAR(d->points[3].x, std::sqrt(0.5), 1e-6);
+  EXPECT_NEAR(d->points[3].y, std::sqrt(0.5), 1e-6);
+}
+
 }  // namespace
 }  // namespace teamscan

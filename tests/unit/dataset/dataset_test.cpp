@@ -96,6 +96,7 @@ void expect_equal(const Dataset& a, const Dataset& b) {
     EXPECT_EQ(r.origin.z, s.origin.z); EXPECT_EQ(r.pose.x_m, s.pose.x_m); EXPECT_EQ(r.pose.y_m, s.pose.y_m);
     EXPECT_EQ(r.pose.theta_rad, s.pose.theta_rad); EXPECT_EQ(r.true_pose.x_m, s.true_pose.x_m);
     EXPECT_EQ(r.true_pose.y_m, s.true_pose.y_m); EXPECT_EQ(r.true_pose.theta_rad, s.true_pose.theta_rad);
+    EXPECT_EQ(r.source_stamp_us, s.source_stamp_us);
   }
   for (const auto* pair : {&a.truth, &a.odom}) {
     const auto& other = pair == &a.truth ? b.truth : b.odom;
@@ -118,6 +119,25 @@ TEST(Dataset, RoundTripIsExact) {
   const auto back = read_dataset((dir / "set").string());
   ASSERT_TRUE(back.ok()) << back.error().what << " line " << back.error().detail;
   expect_equal(d, *back);
+}
+
+// An imported log's exact source stamps (source_stamps.csv, only written when a scan has one).
+TEST(Dataset, SourceStampsRoundTrip) {
+  const auto dir = test::temp_dir();
+  Dataset d = sample_dataset();
+  ASSERT_TRUE(write_dataset((dir / "plain").string(), d).ok());
+  EXPECT_FALSE(fs::exists(dir / "plain" / "source_stamps.csv"));
+  for (std::size_t i = 0; i < d.scans.size(); ++i) d.scans[i].source_stamp_us = 976052857337284 - static_cast<std::int64_t>(i % 2) * 300000;
+  ASSERT_TRUE(write_dataset((dir / "set").string(), d).ok());
+  EXPECT_TRUE(fs::exists(dir / "set" / "source_stamps.csv"));
+  const auto back = read_dataset((dir / "set").string());
+  ASSERT_TRUE(back.ok()) << back.error().what << " line " << back.error().detail;
+  expect_equal(d, *back);
+  // A row that names another scan than scans.csv's row is refused, naming the file.
+  test::write_file(dir / "set" / "source_stamps.csv", "robot,scan,source_stamp_us\n1,5,1\n");
+  const auto bad = read_dataset((dir / "set").string());
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(std::string(bad.error().what).find("source_stamps.csv"), std::string::npos) << bad.error().what;
 }
 
 TEST(Dataset, EmptyDataSetRoundTrips) {
@@ -211,6 +231,26 @@ TEST(DatasetErrors, MalformedCsvNamesFileAndLine) {
   }
   {  // robot id 300 does not fit uint8
     const auto e = error_after("odom.csv", [](std::string t) { return replace_line(t, 2, "300,0,0,0,0,0,0"); });
+    EXPECT_EQ(e.detail, 2);
+  }
+}
+
+// A robot id is checked where a data set enters (the fusion core trusts it): 0 and ids above
+// kMaxRobots are refused with the file and line.
+TEST(DatasetErrors, RobotIdOutOfRangeNamesFileAndLine) {
+  {
+    const auto e = error_after("odom.csv", [](std::string t) { return replace_line(t, 2, "0,0,0,0,0,0,0"); });
+    EXPECT_TRUE(names(e, "odom.csv")) << e.what;
+    EXPECT_EQ(e.detail, 2);
+  }
+  {
+    const auto e = error_after("truth.csv", [](std::string t) { return replace_line(t, 2, "33,0,0,0,0,0,0"); });
+    EXPECT_TRUE(names(e, "truth.csv")) << e.what;
+    EXPECT_EQ(e.detail, 2);
+  }
+  {
+    const auto e = error_after("scans.csv", [](std::string t) { return replace_line(t, 2, "0,1,0,0,0,0,0,0,0,0,0,0,0,0"); });
+    EXPECT_TRUE(names(e, "scans.csv")) << e.what;
     EXPECT_EQ(e.detail, 2);
   }
 }

@@ -1,4 +1,4 @@
-// The ROS 2 messages' bytes on the wire (issue 13): each message our writers put on an rt/ topic,
+// The ROS 2 messages' bytes on the wire: each message our writers put on an rt/ topic,
 // captured by a reader in serialized form (dds_takecdr, as ROS2_WIRE.md 4 was verified), equals an
 // independently hand-encoded sample: the two vectors of ROS2_WIRE.md 4 (checked there against a Cyclone
 // writer in another process, for raw messages through our writers) and, for our message builders, the
@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "dds/ros2/cdr.hpp"
 #include "dds/ros2/wire.hpp"
 #include "tests/support/test_domain.hpp"
 
@@ -80,36 +81,52 @@ class Capture {
 
 constexpr std::int64_t kStampNs = 1'700'000'000'500'000'000;  // 1700000000 s + 500000000 ns
 
-TEST(Ros2Cdr, ReferencePointCloud2ThroughOurCloudWriter) {
-  // The vector of ROS2_WIRE.md 4 as printed there (offsets 00..87).
-  const std::string expected =
+// The PointCloud2 vector of ROS2_WIRE.md 4 as printed there (offsets 00..87): frame `map`, 1x2 points
+// (1,2,3), (-1.5,0.25,10), x/y/z FLOAT32, stamp 1700000000.5 s.
+constexpr char kReferencePointCloud2Hex[] =
       "00010003" "00f15365" "0065cd1d" "04000000" "6d617000" "01000000" "02000000" "03000000"
       "02000000" "78000000" "00000000" "07000000" "01000000" "02000000" "79000000" "04000000"
       "07000000" "01000000" "02000000" "7a000000" "08000000" "07000000" "01000000" "00000000"
       "0c000000" "18000000" "18000000" "0000803f" "00000040" "00004040" "0000c0bf" "0000803e"
       "00002041" "01000000";
-  Capture cap;
-  const dds_entity_t r = cap.reader(&sensor_msgs_msg_dds__PointCloud2__desc, kTopicMapCloud);
+
+// The sample of that vector, field by field.
+struct ReferenceCloud {
   sensor_msgs_msg_dds__PointField_ fields[3] = {
       {const_cast<char*>("x"), 0, sensor_msgs_msg_dds__PointField_Constants_FLOAT32, 1},
       {const_cast<char*>("y"), 4, sensor_msgs_msg_dds__PointField_Constants_FLOAT32, 1},
       {const_cast<char*>("z"), 8, sensor_msgs_msg_dds__PointField_Constants_FLOAT32, 1}};
-  const float xyz[6] = {1.0f, 2.0f, 3.0f, -1.5f, 0.25f, 10.0f};
-  std::uint8_t data[24];
-  std::memcpy(data, xyz, sizeof data);
-  sensor_msgs_msg_dds__PointCloud2_ m{};
-  m.header.stamp = ros_time(kStampNs);
-  m.header.frame_id = const_cast<char*>("map");
-  m.height = 1;
-  m.width = 2;
-  m.fields = {3, 3, fields, false};
-  m.is_bigendian = false;
-  m.point_step = 12;
-  m.row_step = 24;
-  m.data = {24, 24, data, false};
-  m.is_dense = true;
-  ASSERT_EQ(dds_write(cap.writers->cloud_writer(), &m), DDS_RETCODE_OK);
-  EXPECT_EQ(to_hex(Capture::take(r)), expected);
+  std::uint8_t data[24] = {};
+  sensor_msgs_msg_dds__PointCloud2_ msg{};
+  ReferenceCloud() {
+    const float xyz[6] = {1.0f, 2.0f, 3.0f, -1.5f, 0.25f, 10.0f};
+    std::memcpy(data, xyz, sizeof data);
+    msg.header.stamp = ros_time(kStampNs);
+    msg.header.frame_id = const_cast<char*>("map");
+    msg.height = 1;
+    msg.width = 2;
+    msg.fields = {3, 3, fields, false};
+    msg.is_bigendian = false;
+    msg.point_step = 12;
+    msg.row_step = 24;
+    msg.data = {24, 24, data, false};
+    msg.is_dense = true;
+  }
+};
+
+TEST(Ros2Cdr, ReferencePointCloud2ThroughOurCloudWriter) {
+  Capture cap;
+  const dds_entity_t r = cap.reader(&sensor_msgs_msg_dds__PointCloud2__desc, kTopicMapCloud);
+  const ReferenceCloud ref;
+  ASSERT_EQ(dds_write(cap.writers->cloud_writer(), &ref.msg), DDS_RETCODE_OK);
+  EXPECT_EQ(to_hex(Capture::take(r)), kReferencePointCloud2Hex);
+}
+
+// Outside DDS (the view's Foxglove channels): cdr_bytes is the same serialisation, header included.
+TEST(Ros2Cdr, CdrBytesOfTheReferencePointCloud2) {
+  const ReferenceCloud ref;
+  const std::string b = cdr_bytes(sensor_msgs_msg_dds__PointCloud2__desc, &ref.msg);
+  EXPECT_EQ(to_hex(std::vector<std::uint8_t>(b.begin(), b.end())), kReferencePointCloud2Hex);
 }
 
 TEST(Ros2Cdr, ReferenceTfMessageThroughOurTfWriter) {
@@ -170,15 +187,22 @@ TEST(Ros2Cdr, EmptyMapCloudIsAValidCloud) {
 }
 
 TEST(Ros2Cdr, TfMessageEqualsHandEncoding) {
-  // ros2_cdr_vectors.py "tf": robot 1 at (1.5,-2) yaw 0, robot 7 at (-3.25,0.5) yaw pi.
+  // ros2_cdr_vectors.py "tf" (REP-105): robot 1 at (1.5,-2) yaw 0 without a correction, robot 7 at
+  // (-3.25,0.5) yaw pi with the correction (0.5,-1,0.25): map -> robotN/odom -> robotN/base_link each.
   const std::string expected =
-      "000100000200000000f153650065cd1d040000006d61700011000000726f626f"
-      "74312f626173655f6c696e6b0000000000000000000000000000f83f00000000"
+      "000100000400000000f153650065cd1d040000006d6170000c000000726f626f"
+      "74312f6f646f6d00000000000000000000000000000000000000000000000000"
+      "0000000000000000000000000000000000000000000000000000000000000000"
+      "0000f03f00f153650065cd1d0c000000726f626f74312f6f646f6d0011000000"
+      "726f626f74312f626173655f6c696e6b00000000000000000000f83f00000000"
       "000000c000000000000000000000000000000000000000000000000000000000"
-      "00000000000000000000f03f00f153650065cd1d040000006d61700011000000"
-      "726f626f74372f626173655f6c696e6b000000000000000000000ac000000000"
-      "0000e03f00000000000000000000000000000000000000000000000000000000"
-      "0000f03f075c143326a6913c";
+      "00000000000000000000f03f00f153650065cd1d040000006d6170000c000000"
+      "726f626f74372f6f646f6d00000000000000e03f000000000000f0bf00000000"
+      "000000000000000000000000000000000000000036ee86eeaeeabf3fd35b7d52"
+      "15c0ef3f00f153650065cd1d0c000000726f626f74372f6f646f6d0011000000"
+      "726f626f74372f626173655f6c696e6b00000000b4458ff138190ac08432b8b5"
+      "8f0c0340000000000000000000000000000000000000000000000000d35b7d52"
+      "15c0ef3f3aee86eeaeeabf3f";
   Capture cap;
   const dds_entity_t r = cap.reader(&tf2_msgs_msg_dds__TFMessage__desc, kTopicTf);
   PlanarState a, b;
@@ -193,6 +217,9 @@ TEST(Ros2Cdr, TfMessageEqualsHandEncoding) {
   b.yaw_rad = M_PI;
   b.vx_mps = 9.0;  // velocities and covariances are not part of a transform
   b.cov_xx_m2 = 1.0;
+  b.map_from_odom_x_m = 0.5;
+  b.map_from_odom_y_m = -1.0;
+  b.map_from_odom_yaw_rad = 0.25;
   const PlanarState states[2] = {a, b};
   TfMessage tf;
   tf.set(states);
@@ -201,31 +228,32 @@ TEST(Ros2Cdr, TfMessageEqualsHandEncoding) {
 }
 
 TEST(Ros2Cdr, OdometryMessageEqualsHandEncoding) {
-  // ros2_cdr_vectors.py "odometry": 724 bytes (ROS2_WIRE.md 4 captured a 724-byte Odometry too).
+  // ros2_cdr_vectors.py "odometry": 732 bytes (the 724 of ROS2_WIRE.md's Odometry with the longer frame id
+  // robot3/odom); the pose and its covariance in robot3/odom under the correction (0.2,0.1,0.3).
   const std::string expected =
-      "0001000000f153650065cd1d040000006d61700011000000726f626f74332f62"
-      "6173655f6c696e6b00000000000000000000f43f000000000000e0bf00000000"
-      "0000000000000000000000000000000000000000000000000000f03f075c1433"
-      "26a6913c7b14ae47e17a843ffca9f1d24d62603f000000000000000000000000"
-      "0000000000000000000000000000000000000000fca9f1d24d62603f7b14ae47"
-      "e17aa43f00000000000000000000000000000000000000000000000000000000"
-      "0000000000000000000000000000000000000000000000000000000000000000"
-      "0000000000000000000000000000000000000000000000000000000000000000"
-      "0000000000000000000000000000000000000000000000000000000000000000"
-      "0000000000000000000000000000000000000000000000000000000000000000"
-      "0000000000000000000000000000000000000000000000000000000000000000"
-      "000000000000000000000000000000000000000000000000000000007b14ae47"
-      "e17a643f00000000000000c0020000000000e0bf000000000000000000000000"
-      "000000000000000000000000000000000000d03f000000000000000000000000"
+      "0001000000f153650065cd1d0c000000726f626f74332f6f646f6d0011000000"
+      "726f626f74332f626173655f6c696e6b00000000c1f812a5e16cea3f647451d4"
+      "9d45ecbf00000000000000000000000000000000000000000000000037e95e3e"
+      "03a4ef3f21eddfe9c920c33f70719a3191288c3f98a872caf4b9843f00000000"
+      "0000000000000000000000000000000000000000000000000000000098a872ca"
+      "f4b9843f3dfd324d758fa23f0000000000000000000000000000000000000000"
       "0000000000000000000000000000000000000000000000000000000000000000"
       "0000000000000000000000000000000000000000000000000000000000000000"
       "0000000000000000000000000000000000000000000000000000000000000000"
       "0000000000000000000000000000000000000000000000000000000000000000"
       "0000000000000000000000000000000000000000000000000000000000000000"
       "0000000000000000000000000000000000000000000000000000000000000000"
+      "000000007b14ae47e17a643f00000000000000c0020000000000e0bf00000000"
+      "0000000000000000000000000000000000000000000000000000d03f00000000"
       "0000000000000000000000000000000000000000000000000000000000000000"
       "0000000000000000000000000000000000000000000000000000000000000000"
-      "0000000000000000000000000000000000000000";
+      "0000000000000000000000000000000000000000000000000000000000000000"
+      "0000000000000000000000000000000000000000000000000000000000000000"
+      "0000000000000000000000000000000000000000000000000000000000000000"
+      "0000000000000000000000000000000000000000000000000000000000000000"
+      "0000000000000000000000000000000000000000000000000000000000000000"
+      "0000000000000000000000000000000000000000000000000000000000000000"
+      "00000000000000000000000000000000000000000000000000000000";
   Capture cap;
   const dds_entity_t r = cap.reader(&nav_msgs_msg_dds__Odometry__desc, odometry_topic(3));
   PlanarState s;
@@ -241,11 +269,14 @@ TEST(Ros2Cdr, OdometryMessageEqualsHandEncoding) {
   s.cov_xy_m2 = 0.002;
   s.cov_yy_m2 = 0.04;
   s.yaw_var_rad2 = 0.0025;
+  s.map_from_odom_x_m = 0.2;
+  s.map_from_odom_y_m = 0.1;
+  s.map_from_odom_yaw_rad = 0.3;
   OdometryMessage odom;
   odom.set(s);
   ASSERT_TRUE(cap.writers->write_odometry(3, odom).ok());
   const std::vector<std::uint8_t> got = Capture::take(r);
-  EXPECT_EQ(got.size(), 724u);
+  EXPECT_EQ(got.size(), 732u);
   EXPECT_EQ(to_hex(got), expected);
   EXPECT_GT(cap.writers->odometry_writer(3), 0);
   EXPECT_EQ(cap.writers->odometry_writer(4), 0);
@@ -256,6 +287,8 @@ TEST(Ros2Names, TopicsFramesAndTimes) {
   EXPECT_STREQ(kTopicTf, "rt/tf");
   EXPECT_EQ(odometry_topic(12), "rt/robot12/odom");
   EXPECT_EQ(base_link_frame(32), "robot32/base_link");
+  EXPECT_EQ(odom_frame(5), "robot5/odom");
+  EXPECT_EQ(laser_frame(5), "robot5/laser");
   const auto t = ros_time(-1);  // just before the epoch: -1 s + 999999999 ns
   EXPECT_EQ(t.sec, -1);
   EXPECT_EQ(t.nanosec, 999'999'999u);

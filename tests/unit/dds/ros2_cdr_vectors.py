@@ -54,12 +54,32 @@ def show(name, b):
 S = (1700000000, 500000000)
 # PointCloudMessage.set(stamp, "map", {(1,2,3,hits 4), (-1.5,0.25,10,hits 1)})
 show('map cloud', map_cloud(*S, 'map', [(1, 2, 3, 4), (-1.5, .25, 10, 1)]))
-# TfMessage.set: robot 1 at (1.5,-2) yaw 0; robot 7 at (-3.25, 0.5) yaw pi; same stamp
-show('tf', tf_message([(*S, 'map', 'robot1/base_link', (1.5, -2, 0), (0, 0, 0, 1)),
-                       (*S, 'map', 'robot7/base_link', (-3.25, .5, 0), (0, 0, math.sin(math.pi / 2), math.cos(math.pi / 2)))]))
+# TfMessage.set (REP-105: map -> robotN/odom = the correction, robotN/odom -> robotN/base_link =
+# inverse(correction) * tracked pose): robot 1 at (1.5,-2) yaw 0, no correction; robot 7 at (-3.25, 0.5)
+# yaw pi, correction (0.5, -1, 0.25); same stamp.
+def inv_compose(c, p):  # inverse(c) * p for planar poses (x, y, yaw)
+    dx, dy = p[0] - c[0], p[1] - c[1]
+    co, si = math.cos(c[2]), math.sin(c[2])
+    yaw = math.remainder(p[2] - c[2], 2 * math.pi)
+    return (co * dx + si * dy, -si * dx + co * dy, yaw)
+
+def yq(yaw): return (0, 0, math.sin(yaw / 2), math.cos(yaw / 2))
+
+def rep105(robot, pose, corr):
+    o = inv_compose(corr, pose)
+    return [(*S, 'map', 'robot%d/odom' % robot, (corr[0], corr[1], 0), yq(corr[2])),
+            (*S, 'robot%d/odom' % robot, 'robot%d/base_link' % robot, (o[0], o[1], 0), yq(o[2]))]
+
+show('tf', tf_message(rep105(1, (1.5, -2, 0), (0, 0, 0)) + rep105(7, (-3.25, .5, math.pi), (.5, -1, .25))))
 # OdometryMessage.set: robot 3 at (1.25, -0.5) yaw pi, map velocity (2, 0.5), yaw rate 0.25,
-# cov xx 0.01 xy 0.002 yy 0.04, yaw variance 0.0025; twist in base_link = R(-yaw) v
+# cov xx 0.01 xy 0.002 yy 0.04 (map frame), yaw variance 0.0025, correction (0.2, 0.1, 0.3): the pose
+# in robot3/odom, the covariance rotated into it (R^T C R, R the correction's rotation); twist in
+# base_link = R(-yaw) v.
 yaw = math.pi; c, s = math.cos(yaw), math.sin(yaw); vx, vy = 2.0, 0.5
-cov = [0.0] * 36; cov[0] = 0.01; cov[1] = cov[6] = 0.002; cov[7] = 0.04; cov[35] = 0.0025
-show('odometry', odometry(*S, 'map', 'robot3/base_link', (1.25, -.5, 0), (0, 0, math.sin(yaw / 2), math.cos(yaw / 2)),
+corr = (.2, .1, .3); o = inv_compose(corr, (1.25, -.5, yaw))
+R = [[math.cos(corr[2]), -math.sin(corr[2])], [math.sin(corr[2]), math.cos(corr[2])]]
+C = [[0.01, 0.002], [0.002, 0.04]]
+Co = [[sum(R[k][i] * C[k][l] * R[l][j] for k in range(2) for l in range(2)) for j in range(2)] for i in range(2)]
+cov = [0.0] * 36; cov[0] = Co[0][0]; cov[1] = cov[6] = Co[0][1]; cov[7] = Co[1][1]; cov[35] = 0.0025
+show('odometry', odometry(*S, 'robot3/odom', 'robot3/base_link', (o[0], o[1], 0), yq(o[2]),
                           cov, (c * vx + s * vy, -s * vx + c * vy, 0), (0, 0, .25), [0.0] * 36))

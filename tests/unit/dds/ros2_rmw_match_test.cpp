@@ -1,4 +1,4 @@
-// Issue 13: readers set up as rmw_cyclonedds sets them up -- the ROS type name, XCDR1 as the only data
+// Readers set up as rmw_cyclonedds sets them up -- the ROS type name, XCDR1 as the only data
 // representation, no XTypes type information, keyless -- with the QoS of RViz2, tf2, the ROS default
 // and the sensor-data profile (ROS2_WIRE.md 5), on another participant, match our rt/ writers
 // (publication matched on both sides) and decode what they write. Discovery shows our writers as a ROS
@@ -170,9 +170,11 @@ TEST_F(RmwLikeReaders, TfAndOdometryMatchTheirRosProfilesAndDecode) {
   ASSERT_TRUE(writers_->write_odometry(5, odom).ok());
   for (dds_entity_t r : tf_readers) {
     EXPECT_TRUE(take_one<tf2_msgs_msg_dds__TFMessage_>(r, [](const tf2_msgs_msg_dds__TFMessage_& m) {
-      ASSERT_EQ(m.transforms._length, 1u);
-      const auto& t = m.transforms._buffer[0];
-      EXPECT_STREQ(t.header.frame_id, "map");
+      ASSERT_EQ(m.transforms._length, 2u);  // REP-105: map -> robot5/odom (no correction) -> robot5/base_link
+      EXPECT_STREQ(m.transforms._buffer[0].header.frame_id, "map");
+      EXPECT_STREQ(m.transforms._buffer[0].child_frame_id, "robot5/odom");
+      const auto& t = m.transforms._buffer[1];
+      EXPECT_STREQ(t.header.frame_id, "robot5/odom");
       EXPECT_STREQ(t.child_frame_id, "robot5/base_link");
       EXPECT_DOUBLE_EQ(t.transform.translation.x, 2.0);
       EXPECT_NEAR(2.0 * std::atan2(t.transform.rotation.z, t.transform.rotation.w), 0.5, 1e-12);
@@ -180,7 +182,7 @@ TEST_F(RmwLikeReaders, TfAndOdometryMatchTheirRosProfilesAndDecode) {
   }
   for (dds_entity_t r : odom_readers) {
     EXPECT_TRUE(take_one<nav_msgs_msg_dds__Odometry_>(r, [](const nav_msgs_msg_dds__Odometry_& m) {
-      EXPECT_STREQ(m.header.frame_id, "map");
+      EXPECT_STREQ(m.header.frame_id, "robot5/odom");
       EXPECT_STREQ(m.child_frame_id, "robot5/base_link");
       EXPECT_DOUBLE_EQ(m.pose.pose.position.y, 1.0);
       EXPECT_NEAR(m.twist.twist.linear.x, 0.3, 1e-12);  // forward in the robot's frame

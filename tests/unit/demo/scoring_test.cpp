@@ -243,7 +243,7 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
     station::GroundStationConfig g;
     station::ConfigError e;
     ASSERT_TRUE(station::load_groundstation_config(cfg, g, e)) << e.message;
-    auto stage = station::FusionStage::create(station::fusion_options_from_config(g.fusion, g.kalman, g.registration), session);
+    auto stage = station::FusionStage::create(g.fusion, session);
     ASSERT_TRUE(stage.ok());
     ASSERT_TRUE(stage.value()->replay_session(session).ok());
     stage.value()->flush();
@@ -296,8 +296,8 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
     station::GroundStationConfig g;
     station::ConfigError e;
     ASSERT_TRUE(station::load_groundstation_config(reg_cfg, g, e)) << e.message;
-    ASSERT_TRUE(g.fusion.registration);
-    auto stage = station::FusionStage::create(station::fusion_options_from_config(g.fusion, g.kalman, g.registration), session);
+    ASSERT_TRUE(g.fusion.core.registration);
+    auto stage = station::FusionStage::create(g.fusion, session);
     ASSERT_TRUE(stage.ok());
     ASSERT_TRUE(stage.value()->replay_session(session).ok());
     stage.value()->flush();

@@ -56,6 +56,11 @@ TEST(SessionCsv, StatusRowsByNameFromTheStationsOwnFile) {
     s.scans_published = 900;
     s.lms_reopens = 3;
     s.points_team_stale = 77;
+    s.ring_unconfirmed = 1500;
+    s.shadow_ms = 0;
+    s.last_shadow_ms = 12000;
+    s.backfill_total = 1200;
+    s.backfill_remaining = 300;
     store->append_status(s, {Time::from_ns(1), Time::from_ns(2)});
     s.lms_state = 5;
     s.lms_reopens = 1;  // a lower count later (a restarted daemon): the report keeps the highest
@@ -76,6 +81,11 @@ TEST(SessionCsv, StatusRowsByNameFromTheStationsOwnFile) {
   EXPECT_EQ((*rows)[0].scans_published, 900u);
   EXPECT_EQ((*rows)[0].lms_reopens, 3u);
   EXPECT_EQ((*rows)[0].points_team_stale, 77u);
+  EXPECT_EQ((*rows)[0].ring_unconfirmed, 1500u);
+  EXPECT_EQ((*rows)[0].shadow_ms, 0u);
+  EXPECT_EQ((*rows)[0].last_shadow_ms, 12000u);
+  EXPECT_EQ((*rows)[0].backfill_total, 1200u);
+  EXPECT_EQ((*rows)[0].backfill_remaining, 300u);
 
   const UnplugReport u = unplug_report(rows.value(), 2);
   EXPECT_EQ(u.lms_reopens, 3u);  // not 77 (points_team_stale)
@@ -149,8 +159,9 @@ TEST(SessionCsv, RowsThatDoNotParseAreSkippedAndCounted) {
   const std::string path = dir.path() + "/status.csv";
   std::FILE* f = std::fopen(path.c_str(), "w");
   ASSERT_NE(f, nullptr);
-  std::fputs("lms_reopens,robot_id,stamp_ns,lms_state,scans_published,points_team_stale,corrections_rejected,corrections_applied\n"
-             "2,1,10,3,4,5,1,9\nx,1,11,3,4,5,0,0\n7,1,12,3,4,0,0\n",
+  std::fputs("lms_reopens,robot_id,stamp_ns,lms_state,scans_published,points_team_stale,corrections_rejected,corrections_applied,"
+             "ring_unconfirmed,shadow_ms,last_shadow_ms,backfill_total,backfill_remaining\n"
+             "2,1,10,3,4,5,1,9,0,0,0,0,0\nx,1,11,3,4,5,0,0,0,0,0,0,0\n7,1,12,3,4,0,0\n",
              f);
   std::fclose(f);
   std::size_t bad = 0;

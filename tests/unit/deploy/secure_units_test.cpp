@@ -33,9 +33,9 @@ TEST(SecureUnits, EveryCredentialFileIsLoadedAndPassedToTheDaemon) {
   for (const auto& u : units) {
     const std::string t = slurp(deploy_dir() / u.unit);
     ASSERT_FALSE(t.empty()) << u.unit;
-    for (const char* f : {teamscan::security::kCaCertFile, teamscan::security::kCertFile, teamscan::security::kKeyFile,
-                          teamscan::security::kGovernanceFile, teamscan::security::kPermissionsFile,
-                          teamscan::security::kCrlFile}) {
+    for (const char* f : {teamscan::dds::security::kCaCertFile, teamscan::dds::security::kCertFile, teamscan::dds::security::kKeyFile,
+                          teamscan::dds::security::kGovernanceFile, teamscan::dds::security::kPermissionsFile,
+                          teamscan::dds::security::kCrlFile}) {
       const std::string line = std::string("\nLoadCredential=") + f + ":" + u.dir + f + "\n";
       EXPECT_NE(t.find(line), std::string::npos) << u.unit << " lacks" << line;
     }

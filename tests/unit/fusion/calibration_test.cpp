@@ -10,7 +10,7 @@
 #include "groundstation/station/config.hpp"
 #include "sim/simulator.hpp"
 
-namespace teamscan::mapping {
+namespace teamscan::fusion {
 namespace {
 
 // corridor2 with another seed than the mission's (21): a different drive of the same two bases (1 % and
@@ -22,7 +22,7 @@ TEST(Calibration, ASimulatedDriveRecoversEachRobotsSlip) {
   so.seed = 1001;
   so.device_streams = false;
   const sim::SimOutput drive = sim::simulate(*load.scenario, so);
-  const Calibration cal = calibrate_drive(drive.dataset, CalibrationOptions{});
+  const Calibration cal = calibrate_drive(drive.dataset, CalibrationOptions{}).value();
   ASSERT_EQ(cal.robots.size(), load.scenario->robots.size());
   for (const RobotCalibration& r : cal.robots) {
     const sim::RobotSpec* spec = nullptr;
@@ -50,9 +50,9 @@ TEST(Calibration, ASimulatedDriveRecoversEachRobotsSlip) {
   station::GroundStationConfig c;
   station::ConfigError e;
   ASSERT_TRUE(station::parse_groundstation_config(text, "calib.toml", c, e)) << e.message << "\n" << text;
-  ASSERT_EQ(c.registration.robot_priors.size(), 2u);
+  ASSERT_EQ(c.fusion.core.registration_options.robot_priors.size(), 2u);
   for (const RobotCalibration& r : cal.robots) {
-    const registration::OdometryPrior& p = c.registration.prior_of(r.robot);
+    const registration::OdometryPrior& p = c.fusion.core.registration_options.prior_of(r.robot);
     EXPECT_NEAR(p.scale, r.rates.scale, 1e-3 * std::abs(r.rates.scale));
     EXPECT_NEAR(p.sigma_scale, r.rates.sigma_scale, 1e-3 * r.rates.sigma_scale);
     EXPECT_NEAR(p.drift_rad_per_m, r.rates.drift_rad_per_m, 1e-3 * std::abs(r.rates.drift_rad_per_m));
@@ -105,4 +105,4 @@ TEST(Calibration, DrivesCombineByInverseVarianceWithTheirDisagreementInTheSigma)
 }
 
 }  // namespace
-}  // namespace teamscan::mapping
+}  // namespace teamscan::fusion

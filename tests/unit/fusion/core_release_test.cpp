@@ -47,11 +47,11 @@ class ReleaseRule {
     now_ns_ = stamp_ns;
     const std::vector<mapping::MapPoint> points{{static_cast<float>(robot), 1.0f, 0.5f}, {2.0f, 1.0f, 0.5f}};
     ScanInput in;
-    in.view.robot = robot;
-    in.view.scan = seq;
-    in.view.stamp_ns = stamp_ns;
-    in.view.origin_m = {static_cast<double>(robot), 0.0, 0.3};
-    in.view.points = points;
+    in.robot = robot;
+    in.scan = seq;
+    in.stamp_ns = stamp_ns;
+    in.origin_m = {static_cast<double>(robot), 0.0, 0.3};
+    in.points = points;
     in.arrival_ns = stamp_ns;
     ASSERT_TRUE(core_->add_scan(in));
   }

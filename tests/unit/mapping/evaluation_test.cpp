@@ -2,18 +2,28 @@
 // the tracker feeding the robot filters, method parsing, and the DynamicMap export layout.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <unistd.h>
 
 #include "groundstation/mapping/dynamicmap_export.hpp"
 #include "groundstation/fusion/evaluation.hpp"
+#include "tools/demo/eval_report.hpp"
 #include "tests/bench/mapping/synthetic_survey.hpp"
+
+namespace teamscan::mapping {
+using demo::report_json;  // the reports are written by the tools
+using demo::report_markdown;
+using namespace fusion;  // the evaluation (groundstation/fusion/evaluation.hpp)
+}  // namespace teamscan::mapping
 
 namespace teamscan::mapping {
 namespace {
@@ -110,22 +120,46 @@ TEST(Evaluation, ParseMethodsExpandsThePaperSettings) {
   EXPECT_FALSE(parse_methods("direction", std::nullopt, 95.0).ok());
 }
 
+TEST(Evaluation, ProgressRisesThroughEveryMethodAndTable1) {
+  const Dataset d = synthetic_dataset(5);
+  EvalOptions o = all_methods();
+  std::vector<std::pair<std::string, double>> seen;
+  o.progress = [&](const std::string& stage, double fraction) { seen.emplace_back(stage, fraction); };
+  const EvalReport r = evaluate(d, o).value();
+  ASSERT_FALSE(seen.empty());
+  EXPECT_EQ(seen.front().second, 0.0);
+  for (std::size_t i = 1; i < seen.size(); ++i) EXPECT_GE(seen[i].second, seen[i - 1].second) << seen[i].first;
+  for (const auto& [stage, fraction] : seen) {
+    EXPECT_GE(fraction, 0.0);
+    EXPECT_LT(fraction, 1.0);
+  }
+  // Every method is named while it is decided and while its metrics are computed, and table 1 in between.
+  for (const MethodResult& m : r.methods) {
+    EXPECT_TRUE(std::any_of(seen.begin(), seen.end(), [&](const auto& p) { return p.first == m.name + " (fusion core)"; })) << m.name;
+    EXPECT_TRUE(std::any_of(seen.begin(), seen.end(), [&](const auto& p) { return p.first == m.name + " (metrics, floor plane)"; }))
+        << m.name;
+  }
+  EXPECT_TRUE(std::any_of(seen.begin(), seen.end(), [](const auto& p) { return p.first.rfind("table 1", 0) == 0; }));
+  // Within a method's decisions it reports more than once (about every 1 % of the time line).
+  EXPECT_GT(seen.size(), 3 * r.methods.size());
+}
+
 TEST(Evaluation, IsDeterministicForASeed) {
   const Dataset d = synthetic_dataset(5);
   const EvalOptions o = all_methods();
-  const std::string a = report_json(evaluate(d, o), "cmd");
-  const std::string b = report_json(evaluate(d, o), "cmd");
+  const std::string a = report_json(evaluate(d, o).value(), "cmd");
+  const std::string b = report_json(evaluate(d, o).value(), "cmd");
   EXPECT_EQ(a, b);
   EvalOptions other = o;
   other.ransac.seed = 2;
   // A different RANSAC seed changes at most the plane figures, never the removal counts.
-  const EvalReport r1 = evaluate(d, o), r2 = evaluate(d, other);
+  const EvalReport r1 = evaluate(d, o).value(), r2 = evaluate(d, other).value();
   for (std::size_t i = 0; i < r1.methods.size(); ++i) EXPECT_EQ(r1.methods[i].removed, r2.methods[i].removed);
 }
 
 TEST(Evaluation, JsonHasTheIssuesKeysPerMethod) {
   const Dataset d = synthetic_dataset(5);
-  const std::string json = report_json(evaluate(d, all_methods()), "teamscan eval x");
+  const std::string json = report_json(evaluate(d, all_methods()).value(), "teamscan eval x");
   for (const char* key : {"\"name\"", "\"params\"", "\"ghost_removed_pct\"", "\"other_removed_pct\"",
                           "\"plane_error_improvement_pct\"", "\"plane_inlier_improvement_pct\"", "\"SA\"", "\"DA\"",
                           "\"AA\"", "\"HA\"", "\"kept_by_class\"", "\"table1\"", "\"counts\"", "\"floor\"",
@@ -141,7 +175,7 @@ TEST(Evaluation, TrackerFedRobotFiltersFindTheMovingTeammate) {
   const Dataset d = synthetic_dataset(9);
   EvalOptions o;
   o.methods = parse_methods("position,direction", std::nullopt, 7.0).value();
-  const EvalReport r = evaluate(d, o);
+  const EvalReport r = evaluate(d, o).value();
   ASSERT_EQ(r.methods.size(), 2u);
   std::uint64_t ghosts = 35 * 8;
   EXPECT_EQ(r.ghosts, ghosts);
@@ -174,7 +208,7 @@ TEST(Evaluation, LiveAndOfflineAgreeForRobotFiltersAndMapFiltersConvergeAtTheEnd
 
 TEST(Evaluation, MarkdownHasTheTableTheParametersAndTheCommand) {
   const Dataset d = synthetic_dataset(5);
-  const std::string md = report_markdown(evaluate(d, all_methods()), "teamscan eval DIR --seed 1");
+  const std::string md = report_markdown(evaluate(d, all_methods()).value(), "teamscan eval DIR --seed 1");
   EXPECT_NE(md.find("| method | % ghost | % other |"), std::string::npos);
   EXPECT_NE(md.find("**Table 1**"), std::string::npos);
   EXPECT_NE(md.find("RANSAC: threshold 0.02 m, 200 iterations, seed 1"), std::string::npos);
@@ -322,7 +356,7 @@ TEST(EvaluationEdges, EmptyDataSetGivesNullsNotACrash) {
   const Dataset empty;
   EvalOptions o;
   o.methods = parse_methods("all", std::nullopt, std::nullopt).value();
-  const EvalReport r = evaluate(empty, o);
+  const EvalReport r = evaluate(empty, o).value();
   EXPECT_EQ(r.points, 0u);
   EXPECT_FALSE(r.table1.with_ghosts.found);
   const std::string json = report_json(r, "x");
@@ -340,7 +374,7 @@ TEST(EvaluationEdges, NonFinitePointsAndScansMissingFromScansCsvAreHandled) {
   d.points.push_back(orphan);
   EvalOptions o;
   o.methods = parse_methods("all", std::nullopt, std::nullopt).value();
-  const EvalReport r = evaluate(d, o);
+  const EvalReport r = evaluate(d, o).value();
   EXPECT_EQ(r.orphan_points, 1u);
   EXPECT_EQ(r.points, d.points.size());
   for (const MethodResult& m : r.methods) EXPECT_EQ(m.removed.size(), d.points.size());

@@ -14,9 +14,16 @@
 
 #include "groundstation/mapping/best.hpp"
 #include "groundstation/fusion/evaluation.hpp"
+#include "tools/demo/eval_report.hpp"
 #include "groundstation/mapping/freespace_filter.hpp"
 #include "groundstation/mapping/tracked_filter.hpp"
 #include "tests/bench/mapping/synthetic_survey.hpp"
+
+namespace teamscan::mapping {
+using demo::report_json;  // the reports are written by the tools
+using demo::report_markdown;
+using namespace fusion;  // the evaluation (groundstation/fusion/evaluation.hpp)
+}  // namespace teamscan::mapping
 
 namespace teamscan::mapping {
 namespace {
@@ -667,18 +674,18 @@ TEST(BeyondEval, IsDeterministicAndPoseNoiseChangesOnlyWhatTheFiltersSee) {
   EvalOptions o;
   o.methods = parse_methods("freespace,tracked,best", std::nullopt, std::nullopt).value();
   o.ransac.iterations = 50;
-  const std::string a = report_json(evaluate(d, o), "x");
-  const std::string b = report_json(evaluate(d, o), "x");
+  const std::string a = report_json(evaluate(d, o).value(), "x");
+  const std::string b = report_json(evaluate(d, o).value(), "x");
   EXPECT_EQ(a, b);
   o.pose_noise.sigma_m = 0.05;
   o.pose_noise.sigma_rad = 0.035;
-  const EvalReport noisy1 = evaluate(d, o);
-  const EvalReport noisy2 = evaluate(d, o);
+  const EvalReport noisy1 = evaluate(d, o).value();
+  const EvalReport noisy2 = evaluate(d, o).value();
   EXPECT_EQ(report_json(noisy1, "x"), report_json(noisy2, "x"));
   EXPECT_NE(report_json(noisy1, "x"), a);
   EXPECT_EQ(noisy1.points, d.points.size());
   // The perturbation is of the poses: the cloud and its labels are the same, so the counts are too.
-  EXPECT_EQ(noisy1.ghosts, evaluate(d, EvalOptions{o.methods, o.ransac, o.tracker, {}, {}}).ghosts);
+  EXPECT_EQ(noisy1.ghosts, evaluate(d, EvalOptions{o.methods, o.ransac, o.tracker, {}, {}}).value().ghosts);
 }
 
 TEST(BeyondEval, TheFloorBiasReferenceIsTheGhostFreeFloorAndEveryMethodIsMeasuredAgainstIt) {
@@ -688,7 +695,7 @@ TEST(BeyondEval, TheFloorBiasReferenceIsTheGhostFreeFloorAndEveryMethodIsMeasure
   EvalOptions o;
   o.methods = parse_methods("tracked,best", std::nullopt, std::nullopt).value();
   o.ransac.iterations = 50;
-  const EvalReport r = evaluate(d, o);
+  const EvalReport r = evaluate(d, o).value();
   ASSERT_TRUE(r.table1.without_ghosts.found);
   // Least squares through the ghost-free band: its signed mean distance is 0 up to rounding.
   EXPECT_LT(std::abs(r.floor_bias_ghost_free_m), 1e-9);
@@ -697,7 +704,7 @@ TEST(BeyondEval, TheFloorBiasReferenceIsTheGhostFreeFloorAndEveryMethodIsMeasure
   // reference is refitted until its inliers settle, from wherever the seed's RANSAC started it.
   EvalOptions o2 = o;
   o2.ransac.seed = 7;
-  const EvalReport r2 = evaluate(d, o2);
+  const EvalReport r2 = evaluate(d, o2).value();
   EXPECT_NEAR(r2.floor_bias_before_m, r.floor_bias_before_m, 1e-3 * std::abs(r.floor_bias_before_m));
   for (std::size_t m = 0; m < r.methods.size(); ++m) {
     EXPECT_NEAR(r2.methods[m].floor_bias_after_m, r.methods[m].floor_bias_after_m, 1e-3 * std::abs(r.methods[m].floor_bias_after_m));

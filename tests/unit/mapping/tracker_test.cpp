@@ -150,7 +150,7 @@ TEST(Tracker, CovarianceStaysSymmetricPositiveDefinite) {
   EXPECT_GT(p.determinant(), 0.0);
 }
 
-// ---- odometry drift (issue 7, docs/beyond.md "Drift") ----------------------------------------------
+// ---- odometry drift (docs/beyond.md "Drift") ----------------------------------------------
 
 namespace drift {
 constexpr double kPi = 3.14159265358979323846;

@@ -103,7 +103,7 @@ TEST(Allocation, TenThousandScansAllocateNothing) {
     team.members[m].height_mm = 500;
   }
 
-  // Malformed team states (issue 15: a publisher at 50 Hz) go through the check between the good ones:
+  // Malformed team states (a publisher at 50 Hz) go through the check between the good ones:
   // refusing them allocates nothing either.
   TeamSnapshot malformed = team;
   malformed.members[3].cov_xx = std::numeric_limits<float>::quiet_NaN();

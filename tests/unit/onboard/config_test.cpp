@@ -111,6 +111,27 @@ TEST(OnboardConfig, ErrorsNameTheKey) {
   EXPECT_NAMES(refuse("z_m = 0.5", "z_m = -1"), "mount.z_m:");
 }
 
+TEST(OnboardConfig, Ring) {
+  std::string msg;
+  auto off = parse_onboard_config(kMinimal, msg);
+  ASSERT_TRUE(off.ok()) << msg;
+  EXPECT_FALSE(off->ring.enabled());  // no [ring]: no store and forward
+  auto c = parse_onboard_config(std::string{kMinimal} + "[ring]\npath = \"/var/lib/teamscan/ring.bin\"\ncapacity_s = 1800\n"
+                                                        "flush_records = 10\nflush_period_s = 0.25\nbackfill_rate_hz = 200\n", msg);
+  ASSERT_TRUE(c.ok()) << msg;
+  EXPECT_TRUE(c->ring.enabled());
+  EXPECT_EQ(c->ring.slots(), 153000u);  // 30 min of 75 scans and 10 poses a second
+  EXPECT_EQ(c->ring.flush_records, 10u);
+  EXPECT_EQ(c->ring.flush_period, std::chrono::milliseconds(250));
+  EXPECT_DOUBLE_EQ(c->ring.backfill_rate_hz, 200.0);
+  EXPECT_NAMES(refuse("", "[ring]\npath = \"\"\n"), "ring.path:");
+  EXPECT_NAMES(refuse("", "[ring]\npath = \"/r\"\ncapacity_s = 0.5\n"), "ring.capacity_s:");
+  EXPECT_NAMES(refuse("", "[ring]\npath = \"/r\"\nflush_records = 0\n"), "ring.flush_records:");
+  EXPECT_NAMES(refuse("", "[ring]\npath = \"/r\"\nflush_period_s = 0\n"), "ring.flush_period_s:");
+  EXPECT_NAMES(refuse("", "[ring]\npath = \"/r\"\nbackfill_rate_hz = 0\n"), "ring.backfill_rate_hz:");
+  EXPECT_NAMES(refuse("", "[ring]\nsize = 3\n"), "ring.size: unknown key");
+}
+
 TEST(OnboardConfig, InconsistentSettingsAreRefused) {
   EXPECT_NAMES(refuse("\"/dev/ttyUSB1\"", "\"/dev/ttyUSB0\""), "lms.device: is the same device as arcos.device");
   EXPECT_NAMES(refuse("[lms]\n", "[lms]\nbaud = 57600\n"), "lms.baud:");

@@ -222,15 +222,5 @@ TEST(ScanPoints, RefusesBeamsThatAreNotOneFullSweepOfTheVariant) {
   EXPECT_EQ(out.count, 181);
 }
 
-TEST(ScanPoints, MetresToMillimetresRoundsAndSaturates) {
-  EXPECT_EQ(metres_to_mm_i32(1.2346), 1235);
-  EXPECT_EQ(metres_to_mm_i32(-1.2346), -1235);
-  EXPECT_EQ(metres_to_mm_i32(-0.0004), 0);
-  EXPECT_EQ(metres_to_mm_i32(0.0016), 2);
-  EXPECT_EQ(metres_to_mm_i32(1e9), 2147483647);
-  EXPECT_EQ(metres_to_mm_i32(-1e9), -2147483647 - 1);
-  EXPECT_EQ(metres_to_mm_i32(std::nan("")), 2147483647);
-}
-
 }  // namespace
 }  // namespace teamscan

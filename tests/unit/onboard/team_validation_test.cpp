@@ -1,5 +1,5 @@
 // check_team (onboard/core/team_validation.hpp) and the pipeline's team handling: every malformed team
-// state of issue 15 is refused with its reason, and a publisher of malformed team states at 50 Hz
+// state is refused with its reason, and a publisher of malformed team states at 50 Hz
 // beside the ground station's 20 Hz does not change one direction-filter decision (the pipeline keeps
 // the last good state).
 #include "onboard/core/team_validation.hpp"

@@ -125,6 +125,7 @@ struct DelayedRun {
 
 DelayedRun drive_with_delay(double match_delay_s, std::vector<int> cpus = {}) {
   RegistrationOptions o;
+  o.match_every_s = 0.5;  // every fifth scan of the 10 Hz drive (the test's arithmetic below)
   o.match_delay_s = match_delay_s;
   o.cpus = std::move(cpus);
   Registration reg(o);
@@ -283,6 +284,7 @@ TEST(Registration, AWindowByPathRetiresScansByTheDistanceDriven) {
     o.window_s = 60.0;
     o.window_m = window_m;
     o.min_map_features = 100000;  // no match: only the window and the reference are looked at
+    o.match_delay_s = 0.0;        // the reference on this thread: its size read after each scan
     Registration reg{o};
     std::mt19937_64 rng{6};
     for (int k = 0; k < 6; ++k) {

@@ -35,7 +35,7 @@ class PkiTest : public ::testing::Test {
     o.robots = 2;
     o.domain_min = o.domain_max = test::test_domain_id();
     o.now_s = now_s();
-    ASSERT_EQ(pki::create_site(dir_.string(), o), "");
+    ASSERT_TRUE(pki::create_site(dir_.string(), o).ok());
   }
   void TearDown() override { fs::remove_all(dir_); }
   std::string bundle(const char* name) const { return (dir_ / name).string(); }
@@ -51,7 +51,7 @@ class PkiTest : public ::testing::Test {
   // A participant with the bundle's identity, or a negative return code.
   dds_entity_t participant(const std::string& b) const {
     dds_qos_t* q = dds_create_qos();
-    security::add_security_properties(q, b);
+    dds::security::add_security_properties(q, b);
     const dds_entity_t p = dds_create_participant(test::test_domain_id(), q, nullptr);
     dds_delete_qos(q);
     return p;
@@ -68,11 +68,11 @@ mode_t mode_of(const fs::path& p) {
 TEST_F(PkiTest, InitWritesEveryBundleWithPrivateKeysOnlyForTheOwner) {
   EXPECT_EQ(mode_of(dir_ / "ca" / "ca_key.pem"), 0600u);
   for (const char* name : {"station", "robot1", "robot2"}) {
-    for (const char* f : {security::kCaCertFile, security::kCertFile, security::kKeyFile, security::kGovernanceFile,
-                          security::kPermissionsFile, security::kCrlFile})
+    for (const char* f : {dds::security::kCaCertFile, dds::security::kCertFile, dds::security::kKeyFile, dds::security::kGovernanceFile,
+                          dds::security::kPermissionsFile, dds::security::kCrlFile})
       EXPECT_TRUE(fs::exists(dir_ / name / f)) << name << "/" << f;
-    EXPECT_EQ(mode_of(dir_ / name / security::kKeyFile), 0600u) << name;
-    const security::CredentialCheck c = security::check_credentials(bundle(name), now_s());
+    EXPECT_EQ(mode_of(dir_ / name / dds::security::kKeyFile), 0600u) << name;
+    const dds::security::CredentialCheck c = dds::security::check_credentials(bundle(name), now_s());
     EXPECT_TRUE(c.ok()) << name << ": " << c.summary();
     EXPECT_EQ(c.identity, name);
   }
@@ -83,10 +83,10 @@ TEST_F(PkiTest, InitWritesEveryBundleWithPrivateKeysOnlyForTheOwner) {
 }
 
 TEST_F(PkiTest, APrivateKeyRewrittenOverAReadableFileBecomes0600) {
-  const fs::path key = dir_ / "robot1" / security::kKeyFile;
+  const fs::path key = dir_ / "robot1" / dds::security::kKeyFile;
   fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
-  EXPECT_TRUE(has(security::check_credentials(bundle("robot1"), now_s()).problems, "lets group or others read"));
-  EXPECT_EQ(pki::issue_identity(dir_.string(), "robot1", now_s() - 60, now_s() + 86400), "");
+  EXPECT_TRUE(has(dds::security::check_credentials(bundle("robot1"), now_s()).problems, "lets group or others read"));
+  EXPECT_TRUE(pki::issue_identity(dir_.string(), "robot1", now_s() - 60, now_s() + 86400).ok());
   EXPECT_EQ(mode_of(key), 0600u);
 }
 
@@ -97,22 +97,22 @@ TEST_F(PkiTest, CheckSaysWhatIsMissingExpiredOrDoesNotMatch) {
   EXPECT_TRUE(has(r.lines, "robot2: missing"));
 
   // An identity that expired yesterday.
-  ASSERT_EQ(pki::issue_identity(dir_.string(), "robot2", now_s() - 10 * 86400, now_s() - 86400), "");
-  security::CredentialCheck c = security::check_credentials(bundle("robot2"), now_s());
+  ASSERT_TRUE(pki::issue_identity(dir_.string(), "robot2", now_s() - 10 * 86400, now_s() - 86400).ok());
+  dds::security::CredentialCheck c = dds::security::check_credentials(bundle("robot2"), now_s());
   EXPECT_TRUE(has(c.problems, "certificate has expired")) << c.summary();
   EXPECT_TRUE(has(c.problems, "the grant for CN=robot2,O=TeamScan has expired")) << c.summary();
 
   // robot1's permissions in robot2's bundle: no grant for robot2's subject.
-  ASSERT_EQ(pki::issue_identity(dir_.string(), "robot2", now_s() - 60, now_s() + 86400), "");
-  fs::copy_file(dir_ / "robot1" / security::kPermissionsFile, dir_ / "robot2" / security::kPermissionsFile,
+  ASSERT_TRUE(pki::issue_identity(dir_.string(), "robot2", now_s() - 60, now_s() + 86400).ok());
+  fs::copy_file(dir_ / "robot1" / dds::security::kPermissionsFile, dir_ / "robot2" / dds::security::kPermissionsFile,
                 fs::copy_options::overwrite_existing);
-  c = security::check_credentials(bundle("robot2"), now_s());
+  c = dds::security::check_credentials(bundle("robot2"), now_s());
   EXPECT_TRUE(has(c.problems, "no grant for CN=robot2,O=TeamScan")) << c.summary();
 
   // robot1's key in robot2's bundle.
-  ASSERT_EQ(pki::issue_identity(dir_.string(), "robot2", now_s() - 60, now_s() + 86400), "");
-  fs::copy_file(dir_ / "robot1" / security::kKeyFile, dir_ / "robot2" / security::kKeyFile, fs::copy_options::overwrite_existing);
-  c = security::check_credentials(bundle("robot2"), now_s());
+  ASSERT_TRUE(pki::issue_identity(dir_.string(), "robot2", now_s() - 60, now_s() + 86400).ok());
+  fs::copy_file(dir_ / "robot1" / dds::security::kKeyFile, dir_ / "robot2" / dds::security::kKeyFile, fs::copy_options::overwrite_existing);
+  c = dds::security::check_credentials(bundle("robot2"), now_s());
   EXPECT_TRUE(has(c.problems, "does not match")) << c.summary();
 
   r = pki::check_site(dir_.string(), now_s());
@@ -122,37 +122,37 @@ TEST_F(PkiTest, CheckSaysWhatIsMissingExpiredOrDoesNotMatch) {
 
 TEST_F(PkiTest, TamperedPermissionsAndAnotherCasIdentityAreFound) {
   // One character of the signed grant changed: robot1 would publish in robot2's partition.
-  const fs::path perm = dir_ / "robot1" / security::kPermissionsFile;
+  const fs::path perm = dir_ / "robot1" / dds::security::kPermissionsFile;
   std::string text = read(perm);
   const std::size_t at = text.find("<partition>robot1</partition>");
   ASSERT_NE(at, std::string::npos);
   text[at + 16] = '2';
   std::ofstream(perm, std::ios::trunc) << text;
-  security::CredentialCheck c = security::check_credentials(bundle("robot1"), now_s());
+  dds::security::CredentialCheck c = dds::security::check_credentials(bundle("robot1"), now_s());
   EXPECT_TRUE(has(c.problems, "signature does not verify")) << c.summary();
 
   // An identity with the same name, from another CA.
   pki::CertAuthority rogue = pki::make_ca("TeamScan", now_s() - 60, now_s() + 86400);
-  security::EvpKeyPtr key = pki::make_key();
-  security::X509Ptr cert = pki::issue_cert(rogue, key.get(), "robot2", "TeamScan", now_s() - 60, now_s() + 86400);
-  ASSERT_EQ(pki::write_text((dir_ / "robot2" / security::kCertFile).string(), pki::cert_pem(cert.get())), "");
-  ASSERT_EQ(pki::write_private_key((dir_ / "robot2" / security::kKeyFile).string(), key.get()), "");
-  c = security::check_credentials(bundle("robot2"), now_s());
+  dds::security::EvpKeyPtr key = pki::make_key();
+  dds::security::X509Ptr cert = pki::issue_cert(rogue, key.get(), "robot2", "TeamScan", now_s() - 60, now_s() + 86400);
+  ASSERT_TRUE(pki::write_text((dir_ / "robot2" / dds::security::kCertFile).string(), pki::cert_pem(cert.get())).ok());
+  ASSERT_TRUE(pki::write_private_key((dir_ / "robot2" / dds::security::kKeyFile).string(), key.get()).ok());
+  c = dds::security::check_credentials(bundle("robot2"), now_s());
   EXPECT_TRUE(has(c.problems, "not issued by this site's CA")) << c.summary();
 }
 
 TEST_F(PkiTest, RevocationPutsTheCertificateOnTheSiteCrlAndRemovesItsBundle) {
-  const std::string old_cert = read(dir_ / "robot2" / security::kCertFile);
+  const std::string old_cert = read(dir_ / "robot2" / dds::security::kCertFile);
   const fs::path old_bundle = dir_.parent_path() / (dir_.filename().string() + "_old_robot2");
   fs::remove_all(old_bundle);
   fs::copy(dir_ / "robot2", old_bundle);
-  ASSERT_EQ(pki::revoke_identity(dir_.string(), "robot2", now_s()), "");
+  ASSERT_TRUE(pki::revoke_identity(dir_.string(), "robot2", now_s()).ok());
   EXPECT_FALSE(fs::exists(dir_ / "robot2"));
-  EXPECT_EQ(read(dir_ / "revoked" / "robot2" / security::kCertFile), old_cert);
-  EXPECT_EQ(read(dir_ / "robot1" / security::kCrlFile), read(dir_ / "ca" / security::kCrlFile));
+  EXPECT_EQ(read(dir_ / "revoked" / "robot2" / dds::security::kCertFile), old_cert);
+  EXPECT_EQ(read(dir_ / "robot1" / dds::security::kCrlFile), read(dir_ / "ca" / dds::security::kCrlFile));
   // The old bundle with the new CRL: revoked.
-  fs::copy_file(dir_ / "ca" / security::kCrlFile, old_bundle / security::kCrlFile, fs::copy_options::overwrite_existing);
-  const security::CredentialCheck c = security::check_credentials(old_bundle.string(), now_s());
+  fs::copy_file(dir_ / "ca" / dds::security::kCrlFile, old_bundle / dds::security::kCrlFile, fs::copy_options::overwrite_existing);
+  const dds::security::CredentialCheck c = dds::security::check_credentials(old_bundle.string(), now_s());
   EXPECT_TRUE(has(c.problems, "certificate revoked")) << c.summary();
   // Cyclone's authentication plugin honours the CRL: the revoked identity cannot even create a participant.
   EXPECT_LT(participant(old_bundle.string()), 0);
@@ -201,17 +201,17 @@ TEST_F(PkiTest, CyclonesPluginsAcceptTheBundlesAndEnforceTheGrants) {
 }
 
 TEST_F(PkiTest, CyclonesPluginsRefuseExpiredForeignAndTamperedCredentials) {
-  ASSERT_EQ(pki::issue_identity(dir_.string(), "robot1", now_s() - 10 * 86400, now_s() - 86400), "");
+  ASSERT_TRUE(pki::issue_identity(dir_.string(), "robot1", now_s() - 10 * 86400, now_s() - 86400).ok());
   EXPECT_LT(participant(bundle("robot1")), 0);  // expired certificate (and grant)
 
   pki::CertAuthority rogue = pki::make_ca("TeamScan", now_s() - 60, now_s() + 86400);
-  security::EvpKeyPtr key = pki::make_key();
-  security::X509Ptr cert = pki::issue_cert(rogue, key.get(), "robot2", "TeamScan", now_s() - 60, now_s() + 86400);
-  ASSERT_EQ(pki::write_text((dir_ / "robot2" / security::kCertFile).string(), pki::cert_pem(cert.get())), "");
-  ASSERT_EQ(pki::write_private_key((dir_ / "robot2" / security::kKeyFile).string(), key.get()), "");
+  dds::security::EvpKeyPtr key = pki::make_key();
+  dds::security::X509Ptr cert = pki::issue_cert(rogue, key.get(), "robot2", "TeamScan", now_s() - 60, now_s() + 86400);
+  ASSERT_TRUE(pki::write_text((dir_ / "robot2" / dds::security::kCertFile).string(), pki::cert_pem(cert.get())).ok());
+  ASSERT_TRUE(pki::write_private_key((dir_ / "robot2" / dds::security::kKeyFile).string(), key.get()).ok());
   EXPECT_LT(participant(bundle("robot2")), 0);  // not signed by the identity CA
 
-  const fs::path perm = dir_ / "station" / security::kPermissionsFile;
+  const fs::path perm = dir_ / "station" / dds::security::kPermissionsFile;
   std::string text = read(perm);
   const std::size_t at = text.find("robot*");
   ASSERT_NE(at, std::string::npos);

@@ -96,7 +96,7 @@ TEST(JsonLineTest, EscapesStringsAndWritesNonFiniteAsNull) {
     const std::vector<std::string_view> names{"x\"", "y"};
     j.array("names", names);
   });  // the destructor ends the line
-  EXPECT_EQ(out, "{\"s\":\"a\\\"b\\\\c\\nd\\u0001\\u007f\xc3\xa9\",\"nan\":null,\"inf\":null,\"names\":[\"x\\\"\",\"y\"]}\n");
+  EXPECT_EQ(out, "{\"s\":\"a\\\"b\\\\c\\nd\\u0001\x7f\xc3\xa9\",\"nan\":null,\"inf\":null,\"names\":[\"x\\\"\",\"y\"]}\n");
 }
 
 TEST(JsonLineTest, EndClosesOpenObjectsAndEmptyObjectIsValid) {

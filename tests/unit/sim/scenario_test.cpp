@@ -43,7 +43,7 @@ TEST(Scenario, ShippedScenariosLoad) {
 }
 
 TEST(Scenario, DriftScenariosLoadWithTheirSkidSteerTerms) {
-  for (const char* name : {"lap2-drift", "corridor2", "team3-drift"}) {
+  for (const char* name : {"lap2-drift", "corridor2", "team3-drift", "loops2-drift"}) {
     const ScenarioLoad load = load_scenario_file(scenario_dir() + name + ".toml");
     ASSERT_TRUE(load.scenario.has_value()) << load.error;
     EXPECT_EQ(load.scenario->name, name);

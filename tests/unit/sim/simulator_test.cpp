@@ -2,11 +2,15 @@
 // determinism, client-side points against the truth, and ghosts in both shipped scenarios.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <unistd.h>
+
+#include <string>
+#include <vector>
 
 #include "sim/simulator.hpp"
 
@@ -145,6 +149,59 @@ TEST(Determinism, SameSeedSameDataDifferentSeedDifferentData) {
   for (std::size_t i = 0; !differs && i < a.dataset.points.size(); ++i) differs = a.dataset.points[i].x != c.dataset.points[i].x;
   EXPECT_TRUE(differs);
   EXPECT_EQ(c.dataset.seed, 99u);
+}
+
+// The long-run registration scenario: built in, ten minutes of two robots looping through the ring
+// corridor; deterministic (its scans over a short stretch, its dead reckoning over the whole run); and
+// odometry alone ends more than 2 m off for every robot (the drift the registration has to undo).
+TEST(Scenarios, LoopsTenMinutesDriftMoreThanTwoMetres) {
+  const std::vector<std::string> names = builtin_scenario_names();
+  EXPECT_NE(std::find(names.begin(), names.end(), "loops2-drift"), names.end());
+  const ScenarioLoad byname = resolve_scenario("loops2-drift");
+  ASSERT_TRUE(byname.scenario) << byname.error;
+  const Scenario& sc = *byname.scenario;
+  ASSERT_EQ(sc.robots.size(), 2u);
+  EXPECT_DOUBLE_EQ(sc.duration_s.value_or(0.0), 600.0);
+
+  SimOptions shortrun;
+  shortrun.device_streams = false;
+  shortrun.duration_s = 2.0;
+  const SimOutput a = simulate(sc, shortrun), b = simulate(sc, shortrun);
+  ASSERT_GT(a.dataset.points.size(), 0u);
+  ASSERT_EQ(a.dataset.points.size(), b.dataset.points.size());
+  EXPECT_EQ(0, std::memcmp(a.dataset.points.data(), b.dataset.points.data(), a.dataset.points.size() * sizeof(LabelledPoint)));
+
+  SimOptions odometry;
+  odometry.device_streams = false;
+  odometry.scans = false;
+  const SimOutput full = simulate(sc, odometry), again = simulate(sc, odometry);
+  EXPECT_TRUE(full.dataset.points.empty());
+  EXPECT_TRUE(full.dataset.scans.empty());
+  ASSERT_EQ(full.dataset.odom.size(), again.dataset.odom.size());
+  ASSERT_EQ(full.dataset.odom.size(), full.dataset.truth.size());
+  for (std::size_t i = 0; i < full.dataset.odom.size(); ++i) {
+    ASSERT_EQ(full.dataset.odom[i].pose.x_m, again.dataset.odom[i].pose.x_m) << i;
+    ASSERT_EQ(full.dataset.odom[i].pose.y_m, again.dataset.odom[i].pose.y_m) << i;
+    ASSERT_EQ(full.dataset.odom[i].pose.theta_rad, again.dataset.odom[i].pose.theta_rad) << i;
+  }
+  // Each robot's last odometry pose against its truth at the same instant (odom and truth are written
+  // row for row, one per SIP cycle).
+  for (const RobotSpec& r : sc.robots) {
+    double end_error_m = -1.0, path_m = 0.0;
+    const TrajectorySample* prev = nullptr;
+    for (std::size_t i = 0; i < full.dataset.odom.size(); ++i) {
+      if (full.dataset.odom[i].robot != r.id) continue;
+      const Pose2& o = full.dataset.odom[i].pose;
+      const TrajectorySample& t = full.dataset.truth[i];
+      ASSERT_EQ(t.robot, r.id);
+      ASSERT_EQ(t.stamp_ns, full.dataset.odom[i].stamp_ns);
+      if (prev) path_m += std::hypot(t.pose.x_m - prev->pose.x_m, t.pose.y_m - prev->pose.y_m);
+      prev = &t;
+      end_error_m = std::hypot(o.x_m - t.pose.x_m, o.y_m - t.pose.y_m);
+    }
+    EXPECT_GT(end_error_m, 2.0) << "robot " << int{r.id};
+    EXPECT_GT(path_m, 150.0) << "robot " << int{r.id};  // about seven laps of the 26 m ring
+  }
 }
 
 TEST(Scenarios, BothShippedScenariosHaveGhostsFromBothRobots) {

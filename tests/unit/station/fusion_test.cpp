@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -165,10 +166,10 @@ TEST_P(FusionMethods, ModelDecisionsEqualEvalWhateverTheArrivalOrder) {
     EXPECT_EQ((*stage)->core().counters().scans_forced, 0u);  // released by the poses, never by hold_s
 
     const std::vector<std::uint8_t> eval =
-        mapping::decide_through_core(d, o.core.method, o.core.methods, o.core.tracker);
-    const mapping::PreparedDataset prepared = mapping::prepare_dataset(d, o.core.tracker);
+        fusion::decide_through_core(d, o.core.method, o.core.methods, o.core.tracker).value();
+    const fusion::PreparedDataset prepared = fusion::prepare_dataset(d, o.core.tracker);
     auto filter = mapping::make_filter(o.core.method, o.core.methods);
-    const std::vector<std::uint8_t> offline = mapping::run_offline(prepared, *filter);
+    const std::vector<std::uint8_t> offline = fusion::run_offline(prepared, *filter);
     ASSERT_EQ(eval, offline);
 
     ASSERT_TRUE((*stage)->write_model().ok());
@@ -239,7 +240,7 @@ TEST_P(FusionMethods, DecisionLagDecidesOnArrivalAndStillEqualsEval) {
       }
       // (The scans after the last pose are released by the final flush: forced, as offline.)
 
-      const std::vector<std::uint8_t> eval = mapping::decide_through_core(d, o.core.method, o.core.methods, o.core.tracker);
+      const std::vector<std::uint8_t> eval = fusion::decide_through_core(d, o.core.method, o.core.methods, o.core.tracker).value();
       ASSERT_TRUE((*stage)->write_model().ok());
       auto all = read_pcd(dir + "/fused_all.pcd");
       ASSERT_TRUE(all.ok());
@@ -267,13 +268,13 @@ INSTANTIATE_TEST_SUITE_P(AllMethods, FusionMethods,
 // closer to the truth than the odometry.
 TEST(FusionRegistration, ModelDecisionsEqualEvalWithRegistrationOn) {
   const Dataset d = survey(12.0, 2);
-  mapping::CoreRunOptions run;
+  fusion::CoreRunOptions run;
   run.registration = true;
   run.registration_options.window_s = 1.0;
   run.registration_options.match_every_s = 0.3;
   run.registration_options.min_map_features = 20;
   for (const char* method : {"best", "position"}) {
-    const mapping::CoreRun eval = mapping::run_through_core(d, method, mapping::MethodOptions{}, run);
+    const fusion::CoreRun eval = fusion::run_through_core(d, method, mapping::MethodOptions{}, run).value();
     ASSERT_EQ(eval.robots.size(), 2u);
     EXPECT_GT(eval.robots[1].accepted, 3u) << method;
     // The drifting robot's scans: pose error as the core placed them against odometry alone.
@@ -521,7 +522,7 @@ TEST(PoseHistoryCorrection, AppliesByStampNotByArrival) {
   EXPECT_FALSE(before.corrected(2));
 }
 
-TEST(Fusion, MapVoxelsAccountForEveryPointAndFlagFullyRemovedVoxels) {
+TEST(Fusion, MapVoxelsAccountForEveryModelPointAndFlagFullyRemovedVoxels) {
   const Dataset d = survey();
   const std::string dir = temp_dir();
   FusionOptions o;
@@ -542,9 +543,158 @@ TEST(Fusion, MapVoxelsAccountForEveryPointAndFlagFullyRemovedVoxels) {
     EXPECT_EQ(((v.x_mm % 200) + 200) % 200, 100);
     EXPECT_EQ(((v.z_mm % 200) + 200) % 200, 100);
   }
-  EXPECT_EQ(hits, d.points.size());
+  EXPECT_EQ(hits, (*stage)->core().counters().stored_points);  // the model's points, not the received ones
   EXPECT_GT(flagged, 0u);
   EXPECT_LT(flagged, voxels.size());
+  std::filesystem::remove_all(dir);
+}
+
+// The live map (teamscan/map, the view, ROS 2 map_cloud) at a core instant, as the fused model store holds
+// it then: per voxel of the map resolution the model's points binned (positions as the core corrected
+// them), its class (every point removed at release) and its robot (of the first point stored).
+struct MapVoxelFigures {
+  std::uint32_t hits = 0, kept = 0;  // kept: 1 if any point in the voxel was kept at release
+  std::uint8_t robot = 0;
+  bool operator==(const MapVoxelFigures&) const = default;
+};
+std::map<std::uint64_t, MapVoxelFigures> model_binned(const FusionStage& stage) {
+  std::map<std::uint64_t, MapVoxelFigures> out;
+  stage.core().for_each_model_point([&](const fusion::ModelPoint& m, bool) {
+    const std::uint64_t key = stage.live_map().key_of(m.p);
+    if (key == LiveMap::kOutOfRange) return;
+    MapVoxelFigures& v = out[key];
+    if (v.hits == 0) v.robot = m.robot;
+    ++v.hits;
+    if (m.removed_at_release == 0) v.kept = 1;  // on the wire: kept or not (flags)
+  });
+  return out;
+}
+std::map<std::uint64_t, MapVoxelFigures> live_map_published(const FusionStage& stage) {
+  std::vector<teamscan_msg_MapVoxel> voxels;
+  std::vector<std::uint8_t> robots;
+  stage.map_voxels(voxels, &robots);
+  std::map<std::uint64_t, MapVoxelFigures> out;
+  for (std::size_t i = 0; i < voxels.size(); ++i) {
+    const teamscan_msg_MapVoxel& v = voxels[i];
+    const mapping::MapPoint centre{static_cast<float>(v.x_mm * 1e-3), static_cast<float>(v.y_mm * 1e-3),
+                                   static_cast<float>(v.z_mm * 1e-3)};
+    // kept: only "none" is on the wire (flags 1); hits: the count, not saturated in this survey.
+    out[stage.live_map().key_of(centre)] = MapVoxelFigures{v.hits, v.flags == 0 ? 1u : 0u, robots[i]};
+  }
+  return out;
+}
+
+// How far robot 2's walls lie outside robot 1's in the model (metres): per wall of the survey's square
+// room (the truth says which wall a point hit), robot 1's outermost kept point across the wall, and the
+// largest distance any kept point of robot 2's on that wall lies beyond it. `beyond_10cm`: how many do.
+struct WallOffset {
+  double max_m = 0;
+  std::size_t beyond_10cm = 0, points = 0;
+};
+WallOffset robot2_wall_offset(const FusionStage& stage, const Dataset& d, double room_m) {
+  // Wall w: 0 x = 0, 1 x = room, 2 y = 0, 3 y = room; its outward coordinate (−x, x, −y, y).
+  std::map<std::tuple<int, std::uint32_t, int>, int> wall;
+  for (const LabelledPoint& p : d.points) {
+    if (p.label != PointClass::wall) continue;
+    const int w = std::abs(p.tx) < 1e-3 ? 0 : std::abs(p.tx - room_m) < 1e-3 ? 1 : std::abs(p.ty) < 1e-3 ? 2 : 3;
+    wall[{p.robot, p.scan, p.beam}] = w;
+  }
+  auto outward = [](int w, const mapping::MapPoint& q) { return w == 0 ? -q.x : w == 1 ? q.x : w == 2 ? -q.y : q.y; };
+  std::array<double, 4> robot1_out{-1e9, -1e9, -1e9, -1e9};
+  std::vector<std::pair<int, double>> robot2;
+  stage.core().for_each_model_point([&](const fusion::ModelPoint& m, bool removed) {
+    const auto it = wall.find({m.robot, m.seq, m.beam});
+    if (removed || it == wall.end()) return;
+    const double o = outward(it->second, m.p);
+    if (m.robot == 1) robot1_out[static_cast<std::size_t>(it->second)] = std::max(robot1_out[static_cast<std::size_t>(it->second)], o);
+    if (m.robot == 2) robot2.emplace_back(it->second, o);
+  });
+  WallOffset out;
+  for (const auto& [w, o] : robot2) {
+    const double beyond = o - robot1_out[static_cast<std::size_t>(w)];
+    out.max_m = std::max(out.max_m, beyond);
+    out.beyond_10cm += beyond > 0.10 ? 1 : 0;
+    ++out.points;
+  }
+  return out;
+}
+
+// The map the operator sees is the fused model: on a survey whose robot 2 drifts, with the registration
+// on, at several instants of the core (during the feed and at the end) the live map's voxels are the
+// model store's points binned, with the same keys, classes and robots, and it says which release it
+// shows; robot 2's walls fall on robot 1's (none more than 10 cm outside). Without the registration the
+// same walls are doubled (the check is not vacuous).
+TEST(FusionRegistration, TheLiveMapIsTheModelAtTheCoresInstantAndItsWallsAreSingle) {
+  const Dataset d = survey(12.0, 2);
+  for (const bool registration : {true, false}) {
+    const std::string dir = temp_dir();
+    FusionOptions o;
+    o.core.method = "best";
+    o.core.registration = registration;
+    o.core.registration_options.window_s = 1.0;
+    o.core.registration_options.match_every_s = 0.3;
+    o.core.registration_options.min_map_features = 20;
+    auto created = FusionStage::create(o, dir);
+    ASSERT_TRUE(created.ok());
+    FusionStage& stage = **created;
+    std::size_t scans = 0, compared = 0;
+    feed(stage, d, 3, [&](std::int64_t) {
+      if (++scans % 25 != 0 || !registration) return;
+      EXPECT_EQ(stage.map_release(), stage.core().counters().scans_released);
+      const auto model = model_binned(stage);
+      ASSERT_EQ(live_map_published(stage), model) << "after " << scans << " scans";
+      ++compared;
+    });
+    EXPECT_EQ(stage.map_release(), stage.core().counters().scans_released);
+    const auto model = model_binned(stage);
+    ASSERT_FALSE(model.empty());
+    EXPECT_EQ(live_map_published(stage), model);
+    std::size_t removed_voxels = 0;
+    for (const auto& [key, v] : model) removed_voxels += v.kept == 0 ? 1 : 0;
+    const WallOffset offset = robot2_wall_offset(stage, d, 6.0);
+    ASSERT_GT(offset.points, 1000u);
+    if (registration) {
+      EXPECT_GT(compared, 2u);
+      EXPECT_GT(stage.core().counters().registration_corrections, 0u);
+      EXPECT_GT(removed_voxels, 0u) << "no removed voxel: the class comparison would be vacuous";
+      EXPECT_LE(offset.max_m, 0.10) << "robot 2's wall outside robot 1's in the live map";
+    } else {
+      EXPECT_GT(offset.max_m, 0.10) << "odometry alone: the drift should double the walls (the check is vacuous)";
+    }
+    std::printf("registration %s: robot 2's walls at most %.3f m outside robot 1's (%zu of %zu points beyond 10 cm); "
+                "%zu voxels (%zu removed)\n",
+                registration ? "on" : "off", offset.max_m, offset.beyond_10cm, offset.points, model.size(), removed_voxels);
+    std::filesystem::remove_all(dir);
+  }
+}
+
+// The view's per-robot ghost figures are the core's: each released scan's removed points credited to
+// that scan's robot, whichever robot's scan arrived last.
+TEST(Fusion, TheCoresPerRobotCountersAddUpToItsTotals) {
+  const Dataset d = survey();
+  const std::string dir = temp_dir();
+  FusionOptions o;
+  o.core.method = "best";
+  auto stage = FusionStage::create(o, dir);
+  ASSERT_TRUE(stage.ok());
+  feed(**stage, d);
+  const fusion::CoreCounters& c = (*stage)->core().counters();
+  std::uint64_t scans = 0, points = 0, removed = 0, stored = 0;
+  std::map<std::uint32_t, std::uint64_t> points_by_robot;
+  for (const LabelledPoint& p : d.points) ++points_by_robot[p.robot];
+  for (std::uint32_t r = 1; r <= 2; ++r) {
+    const fusion::RobotCounters& rc = (*stage)->core().robot_counters(r);
+    EXPECT_EQ(rc.points, points_by_robot[r]) << "robot " << r;
+    scans += rc.scans_released;
+    points += rc.points;
+    removed += rc.removed_at_release;
+    stored += rc.stored_points;
+  }
+  EXPECT_EQ(scans, c.scans_released);
+  EXPECT_EQ(points, c.points);
+  EXPECT_EQ(removed, c.removed_at_release);
+  EXPECT_EQ(stored, c.stored_points);
+  EXPECT_GT(removed, 0u);
   std::filesystem::remove_all(dir);
 }
 
@@ -673,10 +823,10 @@ TEST(FusionConfig, KeysParseIntoOptions) {
       "write_all_points = true\nmap_interval_s = 0.0\nfrequency_k = 0.5\n",
       "t.toml", c, e))
       << e.message;
-  EXPECT_EQ(c.fusion.method, "visibility");
+  EXPECT_EQ(c.fusion.core.method, "visibility");
   EXPECT_EQ(c.fusion.write_interval, std::chrono::milliseconds(2500));
   EXPECT_EQ(c.fusion.map_interval.count(), 0);
-  const FusionOptions o = fusion_options_from_config(c.fusion, c.kalman);
+  const FusionOptions o = c.fusion;
   EXPECT_DOUBLE_EQ(o.core.methods.visibility.resolution_m, 0.05);
   EXPECT_DOUBLE_EQ(o.core.methods.combined_resolution_m, 0.05);
   EXPECT_NEAR(o.core.methods.direction.half_angle_rad, 5.0 * M_PI / 180.0, 1e-12);
@@ -686,7 +836,7 @@ TEST(FusionConfig, KeysParseIntoOptions) {
 
 TEST(FusionConfig, DefaultsAreBestWithThePapersCombinedParameters) {
   GroundStationConfig c;
-  const FusionOptions o = fusion_options_from_config(c.fusion, c.kalman);
+  const FusionOptions o = c.fusion;
   EXPECT_EQ(o.core.method, "best");  // docs/beyond.md: the recommended default
   EXPECT_DOUBLE_EQ(o.core.methods.combined_resolution_m, 0.1);
   EXPECT_NEAR(o.core.methods.combined_half_angle_rad, 7.0 * M_PI / 180.0, 1e-12);
@@ -696,21 +846,21 @@ TEST(FusionConfig, DefaultsAreBestWithThePapersCombinedParameters) {
 
 TEST(FusionConfig, RegistrationIsOffByDefaultAndOnByKeyOrSection) {
   GroundStationConfig c;
-  EXPECT_FALSE(fusion_options_from_config(c.fusion, c.kalman, c.registration).core.registration);
+  EXPECT_FALSE(c.fusion.core.registration);
   ConfigError e;
   ASSERT_TRUE(parse_groundstation_config("[fusion]\nregistration = true\n", "t.toml", c, e)) << e.message;
-  EXPECT_TRUE(fusion_options_from_config(c.fusion, c.kalman, c.registration).core.registration);
+  EXPECT_TRUE(c.fusion.core.registration);
   GroundStationConfig s;
   ASSERT_TRUE(parse_groundstation_config("[registration]\nwindow_s = 2.0\nmatch_every_s = 0.25\nmin_map_features = 40\n", "t.toml", s, e))
       << e.message;
-  const FusionOptions o = fusion_options_from_config(s.fusion, s.kalman, s.registration);
+  const FusionOptions o = s.fusion;
   EXPECT_TRUE(o.core.registration);
   EXPECT_DOUBLE_EQ(o.core.registration_options.window_s, 2.0);
   EXPECT_DOUBLE_EQ(o.core.registration_options.match_every_s, 0.25);
   EXPECT_EQ(o.core.registration_options.min_map_features, 40u);
   GroundStationConfig off;
   ASSERT_TRUE(parse_groundstation_config("[registration]\nenabled = false\n", "t.toml", off, e)) << e.message;
-  EXPECT_FALSE(off.fusion.registration);
+  EXPECT_FALSE(off.fusion.core.registration);
   EXPECT_FALSE(parse_groundstation_config("[registration]\nwindow_s = 0\n", "t.toml", off, e));
   EXPECT_EQ(e.message.rfind("registration.window_s:", 0), 0u) << e.message;
   EXPECT_FALSE(parse_groundstation_config("[registration]\nmagic = 1\n", "t.toml", off, e));
@@ -719,7 +869,7 @@ TEST(FusionConfig, RegistrationIsOffByDefaultAndOnByKeyOrSection) {
   EXPECT_TRUE(o.core.registration_options.cpus.empty());
   GroundStationConfig m;
   ASSERT_TRUE(parse_groundstation_config("[registration]\nmatch_delay_s = 0\ncpus = [0, 1]\n", "t.toml", m, e)) << e.message;
-  const FusionOptions mo = fusion_options_from_config(m.fusion, m.kalman, m.registration);
+  const FusionOptions mo = m.fusion;
   EXPECT_DOUBLE_EQ(mo.core.registration_options.match_delay_s, 0.0);
   EXPECT_EQ(mo.core.registration_options.cpus, (std::vector<int>{0, 1}));
   for (const char* bad : {"[registration]\nmatch_delay_s = -1\n", "[registration]\nmatch_delay_s = 11\n",
@@ -732,11 +882,11 @@ TEST(FusionConfig, RegistrationIsOffByDefaultAndOnByKeyOrSection) {
 
 TEST(FusionConfig, MinScanIntervalReachesTheCore) {
   GroundStationConfig c;
-  EXPECT_DOUBLE_EQ(fusion_options_from_config(c.fusion, c.kalman).core.min_scan_interval_s,
+  EXPECT_DOUBLE_EQ(c.fusion.core.min_scan_interval_s,
                    fusion::CoreOptions{}.min_scan_interval_s);
   ConfigError e;
   ASSERT_TRUE(parse_groundstation_config("[fusion]\nmin_scan_interval_s = 0.02\n", "t.toml", c, e)) << e.message;
-  EXPECT_DOUBLE_EQ(fusion_options_from_config(c.fusion, c.kalman).core.min_scan_interval_s, 0.02);
+  EXPECT_DOUBLE_EQ(c.fusion.core.min_scan_interval_s, 0.02);
   for (const char* bad : {"[fusion]\nmin_scan_interval_s = -0.001\n", "[fusion]\nmin_scan_interval_s = 2.0\n",
                           "[fusion]\nmin_scan_interval_s = \"fast\"\n"}) {
     GroundStationConfig b;
@@ -754,7 +904,7 @@ TEST(FusionConfig, TheOdometryPriorsReachTheCoresRegistration) {
                                          "scale_percent = -1.5\ndrift_deg_per_m = 0.2\n",
                                          "t.toml", c, e))
       << e.message;
-  auto stage = FusionStage::create(fusion_options_from_config(c.fusion, c.kalman, c.registration), temp_dir());
+  auto stage = FusionStage::create(c.fusion, temp_dir());
   ASSERT_TRUE(stage.ok());
   const registration::Registration* reg = (*stage)->core().registration();
   ASSERT_NE(reg, nullptr);
@@ -786,15 +936,15 @@ TEST(FusionConfig, CompareMethodsAreKnownOtherThanThePrimaryAndListedOnce) {
       << e.message;
   ASSERT_EQ(c.fusion.compare_methods, (std::vector<std::string>{"position", "direction"}));
   EXPECT_DOUBLE_EQ(c.fusion.write_slice_ms, 2.0);
-  FusionOptions o = fusion_options_from_config(c.fusion, c.kalman);
+  FusionOptions o = c.fusion;
   EXPECT_EQ(o.compare_methods, c.fusion.compare_methods);
   GroundStationConfig sliced;
   ASSERT_TRUE(parse_groundstation_config("[fusion]\nwrite_slice_ms = 0.5\n", "t.toml", sliced, e)) << e.message;
-  EXPECT_DOUBLE_EQ(fusion_options_from_config(sliced.fusion, sliced.kalman).write_slice_ms, 0.5);
-  EXPECT_TRUE(fusion_options_from_config(sliced.fusion, sliced.kalman).writer_cpus.empty());  // default: the process's
+  EXPECT_DOUBLE_EQ(sliced.fusion.write_slice_ms, 0.5);
+  EXPECT_TRUE(sliced.fusion.writer_cpus.empty());  // default: the process's
   GroundStationConfig pinned;
   ASSERT_TRUE(parse_groundstation_config("[fusion]\nwriter_cpus = [0, 3]\n", "t.toml", pinned, e)) << e.message;
-  EXPECT_EQ(fusion_options_from_config(pinned.fusion, pinned.kalman).writer_cpus, (std::vector<int>{0, 3}));
+  EXPECT_EQ(pinned.fusion.writer_cpus, (std::vector<int>{0, 3}));
   const FusionOptions p = compared_options(o, "position");
   EXPECT_EQ(p.core.method, "position");
   EXPECT_EQ(p.kept_pcd, "fused.position.pcd");

@@ -1,7 +1,8 @@
 // Ros2Publisher (groundstation/station/ros2_publisher.hpp): the heading it puts on a tracked position,
 // and its copy of the map built from teamscan/map updates as a viewer merges them (changed voxels; a
 // whole map replaces everything), published as the cloud of the kept voxels; lost robots and robots
-// without a heading stay off rt/tf. One process, loopback DDS.
+// without a heading stay off rt/tf; each accepted scan's placed points on rt/robotN/scan in robotN/odom, or in robotN/base_link with its pose.
+// One process, loopback DDS.
 #include <gtest/gtest.h>
 
 #include <dds/dds.h>
@@ -58,6 +59,23 @@ class Ros2PublisherTest : public ::testing::Test {
     const dds_entity_t r = dds_create_reader(participant_, t, q, nullptr);
     dds_delete_qos(q);
     return r;
+  }
+  // Waits (up to 5 s) for the first valid sample on `r` and hands it to `check`; false if none came.
+  template <class Message, class Check>
+  bool take_first(dds_entity_t r, Check check) {
+    for (int i = 0; i < 500; ++i) {
+      void* samples[1] = {};
+      dds_sample_info_t info;
+      if (dds_take(r, samples, &info, 1, 1) != 1) {
+        dds_sleepfor(DDS_MSECS(10));
+        continue;
+      }
+      const bool valid = info.valid_data;
+      if (valid) check(*static_cast<const Message*>(samples[0]));
+      (void)dds_return_loan(r, samples, 1);
+      if (valid) return true;
+    }
+    return false;
   }
   // Waits (up to 5 s) for a cloud with the expected voxels (mm); returns the last cloud seen.
   std::set<Voxel> cloud_until(const std::set<Voxel>& expected) {
@@ -137,10 +155,16 @@ TEST_F(Ros2PublisherTest, TfCarriesLiveRobotsWithAHeading) {
     if (dds_take(tf_, samples, &info, 1, 1) == 1) {
       if (info.valid_data) {
         const auto* m = static_cast<const tf2_msgs_msg_dds__TFMessage_*>(samples[0]);
-        ASSERT_EQ(m->transforms._length, 1u);
-        EXPECT_STREQ(m->transforms._buffer[0].child_frame_id, "robot2/base_link");
-        EXPECT_NEAR(m->transforms._buffer[0].transform.translation.x, 3.0, 1e-9);
-        EXPECT_NEAR(2.0 * std::atan2(m->transforms._buffer[0].transform.rotation.z, m->transforms._buffer[0].transform.rotation.w), 1.0, 1e-9);
+        // REP-105: map -> robot2/odom (no correction from this team source: the identity) -> robot2/base_link.
+        ASSERT_EQ(m->transforms._length, 2u);
+        EXPECT_STREQ(m->transforms._buffer[0].header.frame_id, "map");
+        EXPECT_STREQ(m->transforms._buffer[0].child_frame_id, "robot2/odom");
+        EXPECT_EQ(m->transforms._buffer[0].transform.translation.x, 0.0);
+        EXPECT_EQ(m->transforms._buffer[0].transform.rotation.w, 1.0);
+        EXPECT_STREQ(m->transforms._buffer[1].header.frame_id, "robot2/odom");
+        EXPECT_STREQ(m->transforms._buffer[1].child_frame_id, "robot2/base_link");
+        EXPECT_NEAR(m->transforms._buffer[1].transform.translation.x, 3.0, 1e-9);
+        EXPECT_NEAR(2.0 * std::atan2(m->transforms._buffer[1].transform.rotation.z, m->transforms._buffer[1].transform.rotation.w), 1.0, 1e-9);
         got = true;
       }
       (void)dds_return_loan(tf_, samples, 1);
@@ -157,5 +181,113 @@ TEST_F(Ros2PublisherTest, TfCarriesLiveRobotsWithAHeading) {
   EXPECT_EQ(n, 0) << "the second tick within 1 / pose_rate_hz published again";
 }
 
+TEST_F(Ros2PublisherTest, AScansPlacedPointsGoOnItsScanTopicInTheOdomFrame) {
+  const dds_entity_t scans = reader(&sensor_msgs_msg_dds__PointCloud2__desc, dds::ros2::scan_topic(4).c_str(), 10);
+  dds_sleepfor(DDS_MSECS(100));  // matched before the write (volatile)
+  StoredScan s;
+  s.robot_id = 4;
+  s.stamp_ns = 1'700'000'000'250'000'000;
+  s.count = 3;
+  s.points[0] = ScanPoint{1000, 2000, 300, 0, 0};
+  s.points[1] = ScanPoint{0, 0, 0, 1, kPointNoPose};  // unplaced: left out
+  s.points[2] = ScanPoint{-1500, 250, 800, 2, kPointDirectionFiltered};
+  publisher_->add_scan(s);
+  StoredScan refused = s;
+  refused.rejected = 3;
+  publisher_->add_scan(refused);  // refused scans are not published
+  const bool got = take_first<sensor_msgs_msg_dds__PointCloud2_>(scans, [](const sensor_msgs_msg_dds__PointCloud2_& cloud) {
+    const auto* m = &cloud;
+    EXPECT_STREQ(m->header.frame_id, "robot4/odom");
+    EXPECT_EQ(m->header.stamp.sec, 1'700'000'000);
+    EXPECT_EQ(m->header.stamp.nanosec, 250'000'000u);
+    ASSERT_EQ(m->width, 2u);
+    ASSERT_EQ(m->fields._length, 4u);
+    EXPECT_STREQ(m->fields._buffer[3].name, "flags");
+    float v[8];
+    ASSERT_EQ(m->data._length, sizeof v);
+    std::memcpy(v, m->data._buffer, sizeof v);
+    EXPECT_FLOAT_EQ(v[0], 1.0f);
+    EXPECT_FLOAT_EQ(v[1], 2.0f);
+    EXPECT_FLOAT_EQ(v[2], 0.3f);
+    EXPECT_FLOAT_EQ(v[3], 0.0f);
+    EXPECT_FLOAT_EQ(v[4], -1.5f);
+    EXPECT_FLOAT_EQ(v[7], static_cast<float>(kPointDirectionFiltered));
+  });
+  EXPECT_TRUE(got);
+  dds_sleepfor(DDS_MSECS(100));
+  EXPECT_EQ(publisher_->counters().scans, 1u);
+  EXPECT_EQ(publisher_->counters().scans_dropped, 0u);
+}
+
+TEST(Ros2PublisherStatic, LaserMountsOnTfStaticForALateTransientLocalReader) {
+  const dds_entity_t participant = dds_create_participant(test::test_domain_id(), nullptr, nullptr);
+  ASSERT_GT(participant, 0);
+  Ros2Config c;
+  c.laser_mounts = {{1, {0.125, 0.0, 0.462, 0.0, -0.35, 0.0}}, {2, {0.1, 0.0, 0.5, 0.0, 0.0, 0.0}}};
+  {
+    auto p = Ros2Publisher::create(c, participant);
+    ASSERT_TRUE(p.ok()) << p.error().what;
+    // tf2's /tf_static listener: reliable, transient local, created after the write.
+    const dds_entity_t t = dds_create_topic(participant, &tf2_msgs_msg_dds__TFMessage__desc, dds::ros2::kTopicTfStatic,
+                                            nullptr, nullptr);
+    dds_qos_t* q = dds::ros2::make_rmw_like_reader_qos(true, true, 100);
+    const dds_entity_t r = dds_create_reader(participant, t, q, nullptr);
+    dds_delete_qos(q);
+    bool got = false;
+    for (int i = 0; i < 500 && !got; ++i) {
+      void* samples[1] = {};
+      dds_sample_info_t info;
+      if (dds_take(r, samples, &info, 1, 1) == 1) {
+        if (info.valid_data) {
+          const auto* m = static_cast<const tf2_msgs_msg_dds__TFMessage_*>(samples[0]);
+          ASSERT_EQ(m->transforms._length, 2u);
+          EXPECT_STREQ(m->transforms._buffer[0].header.frame_id, "robot1/base_link");
+          EXPECT_STREQ(m->transforms._buffer[0].child_frame_id, "robot1/laser");
+          EXPECT_DOUBLE_EQ(m->transforms._buffer[0].transform.translation.z, 0.462);
+          EXPECT_NEAR(m->transforms._buffer[0].transform.rotation.y, std::sin(-0.35 / 2), 1e-12);
+          EXPECT_STREQ(m->transforms._buffer[1].child_frame_id, "robot2/laser");
+          got = true;
+        }
+        (void)dds_return_loan(r, samples, 1);
+      } else {
+        dds_sleepfor(DDS_MSECS(10));
+      }
+    }
+    EXPECT_TRUE(got);
+  }
+  (void)dds_delete(participant);
+}
+
 }  // namespace
+TEST_F(Ros2PublisherTest, AScanWithTheRobotsPoseAtItsStampGoesOutInBaseLink) {
+  const dds_entity_t scans = reader(&sensor_msgs_msg_dds__PointCloud2__desc, dds::ros2::scan_topic(5).c_str(), 10);
+  dds_sleepfor(DDS_MSECS(100));  // matched before the write (volatile)
+  StoredScan s;
+  s.robot_id = 5;
+  s.stamp_ns = 1'700'000'001'000'000'000;
+  s.count = 2;
+  // The robot at (2, 1) heading +90 deg in its odometry frame: odom (2, 3) is 2 m ahead of it, odom (3, 1)
+  // is 1 m to its right; z is kept.
+  s.points[0] = ScanPoint{2000, 3000, 400, 0, 0};
+  s.points[1] = ScanPoint{3000, 1000, 100, 1, 0};
+  const Pose2 odom_from_base{2.0, 1.0, std::numbers::pi / 2};
+  publisher_->add_scan(s, &odom_from_base);
+  const bool got = take_first<sensor_msgs_msg_dds__PointCloud2_>(scans, [](const sensor_msgs_msg_dds__PointCloud2_& cloud) {
+    const auto* m = &cloud;
+    EXPECT_STREQ(m->header.frame_id, "robot5/base_link");
+    EXPECT_EQ(m->header.stamp.sec, 1'700'000'001);
+    ASSERT_EQ(m->width, 2u);
+    float v[8];
+    ASSERT_EQ(m->data._length, sizeof v);
+    std::memcpy(v, m->data._buffer, sizeof v);
+    EXPECT_NEAR(v[0], 2.0f, 1e-5);  // ahead
+    EXPECT_NEAR(v[1], 0.0f, 1e-5);
+    EXPECT_NEAR(v[2], 0.4f, 1e-6);
+    EXPECT_NEAR(v[4], 0.0f, 1e-5);
+    EXPECT_NEAR(v[5], -1.0f, 1e-5);  // to the right
+    EXPECT_NEAR(v[6], 0.1f, 1e-6);
+  });
+  EXPECT_TRUE(got);
+}
+
 }  // namespace teamscan::station

@@ -1,4 +1,4 @@
-// SampleValidator (groundstation/station/sample_validation.hpp): every reason of issue 15's bad-sample
+// SampleValidator (groundstation/station/sample_validation.hpp): every reason of the bad-sample
 // publisher is refused and counted per robot and reason, sane samples pass, sequence wrap / replay /
 // restart / jump + resync, clock offset reports, the rate-limited log.
 #include <gtest/gtest.h>
@@ -212,6 +212,36 @@ TEST(SampleValidation, LogLineOncePerReasonPerInterval) {
   const std::string later = v.log_line(bad, SampleTopic::kScan, 33, t0 + std::chrono::seconds(11));
   EXPECT_NE(later.find("49 more refused"), std::string::npos) << later;
   EXPECT_TRUE(v.log_line(Verdict{}, SampleTopic::kScan, 1, t0).empty());
+}
+
+}  // namespace
+}  // namespace teamscan::station
+
+namespace teamscan::station {
+namespace {
+
+// A back-filled scan (teamscan/backfill): old stamps within max_backfill_age pass, its seq going back
+// by a whole shadow is no seq jump and leaves the live numbering alone, its bad values are refused as
+// a live scan's, and its stamp does not move the robot's clock offset.
+TEST(SampleValidation, BackfilledScansHaveOldStampsAndSeqsFarBack) {
+  SampleValidator v;
+  for (std::uint32_t seq = 20'000; seq < 20'010; ++seq) ASSERT_TRUE(v.check_scan(scan(3, seq), kRecv).ok());
+  const std::int64_t offset = v.clock(3).offset_ns;
+  const std::int64_t ten_minutes_ago = kNow - 600'000'000'000;
+  EXPECT_FALSE(v.check_scan(scan(3, 20'010, ten_minutes_ago), kRecv).ok());  // live: too old
+  for (std::uint32_t seq = 10'000; seq < 10'010; ++seq)
+    EXPECT_TRUE(v.check_backfill(scan(3, seq, ten_minutes_ago), kRecv).ok()) << seq;
+  EXPECT_EQ(v.clock(3).offset_ns, offset);
+  EXPECT_EQ(v.counters().seq_resyncs, 0u);
+  EXPECT_TRUE(v.check_scan(scan(3, 20'011), kRecv).ok());  // the live numbering goes on
+  // Older than max_backfill_age, or ahead of receipt: refused.
+  EXPECT_EQ(v.check_backfill(scan(3, 9'000, kNow - 25LL * 3600 * 1'000'000'000), kRecv).reason, Reject::kStampBehind);
+  EXPECT_EQ(v.check_backfill(scan(3, 9'001, kNow + 5'000'000'000), kRecv).reason, Reject::kStampAhead);
+  teamscan_msg_ScanPoints& bad = scan(3, 9'002, ten_minutes_ago);
+  bad.count = 402;
+  EXPECT_EQ(v.check_backfill(bad, kRecv).reason, Reject::kBeamCount);
+  EXPECT_EQ(v.counters().rejected_by_topic[static_cast<std::size_t>(SampleTopic::kBackfill)], 3u);
+  EXPECT_STREQ(topic_name(SampleTopic::kBackfill), "backfill");
 }
 
 }  // namespace

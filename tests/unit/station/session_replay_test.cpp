@@ -14,6 +14,7 @@
 #include "common/dataset/pcd.hpp"
 #include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/station/fusion.hpp"
+#include "groundstation/station/station.hpp"
 #include "groundstation/station/model_check.hpp"
 #include "groundstation/station/session_replay.hpp"
 #include "groundstation/station/session_store.hpp"
@@ -80,27 +81,13 @@ Feed make_feed(const Dataset& d) {
   return f;
 }
 
-PoseObservation observation(const teamscan_msg_RobotPose& p, std::int64_t recv_ns) {
-  PoseObservation o;
-  o.robot_id = p.robot_id;
-  o.stamp = Time::from_ns(p.stamp_ns);
-  o.received = Time::from_ns(recv_ns);
-  o.x_m = p.x_mm * 1e-3;
-  o.y_m = p.y_mm * 1e-3;
-  o.yaw_rad = p.yaw_urad * 1e-6;
-  o.vx_mps = p.vx_mmps * 1e-3;
-  o.vy_mps = p.vy_mmps * 1e-3;
-  o.yaw_rate_radps = p.yaw_rate_mradps * 1e-3;
-  return o;
-}
-
 // Stores then fuses samples [from, to) as the station's loop does (storage first).
 void run(const Feed& f, std::size_t from, std::size_t to, SessionStore* store, FusionStage& stage) {
   for (std::size_t i = from; i < to; ++i) {
     const Sample& x = f.samples[i];
     if (x.is_pose) {
       if (store) store->append_pose(x.pose, ReceiveTime{Time::from_ns(x.recv_ns), Time::from_ns(x.recv_ns)});
-      stage.add_pose(observation(x.pose, x.recv_ns));
+      stage.add_pose(pose_observation(x.pose, Time::from_ns(x.recv_ns)));
     } else {
       if (store) store->append_scan(f.scans[x.scan]);
       stage.add_scan(f.scans[x.scan]);
@@ -188,7 +175,7 @@ TEST(SessionReplay, ARestartedStationDecidesAsTheUninterruptedRunAndAsEvalOfTheS
   EXPECT_EQ(ds->points.size(), d.points.size());
   EXPECT_EQ(stats.bad_pose_lines + stats.bad_scan_records, 0u);
   const FusionOptions o = options();
-  const std::vector<std::uint8_t> eval = mapping::decide_through_core(*ds, o.core.method, o.core.methods, o.core.tracker);
+  const std::vector<std::uint8_t> eval = fusion::decide_through_core(*ds, o.core.method, o.core.methods, o.core.tracker).value();
   std::size_t removed = 0;
   for (std::size_t i = 0; i < ds->points.size(); ++i) {
     const LabelledPoint& p = ds->points[i];
@@ -310,6 +297,39 @@ TEST(SessionReplay, ASilentRobotStaysWhereItWasLastSeenAndItsHitsAreStillRemoved
     EXPECT_EQ((m.at({1, q, 1})), 0) << "wall of scan " << q << " removed";
     EXPECT_EQ((m.at({1, q, 2})), 0) << "box of scan " << q << " removed";
   }
+  std::filesystem::remove_all(dir);
+}
+
+// The session files are an edge: an accepted sample whose robot id is out of 1..kMaxRobots (a file
+// from elsewhere) is skipped and counted by the reader, so that no consumer sees it.
+TEST(SessionReplay, ARobotIdOutOfRangeIsSkippedAndCountedByTheReader) {
+  const std::string dir = temp_dir();
+  {
+    auto store = SessionStore::open(dir);
+    ASSERT_TRUE(store.ok());
+    const ReceiveTime at{Time::from_ns(1'000), Time::from_ns(1'000)};
+    for (std::uint32_t robot : {1u, 0u, static_cast<std::uint32_t>(kMaxRobots) + 1}) {
+      teamscan_msg_RobotPose p{};
+      p.robot_id = robot;
+      store->append_pose(p, at);
+      StoredScan s{};
+      s.robot_id = robot;
+      s.recv_realtime_ns = 2'000;
+      s.points[s.count++] = ScanPoint{1000, 0, 0, 0, 0};
+      store->append_scan(s);
+    }
+  }
+  SessionReadStats stats;
+  std::vector<std::uint32_t> poses, scans;
+  const Status st = replay_session_files(
+      dir, [&](const PoseObservation& p) { poses.push_back(p.robot_id); },
+      [&](const StoredScan& s) { scans.push_back(s.robot_id); }, stats);
+  ASSERT_TRUE(st.ok()) << st.error().what;
+  EXPECT_EQ(poses, (std::vector<std::uint32_t>{1}));
+  EXPECT_EQ(scans, (std::vector<std::uint32_t>{1}));
+  EXPECT_EQ(stats.poses, 1u);
+  EXPECT_EQ(stats.scans, 1u);
+  EXPECT_EQ(stats.bad_robot_ids, 4u);
   std::filesystem::remove_all(dir);
 }
 

@@ -41,6 +41,25 @@ TEST(SessionStore, CreatesATimestampedSessionFolderWithAllFiles) {
   std::filesystem::remove_all(root);
 }
 
+// A root or a session folder that cannot be made (a file stands in the way), or a session file that
+// cannot be opened: the error names the path, so the operator knows which one.
+TEST(SessionStore, ErrorsNameThePathThatFailed) {
+  const std::string base = temp_dir();
+  { std::ofstream(base + "/a-file") << "x"; }
+  auto root = SessionStore::create(base + "/a-file/root");
+  ASSERT_FALSE(root.ok());
+  EXPECT_NE(std::string(root.error().what).find(base + "/a-file/root"), std::string::npos) << root.error().what;
+  EXPECT_NE(root.error().sys_errno, 0);
+  auto dir = SessionStore::open(base + "/a-file/session");
+  ASSERT_FALSE(dir.ok());
+  EXPECT_NE(std::string(dir.error().what).find(base + "/a-file/session"), std::string::npos) << dir.error().what;
+  std::filesystem::create_directories(base + "/s/poses.csv");  // a folder where a session file goes
+  auto files = SessionStore::open(base + "/s");
+  ASSERT_FALSE(files.ok());
+  EXPECT_NE(std::string(files.error().what).find(base + "/s/poses.csv"), std::string::npos) << files.error().what;
+  std::filesystem::remove_all(base);
+}
+
 // A child process stores and then dies by SIGKILL without any cleanup: every record is in the files.
 TEST(SessionStore, NothingIsLostWhenTheProcessIsKilled) {
   const std::string dir = temp_dir() + "/s";
@@ -143,6 +162,12 @@ TEST(SessionStore, StatusLineHasEveryFieldInHeaderOrder) {
     st.last_team_reject = 4;
     st.corrections_applied = 24;
     st.corrections_rejected = 25;
+    st.ring_unconfirmed = 26;
+    st.ring_dropped = 27;
+    st.shadow_ms = 28;
+    st.last_shadow_ms = 29;
+    st.backfill_total = 30;
+    st.backfill_remaining = 31;
     s->append_status(st, ReceiveTime{Time::from_ns(1), Time::from_ns(2)}, 7);
     teamscan_msg_RobotPose p{};
     p.robot_id = 999999;
@@ -154,10 +179,12 @@ TEST(SessionStore, StatusLineHasEveryFieldInHeaderOrder) {
   EXPECT_NE(slurp(dir + "/poses.csv").find("yaw_rate_mradps,rejected\n1,2,999999,0,0,0,0,0,0,0,0,1\n"), std::string::npos);
   const std::string text = slurp(dir + "/status.csv");
   const std::string header = text.substr(0, text.find('\n'));
-  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 27);
+  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 33);
   EXPECT_EQ(header.substr(header.rfind("loop_max_us")),
-            "loop_max_us,clock_sync,teams_rejected,last_team_reject,corrections_applied,corrections_rejected,rejected");
-  EXPECT_EQ(text.substr(text.find('\n') + 1), "1,2,3,4,5,6,7,1,10000,75000,11,12,13,14,15,16,17,18,19,20,21,22,1,23,4,24,25,7\n");
+            "loop_max_us,clock_sync,teams_rejected,last_team_reject,corrections_applied,corrections_rejected,"
+            "ring_unconfirmed,ring_dropped,shadow_ms,last_shadow_ms,backfill_total,backfill_remaining,rejected");
+  EXPECT_EQ(text.substr(text.find('\n') + 1),
+            "1,2,3,4,5,6,7,1,10000,75000,11,12,13,14,15,16,17,18,19,20,21,22,1,23,4,24,25,26,27,28,29,30,31,7\n");
   std::filesystem::remove_all(std::filesystem::path(dir).parent_path());
 }
 

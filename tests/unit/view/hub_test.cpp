@@ -1,5 +1,5 @@
-// ViewHub: robots attributed from the scan tap, the whole map for a new client, changes as deltas, tracks,
-// scan rate, and the recent states answered by seq.
+// ViewHub: each voxel's robot from its update (the fused model), not from the scan tap; the whole map for
+// a new client, changes as deltas, tracks, scan rate, and the recent states answered by seq.
 #include "groundstation/view/hub.hpp"
 
 #include <gtest/gtest.h>
@@ -48,20 +48,22 @@ std::vector<VoxelMessage> voxel_messages(const std::vector<SharedMessage>& out) 
   return v;
 }
 
-TEST(ViewHub, ChangedVoxelsCarryTheRobotThatFirstHitThem) {
+TEST(ViewHub, ChangedVoxelsCarryTheRobotOfTheirUpdateNotOfTheTap) {
   ViewHub hub({.map_resolution_mm = 100});
   std::vector<SharedMessage> out;
-  // Robot 2's scan hits voxel (1, 1, 0) first, then robot 1's; robot 1 alone hits (-1, 0, 0).
-  hub.apply(batch_with({{2, {120, 130, 40}}, {1, {150, 110, 10}}, {1, {-20, 30, 50}}},
-                       {{150, 150, 50, 2, 0}, {-50, 50, 50, 1, 1}}),
+  // Robot 2's tap scan hits both voxels; the model says robot 1 put the first point in (1, 1, 0) and robot 3
+  // in (-1, 0, 0): the voxels carry the model's robots (the taps are the Foxglove scan channels').
+  hub.apply(batch_with({{2, {120, 130, 40}}, {2, {-20, 30, 50}}},
+                       {{150, 150, 50, 2, 0, 1}, {-50, 50, 50, 1, 1, 3}}),
             out);
   const auto msgs = voxel_messages(out);
   ASSERT_EQ(msgs.size(), 1u);
   EXPECT_EQ(msgs[0].kind, VoxelKind::kChanged);
   ASSERT_EQ(msgs[0].voxels.size(), 2u);
-  EXPECT_EQ(msgs[0].voxels[0], (WireVoxel{150, 150, 50, 2, 0, 2}));
-  EXPECT_EQ(msgs[0].voxels[1], (WireVoxel{-50, 50, 50, 1, 1, 1}));
+  EXPECT_EQ(msgs[0].voxels[0], (WireVoxel{150, 150, 50, 2, 0, 1}));
+  EXPECT_EQ(msgs[0].voxels[1], (WireVoxel{-50, 50, 50, 1, 1, 3}));
   EXPECT_EQ(hub.map_voxels(), 2u);
+  EXPECT_EQ(hub.counters().tap_scans, 2u);
   EXPECT_TRUE(states(out).empty());  // no snapshot came: no state message
 }
 

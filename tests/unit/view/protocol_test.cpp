@@ -79,6 +79,11 @@ TEST(ViewProtocol, StateIsJsonWithEveryRobotField) {
   r.state.scans_lost = 4;
   r.state.ghosts_removed = 77;
   r.state.latency_ms = 12.34;
+  r.state.shadow_s = 43.04;
+  r.state.scans_buffered = 3200;
+  r.state.backfill_pct = 37.0;
+  r.state.last_shadow_s = 12.5;
+  r.state.whole_again_ns = 1700000000000000001;
   r.scan_rate_hz = 75.0;
   const float track[] = {0.0f, 0.0f, 1.0f, 0.5f};
   r.track_xy = track;
@@ -111,6 +116,11 @@ TEST(ViewProtocol, StateIsJsonWithEveryRobotField) {
   EXPECT_EQ(o["ghosts_removed"], 77);
   EXPECT_DOUBLE_EQ(o["latency_ms"].get<double>(), 12.3);  // one decimal
   EXPECT_DOUBLE_EQ(o["scan_rate_hz"].get<double>(), 75.0);
+  EXPECT_DOUBLE_EQ(o["shadow_s"].get<double>(), 43.0);  // one decimal
+  EXPECT_EQ(o["scans_buffered"], 3200);
+  EXPECT_DOUBLE_EQ(o["backfill_pct"].get<double>(), 37.0);
+  EXPECT_DOUBLE_EQ(o["last_shadow_s"].get<double>(), 12.5);
+  EXPECT_EQ(o["whole_again_ns"].get<std::int64_t>(), 1700000000000000001);
   EXPECT_EQ(o["track"], nlohmann::json::parse("[0.0,0.0,1.0,0.5]"));
   EXPECT_FALSE(o.contains("track_add"));
 

@@ -48,7 +48,7 @@ class ViewServerTest : public ::testing::Test {
   void start(ServerOptions o = {}) {
     o.listen = {"127.0.0.1", 0};
     o.web_root = root_.string();
-    o.tick = std::chrono::milliseconds(20);
+    if (o.tick == ServerOptions{}.tick) o.tick = std::chrono::milliseconds(20);
     auto s = ViewServer::start(o, feed_);
     ASSERT_TRUE(s.ok()) << s.error().what;
     server_ = std::move(s.value());
@@ -238,6 +238,38 @@ TEST_F(ViewServerTest, WebSocketClientGetsTheWholeMapFirstThenChanges) {
   EXPECT_EQ(server_->counters().ws_opened.load(), 1u);
 }
 
+// The station's shutdown: its last map and state, offered just before the server stops, reach an open
+// page. With a tick that never comes, only flush() drains the feed; it returns once the messages are on
+// the socket, so the client reads them after the server is gone.
+TEST_F(ViewServerTest, FlushSendsTheLastOffersToOpenPagesBeforeTheServerStops) {
+  ServerOptions o;
+  o.tick = std::chrono::hours(1);
+  start(o);
+  WsClient c(server_->port());
+  auto [bin, bytes] = c.read();  // the whole map (empty)
+  ASSERT_TRUE(bin);
+  wait_for([&] { return server_->counters().ws_open.load() == 1; });
+  const VoxelUpdate v[] = {{250, 50, 50, 3, 1, 2}};
+  feed_.offer_voxels(v);
+  TeamSnapshot t;
+  t.count = 1;
+  t.robots[0].robot_id = 2;
+  t.map_release = 4242;
+  feed_.offer_snapshot(t);
+  EXPECT_TRUE(server_->flush(std::chrono::seconds(2)));
+  server_.reset();
+  auto [bin2, voxels] = c.read();
+  ASSERT_TRUE(bin2);
+  auto changed = decode_voxels(voxels);
+  ASSERT_TRUE(changed.ok());
+  ASSERT_EQ(changed.value().voxels.size(), 1u);
+  EXPECT_EQ(changed.value().voxels[0].x_mm, 250);
+  EXPECT_EQ(changed.value().voxels[0].flags, 1u);
+  auto [bin3, state] = c.read();
+  EXPECT_FALSE(bin3);
+  EXPECT_NE(state.find("\"map_release\":4242"), std::string::npos) << state;
+}
+
 TEST_F(ViewServerTest, TheViewIsReadOnlyAndRefusesOversizedClientMessages) {
   ServerOptions o;
   o.requests.max_ws_message_bytes = 1024;
@@ -291,6 +323,93 @@ TEST_F(ViewServerTest, AClientThatDoesNotReadSkipsToTheWholeStateWithinTheBound)
     }
   }
   EXPECT_TRUE(got_whole);
+}
+
+}  // namespace
+}  // namespace teamscan::view
+
+namespace teamscan::view {
+namespace {
+
+// A Foxglove client over loopback: offers foxglove.websocket.v1 on "/".
+struct FoxgloveWsClient {
+  net::io_context ioc;
+  websocket::stream<tcp::socket> ws{ioc};
+  beast::flat_buffer buffer;
+  std::string selected;
+  explicit FoxgloveWsClient(std::uint16_t port) {
+    ws.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
+    ws.set_option(websocket::stream_base::decorator([](websocket::request_type& req) {
+      req.set(beast::http::field::sec_websocket_protocol, "foxglove.websocket.v1");
+    }));
+    websocket::response_type res;
+    ws.handshake(res, "127.0.0.1", "/");
+    selected = std::string(res[beast::http::field::sec_websocket_protocol]);
+  }
+  std::pair<bool, std::string> read() {
+    buffer.clear();
+    ws.read(buffer);
+    return {ws.got_binary(), beast::buffers_to_string(buffer.data())};
+  }
+  void send(const std::string& text) {
+    ws.text(true);
+    ws.write(net::buffer(text));
+  }
+};
+
+TEST_F(ViewServerTest, FoxgloveClientSubscribesReceivesAndIsRefusedWritesCounted) {
+  start();
+  TeamSnapshot t;
+  t.stamp_ns = 1'700'000'000'000'000'000;
+  t.count = 1;
+  t.robots[0].robot_id = 1;
+  t.robots[0].x_m = 2.0;
+  feed_.offer_snapshot(t);
+  wait_for([&] { return server_->counters().hub_bytes.load() > 0; });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  FoxgloveWsClient c(server_->port());
+  EXPECT_EQ(c.selected, "foxglove.websocket.v1");
+  auto [b1, info] = c.read();
+  EXPECT_FALSE(b1);
+  EXPECT_NE(info.find("\"op\":\"serverInfo\""), std::string::npos);
+  auto [b2, adv] = c.read();
+  EXPECT_FALSE(b2);
+  EXPECT_NE(adv.find("\"op\":\"advertise\""), std::string::npos);
+  EXPECT_NE(adv.find("\"/robot1/odom\""), std::string::npos);
+  // Channel 2 is /tf: its newest message comes at once, under our subscription id.
+  c.send(R"({"op":"subscribe","subscriptions":[{"id":42,"channelId":2}]})");
+  auto [b3, data] = c.read();
+  ASSERT_TRUE(b3);
+  ASSERT_GT(data.size(), 13u);
+  EXPECT_EQ(data[0], '\x01');
+  EXPECT_EQ(data.substr(1, 4), std::string("\x2a\x00\x00\x00", 4));
+  EXPECT_EQ(data.substr(13, 4), std::string("\x00\x01\x00\x00", 4));  // CDR_LE encapsulation
+  c.send(R"({"op":"setParameters","parameters":[{"name":"/a","value":1}]})");
+  c.send(R"({"op":"advertise","channels":[{"id":1,"topic":"/cmd_vel","encoding":"json","schemaName":"x"}]})");
+  c.ws.binary(true);
+  c.ws.write(net::buffer(std::string("\x01\x01\x00\x00\x00{}", 7)));
+  c.send("{nonsense");
+  int errors = 0;
+  while (errors < 4) {
+    auto [bin, m] = c.read();
+    if (bin) continue;  // /tf keeps coming only with new snapshots; none are offered here
+    if (m.find("\"op\":\"status\"") != std::string::npos && m.find("\"level\":2") != std::string::npos) ++errors;
+  }
+  EXPECT_EQ(server_->counters().foxglove_refused.load(), 3u);
+  EXPECT_EQ(server_->counters().foxglove_malformed.load(), 1u);
+  EXPECT_EQ(server_->counters().foxglove_opened.load(), 1u);
+  EXPECT_EQ(server_->counters().ws_opened.load(), 0u);  // not a browser-view client
+}
+
+TEST(FoxgloveUpgrade, OnlyAnUpgradeOfferingTheSubprotocolOnTheViewsPaths) {
+  EXPECT_TRUE(is_foxglove_upgrade("GET", "/", true, "foxglove.websocket.v1", "foxglove.websocket.v1"));
+  EXPECT_TRUE(is_foxglove_upgrade("GET", "/ws?x=1", true, "other, foxglove.websocket.v1 ", "foxglove.websocket.v1"));
+  EXPECT_TRUE(is_foxglove_upgrade("GET", "/foxglove", true, "foxglove.websocket.v1,x", "foxglove.websocket.v1"));
+  EXPECT_FALSE(is_foxglove_upgrade("GET", "/", false, "foxglove.websocket.v1", "foxglove.websocket.v1"));
+  EXPECT_FALSE(is_foxglove_upgrade("GET", "/ws", true, "", "foxglove.websocket.v1"));
+  EXPECT_FALSE(is_foxglove_upgrade("GET", "/ws", true, "foxglove.websocket.v1x", "foxglove.websocket.v1"));
+  EXPECT_FALSE(is_foxglove_upgrade("GET", "/api/state", true, "foxglove.websocket.v1", "foxglove.websocket.v1"));
+  EXPECT_FALSE(is_foxglove_upgrade("POST", "/", true, "foxglove.websocket.v1", "foxglove.websocket.v1"));
 }
 
 }  // namespace

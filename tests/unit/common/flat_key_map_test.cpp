@@ -9,9 +9,9 @@
 #include <utility>
 #include <vector>
 
-#include "groundstation/mapping/flat_key_map.hpp"
+#include "common/flat_key_map.hpp"
 
-namespace teamscan::mapping {
+namespace teamscan {
 namespace {
 
 using Map = FlatKeyMap<std::uint32_t>;
@@ -153,4 +153,4 @@ TEST(FlatKeyMap, IterationOrderDependsOnlyOnTheCallsThatBuiltTheMap) {
 }
 
 }  // namespace
-}  // namespace teamscan::mapping
+}  // namespace teamscan

@@ -1,0 +1,48 @@
+// The Intel Research Lab log (tests/data/real/intel.clf.xz) as PlanarSlam takes it: each scan's stamp,
+// odometry and returns in the robot frame, the beams placed as `teamscan import carmen` places them.
+// Shared by posegraph_test and posegraph_intel_bench.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/dataset/carmen.hpp"
+#include "common/dataset/log_text.hpp"
+#include "common/pose.hpp"
+#include "tests/support/real_data.hpp"
+
+namespace teamscan::posegraph::test {
+
+struct IntelLog {
+  std::vector<std::int64_t> stamps_us;
+  std::vector<Pose2> odometry;
+  std::vector<std::vector<Vec2>> points;
+};
+
+inline IntelLog intel_log(std::size_t max_scans) {
+  IntelLog log;
+  const Result<std::string> text = read_log_text(teamscan::test::real_data_path("intel.clf.xz"));
+  if (!text) return log;
+  const CarmenLog carmen = parse_carmen(text.value());
+  for (std::size_t s = 0; s < carmen.lasers.size() && s < max_scans; ++s) {
+    const CarmenLaser& l = carmen.lasers[s];
+    // As `teamscan import carmen` places them: FLASER beams span 180° end to end; ROBOTLASER1 its own.
+    const std::size_t n = l.ranges_m.size();
+    const bool flaser = l.angle_step_rad == 0.0;
+    const double start = flaser ? -kPi / 2 : l.start_angle_rad;
+    const double step = flaser ? (n > 1 ? kPi / static_cast<double>(n - 1) : 0.0) : l.angle_step_rad;
+    std::vector<Vec2> pts;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double a = start + step * static_cast<double>(i), r = l.ranges_m[i];
+      if (r >= 0.05 && r < 50.0) pts.push_back(l.robot_from_laser.apply({r * std::cos(a), r * std::sin(a)}));
+    }
+    log.stamps_us.push_back(l.stamp_us);
+    log.odometry.push_back(l.pose);
+    log.points.push_back(std::move(pts));
+  }
+  return log;
+}
+
+}  // namespace teamscan::posegraph::test

@@ -1,0 +1,109 @@
+// The pose graph: a square loop whose odometry drifts is closed by one closure; a false closure under
+// the Huber loss moves the poses far less than it would obeyed; a closure weak along one axis holds
+// little along it.
+// (Closures are robust: each pulls with a bounded force, so a drifted loop needs several of them.)
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "groundstation/posegraph/pose_graph.hpp"
+
+namespace teamscan::posegraph {
+namespace {
+
+// Four 2 m sides, a node every metre (9 nodes: back at the start), odometry turning 95° at corners.
+// The chain here is only odometry (both link kinds weighted as odometry): soft enough for three
+// bounded pulls to close it.
+GraphOptions soft_chain() {
+  GraphOptions o;
+  o.local_translation_weight = o.odometry_translation_weight;
+  o.local_rotation_weight = o.odometry_rotation_weight;
+  return o;
+}
+
+struct Loop {
+  explicit Loop(const GraphOptions& o) : graph(o) {}
+  PoseGraph graph;
+  std::vector<Pose2> truth;
+};
+
+Loop drifted_loop(bool closure, bool false_closure, const GraphOptions& options = soft_chain()) {
+  Loop l(options);
+  Pose2 truth{0, 0, 0}, odo{0, 0, 0};
+  const std::size_t s = l.graph.add_submap({0, 0, 0});
+  for (int i = 0; i <= 8; ++i) {
+    if (i > 0) {
+      const bool corner = i % 2 == 0;
+      const Pose2 step{1.0, 0.0, corner ? kPi / 2 : 0.0}, drifted{1.0, 0.0, corner ? kPi / 2 + 0.09 : 0.0};
+      const Pose2 prev_odo = odo;
+      truth = truth * step;
+      odo = odo * drifted;
+      l.graph.add_node(odo, false);
+      l.graph.add_link({static_cast<std::size_t>(i - 1), static_cast<std::size_t>(i), prev_odo.inverse() * odo, prev_odo.inverse() * odo});
+    } else {
+      l.graph.add_node(odo, true);
+      l.graph.add_constraint({s, 0, {0, 0, 0}, Constraint::Kind::inserted});
+    }
+    l.truth.push_back(truth);
+  }
+  // The revisit: the last three nodes seen from the first submap (where they truly are).
+  if (closure)
+    for (std::size_t n : {6u, 7u, 8u}) l.graph.add_constraint({s, n, l.truth[n], Constraint::Kind::closure});
+  if (false_closure) l.graph.add_constraint({s, 4, {3.0, -1.0, 1.0}, Constraint::Kind::closure});
+  return l;
+}
+
+double end_error(const Loop& l) { return std::hypot(l.graph.nodes()[8].x_m - l.truth[8].x_m, l.graph.nodes()[8].y_m - l.truth[8].y_m); }
+
+TEST(PoseGraph, ClosureClosesADriftedLoop) {
+  Loop open = drifted_loop(false, false);
+  const double before = end_error(open);
+  EXPECT_GT(before, 0.3);
+  open.graph.optimize();
+  EXPECT_NEAR(end_error(open), before, 1e-6);  // nothing to correct it
+  Loop closed = drifted_loop(true, false);
+  closed.graph.optimize();
+  EXPECT_LT(end_error(closed), 0.5 * before);  // bounded pulls against a stiff chain: part of the way
+  EXPECT_EQ(closed.graph.closures(), 3u);
+  EXPECT_DOUBLE_EQ(closed.graph.nodes()[0].x_m, 0.0);  // the anchor holds
+}
+
+TEST(PoseGraph, FalseClosureIsOutvoted) {
+  Loop l = drifted_loop(true, true, GraphOptions{});  // the default chain: local SLAM's motions held stiffly
+  l.graph.optimize();
+  // The false closure wants node 4 at (3, −1); the chain and the true closure keep it near (2, 2).
+  const Pose2 n4 = l.graph.nodes()[4];
+  EXPECT_LT(std::hypot(n4.x_m - l.truth[4].x_m, n4.y_m - l.truth[4].y_m), 0.5);
+}
+
+// A closure whose match is weak along x (a corridor along x) moves its node across, not along.
+TEST(PoseGraph, WeakAxisOfAClosureHoldsLittle) {
+  auto place = [](double weak_axis_factor) {
+    GraphOptions o;
+    o.closure_huber_scale = 1e9;  // quadratic: the weights alone decide
+    PoseGraph g(o);
+    const std::size_t s = g.add_submap({0, 0, 0});
+    g.add_node({0, 0, 0}, true);
+    g.add_constraint({s, 0, {0, 0, 0}, Constraint::Kind::inserted});
+    const std::size_t n = g.add_node({1, 0, 0}, false);
+    g.add_constraint({s, n, {1, 0, 0}, Constraint::Kind::inserted});
+    g.add_constraint({s, n, {1.5, 0.5, 0}, Constraint::Kind::closure, kPi / 2, weak_axis_factor});
+    g.optimize();
+    return g.nodes()[n];
+  };
+  const Pose2 isotropic = place(1.0), corridor = place(0.01);
+  EXPECT_GT(isotropic.x_m, 1.4);
+  EXPECT_NEAR(isotropic.y_m, 0.5, 0.01);
+  EXPECT_LT(corridor.x_m, 1.1);  // the inserted scan's x wins along the weak axis
+  EXPECT_NEAR(corridor.y_m, 0.5, 0.01);
+}
+
+TEST(PoseGraph, SameInputSamePoses) {
+  Loop a = drifted_loop(true, true), b = drifted_loop(true, true);
+  a.graph.optimize();
+  b.graph.optimize();
+  for (std::size_t i = 0; i < a.graph.nodes().size(); ++i) EXPECT_EQ(a.graph.nodes()[i], b.graph.nodes()[i]);
+}
+
+}  // namespace
+}  // namespace teamscan::posegraph

@@ -1,0 +1,56 @@
+// The team SLAM on real data: the first 2 000 scans of the Intel Research Lab log
+// (tests/data/real/intel.clf.xz) through PlanarSlam; the relations (intel.relations) within that part
+// are met better than by odometry alone, and a second run gives the same poses to the bit.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "common/dataset/log_text.hpp"
+#include "groundstation/posegraph/slam.hpp"
+#include "groundstation/trajectory/relations.hpp"
+#include "tests/support/real_data.hpp"
+#include "tests/unit/posegraph/intel_log.hpp"
+
+namespace teamscan::posegraph {
+namespace {
+
+using Part = test::IntelLog;
+
+std::vector<Pose2> run(const Part& part) {
+  PlanarSlam slam;
+  std::vector<std::size_t> nodes;
+  for (std::size_t i = 0; i < part.points.size(); ++i) nodes.push_back(slam.add_scan(1, part.odometry[i], part.points[i]));
+  slam.finish();
+  std::vector<Pose2> poses;
+  for (std::size_t n : nodes) poses.push_back(slam.pose(n));
+  const SlamStats st = slam.stats();
+  std::printf("PlanarSlam: %zu nodes, %zu submaps, %zu searches, %zu closures\n", st.nodes, st.submaps, st.searches, st.closures);
+  return poses;
+}
+
+trajectory::RelationErrors errors(const Part& part, const std::vector<Pose2>& poses, const std::vector<trajectory::Relation>& relations) {
+  std::vector<trajectory::StampedPose> t;
+  for (std::size_t i = 0; i < poses.size(); ++i) t.push_back({part.stamps_us[i], poses[i]});
+  return trajectory::relation_errors(relations, t);
+}
+
+TEST(SlamIntel, BetterThanOdometryAndDeterministic) {
+  const Part part = test::intel_log(2000);
+  ASSERT_EQ(part.points.size(), 2000u);
+  const Result<std::string> rel = read_log_text(teamscan::test::real_data_path("intel.relations"));
+  ASSERT_TRUE(rel);
+  const std::vector<trajectory::Relation> relations = trajectory::parse_relations(rel.value()).relations;
+  const std::vector<Pose2> a = run(part);
+  const trajectory::RelationErrors odo = errors(part, part.odometry, relations), slam = errors(part, a, relations);
+  std::printf("relations within the part: %zu; odometry %.4f m %.3f deg; pose graph %.4f m %.3f deg\n", slam.used,
+              odo.translation_mean_m, odo.rotation_mean_deg, slam.translation_mean_m, slam.rotation_mean_deg);
+  ASSERT_GT(slam.used, 50u);
+  EXPECT_LT(slam.translation_mean_m, 0.5 * odo.translation_mean_m);
+  EXPECT_LT(slam.rotation_mean_deg, 0.5 * odo.rotation_mean_deg);
+  const std::vector<Pose2> b = run(part);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a[i], b[i]) << i;
+}
+
+}  // namespace
+}  // namespace teamscan::posegraph
