@@ -57,6 +57,9 @@ function(add_unit_test name)
   set_tests_properties(${name} PROPERTIES
     LABELS "${ARG_LABELS}"
     TIMEOUT ${ARG_TIMEOUT}
+    # A GoogleTest case that skips (GTEST_SKIP: no root, no device) makes ctest report the test as
+    # skipped, never as passed.
+    SKIP_REGULAR_EXPRESSION "\\[  SKIPPED \\]"
     ENVIRONMENT "CYCLONEDDS_URI=${TEAMSCAN_DDS_LOOPBACK_URI};TEAMSCAN_SOURCE_DIR=${TEAMSCAN_SOURCE_DIR};TEAMSCAN_BINARY_DIR=${CMAKE_BINARY_DIR}")
   # An e2e test runs the whole live system in real time (emulated devices paced at their baud rates,
   # the daemons stamping scans on arrival): it gets the machine to itself, not a core shared with a
@@ -97,4 +100,21 @@ function(add_teamscan_benchmark name)
   target_include_directories(${name} PRIVATE ${TEAMSCAN_SOURCE_DIR})
   target_compile_definitions(${name} PRIVATE TEAMSCAN_TEST_DATA_DIR="${TEAMSCAN_SOURCE_DIR}/tests/data")
   teamscan_warnings(${name})
+endfunction()
+
+# teamscan_npm_ci(STAMP_VAR DIR dir SOURCE_DIR src COMMENT text): `npm ci` of SOURCE_DIR's package.json and
+# package-lock.json into DIR (node_modules is never committed; nothing else is fetched). STAMP_VAR: the
+# file the command makes (DIR/node_modules/.package-lock.json), for DEPENDS.
+function(teamscan_npm_ci stamp_var)
+  cmake_parse_arguments(ARG "" "DIR;SOURCE_DIR;COMMENT" "" ${ARGN})
+  set(stamp ${ARG_DIR}/node_modules/.package-lock.json)
+  add_custom_command(
+    OUTPUT ${stamp}
+    COMMAND ${CMAKE_COMMAND} -E make_directory ${ARG_DIR}
+    COMMAND ${CMAKE_COMMAND} -E copy ${ARG_SOURCE_DIR}/package.json ${ARG_SOURCE_DIR}/package-lock.json ${ARG_DIR}
+    COMMAND ${TEAMSCAN_NPM} ci --no-audit --no-fund --loglevel=error
+    WORKING_DIRECTORY ${ARG_DIR}
+    DEPENDS ${ARG_SOURCE_DIR}/package.json ${ARG_SOURCE_DIR}/package-lock.json
+    COMMENT "${ARG_COMMENT}")
+  set(${stamp_var} ${stamp} PARENT_SCOPE)
 endfunction()
