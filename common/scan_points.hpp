@@ -31,8 +31,8 @@ struct ScanPoint {
 };
 
 // One sweep in the map frame: what the projector makes, the direction filter flags in place and the
-// robot publishes (teamscan/scan, idl/teamscan.idl ScanPoints, field for field), and what the ground
-// station records (station::StoredScan holds one). Corrected by `applied` (none: the odometry-map frame).
+// robot publishes (teamscan/scan, idl/teamscan.idl ScanPoints, field for field), and what the station
+// records (beside a station::Receipt, scan_record.hpp). Corrected by `applied` (none: odometry-map frame).
 struct ScanPoints {
   std::uint32_t robot_id = 0;    // set by the publisher (the projector leaves it)
   std::uint32_t seq = 0;         // the robot's scan sequence number, set by the publisher

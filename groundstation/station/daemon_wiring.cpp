@@ -71,12 +71,13 @@ std::optional<int> start_ros2(const GroundStationConfig& cfg, Daemon& d) {
   d.station->add_pose_hook([&d](const PoseObservation& p) { d.ros2->add_pose(p); });
   // rt/robotN/scan in robotN/base_link at the scan's stamp where the fusion core's pose history places
   // the robot then, else in robotN/odom.
-  d.station->add_scan_hook([&d](const StoredScan& s) {
-    if (d.fusion && s.rejected == 0 && s.robot_id >= 1 && s.robot_id <= kMaxRobots) {
-      const fusion::PoseHistory::ScanPose at = d.fusion->core().poses().scan_pose(static_cast<std::uint8_t>(s.robot_id), s.stamp_ns);
-      if (at.found) return d.ros2->add_scan(s, &at.odom);
+  d.station->add_scan_hook([&d](const ScanPoints& s, const Receipt& receipt) {
+    if (d.fusion && receipt.rejected == 0 && s.robot_id >= 1 && s.robot_id <= kMaxRobots) {
+      const fusion::PoseHistory::ScanPose at =
+          d.fusion->core().poses().scan_pose(static_cast<std::uint8_t>(s.robot_id), s.stamp.ns());
+      if (at.found) return d.ros2->add_scan(s, receipt, &at.odom);
     }
-    d.ros2->add_scan(s);
+    d.ros2->add_scan(s, receipt);
   });
   log(kInfo, "ros2: rt/teamscan/map_cloud, rt/tf, rt/robotN/odom, rt/robotN/scan");
   if (!cfg.fusion.enabled || cfg.fusion.map_interval.count() == 0) {
@@ -114,8 +115,8 @@ void start_live_fusion(const GroundStationConfig& cfg, Daemon& d) {
     d.fusion->add_pose(p);
     d.corrections.share(d.fusion->core(), *team, now_realtime());
   });
-  d.station->add_scan_hook([&d, team](const StoredScan& s) {
-    d.fusion->add_scan(s);
+  d.station->add_scan_hook([&d, team](const ScanPoints& s, const Receipt& receipt) {
+    d.fusion->add_scan(s, receipt);
     d.corrections.share(d.fusion->core(), *team, now_realtime());
   });
   log(kInfo, "fusion: method " + cfg.fusion.core.method + ", model " + store.dir() + "/fused.pcd");
@@ -214,7 +215,7 @@ void start_view(const GroundStationConfig& cfg, Daemon& d) {
       d.fusion ? GhostCount([&d](std::uint32_t id) { return d.fusion->core().robot_counters(id).removed_at_release; })
                : GhostCount{});
   d.station->add_pose_hook([&d](const PoseObservation& p) { d.view_feeder->on_pose(p); });
-  d.station->add_scan_hook([&d](const StoredScan& s) { d.view_feeder->on_scan(s); });
+  d.station->add_scan_hook([&d](const ScanPoints& s, const Receipt& receipt) { d.view_feeder->on_scan(s, receipt); });
   log(kInfo, "view: " + d.view_server->url() +
                  (d.view_server->files() > 0 ? "" : " (no page found: give [view] web_root; API and /ws only)"));
   d.store->log_event(now_realtime(), "view: serving " + d.view_server->url() + " from " + (vo.web_root.empty() ? "-" : vo.web_root));

@@ -46,13 +46,13 @@ fusion::PoseInput pose_input(const PoseObservation& p) {
   return in;
 }
 
-const fusion::ScanInput& scan_input(const StoredScan& s, fusion::ScanInput& out) {
+const fusion::ScanInput& scan_input(const ScanPoints& s, const Receipt& receipt, fusion::ScanInput& out) {
   const std::size_t n = std::min<std::size_t>(s.count, kMaxBeams);
   out.robot = static_cast<std::uint8_t>(s.robot_id);
   out.scan = s.seq;
-  out.stamp_ns = s.stamp_ns;
+  out.stamp_ns = s.stamp.ns();
   out.origin_m = {s.origin_x_mm * 1e-3, s.origin_y_mm * 1e-3, s.origin_z_mm * 1e-3};
-  out.arrival_ns = s.recv_realtime_ns;
+  out.arrival_ns = receipt.recv_realtime_ns;
   out.points.clear();
   out.flags.clear();
   out.beams.clear();
@@ -206,13 +206,13 @@ void FusionStage::add_pose(const PoseObservation& p) {
   cores_->add_pose(in);
 }
 
-void FusionStage::add_scan(const StoredScan& s) {
-  if (!replaying_) stored_latency_.add(s.recv_realtime_ns - s.stamp_ns);
+void FusionStage::add_scan(const ScanPoints& s, const Receipt& receipt) {
+  if (!replaying_) stored_latency_.add(receipt.recv_realtime_ns - s.stamp.ns());
   if (resume_) {
-    cores_->resume_at(s.recv_realtime_ns);
+    cores_->resume_at(receipt.recv_realtime_ns);
     resume_ = false;
   }
-  add_scan_to_cores(scan_input(s, scratch_));
+  add_scan_to_cores(scan_input(s, receipt, scratch_));
 }
 
 void FusionStage::on_release(const fusion::FusedScan& f) {
@@ -242,7 +242,7 @@ Result<std::uint64_t> FusionStage::replay_session(const std::string& dir) {
   fusion::ScanInput scan;
   Status st = replay_session_files(
       dir, [&](const PoseObservation& p) { add_pose(p); },
-      [&](const StoredScan& s) { add_scan_to_cores(scan_input(s, scan)); },
+      [&](const ScanPoints& s, const Receipt& receipt) { add_scan_to_cores(scan_input(s, receipt, scan)); },
       stats);
   replaying_ = false;
   resume_ = true;

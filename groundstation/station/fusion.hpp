@@ -97,9 +97,10 @@ struct FusionOptions {
 // A received pose / scan as the core's input (one conversion, used live and by the session replay).
 [[nodiscard]] fusion::PoseInput pose_input(const PoseObservation& pose);
 // The scan's placed points (beams without a 3-D point are stored in scans.bin but are not part of the
-// model) in metres with the data set's flags, into `out` (its vectors reused); returns `out`. The robot
-// id is the one the sample validation accepted (a replayed session's: replay_session_files).
-const fusion::ScanInput& scan_input(const StoredScan& scan, fusion::ScanInput& out);
+// model) in metres with the data set's flags, arriving at the receipt's time, into `out` (its vectors
+// reused); returns `out`. The robot id is the one the sample validation accepted (a replayed session's:
+// replay_session_files).
+const fusion::ScanInput& scan_input(const ScanPoints& scan, const Receipt& receipt, fusion::ScanInput& out);
 
 struct FusionCounters {
   std::uint64_t scans = 0;            // scans fused (released by the core)
@@ -130,7 +131,7 @@ class FusionStage {
   // Hooks (Station::add_pose_hook / add_scan_hook). A scan whose (robot, seq) was fused recently is a
   // replay of the robots' DDS history: counted in `duplicates`, not fused again.
   void add_pose(const PoseObservation& pose);
-  void add_scan(const StoredScan& scan);
+  void add_scan(const ScanPoints& scan, const Receipt& receipt);
   // Rebuilds the core from the session folder's scans.bin and poses.csv (a restart): every sample in
   // arrival order through the same code, before the loop takes new ones. Returns the samples replayed.
   [[nodiscard]] Result<std::uint64_t> replay_session(const std::string& dir);

@@ -108,13 +108,13 @@ void Ros2Publisher::add_pose(const PoseObservation& pose) {
   h = Heading{true, pose.stamp, pose.yaw_rad, pose.yaw_rate_radps};
 }
 
-void Ros2Publisher::add_scan(const StoredScan& scan, const Pose2* odom_from_base) {
-  if (scan.rejected != 0 || scan.robot_id == 0 || scan.robot_id > kMaxRobots) return;
+void Ros2Publisher::add_scan(const ScanPoints& scan, const Receipt& receipt, const Pose2* odom_from_base) {
+  if (receipt.rejected != 0 || scan.robot_id == 0 || scan.robot_id > kMaxRobots) return;
   if (loop_scans_.scans.size() >= kMaxPendingScans) {  // the worker is behind: keep the newest
     ++loop_scans_dropped_;
     return;
   }
-  PendingScan p{scan.robot_id, scan.stamp_ns, loop_scans_.points.size(), 0, odom_from_base != nullptr};
+  PendingScan p{scan.robot_id, scan.stamp.ns(), loop_scans_.points.size(), 0, odom_from_base != nullptr};
   const Pose2 base_from_odom = odom_from_base != nullptr ? odom_from_base->inverse() : Pose2{};
   for (std::uint32_t i = 0; i < scan.count && i < kMaxBeams; ++i) {
     const ScanPoint& q = scan.points[i];

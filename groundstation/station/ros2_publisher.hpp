@@ -77,7 +77,7 @@ class Ros2Publisher {
   // stamp (REP-105; each beam was placed with the odometry at its own time, so the cloud is deskewed);
   // without it, in robotN/odom (the frame the station stores scans in: the robot's odometry, its applied
   // correction undone). Refused scans and unplaced points are left out.
-  void add_scan(const StoredScan& scan, const Pose2* odom_from_base = nullptr);
+  void add_scan(const ScanPoints& scan, const Receipt& receipt, const Pose2* odom_from_base = nullptr);
   // Each teamscan/map update as published: total_voxels == voxels.size() marks the whole map.
   void offer_map(std::span<const teamscan_msg_MapVoxel> voxels, std::uint32_t total_voxels);
   // Every loop turn: at the pose rate, the team source's estimates now (CLOCK_REALTIME) are handed

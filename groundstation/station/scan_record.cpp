@@ -75,7 +75,7 @@ std::uint32_t scan_file_version(std::span<const std::uint8_t> header) {
   return Reader(header.data() + 8).u32();
 }
 
-void undo_applied_correction(StoredScan& scan) {
+void undo_applied_correction(ScanPoints& scan) {
   if (scan.applied.none()) return;
   const Pose2 odom_from_map = scan.applied.map_from_odom().inverse();
   const auto move = [&](std::int32_t& x_mm, std::int32_t& y_mm) {
@@ -92,18 +92,18 @@ void undo_applied_correction(StoredScan& scan) {
   }
 }
 
-std::size_t encode_scan_record(const StoredScan& scan, std::span<std::uint8_t> out) {
+std::size_t encode_scan_record(const ScanPoints& scan, const Receipt& receipt, std::span<std::uint8_t> out) {
   const std::uint16_t count = std::min<std::uint16_t>(scan.count, static_cast<std::uint16_t>(kMaxBeams));
   const std::size_t total = kScanRecordFixedBytes + count * kScanPointBytes;
   if (out.size() < total) return 0;
   Writer w(out.data());
   w.u32(kScanRecordMagic);
   w.u32(static_cast<std::uint32_t>(kBodyBeforePoints + count * kScanPointBytes));
-  w.i64(scan.recv_realtime_ns);
-  w.i64(scan.recv_monotonic_ns);
+  w.i64(receipt.recv_realtime_ns);
+  w.i64(receipt.recv_monotonic_ns);
   w.u32(scan.robot_id);
   w.u32(scan.seq);
-  w.i64(scan.stamp_ns);
+  w.i64(scan.stamp.ns());
   w.i32(scan.origin_x_mm);
   w.i32(scan.origin_y_mm);
   w.i32(scan.origin_z_mm);
@@ -112,7 +112,7 @@ std::size_t encode_scan_record(const StoredScan& scan, std::span<std::uint8_t> o
   w.i32(scan.applied.yaw_urad);
   w.u32(scan.applied.seq);
   w.u16(count);
-  w.u16(scan.rejected);
+  w.u16(receipt.rejected);
   for (std::uint16_t i = 0; i < count; ++i) {
     w.i32(scan.points[i].x_mm);
     w.i32(scan.points[i].y_mm);
@@ -126,8 +126,8 @@ std::size_t encode_scan_record(const StoredScan& scan, std::span<std::uint8_t> o
   return total;
 }
 
-long decode_scan_record(std::span<const std::uint8_t> bytes, StoredScan& out, ScanDecodeStats& stats,
-                        std::uint32_t version) {
+long decode_scan_record(std::span<const std::uint8_t> bytes, ScanPoints& out, Receipt& receipt,
+                        ScanDecodeStats& stats, std::uint32_t version) {
   if (bytes.size() < 8) return 0;
   Reader h(bytes.data());
   if (h.u32() != kScanRecordMagic) return -1;
@@ -145,11 +145,11 @@ long decode_scan_record(std::span<const std::uint8_t> bytes, StoredScan& out, Sc
     return -1;
   }
   Reader r(bytes.data() + 8);
-  out.recv_realtime_ns = r.i64();
-  out.recv_monotonic_ns = r.i64();
+  receipt.recv_realtime_ns = r.i64();
+  receipt.recv_monotonic_ns = r.i64();
   out.robot_id = r.u32();
   out.seq = r.u32();
-  out.stamp_ns = r.i64();
+  out.stamp = Time::from_ns(r.i64());
   out.origin_x_mm = r.i32();
   out.origin_y_mm = r.i32();
   out.origin_z_mm = r.i32();
@@ -161,7 +161,7 @@ long decode_scan_record(std::span<const std::uint8_t> bytes, StoredScan& out, Sc
     out.applied.seq = r.u32();
   }
   out.count = r.u16();
-  out.rejected = r.u16();
+  receipt.rejected = r.u16();
   if (out.count != (body - fixed) / kScanPointBytes) {
     ++stats.bad_length;
     return -1;
@@ -173,6 +173,10 @@ long decode_scan_record(std::span<const std::uint8_t> bytes, StoredScan& out, Sc
     out.points[i].beam = r.u16();
     out.points[i].flags = r.u16();
   }
+  // Not in the record: the projection's result.
+  out.map_from_robot = Pose2{};
+  out.pose_ok = false;
+  out.unplaced = 0;
   return static_cast<long>(total);
 }
 

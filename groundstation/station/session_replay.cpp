@@ -72,12 +72,13 @@ class ScanFileStream {
   }
 
   // false at the end (or on a read error: error()).
-  bool next(StoredScan& out) {
+  bool next(ScanPoints& out, Receipt& receipt) {
     for (;;) {
       if (fd_ < 0) return false;
       if (pos_ < have_) {
         const long r =
-            decode_scan_record(std::span<const std::uint8_t>(buf_.data() + pos_, have_ - pos_), out, decode_, version_);
+            decode_scan_record(std::span<const std::uint8_t>(buf_.data() + pos_, have_ - pos_), out, receipt, decode_,
+                               version_);
         if (r > 0) {
           pos_ += static_cast<std::size_t>(r);
           return true;
@@ -168,31 +169,33 @@ bool valid_robot(std::uint32_t robot_id, SessionReadStats& stats) {
 }  // namespace
 
 Status replay_session_files(const std::string& dir, const std::function<void(const PoseObservation&)>& on_pose,
-                            const std::function<void(const StoredScan&)>& on_scan, SessionReadStats& stats) {
+                            const std::function<void(const ScanPoints&, const Receipt&)>& on_scan,
+                            SessionReadStats& stats) {
   PoseFileStream poses(stats);
   poses.open(dir + "/poses.csv");
   ScanFileStream scans(stats);
   if (Status st = scans.open(dir + "/scans.bin"); !st.ok()) return st;
-  auto scan = std::make_unique<StoredScan>();
+  auto scan = std::make_unique<ScanPoints>();
+  Receipt receipt;
   PoseObservation pose;
-  bool have_pose = poses.next(pose), have_scan = scans.next(*scan);
+  bool have_pose = poses.next(pose), have_scan = scans.next(*scan, receipt);
   // Merged by receive time; a pose before a scan received in the same nanosecond (the loop takes poses
   // first, station.cpp).
   while (have_pose || have_scan) {
-    if (have_pose && (!have_scan || pose.received.ns() <= scan->recv_realtime_ns)) {
+    if (have_pose && (!have_scan || pose.received.ns() <= receipt.recv_realtime_ns)) {
       if (valid_robot(pose.robot_id, stats)) {
         ++stats.poses;
         on_pose(pose);
       }
       have_pose = poses.next(pose);
     } else {
-      if (scan->rejected != 0) {
+      if (receipt.rejected != 0) {
         ++stats.refused_scans;  // refused at the edge: stored raw, never fused (live or replayed)
       } else if (valid_robot(scan->robot_id, stats)) {
         ++stats.scans;
-        on_scan(*scan);
+        on_scan(*scan, receipt);
       }
-      have_scan = scans.next(*scan);
+      have_scan = scans.next(*scan, receipt);
     }
   }
   return scans.error();
@@ -211,9 +214,9 @@ Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& s
         ds.odom.push_back({in.robot, in.stamp_ns, in.odom, in.v_mps, in.w_radps});
         robots.insert(in.robot);
       },
-      [&](const StoredScan& s) {
+      [&](const ScanPoints& s, const Receipt& receipt) {
         if (!seen.emplace(s.robot_id, s.seq).second) return;  // a DDS history replay: stored twice
-        const fusion::ScanInput& in = scan_input(s, input);
+        const fusion::ScanInput& in = scan_input(s, receipt, input);
         ScanRecord r;
         r.robot = in.robot;
         r.scan = in.scan;

@@ -35,7 +35,8 @@ struct SessionReadStats {
 // accepted samples with a robot id in 1..kMaxRobots are handed on (the rest counted): the consumers
 // need not check either again.
 [[nodiscard]] Status replay_session_files(const std::string& dir, const std::function<void(const PoseObservation&)>& on_pose,
-                                          const std::function<void(const StoredScan&)>& on_scan, SessionReadStats& stats);
+                                          const std::function<void(const ScanPoints&, const Receipt&)>& on_scan,
+                                          SessionReadStats& stats);
 
 // The session as a data set (no labels): odometry from poses.csv, every scan's placed points from
 // scans.bin (a (robot, seq) stored twice, a DDS history replay, kept once), stamps as received, each

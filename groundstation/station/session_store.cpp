@@ -150,8 +150,8 @@ std::uint64_t file_bytes(int fd) {
 std::uint64_t SessionStore::scans_file_bytes() const { return file_bytes(scans_fd_); }
 std::uint64_t SessionStore::poses_file_bytes() const { return file_bytes(poses_fd_); }
 
-void SessionStore::append_scan(const StoredScan& scan) {
-  const std::size_t n = encode_scan_record(scan, std::span<std::uint8_t>(record_, sizeof record_));
+void SessionStore::append_scan(const ScanPoints& scan, const Receipt& receipt) {
+  const std::size_t n = encode_scan_record(scan, receipt, std::span<std::uint8_t>(record_, sizeof record_));
   write_all(scans_fd_, record_, n);
   ++counters_.scans;
 }

@@ -51,7 +51,8 @@ class SessionStore {
   SessionStore& operator=(const SessionStore&) = delete;
   ~SessionStore();  // syncs and closes
 
-  void append_scan(const StoredScan& scan);
+  // One scans.bin record: the scan and its receipt.
+  void append_scan(const ScanPoints& scan, const Receipt& receipt);
   // `rejected`: the Reject code of sample_validation.hpp (0 = accepted), the last column of the line.
   void append_pose(const teamscan_msg_RobotPose& pose, const ReceiveTime& at, std::uint16_t rejected = 0);
   void append_status(const teamscan_msg_RobotStatus& status, const ReceiveTime& at, std::uint16_t rejected = 0);

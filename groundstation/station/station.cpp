@@ -89,23 +89,24 @@ void team_member_from(const TeamMemberEstimate& e, bool lost, teamscan_msg_TeamM
   m.corr_seq = e.correction.seq;
 }
 
-const StoredScan& stored_from(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject verdict, StoredScan& out) {
-  out.recv_realtime_ns = at.realtime.ns();
-  out.recv_monotonic_ns = at.monotonic.ns();
+Receipt stored_from(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject verdict, ScanPoints& out) {
   out.robot_id = s.robot_id;
   out.seq = s.seq;
-  out.stamp_ns = s.stamp_ns;
+  out.stamp = Time::from_ns(s.stamp_ns);
   out.origin_x_mm = s.origin_x_mm;
   out.origin_y_mm = s.origin_y_mm;
   out.origin_z_mm = s.origin_z_mm;
   out.applied = OdomCorrection{s.corr_x_mm, s.corr_y_mm, s.corr_yaw_urad, s.corr_seq};
   out.count = std::min<std::uint16_t>(s.count, static_cast<std::uint16_t>(kMaxBeams));
-  out.rejected = static_cast<std::uint16_t>(verdict);
   for (std::uint16_t b = 0; b < out.count; ++b) {
     out.points[b] = ScanPoint{s.points[b].x_mm, s.points[b].y_mm, s.points[b].z_mm, s.points[b].beam, s.points[b].flags};
   }
+  // Not on the wire: the robot's projection result (the station decides poses itself).
+  out.map_from_robot = Pose2{};
+  out.pose_ok = false;
+  out.unplaced = 0;
   if (verdict == Reject::kNone) undo_applied_correction(out);
-  return out;
+  return Receipt{at.realtime.ns(), at.monotonic.ns(), static_cast<std::uint16_t>(verdict)};
 }
 
 // Every DDS entity and preallocated sample of the station (DDS_SYSTEMD.md 1.8: takes into our own
@@ -125,7 +126,7 @@ struct Station::Dds {
   teamscan_msg_TeamState team{};
   teamscan_msg_StoredState stored_state{};
   std::array<TeamMemberEstimate, kMaxRobots> estimates{};
-  StoredScan stored{};
+  ScanPoints stored{};  // the received scan (stored_from), reused for every sample
 
   template <class Sample>
   dds::TakeBuffer<Sample>& buffer() {
@@ -224,8 +225,8 @@ void Station::recover_stored() {
   SessionReadStats stats;
   const Status s = replay_session_files(
       store_.dir(), [](const PoseObservation&) {},
-      [this](const StoredScan& scan) {
-        if (scan.rejected != 0 || scan.robot_id == 0 || scan.robot_id > kMaxRobots) return;
+      [this](const ScanPoints& scan, const Receipt& receipt) {
+        if (receipt.rejected != 0 || scan.robot_id == 0 || scan.robot_id > kMaxRobots) return;
         if (stored_[scan.robot_id].insert(scan.seq)) ++counters_.recovered_scans;
       },
       stats);
@@ -394,7 +395,8 @@ void Station::store_refused(const teamscan_msg_RobotStatus& s, const ReceiveTime
   store_.append_status(s, at, static_cast<std::uint16_t>(reason));
 }
 void Station::store_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject reason) {
-  store_.append_scan(stored_from(s, at, reason, dds_->stored));
+  const Receipt receipt = stored_from(s, at, reason, dds_->stored);
+  store_.append_scan(dds_->stored, receipt);
 }
 
 template <class Sample>
@@ -552,13 +554,14 @@ bool Station::store_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const
     return false;
   }
   stored_changed_ = true;
-  const StoredScan& out = stored_from(s, at, Reject::kNone, dds_->stored);
-  store_.append_scan(out);  // stored before any fusion code runs
+  const ScanPoints& out = dds_->stored;
+  const Receipt receipt = stored_from(s, at, Reject::kNone, dds_->stored);
+  store_.append_scan(out, receipt);  // stored before any fusion code runs
   ++r.scans;
   ++counters_.scans;
   for (const ScanHook& h : scan_hooks_) {
     try {
-      h(out);
+      h(out, receipt);
     } catch (const std::exception& e) {
       ++counters_.hook_failures;
       event(std::string("scan hook failed: ") + e.what());

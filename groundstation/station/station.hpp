@@ -30,13 +30,15 @@ struct teamscan_msg_TeamMember;
 
 namespace teamscan::station {
 
-// A received scan as the station stores it (scans.bin) and hands it on, with the validator's verdict.
-// Every point the sample carries is kept: a count above MAX_BEAMS (refused) stores the MAX_BEAMS points
-// of the fixed-size sample. An accepted scan goes back to the odometry-map frame (the robot's applied
-// correction, ScanPoints.corr_*, undone and recorded: undo_applied_correction), so the session record and
-// everything after it (the fusion core, its registration, `teamscan eval` of the session) see the frame
-// of teamscan/pose; a refused one is stored as received.
-const StoredScan& stored_from(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject verdict, StoredScan& out);
+// The one conversion of teamscan/scan: a received sample back into the robot's ScanPoints (into `out`,
+// reused: no allocation), as the station stores it (scans.bin) and hands it on; returns its receipt
+// (receive times, the validator's verdict). Every point the sample carries is kept: a count above
+// MAX_BEAMS (refused) stores the MAX_BEAMS points of the fixed-size sample. An accepted scan goes back
+// to the odometry-map frame (the robot's applied correction undone, and kept in `applied`:
+// undo_applied_correction), so the session record and everything after it (the fusion core, its
+// registration, `teamscan eval` of the session) see the frame of teamscan/pose; a refused one is stored
+// as received.
+Receipt stored_from(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject verdict, ScanPoints& out);
 
 // A received pose in the station's units (the one conversion of teamscan/pose), received at `received`
 // (CLOCK_REALTIME).
@@ -119,7 +121,7 @@ struct StationCounters {
   std::uint64_t recovered_scans = 0;   // (robot, seq) found in the session folder's scans.bin at start-up
 };
 
-using ScanHook = std::function<void(const StoredScan&)>;
+using ScanHook = std::function<void(const ScanPoints&, const Receipt&)>;
 using PoseHook = std::function<void(const PoseObservation&)>;
 using LostHook = std::function<void(std::uint32_t robot_id, bool lost)>;
 

@@ -25,10 +25,10 @@ void ViewFeeder::on_pose(const PoseObservation& p) {
   robots_[p.robot_id].yaw_rad = p.yaw_rad;
 }
 
-void ViewFeeder::on_scan(const StoredScan& s) {
+void ViewFeeder::on_scan(const ScanPoints& s, const Receipt& receipt) {
   TEAMSCAN_EXPECTS(s.robot_id >= 1 && s.robot_id <= kMaxRobots);  // a scan hook's: validated at the edge
   PerRobot& r = robots_[s.robot_id];
-  r.latency_sum_ns += s.recv_realtime_ns - s.stamp_ns;
+  r.latency_sum_ns += receipt.recv_realtime_ns - s.stamp.ns();
   ++r.latency_n;
   // The scan's placed points for the Foxglove /robotN/scan channel (the page draws the model only).
   std::size_t n = 0;

@@ -39,7 +39,7 @@ class ViewFeeder {
   // Scan hook: the scan's latency (stamp -> taken by the station) and its placed points for the Foxglove
   // /robotN/scan channel (the page draws the fused model, never these). An accepted scan: its robot id
   // was checked at the edge (sample validation).
-  void on_scan(const StoredScan& scan);
+  void on_scan(const ScanPoints& scan, const Receipt& receipt);
   // Offers a team snapshot if a period has passed (CLOCK_MONOTONIC).
   void tick(Time now_monotonic);
   // Offers a team snapshot now (with the map release of the last offer_map): the station's last one.

@@ -99,7 +99,7 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live,
   std::map<std::uint8_t, std::uint32_t> next_scan;
   std::map<std::uint8_t, std::set<std::uint32_t>> seen;
   std::string err;
-  station::read_scan_file(session + "/scans.bin", [&](const station::StoredScan& s) {
+  station::read_scan_file(session + "/scans.bin", [&](const ScanPoints& s, const station::Receipt& receipt) {
     const auto id = static_cast<std::uint8_t>(s.robot_id);
     if (!live_index.count(id)) return;
     RobotDelivery& d = del[id];
@@ -109,17 +109,17 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live,
     // A restarted ground station gets the robots' history again (DDS transient-local, depth 300): a scan
     // already stored is stored twice; the data set keeps the first.
     if (!seen[id].insert(s.seq).second) return;
-    if (s.rejected != 0) {  // refused at the edge (docs/validation.md): stored, never fused
+    if (receipt.rejected != 0) {  // refused at the edge (docs/validation.md): stored, never fused
       ++d.refused;
       return;
     }
-    const std::int64_t t = to_sim_ns(s.stamp_ns);
+    const std::int64_t t = to_sim_ns(s.stamp.ns());
     if (t < scenario.start_time_ns || t > end_ns) return;  // bring-up (robots standing) or after the end
     // Latency in the run window only: bring-up (the station matching the robots' writers gets their
     // history) and the ordered shutdown are not the steady state.
-    L.latency_ms.push_back(static_cast<double>(s.recv_realtime_ns - s.stamp_ns) * 1e-6);
+    L.latency_ms.push_back(static_cast<double>(receipt.recv_realtime_ns - s.stamp.ns()) * 1e-6);
     ++d.in_window;
-    const sim::LiveScanTruth* truth = sim::match_truth(truths[live_index[id]], s.stamp_ns, 6'000'000);
+    const sim::LiveScanTruth* truth = sim::match_truth(truths[live_index[id]], s.stamp.ns(), 6'000'000);
     if (!truth) {
       ++d.truth_unmatched;
       return;
@@ -399,7 +399,9 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
   fusion::ScanInput scan;
   const Status st = station::replay_session_files(
       session, [&](const station::PoseObservation& p) { cores.add_pose(station::pose_input(p)); },
-      [&](const station::StoredScan& s) { (void)cores.add_scan(station::scan_input(s, scan)); },
+      [&](const ScanPoints& s, const station::Receipt& receipt) {
+        (void)cores.add_scan(station::scan_input(s, receipt, scan));
+      },
       stats);
   if (!st.ok()) {
     out.error = std::string("session: ") + st.error().what;
@@ -568,8 +570,8 @@ RobotCorrections score_robot_corrections(const std::string& session, const LiveD
   std::map<std::uint8_t, std::set<std::uint32_t>> carried;
   station::ScanDecodeStats st;
   std::string err;
-  if (!station::read_scan_file(session + "/scans.bin", [&](const station::StoredScan& sc) {
-        if (sc.rejected != 0 || sc.robot_id == 0 || sc.robot_id > kMaxRobots) return;
+  if (!station::read_scan_file(session + "/scans.bin", [&](const ScanPoints& sc, const station::Receipt& receipt) {
+        if (receipt.rejected != 0 || sc.robot_id == 0 || sc.robot_id > kMaxRobots) return;
         RobotCorrectionScore& r = robot(sc.robot_id);
         ++r.scans;
         r.last = sc.applied;
@@ -642,9 +644,9 @@ KillReport kill_report(const std::string& session, std::uint32_t robot_id, std::
   // The other robots' scans from 1 s after the kill: points flagged team-stale, and points filtered.
   station::ScanDecodeStats st;
   std::string err;
-  station::read_scan_file(session + "/scans.bin", [&](const station::StoredScan& sc) {
+  station::read_scan_file(session + "/scans.bin", [&](const ScanPoints& sc, const station::Receipt&) {
     if (sc.robot_id == robot_id) return;
-    const bool after = sc.stamp_ns >= kill_realtime_ns + 1'000'000'000;
+    const bool after = sc.stamp.ns() >= kill_realtime_ns + 1'000'000'000;
     if (after) ++k.others_scans_after;
     for (std::uint16_t i = 0; i < sc.count; ++i) {
       const std::uint16_t fl = sc.points[i].flags;

@@ -112,7 +112,7 @@ void encode_tf(const std::vector<Transform>& tfs, Bytes& out) {
 
 // A scan as PointCloud2 in robotN/odom: x y z FLOAT32 (m), beam UINT16, flags UINT16 (the wire's point
 // flags, common/point_flags.hpp), 16 bytes a point; points without a position (kPointUnplaced) are NaN.
-void encode_scan(const station::StoredScan& s, Bytes& data, Bytes& out) {
+void encode_scan(const ScanPoints& s, Bytes& data, Bytes& out) {
   static char kX[] = "x", kY[] = "y", kZ[] = "z", kBeam[] = "beam", kFlags[] = "flags";
   sensor_msgs_msg_dds__PointField_ fields[] = {
       {kX, 0, sensor_msgs_msg_dds__PointField_Constants_FLOAT32, 1},
@@ -138,7 +138,7 @@ void encode_scan(const station::StoredScan& s, Bytes& data, Bytes& out) {
   }
   std::string frame = odom_frame(s.robot_id);
   sensor_msgs_msg_dds__PointCloud2_ msg{};
-  msg.header.stamp = dds::ros2::ros_time(s.stamp_ns);
+  msg.header.stamp = dds::ros2::ros_time(s.stamp.ns());
   msg.header.frame_id = frame.data();
   msg.height = 1;
   msg.width = static_cast<std::uint32_t>(n);
@@ -344,15 +344,15 @@ class Exporter {
     }
   }
 
-  void on_scan(const station::StoredScan& s) {
-    before(s.recv_realtime_ns);
+  void on_scan(const ScanPoints& s, const station::Receipt& receipt) {
+    before(receipt.recv_realtime_ns);
     // A correction the robot applied for the first time: the station's map_from_odom from this stamp on.
     if (!s.applied.none() && s.applied.seq != corrections_[s.robot_id].seq && s.robot_id <= kMaxRobots) {
-      tracks_.set_map_from_odom(static_cast<std::uint8_t>(s.robot_id), s.stamp_ns, s.applied.map_from_odom());
+      tracks_.set_map_from_odom(static_cast<std::uint8_t>(s.robot_id), s.stamp.ns(), s.applied.map_from_odom());
     }
     corrections_[s.robot_id] = s.applied;
     encode_scan(s, points_, buf_);
-    write(channels_.scan(s.robot_id), s.seq, s.recv_realtime_ns, s.stamp_ns);
+    write(channels_.scan(s.robot_id), s.seq, receipt.recv_realtime_ns, s.stamp.ns());
     ++sum_.scans;
   }
 
@@ -458,7 +458,7 @@ Result<SessionExportSummary> export_session_mcap(const std::string& dir, const s
   station::SessionReadStats read;
   Status replayed = station::replay_session_files(
       dir, [&](const station::PoseObservation& p) { ex.on_pose(p); },
-      [&](const station::StoredScan& s) { ex.on_scan(s); }, read);
+      [&](const ScanPoints& s, const station::Receipt& receipt) { ex.on_scan(s, receipt); }, read);
   if (replayed.ok()) ex.finish(model.get());
   Status closed = ex.status().ok() ? w.close() : ex.status();
   if (!replayed.ok() || !closed.ok()) {

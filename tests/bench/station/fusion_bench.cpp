@@ -29,7 +29,7 @@ std::int32_t mm(double m) { return static_cast<std::int32_t>(std::lround(m * 100
 
 struct Feed {
   std::vector<PoseObservation> poses;  // in order, interleaved with scans by stamp
-  std::vector<StoredScan> scans;
+  std::vector<ScanPoints> scans;
 };
 
 // The default survey: 10 m room, 2 robots, 30 s at 10 Hz, 181 beams (lap2-like), as the station stores it.
@@ -53,10 +53,10 @@ const Feed& feed() {
     out.scans.resize(d.scans.size());
     for (std::size_t i = 0; i < d.scans.size(); ++i) {
       const ScanRecord& r = d.scans[i];
-      StoredScan& s = out.scans[i];
+      ScanPoints& s = out.scans[i];
       s.robot_id = r.robot;
       s.seq = r.scan;
-      s.stamp_ns = r.stamp_ns;
+      s.stamp = Time::from_ns(r.stamp_ns);
       s.origin_x_mm = mm(r.origin.x);
       s.origin_y_mm = mm(r.origin.y);
       s.origin_z_mm = mm(r.origin.z);
@@ -70,9 +70,9 @@ const Feed& feed() {
 
 void run_feed(FusionStage& stage, const Feed& f) {
   std::size_t next_pose = 0;
-  for (const StoredScan& s : f.scans) {
-    while (next_pose < f.poses.size() && f.poses[next_pose].stamp.ns() <= s.stamp_ns) stage.add_pose(f.poses[next_pose++]);
-    stage.add_scan(s);
+  for (const ScanPoints& s : f.scans) {
+    while (next_pose < f.poses.size() && f.poses[next_pose].stamp.ns() <= s.stamp.ns()) stage.add_pose(f.poses[next_pose++]);
+    stage.add_scan(s, Receipt{});
   }
 }
 
@@ -114,7 +114,8 @@ BENCHMARK_CAPTURE(BM_LiveScans, position, "position", 0.1)->Unit(benchmark::kMil
 // and with the registration the calls that updated its reference or ran a match.
 struct TeamFeed {
   std::vector<PoseObservation> poses;
-  std::vector<StoredScan> scans;  // in arrival order, poses interleaved by stamp (pose_before[i])
+  std::vector<ScanPoints> scans;  // in arrival order, poses interleaved by stamp (pose_before[i])
+  std::vector<Receipt> receipts;  // receipts[i]: scans[i]'s
   std::vector<std::size_t> poses_before;  // poses to add before scans[i]
 };
 
@@ -179,11 +180,12 @@ const TeamFeed& team_feed(int robots, double seconds) {
       const double ox = (cell % 8) * 12.0, oy = (cell / 8) * 12.0;
       const std::size_t j = (k + static_cast<std::size_t>(cell) * 37) % t.scans.size();
       out.scans.emplace_back();
-      StoredScan& s = out.scans.back();
+      ScanPoints& s = out.scans.back();
       s.robot_id = static_cast<std::uint32_t>(i + 1);
       s.seq = static_cast<std::uint32_t>(k + 1);
-      s.stamp_ns = stamp_ns + i * 13'333'333 / robots;
-      s.recv_realtime_ns = s.recv_monotonic_ns = s.stamp_ns + 2'000'000;
+      s.stamp = Time::from_ns(stamp_ns + i * 13'333'333 / robots);
+      const std::int64_t received_ns = s.stamp.ns() + 2'000'000;
+      out.receipts.push_back(Receipt{received_ns, received_ns, 0});
       s.origin_x_mm = mm(t.scans[j]->origin.x + ox);
       s.origin_y_mm = mm(t.scans[j]->origin.y + oy);
       s.origin_z_mm = mm(t.scans[j]->origin.z);
@@ -218,7 +220,7 @@ void BM_LiveScansTeam(benchmark::State& state) {
   // first second of scans in one call, startup_call_max_ms).
   std::vector<double> scan_call_s, update_call_s, match_call_s, busy_ms;
   double pose_call_max_s = 0, startup_call_max_s = 0;
-  const std::int64_t steady_from_ns = f.scans.empty() ? 0 : f.scans.front().stamp_ns + 2'000'000'000;
+  const std::int64_t steady_from_ns = f.scans.empty() ? 0 : f.scans.front().stamp.ns() + 2'000'000'000;
   std::uint64_t updates = 0, columns = 0, dropped = 0, reference_features = 0, matches = 0;
   for (auto _ : state) {
     FusionOptions o;
@@ -231,7 +233,7 @@ void BM_LiveScansTeam(benchmark::State& state) {
     scan_call_s.reserve(f.scans.size());
     // The scan calls' CPU per millisecond of robot time (their stamps): the busiest 50 ms window is what
     // the loop must do in 50 ms when the scans arrive on time (more than 50 ms of CPU: they queue).
-    busy_ms.assign(static_cast<std::size_t>((f.scans.back().stamp_ns - f.scans.front().stamp_ns) / 1'000'000) + 1, 0.0);
+    busy_ms.assign(static_cast<std::size_t>((f.scans.back().stamp.ns() - f.scans.front().stamp.ns()) / 1'000'000) + 1, 0.0);
     update_call_s.clear();
     match_call_s.clear();
     // Matches tried so far by every robot (a call that ran one or more).
@@ -258,7 +260,7 @@ void BM_LiveScansTeam(benchmark::State& state) {
         const double t0 = thread_cpu_s();
         (*stage)->add_pose(f.poses[next_pose++]);
         const double dt = thread_cpu_s() - t0;
-        if (f.scans[i].stamp_ns < steady_from_ns) {
+        if (f.scans[i].stamp.ns() < steady_from_ns) {
           startup_call_max_s = std::max(startup_call_max_s, dt);
           continue;
         }
@@ -268,14 +270,14 @@ void BM_LiveScansTeam(benchmark::State& state) {
       const std::uint64_t u0 = reg ? reg->reference_updates() : 0, m0 = tried();
       const std::size_t v0 = reg ? reg->reference_voxels() : 0;
       const double t0 = thread_cpu_s();
-      (*stage)->add_scan(f.scans[i]);
+      (*stage)->add_scan(f.scans[i], f.receipts[i]);
       const double dt = thread_cpu_s() - t0;
-      if (f.scans[i].stamp_ns < steady_from_ns) {
+      if (f.scans[i].stamp.ns() < steady_from_ns) {
         startup_call_max_s = std::max(startup_call_max_s, dt);
         continue;
       }
       scan_call_s.push_back(dt);
-      busy_ms[static_cast<std::size_t>((f.scans[i].stamp_ns - f.scans.front().stamp_ns) / 1'000'000)] += dt;
+      busy_ms[static_cast<std::size_t>((f.scans[i].stamp.ns() - f.scans.front().stamp.ns()) / 1'000'000)] += dt;
       if (reg && reg->reference_updates() != u0) update_call_s.push_back(dt);
       if (reg && tried() != m0) match_call_s.push_back(dt);
       if (dt > 0.010) longest.push_back({dt, i, v0, reg ? reg->reference_voxels() : 0});
@@ -285,10 +287,10 @@ void BM_LiveScansTeam(benchmark::State& state) {
     if (std::getenv("TEAMSCAN_BENCH_LONGEST_CALLS") != nullptr) {
       std::sort(longest.rbegin(), longest.rend());
       for (std::size_t k = 0; k < longest.size() && k < 20; ++k) {
-        const StoredScan& sc = f.scans[longest[k].scan];
+        const ScanPoints& sc = f.scans[longest[k].scan];
         std::fprintf(stderr, "call %.1f ms: scan %zu (robot %u, %.3f s), registration reference %zu -> %zu voxels\n",
                      1e3 * longest[k].s, longest[k].scan, sc.robot_id,
-                     1e-9 * static_cast<double>(sc.stamp_ns - f.scans.front().stamp_ns), longest[k].voxels_before,
+                     1e-9 * static_cast<double>(sc.stamp.ns() - f.scans.front().stamp.ns()), longest[k].voxels_before,
                      longest[k].voxels_after);
       }
     }

@@ -504,8 +504,8 @@ int main(int argc, char** argv) {
   std::uint64_t refused = 0;
   station::ScanDecodeStats stats;
   std::string err;
-  (void)station::read_scan_file(session + "/scans.bin", [&](const station::StoredScan& s) {
-    if (s.rejected != 0) {
+  (void)station::read_scan_file(session + "/scans.bin", [&](const ScanPoints& s, const station::Receipt& receipt) {
+    if (receipt.rejected != 0) {
       ++refused;
       return;
     }

@@ -48,7 +48,7 @@ std::int32_t mm(double m) { return static_cast<std::int32_t>(std::lround(m * 100
 
 struct Feed {
   std::vector<PoseObservation> poses;  // stamp order
-  std::vector<StoredScan> scans;       // stamp order
+  std::vector<ScanPoints> scans;       // stamp order
 };
 
 Feed make_feed(double seconds) {
@@ -75,10 +75,10 @@ Feed make_feed(double seconds) {
   out.scans.resize(d.scans.size());
   for (std::size_t i = 0; i < d.scans.size(); ++i) {
     const ScanRecord& r = d.scans[i];
-    StoredScan& s = out.scans[i];
+    ScanPoints& s = out.scans[i];
     s.robot_id = r.robot;
     s.seq = r.scan;
-    s.stamp_ns = r.stamp_ns;
+    s.stamp = Time::from_ns(r.stamp_ns);
     s.origin_x_mm = mm(r.origin.x);
     s.origin_y_mm = mm(r.origin.y);
     s.origin_z_mm = mm(r.origin.z);
@@ -86,7 +86,7 @@ Feed make_feed(double seconds) {
       if (s.count < kMaxBeams) s.points[s.count++] = ScanPoint{mm(p->x), mm(p->y), mm(p->z), p->beam, 0};
     }
   }
-  std::sort(out.scans.begin(), out.scans.end(), [](const auto& a, const auto& b) { return a.stamp_ns < b.stamp_ns; });
+  std::sort(out.scans.begin(), out.scans.end(), [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
   return out;
 }
 
@@ -182,7 +182,7 @@ void run(const Feed& f, bool with_view, double speed, const char* method) {
   const long rss_before = rss_kb();
   const double cpu_before = thread_cpu_s();
   const Time t0 = now_monotonic();
-  const std::int64_t stamp0 = f.scans.front().stamp_ns;
+  const std::int64_t stamp0 = f.scans.front().stamp.ns();
   Time next_map = t0 + std::chrono::seconds(1);
   std::uint64_t map_ticks = 0;
   std::size_t next_pose = 0;
@@ -196,15 +196,15 @@ void run(const Feed& f, bool with_view, double speed, const char* method) {
       next_map = now + std::chrono::seconds(1);
     }
   };
-  for (const StoredScan& s : f.scans) {
-    const Time arrival = t0 + Duration{static_cast<std::int64_t>(static_cast<double>(s.stamp_ns - stamp0) / speed)};
+  for (const ScanPoints& s : f.scans) {
+    const Time arrival = t0 + Duration{static_cast<std::int64_t>(static_cast<double>(s.stamp.ns() - stamp0) / speed)};
     Time now = now_monotonic();
     while (now < arrival) {  // the loop waits for data
       std::this_thread::sleep_for(std::min<Duration>(arrival - now, std::chrono::microseconds(500)));
       now = now_monotonic();
       ticks(now);
     }
-    while (next_pose < f.poses.size() && f.poses[next_pose].stamp.ns() <= s.stamp_ns) {
+    while (next_pose < f.poses.size() && f.poses[next_pose].stamp.ns() <= s.stamp.ns()) {
       const PoseObservation& p = f.poses[next_pose++];
       team.add_pose(p);
       fusion.add_pose(p);
@@ -214,8 +214,8 @@ void run(const Feed& f, bool with_view, double speed, const char* method) {
     RobotRecord& r = records[s.robot_id];
     r.seen = true;
     ++r.scans;
-    fusion.add_scan(s);
-    if (feeder) feeder->on_scan(s);
+    fusion.add_scan(s, Receipt{});
+    if (feeder) feeder->on_scan(s, Receipt{});
     const Time done = now_monotonic();
     scan_to_map.add((done - arrival).count());
     work.push_back((done - start).count());

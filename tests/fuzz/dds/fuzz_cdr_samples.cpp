@@ -70,12 +70,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       const station::Verdict verdict = validator.check_scan(sample.scan, received);
       // The station stores every scan, whatever its count (the record clamps to MAX_BEAMS): an accepted
       // one with the robot's applied correction undone, a refused one raw.
-      static station::StoredScan stored;
-      (void)station::stored_from(sample.scan, station::ReceiveTime{received, received}, verdict.reason, stored);
+      static ScanPoints stored;
+      station::Receipt receipt = station::stored_from(sample.scan, station::ReceiveTime{received, received}, verdict.reason, stored);
       static std::uint8_t record[station::kScanRecordMaxBytes];
-      const std::size_t len = station::encode_scan_record(stored, record);
+      const std::size_t len = station::encode_scan_record(stored, receipt, record);
       station::ScanDecodeStats stats;
-      if (len == 0 || station::decode_scan_record(std::span<const std::uint8_t>(record, len), stored, stats) <= 0) {
+      if (len == 0 || station::decode_scan_record(std::span<const std::uint8_t>(record, len), stored, receipt, stats) <= 0) {
         __builtin_trap();  // a record the station wrote must read back
       }
       break;

@@ -16,9 +16,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (size > 0) file.insert(file.end(), data, data + size);
   static std::uint8_t again[kScanRecordMaxBytes];
   for (const auto& bytes : {std::span<const std::uint8_t>(file), std::span<const std::uint8_t>(data, size)}) {
-    (void)decode_scan_file(bytes, [](const StoredScan& s) {
+    (void)decode_scan_file(bytes, [](const teamscan::ScanPoints& s, const Receipt& receipt) {
       if (s.count > teamscan::kMaxBeams) __builtin_trap();
-      const std::size_t n = encode_scan_record(s, std::span<std::uint8_t>(again, sizeof again));
+      const std::size_t n = encode_scan_record(s, receipt, std::span<std::uint8_t>(again, sizeof again));
       if (n != kScanRecordFixedBytes + s.count * kScanPointBytes) __builtin_trap();
     });
   }

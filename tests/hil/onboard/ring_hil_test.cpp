@@ -411,8 +411,8 @@ TEST(RingHil, StationDownAndARobotKilledInTheShadowLoseNoScan) {
   station::SessionReadStats stats;
   const Status read = station::replay_session_files(
       session.string(), [](const station::PoseObservation&) {},
-      [&](const station::StoredScan& s) {
-        if (s.rejected == 0) seqs[s.robot_id].push_back(s.seq);
+      [&](const ScanPoints& s, const station::Receipt& receipt) {
+        if (receipt.rejected == 0) seqs[s.robot_id].push_back(s.seq);
       },
       stats);
   ASSERT_TRUE(read.ok()) << read.error().what;

@@ -269,8 +269,8 @@ TEST(StationBadSamples, EveryReasonCountedRawStoredTeamAndStatisticsUntouched) {
   std::set<std::uint32_t> refused_ids;
   station::ScanDecodeStats stats;
   std::string err;
-  ASSERT_TRUE(station::read_scan_file(session + "/scans.bin", [&](const station::StoredScan& s) {
-    if (s.rejected == 0) {
+  ASSERT_TRUE(station::read_scan_file(session + "/scans.bin", [&](const ScanPoints& s, const station::Receipt& receipt) {
+    if (receipt.rejected == 0) {
       ++stored_good;
     } else {
       ++stored_refused;

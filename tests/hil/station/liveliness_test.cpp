@@ -134,10 +134,10 @@ TEST(StationLiveliness, RestartedRobotComesBack) {
   EXPECT_NE(slurp(f.root + "/session/events.log").find("robot 14 back"), std::string::npos);
 }
 
-TEST(StationHooks, ThrowingFusionStageLosesNoStoredScan) {
+TEST(StationHooks, ThrowingFusionStageLosesNoScanOnDisk) {
   Fixture f;
   std::uint64_t hook_calls = 0;
-  f.station->add_scan_hook([&](const StoredScan& s) {
+  f.station->add_scan_hook([&](const ScanPoints& s, const Receipt&) {
     ++hook_calls;
     if (s.seq % 3 == 0) throw std::runtime_error("fusion stage failed");
   });
@@ -148,10 +148,10 @@ TEST(StationHooks, ThrowingFusionStageLosesNoStoredScan) {
   std::vector<std::uint32_t> seqs;
   ScanDecodeStats stats;
   std::string err;
-  ASSERT_TRUE(read_scan_file(f.root + "/session/scans.bin", [&](const StoredScan& s) {
+  ASSERT_TRUE(read_scan_file(f.root + "/session/scans.bin", [&](const ScanPoints& s, const Receipt& receipt) {
     if (s.robot_id == 15) seqs.push_back(s.seq);
     EXPECT_EQ(s.count, 401);
-    EXPECT_GT(s.recv_realtime_ns, s.stamp_ns);  // received after it was stamped
+    EXPECT_GT(receipt.recv_realtime_ns, s.stamp.ns());  // received after it was stamped
   }, stats, err));
   ASSERT_EQ(seqs.size(), 120u);
   for (std::uint32_t i = 0; i < 120; ++i) EXPECT_EQ(seqs[i], i + 1);

@@ -25,7 +25,7 @@ std::vector<std::uint32_t> seqs_in(const std::string& session, std::uint32_t rob
   std::vector<std::uint32_t> out;
   station::ScanDecodeStats stats;
   std::string err;
-  (void)station::read_scan_file(session + "/scans.bin", [&](const station::StoredScan& s) {
+  (void)station::read_scan_file(session + "/scans.bin", [&](const ScanPoints& s, const station::Receipt&) {
     if (s.robot_id == robot) out.push_back(s.seq);
   }, stats, err);
   return out;

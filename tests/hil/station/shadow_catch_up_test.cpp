@@ -187,8 +187,8 @@ TEST(ShadowCatchUp, NoScanLostTeammatesNotHeldAndTheModelIsEvalsOfTheSession) {
   station::SessionReadStats stats;
   ASSERT_TRUE(station::replay_session_files(
                   session, [](const station::PoseObservation&) {},
-                  [&](const station::StoredScan& s) {
-                    if (s.rejected == 0) seqs[s.robot_id].push_back(s.seq);
+                  [&](const ScanPoints& s, const station::Receipt& receipt) {
+                    if (receipt.rejected == 0) seqs[s.robot_id].push_back(s.seq);
                   },
                   stats)
                   .ok());

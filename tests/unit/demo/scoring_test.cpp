@@ -166,17 +166,17 @@ TEST(DemoScoring, KillReportFromTheSession) {
     ASSERT_TRUE(store.ok());
     store->log_event(Time::from_ns(kill - 5'000'000'000), "robot 2 LOST: earlier, before the kill");
     store->log_event(Time::from_ns(kill + 2'500'000'000), "robot 2 LOST: DDS liveliness lapsed");
-    station::StoredScan s{};
+    ScanPoints s{};
     s.robot_id = 1;
     s.count = 2;
     s.points[0].flags = kPointTeamStale;
     s.points[1].flags = kPointDirectionFiltered;
-    s.stamp_ns = kill - 1;  // before: one stale point counted before
-    store->append_scan(s);
-    s.stamp_ns = kill + 1'500'000'000;  // after (from 1 s after the kill)
-    store->append_scan(s);
+    s.stamp = Time::from_ns(kill - 1);  // before: one stale point counted before
+    store->append_scan(s, station::Receipt{});
+    s.stamp = Time::from_ns(kill + 1'500'000'000);  // after (from 1 s after the kill)
+    store->append_scan(s, station::Receipt{});
     s.robot_id = 2;  // the killed robot's own scans do not count
-    store->append_scan(s);
+    store->append_scan(s, station::Receipt{});
     store->sync();
   }
   const KillReport k = kill_report(session, 2, kill);
@@ -208,12 +208,11 @@ void write_corridor_session(const std::string& session) {
         p.vx_mmps = 300;
         store->append_pose(p, at);
       }
-      station::StoredScan s{};
-      s.recv_realtime_ns = t + 6'000'000;
-      s.recv_monotonic_ns = s.recv_realtime_ns;
+      ScanPoints s{};
+      const station::Receipt receipt{t + 6'000'000, t + 6'000'000, 0};
       s.robot_id = id;
       s.seq = static_cast<std::uint32_t>(k);
-      s.stamp_ns = t;
+      s.stamp = Time::from_ns(t);
       s.origin_x_mm = static_cast<std::int32_t>(x * 1000);
       s.origin_z_mm = 400;
       s.count = 20;
@@ -223,7 +222,7 @@ void write_corridor_session(const std::string& session) {
         s.points[b].z_mm = 300 + 20 * b;
         s.points[b].beam = b;
       }
-      store->append_scan(s);
+      store->append_scan(s, receipt);
     }
   }
   store->sync();

@@ -21,7 +21,7 @@ namespace {
 namespace fs = std::filesystem;
 using station::ReceiveTime;
 using station::SessionStore;
-using station::StoredScan;
+using station::Receipt;
 
 std::string temp_dir() {
   const fs::path p = fs::temp_directory_path() / ("mcap_export_test_" + std::to_string(::getpid()));
@@ -73,7 +73,7 @@ std::map<std::string, std::uint64_t> messages_per_topic(const std::string& file)
 void write_session(const std::string& dir) {
   auto store = SessionStore::open(dir);
   ASSERT_TRUE(store.ok());
-  static StoredScan scan;
+  static ScanPoints scan;
   std::int64_t t = 1'700'000'000'000'000'000;
   for (std::uint32_t i = 1; i <= 4; ++i) {
     for (std::uint32_t robot = 1; robot <= 2; ++robot) {
@@ -86,17 +86,18 @@ void write_session(const std::string& dir) {
         p.yaw_urad = 500'000;
         store->append_pose(p, ReceiveTime{Time::from_ns(t + 1), Time::from_ns(t + 1)});
       }
-      scan = StoredScan{};
-      scan.recv_realtime_ns = t + 2;
+      scan = ScanPoints{};
+      Receipt receipt;
+      receipt.recv_realtime_ns = t + 2;
       scan.robot_id = robot;
       scan.seq = i;
-      scan.stamp_ns = t;
+      scan.stamp = Time::from_ns(t);
       scan.count = 3;
       scan.points[0] = {1000, 0, 10, 0, 0};
       scan.points[1] = {0, 0, 0, 1, kPointInvalid};  // no position: NaN in the cloud
       scan.points[2] = {2000, 500, 20, 2, kPointDirectionFiltered};
-      scan.rejected = (robot == 2 && i == 4) ? 1 : 0;
-      store->append_scan(scan);
+      receipt.rejected = (robot == 2 && i == 4) ? 1 : 0;
+      store->append_scan(scan, receipt);
       if (i <= 2) {
         teamscan_msg_RobotStatus st{};
         st.robot_id = robot;

@@ -43,7 +43,8 @@ struct Sample {
   std::int64_t recv_ns = 0;
   bool is_pose = false;
   teamscan_msg_RobotPose pose{};
-  StoredScan scan{};
+  ScanPoints scan{};
+  Receipt receipt{};
 };
 
 struct Shadow {
@@ -73,13 +74,13 @@ std::vector<Sample> received(const Dataset& d, const Shadow& sh) {
   std::int64_t backfill_ns = sh.to_ns + 300'000'000;
   for (const ScanRecord& r : d.scans) {
     Sample x;
-    StoredScan& s = x.scan;
+    ScanPoints& s = x.scan;
     s.robot_id = r.robot;
     s.seq = r.scan + 1;
-    s.stamp_ns = r.stamp_ns;
-    s.recv_realtime_ns = r.stamp_ns + 5'000'000;
+    s.stamp = Time::from_ns(r.stamp_ns);
+    x.receipt.recv_realtime_ns = r.stamp_ns + 5'000'000;
     if (r.robot == sh.robot && r.stamp_ns >= sh.from_ns && r.stamp_ns < sh.to_ns) {
-      s.recv_realtime_ns = backfill_ns;  // in seq order, behind the live ones
+      x.receipt.recv_realtime_ns = backfill_ns;  // in seq order, behind the live ones
       backfill_ns += sh.backfill_period_ns;
     }
     s.origin_x_mm = mm(r.origin.x);
@@ -87,7 +88,7 @@ std::vector<Sample> received(const Dataset& d, const Shadow& sh) {
     s.origin_z_mm = mm(r.origin.z);
     for (const LabelledPoint& p : d.points)
       if (p.robot == r.robot && p.scan == r.scan) s.points[s.count++] = ScanPoint{mm(p.x), mm(p.y), mm(p.z), p.beam, 0};
-    x.recv_ns = s.recv_realtime_ns;
+    x.recv_ns = x.receipt.recv_realtime_ns;
     out.push_back(x);
   }
   std::stable_sort(out.begin(), out.end(), [](const Sample& a, const Sample& b) { return a.recv_ns < b.recv_ns; });
@@ -104,8 +105,8 @@ void run_station(const std::vector<Sample>& samples, SessionStore& store, Fusion
       store.append_pose(x.pose, ReceiveTime{Time::from_ns(x.recv_ns), Time::from_ns(x.recv_ns)});
       stage.add_pose(pose_observation(x.pose, Time::from_ns(x.recv_ns)));
     } else {
-      store.append_scan(x.scan);
-      stage.add_scan(x.scan);
+      store.append_scan(x.scan, x.receipt);
+      stage.add_scan(x.scan, x.receipt);
     }
     stage.tick(x.recv_ns);  // the loop's turn
   }

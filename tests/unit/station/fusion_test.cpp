@@ -92,14 +92,15 @@ PoseObservation pose_observation(const TrajectorySample& s, std::int64_t receive
 // scans, as over a slower link).
 void feed(FusionStage& stage, const Dataset& d, std::size_t pose_delay = 0,
           const std::function<void(std::int64_t)>& after_scan = {}, std::size_t robot2_scan_delay = 0) {
-  static StoredScan scan;
+  static ScanPoints scan;
   std::size_t next_odom = 0;
   std::vector<const TrajectorySample*> late;
   std::int64_t clock_ns = 0;
-  std::deque<std::unique_ptr<StoredScan>> late_scans;  // robot 2's, waiting
-  auto hand_over = [&](StoredScan& sc) {
-    sc.recv_realtime_ns = clock_ns;
-    stage.add_scan(sc);
+  std::deque<std::unique_ptr<ScanPoints>> late_scans;  // robot 2's, waiting
+  auto hand_over = [&](const ScanPoints& sc) {
+    Receipt receipt;
+    receipt.recv_realtime_ns = clock_ns;
+    stage.add_scan(sc, receipt);
     if (after_scan) after_scan(clock_ns);
   };
   for (const ScanRecord& r : d.scans) {
@@ -109,12 +110,11 @@ void feed(FusionStage& stage, const Dataset& d, std::size_t pose_delay = 0,
       stage.add_pose(pose_observation(*late.front(), clock_ns));
       late.erase(late.begin());
     }
-    scan = StoredScan{};
+    scan = ScanPoints{};
     scan.robot_id = r.robot;
     scan.seq = r.scan;
-    scan.stamp_ns = r.stamp_ns;
+    scan.stamp = Time::from_ns(r.stamp_ns);
     clock_ns = std::max(clock_ns, r.stamp_ns);
-    scan.recv_realtime_ns = clock_ns;
     scan.origin_x_mm = mm(r.origin.x);
     scan.origin_y_mm = mm(r.origin.y);
     scan.origin_z_mm = mm(r.origin.z);
@@ -125,7 +125,7 @@ void feed(FusionStage& stage, const Dataset& d, std::size_t pose_delay = 0,
     // One beam without an echo: stored by the station, never part of the model.
     scan.points[scan.count++] = ScanPoint{0, 0, 0, 400, kPointInvalid};
     if (robot2_scan_delay > 0 && r.robot == 2) {
-      late_scans.push_back(std::make_unique<StoredScan>(scan));
+      late_scans.push_back(std::make_unique<ScanPoints>(scan));
     } else {
       hand_over(scan);
       if (late_scans.size() > robot2_scan_delay / 2) {  // robot 1's scans pass it: about the delay in scans
@@ -698,15 +698,17 @@ TEST(Fusion, TheCoresPerRobotCountersAddUpToItsTotals) {
   std::filesystem::remove_all(dir);
 }
 
-// One scan of `robot` with `seq` and three points, stamped `stamp_ns`.
-StoredScan small_scan(std::uint32_t robot, std::uint32_t seq, std::int64_t stamp_ns) {
-  StoredScan s{};
+// Hands `f` one scan of `robot` with `seq` and three points, stamped `stamp_ns`, received 1 ms later.
+void add_small_scan(FusionStage& f, std::uint32_t robot, std::uint32_t seq, std::int64_t stamp_ns) {
+  static ScanPoints s;
+  s = ScanPoints{};
   s.robot_id = robot;
   s.seq = seq;
-  s.stamp_ns = stamp_ns;
-  s.recv_realtime_ns = stamp_ns + 1'000'000;
+  s.stamp = Time::from_ns(stamp_ns);
   for (std::uint16_t b = 0; b < 3; ++b) s.points[s.count++] = ScanPoint{1000 + 10 * b, 2000, 300, b, 0};
-  return s;
+  Receipt receipt;
+  receipt.recv_realtime_ns = stamp_ns + 1'000'000;
+  f.add_scan(s, receipt);
 }
 
 TEST(Fusion, HistoryReplaysAreNotFusedTwiceButRestartsAre) {
@@ -720,32 +722,32 @@ TEST(Fusion, HistoryReplaysAreNotFusedTwiceButRestartsAre) {
   FusionStage& f = **stage;
   const std::int64_t t0 = 1'700'000'000'000'000'000;
   constexpr std::int64_t kPeriod = 13'333'333;  // 75 Hz
-  for (std::uint32_t seq = 1; seq <= 400; ++seq) f.add_scan(small_scan(1, seq, t0 + seq * kPeriod));
-  for (std::uint32_t seq = 1; seq <= 50; ++seq) f.add_scan(small_scan(2, seq, t0 + seq * kPeriod));
+  for (std::uint32_t seq = 1; seq <= 400; ++seq) add_small_scan(f, 1, seq, t0 + seq * kPeriod);
+  for (std::uint32_t seq = 1; seq <= 50; ++seq) add_small_scan(f, 2, seq, t0 + seq * kPeriod);
   ASSERT_EQ(f.counters().scans, 450u);
   // Robot 1's history (the newest 300) delivered again, and robot 2's last scan: all duplicates.
-  for (std::uint32_t seq = 101; seq <= 400; ++seq) f.add_scan(small_scan(1, seq, t0 + seq * kPeriod));
-  f.add_scan(small_scan(2, 50, t0));
+  for (std::uint32_t seq = 101; seq <= 400; ++seq) add_small_scan(f, 1, seq, t0 + seq * kPeriod);
+  add_small_scan(f, 2, 50, t0);
   EXPECT_EQ(f.counters().duplicates, 301u);
   EXPECT_EQ(f.counters().scans, 450u);
   EXPECT_EQ(f.counters().points, 450u * 3);
   // A gap filled late is new; the same scan again is not.
-  f.add_scan(small_scan(2, 60, t0));
-  f.add_scan(small_scan(2, 55, t0));
-  f.add_scan(small_scan(2, 55, t0));
+  add_small_scan(f, 2, 60, t0);
+  add_small_scan(f, 2, 55, t0);
+  add_small_scan(f, 2, 55, t0);
   EXPECT_EQ(f.counters().scans, 452u);
   EXPECT_EQ(f.counters().duplicates, 302u);
   // Robot 1 restarted: seq 1 again, far below its newest (more than the core's 1024-seq window).
-  for (std::uint32_t seq = 401; seq <= 1500; ++seq) f.add_scan(small_scan(1, seq, t0 + seq * kPeriod));
+  for (std::uint32_t seq = 401; seq <= 1500; ++seq) add_small_scan(f, 1, seq, t0 + seq * kPeriod);
   ASSERT_EQ(f.counters().scans, 452u + 1100u);
-  f.add_scan(small_scan(1, 1, t0 + 500 * kPeriod));
-  f.add_scan(small_scan(1, 2, t0 + 501 * kPeriod));
+  add_small_scan(f, 1, 1, t0 + 500 * kPeriod);
+  add_small_scan(f, 1, 2, t0 + 501 * kPeriod);
   EXPECT_EQ(f.counters().scans, 1554u);
   EXPECT_EQ(f.counters().duplicates, 302u);
   // Jumps larger than the bitmap forget the old window without confusing the new one.
-  f.add_scan(small_scan(2, 5000, t0));
-  f.add_scan(small_scan(2, 4999, t0));
-  f.add_scan(small_scan(2, 5000, t0));
+  add_small_scan(f, 2, 5000, t0);
+  add_small_scan(f, 2, 4999, t0);
+  add_small_scan(f, 2, 5000, t0);
   EXPECT_EQ(f.counters().scans, 1556u);
   EXPECT_EQ(f.counters().duplicates, 303u);
   // Every fused scan has one latency sample (stamp -> fused) and one stored sample (stamp -> received).
@@ -1260,14 +1262,14 @@ TEST(Fusion, ChangedMapVoxelsAreThoseWithNewPointsSinceTheLastCall) {
   ASSERT_TRUE(stage.ok());
   FusionStage& f = **stage;
   const std::int64_t t0 = 1'700'000'000'000'000'000;
-  StoredScan s{};
+  ScanPoints s{};
   s.robot_id = 1;
   s.seq = 1;
-  s.stamp_ns = t0;
+  s.stamp = Time::from_ns(t0);
   s.points[s.count++] = ScanPoint{1010, 2010, 310, 0, 0};
   s.points[s.count++] = ScanPoint{1020, 2020, 320, 1, 0};  // same 0.1 m voxel
   s.points[s.count++] = ScanPoint{5010, 2010, 310, 2, 0};
-  f.add_scan(s);
+  f.add_scan(s, Receipt{});
   std::vector<teamscan_msg_MapVoxel> changed, full;
   f.map_voxels_changed(changed);
   ASSERT_EQ(changed.size(), 2u);
@@ -1276,7 +1278,7 @@ TEST(Fusion, ChangedMapVoxelsAreThoseWithNewPointsSinceTheLastCall) {
   EXPECT_TRUE(changed.empty());
   s.seq = 2;
   s.count = 1;  // one more point into the first voxel
-  f.add_scan(s);
+  f.add_scan(s, Receipt{});
   f.map_voxels_changed(changed);
   ASSERT_EQ(changed.size(), 1u);
   EXPECT_EQ(changed[0].x_mm, 1050);
@@ -1286,7 +1288,7 @@ TEST(Fusion, ChangedMapVoxelsAreThoseWithNewPointsSinceTheLastCall) {
   EXPECT_EQ(full.size(), 2u);
   EXPECT_EQ(f.map_total_voxels(), 2u);
   s.seq = 3;
-  f.add_scan(s);
+  f.add_scan(s, Receipt{});
   f.clear_map_changes();  // a full publication covers the changes
   f.map_voxels_changed(changed);
   EXPECT_TRUE(changed.empty());

@@ -143,7 +143,7 @@ TEST(RobotCorrectionLoop, TheRobotAppliesTheStationsCorrectionAndTheStationStore
   station::SampleValidator validator;
   ASSERT_TRUE(validator.check_scan(sample_corrected, scan_at + 5ms).ok());
   const station::ReceiveTime at{scan_at + 5ms, scan_at + 5ms};
-  static station::StoredScan stored, reference;
+  static ScanPoints stored, reference;
   (void)station::stored_from(sample_corrected, at, station::Reject::kNone, stored);
   (void)station::stored_from(sample_plain, at, station::Reject::kNone, reference);
   EXPECT_EQ(stored.applied.seq, 1u);  // the record says which correction the robot applied
@@ -164,7 +164,7 @@ TEST(RobotCorrectionLoop, TheRobotAppliesTheStationsCorrectionAndTheStationStore
   }
   EXPECT_LT(off_by_one, static_cast<int>(stored.count));  // mostly exact
   // A refused scan is stored as received: the robot's frame, its correction recorded.
-  static station::StoredScan refused;
+  static ScanPoints refused;
   (void)station::stored_from(sample_corrected, at, station::Reject::kSeqJump, refused);
   EXPECT_EQ(refused.points[180].x_mm, sample_corrected.points[180].x_mm);
   EXPECT_EQ(refused.applied.seq, 1u);

@@ -184,17 +184,17 @@ TEST_F(Ros2PublisherTest, TfCarriesLiveRobotsWithAHeading) {
 TEST_F(Ros2PublisherTest, AScansPlacedPointsGoOnItsScanTopicInTheOdomFrame) {
   const dds_entity_t scans = reader(&sensor_msgs_msg_dds__PointCloud2__desc, dds::ros2::scan_topic(4).c_str(), 10);
   dds_sleepfor(DDS_MSECS(100));  // matched before the write (volatile)
-  StoredScan s;
+  ScanPoints s;
   s.robot_id = 4;
-  s.stamp_ns = 1'700'000'000'250'000'000;
+  s.stamp = Time::from_ns(1'700'000'000'250'000'000);
   s.count = 3;
   s.points[0] = ScanPoint{1000, 2000, 300, 0, 0};
   s.points[1] = ScanPoint{0, 0, 0, 1, kPointNoPose};  // unplaced: left out
   s.points[2] = ScanPoint{-1500, 250, 800, 2, kPointDirectionFiltered};
-  publisher_->add_scan(s);
-  StoredScan refused = s;
+  publisher_->add_scan(s, Receipt{});
+  Receipt refused;
   refused.rejected = 3;
-  publisher_->add_scan(refused);  // refused scans are not published
+  publisher_->add_scan(s, refused);  // refused scans are not published
   const bool got = take_first<sensor_msgs_msg_dds__PointCloud2_>(scans, [](const sensor_msgs_msg_dds__PointCloud2_& cloud) {
     const auto* m = &cloud;
     EXPECT_STREQ(m->header.frame_id, "robot4/odom");
@@ -262,16 +262,16 @@ TEST(Ros2PublisherStatic, LaserMountsOnTfStaticForALateTransientLocalReader) {
 TEST_F(Ros2PublisherTest, AScanWithTheRobotsPoseAtItsStampGoesOutInBaseLink) {
   const dds_entity_t scans = reader(&sensor_msgs_msg_dds__PointCloud2__desc, dds::ros2::scan_topic(5).c_str(), 10);
   dds_sleepfor(DDS_MSECS(100));  // matched before the write (volatile)
-  StoredScan s;
+  ScanPoints s;
   s.robot_id = 5;
-  s.stamp_ns = 1'700'000'001'000'000'000;
+  s.stamp = Time::from_ns(1'700'000'001'000'000'000);
   s.count = 2;
   // The robot at (2, 1) heading +90 deg in its odometry frame: odom (2, 3) is 2 m ahead of it, odom (3, 1)
   // is 1 m to its right; z is kept.
   s.points[0] = ScanPoint{2000, 3000, 400, 0, 0};
   s.points[1] = ScanPoint{3000, 1000, 100, 1, 0};
   const Pose2 odom_from_base{2.0, 1.0, std::numbers::pi / 2};
-  publisher_->add_scan(s, &odom_from_base);
+  publisher_->add_scan(s, Receipt{}, &odom_from_base);
   const bool got = take_first<sensor_msgs_msg_dds__PointCloud2_>(scans, [](const sensor_msgs_msg_dds__PointCloud2_& cloud) {
     const auto* m = &cloud;
     EXPECT_STREQ(m->header.frame_id, "robot5/base_link");

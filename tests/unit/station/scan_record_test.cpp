@@ -27,12 +27,13 @@ TEST(ScanRecord, FileHeaderBytes) {
 }
 
 TEST(ScanRecord, ExactBytesOfAOnePointRecord) {
-  static StoredScan s;
-  s.recv_realtime_ns = 0x0102030405060708;
-  s.recv_monotonic_ns = -2;
+  static ScanPoints s;
+  Receipt receipt;
+  receipt.recv_realtime_ns = 0x0102030405060708;
+  receipt.recv_monotonic_ns = -2;
   s.robot_id = 3;
   s.seq = 0x11223344;
-  s.stamp_ns = 1;
+  s.stamp = Time::from_ns(1);
   s.origin_x_mm = -1;
   s.origin_y_mm = 256;
   s.origin_z_mm = 0;
@@ -40,7 +41,7 @@ TEST(ScanRecord, ExactBytesOfAOnePointRecord) {
   s.count = 1;
   s.points[0] = ScanPoint{-1000, 1000, 7, 400, 5};
   std::uint8_t buf[kScanRecordMaxBytes];
-  const std::size_t n = encode_scan_record(s, buf);
+  const std::size_t n = encode_scan_record(s, receipt, buf);
   ASSERT_EQ(n, 8u + 64u + 16u + 4u);
   const std::uint8_t expected[88] = {
       0x54, 0x43, 0x53, 0x52,  80, 0, 0, 0,                        // magic "TCSR", body 64 + 16
@@ -58,9 +59,10 @@ TEST(ScanRecord, ExactBytesOfAOnePointRecord) {
   const std::uint32_t crc = crc32_ieee(std::span<const std::uint8_t>(buf, 88));
   EXPECT_EQ(buf[88], crc & 0xFF);
   EXPECT_EQ(buf[91], crc >> 24);
-  static StoredScan back;
+  static ScanPoints back;
+  Receipt back_receipt;
   ScanDecodeStats st;
-  ASSERT_EQ(decode_scan_record(std::span<const std::uint8_t>(buf, n), back, st), static_cast<long>(n));
+  ASSERT_EQ(decode_scan_record(std::span<const std::uint8_t>(buf, n), back, back_receipt, st), static_cast<long>(n));
   EXPECT_EQ(back.applied.x_mm, -2);
   EXPECT_EQ(back.applied.y_mm, 1000);
   EXPECT_EQ(back.applied.yaw_urad, -1'570'796);
@@ -84,7 +86,7 @@ TEST(ScanRecord, VersionOneFilesAreReadWithoutACorrection) {
   const std::uint32_t crc = crc32_ieee(std::span<const std::uint8_t>(record, sizeof record));
   for (int i = 0; i < 4; ++i) f.push_back(static_cast<std::uint8_t>(crc >> (8 * i)));
   int n = 0;
-  const ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const StoredScan& s) {
+  const ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const ScanPoints& s, const Receipt&) {
     ++n;
     EXPECT_EQ(s.seq, 0x11223344u);
     EXPECT_EQ(s.origin_y_mm, 256);
@@ -97,14 +99,14 @@ TEST(ScanRecord, VersionOneFilesAreReadWithoutACorrection) {
   EXPECT_EQ(st.records, 1u);
   EXPECT_FALSE(st.bad_header);
   f[8] = 3;  // an unknown version
-  EXPECT_TRUE(decode_scan_file(std::span<const std::uint8_t>(f), [](const StoredScan&) {}).bad_header);
+  EXPECT_TRUE(decode_scan_file(std::span<const std::uint8_t>(f), [](const ScanPoints&, const Receipt&) {}).bad_header);
 }
 
 // The station takes an accepted scan back to the odometry-map frame: the inverse of the correction the
 // robot applied, on the origin and the points (a beam without an echo sits at the laser's centre and
 // moves with it); points without a pose (coordinates 0) stay.
 TEST(ScanRecord, UndoingTheAppliedCorrectionGivesTheOdometryMapFrame) {
-  static StoredScan s;
+  static ScanPoints s;
   s.applied = OdomCorrection{100, 200, 1'570'796, 3};  // (0.1 m, 0.2 m, +90°)
   s.origin_x_mm = 100;  // odometry-map (1000, 0) corrected
   s.origin_y_mm = 1200;
@@ -129,28 +131,28 @@ TEST(ScanRecord, UndoingTheAppliedCorrectionGivesTheOdometryMapFrame) {
   EXPECT_EQ(s.points[3].y_mm, 0);
   EXPECT_EQ(s.applied.seq, 3u);  // the record keeps which one was applied
   // None applied: nothing moves.
-  static StoredScan n;
+  static ScanPoints n;
   n.count = 1;
   n.points[0] = ScanPoint{-2900, 1200, 310, 90, 0};
   undo_applied_correction(n);
   EXPECT_EQ(n.points[0].x_mm, -2900);
 }
 
-std::vector<std::uint8_t> file_with(const std::vector<StoredScan*>& scans) {
+std::vector<std::uint8_t> file_with(const std::vector<ScanPoints*>& scans) {
   std::vector<std::uint8_t> f(kScanFileHeaderBytes);
   std::uint8_t h[kScanFileHeaderBytes];
   encode_scan_file_header(h);
   std::memcpy(f.data(), h, sizeof h);
   std::uint8_t buf[kScanRecordMaxBytes];
-  for (const StoredScan* s : scans) {
-    const std::size_t n = encode_scan_record(*s, buf);
+  for (const ScanPoints* s : scans) {
+    const std::size_t n = encode_scan_record(*s, Receipt{}, buf);
     f.insert(f.end(), buf, buf + n);
   }
   return f;
 }
 
 TEST(ScanRecord, RoundTripOfZeroOneAndFullScans) {
-  static StoredScan a, b, c;
+  static ScanPoints a, b, c;
   a.robot_id = 1; a.seq = 1; a.count = 0;
   b.robot_id = 2; b.seq = 2; b.count = 1; b.points[0] = ScanPoint{1, 2, 3, 4, 5};
   c.robot_id = 32; c.seq = 3; c.count = kMaxBeams;
@@ -158,7 +160,7 @@ TEST(ScanRecord, RoundTripOfZeroOneAndFullScans) {
   const auto f = file_with({&a, &b, &c});
   std::vector<std::pair<std::uint32_t, std::uint16_t>> got;
   std::int32_t last_z = 0;
-  const ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const StoredScan& s) {
+  const ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const ScanPoints& s, const Receipt&) {
     got.emplace_back(s.seq, s.count);
     if (s.count == kMaxBeams) last_z = s.points[400].z_mm;
   });
@@ -175,26 +177,27 @@ TEST(ScanRecord, RoundTripOfZeroOneAndFullScans) {
 // A scan the station refused at receipt is stored raw with its reason (sample_validation.hpp), and a
 // count above the record's capacity keeps every point the sample could carry.
 TEST(ScanRecord, RefusedScanKeepsItsReasonAndItsPoints) {
-  static StoredScan s, back;
+  static ScanPoints s, back;
+  Receipt receipt, back_receipt;
   s.robot_id = 999999;
   s.seq = 5;
   s.count = 65535;
-  s.rejected = 2;
+  receipt.rejected = 2;
   for (std::uint16_t i = 0; i < kMaxBeams; ++i) s.points[i] = ScanPoint{i, 0, 0, i, 0};
   std::uint8_t buf[kScanRecordMaxBytes];
-  const std::size_t n = encode_scan_record(s, buf);
+  const std::size_t n = encode_scan_record(s, receipt, buf);
   ASSERT_EQ(n, kScanRecordMaxBytes);
   EXPECT_EQ(buf[8 + 62], 2);  // the rejected field after count
   ScanDecodeStats st;
-  ASSERT_EQ(decode_scan_record(std::span<const std::uint8_t>(buf, n), back, st), static_cast<long>(n));
+  ASSERT_EQ(decode_scan_record(std::span<const std::uint8_t>(buf, n), back, back_receipt, st), static_cast<long>(n));
   EXPECT_EQ(back.robot_id, 999999u);
-  EXPECT_EQ(back.rejected, 2);
+  EXPECT_EQ(back_receipt.rejected, 2);
   EXPECT_EQ(back.count, kMaxBeams);
   EXPECT_EQ(back.points[400].x_mm, 400);
 }
 
 TEST(ScanRecord, CorruptRecordIsSkippedAndTheNextOneFound) {
-  static StoredScan a, b, c;
+  static ScanPoints a, b, c;
   a.seq = 1; a.count = 3;
   b.seq = 2; b.count = 3;
   c.seq = 3; c.count = 3;
@@ -202,38 +205,38 @@ TEST(ScanRecord, CorruptRecordIsSkippedAndTheNextOneFound) {
   const std::size_t rec = kScanRecordFixedBytes + 3 * kScanPointBytes;
   f[kScanFileHeaderBytes + rec + 30] ^= 0x40;  // flip a bit inside record 2
   std::vector<std::uint32_t> seqs;
-  const ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const StoredScan& s) { seqs.push_back(s.seq); });
+  const ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const ScanPoints& s, const Receipt&) { seqs.push_back(s.seq); });
   EXPECT_EQ(seqs, (std::vector<std::uint32_t>{1, 3}));
   EXPECT_EQ(st.bad_crc, 1u);
   EXPECT_GT(st.bytes_skipped, 0u);
 }
 
 TEST(ScanRecord, TruncatedTailAndGarbageAndBadHeader) {
-  static StoredScan a, b;
+  static ScanPoints a, b;
   a.seq = 1; a.count = 2;
   b.seq = 2; b.count = 2;
   auto f = file_with({&a, &b});
   f.insert(f.begin() + kScanFileHeaderBytes, {0xDE, 0xAD, 0xBE, 0xEF, 0x54});  // garbage before record 1
   f.resize(f.size() - 7);                                                     // torn last record
   std::vector<std::uint32_t> seqs;
-  ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const StoredScan& s) { seqs.push_back(s.seq); });
+  ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const ScanPoints& s, const Receipt&) { seqs.push_back(s.seq); });
   EXPECT_EQ(seqs, (std::vector<std::uint32_t>{1}));
   EXPECT_TRUE(st.truncated_tail);
   EXPECT_EQ(st.bytes_skipped, 5u);
 
   f[0] = 'X';
-  st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const StoredScan&) { ADD_FAILURE(); });
+  st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const ScanPoints&, const Receipt&) { ADD_FAILURE(); });
   EXPECT_TRUE(st.bad_header);
 }
 
 TEST(ScanRecord, LengthAboveCapacityIsRejected) {
-  static StoredScan a;
+  static ScanPoints a;
   a.count = 1;
   auto f = file_with({&a});
   // body length claiming 402 points
   const std::uint32_t body = 64 + 402 * 16;
   std::memcpy(&f[kScanFileHeaderBytes + 4], &body, 4);
-  const ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const StoredScan&) { ADD_FAILURE(); });
+  const ScanDecodeStats st = decode_scan_file(std::span<const std::uint8_t>(f), [&](const ScanPoints&, const Receipt&) { ADD_FAILURE(); });
   EXPECT_EQ(st.records, 0u);
   EXPECT_GE(st.bad_length, 1u);
 }

@@ -38,10 +38,11 @@ struct Sample {
   bool is_pose = false;
   teamscan_msg_RobotPose pose{};
   std::size_t scan = 0;  // index in scans
+  Receipt receipt{};     // the scan's
 };
 struct Feed {
   std::vector<Sample> samples;
-  std::vector<StoredScan> scans;
+  std::vector<ScanPoints> scans;
 };
 
 Feed make_feed(const Dataset& d) {
@@ -61,18 +62,18 @@ Feed make_feed(const Dataset& d) {
   }
   f.scans.reserve(d.scans.size());
   for (const ScanRecord& r : d.scans) {
-    StoredScan s{};
+    ScanPoints s{};
     s.robot_id = r.robot;
     s.seq = r.scan;
-    s.stamp_ns = r.stamp_ns;
-    s.recv_realtime_ns = r.stamp_ns + 5'000'000;
+    s.stamp = Time::from_ns(r.stamp_ns);
     s.origin_x_mm = mm(r.origin.x);
     s.origin_y_mm = mm(r.origin.y);
     s.origin_z_mm = mm(r.origin.z);
     for (const LabelledPoint& p : d.points)
       if (p.robot == r.robot && p.scan == r.scan) s.points[s.count++] = ScanPoint{mm(p.x), mm(p.y), mm(p.z), p.beam, 0};
     Sample x;
-    x.recv_ns = s.recv_realtime_ns;
+    x.receipt.recv_realtime_ns = r.stamp_ns + 5'000'000;
+    x.recv_ns = x.receipt.recv_realtime_ns;
     x.scan = f.scans.size();
     f.scans.push_back(s);
     f.samples.push_back(x);
@@ -89,8 +90,8 @@ void run(const Feed& f, std::size_t from, std::size_t to, SessionStore* store, F
       if (store) store->append_pose(x.pose, ReceiveTime{Time::from_ns(x.recv_ns), Time::from_ns(x.recv_ns)});
       stage.add_pose(pose_observation(x.pose, Time::from_ns(x.recv_ns)));
     } else {
-      if (store) store->append_scan(f.scans[x.scan]);
-      stage.add_scan(f.scans[x.scan]);
+      if (store) store->append_scan(f.scans[x.scan], x.receipt);
+      stage.add_scan(f.scans[x.scan], x.receipt);
     }
   }
 }
@@ -278,16 +279,17 @@ TEST(SessionReplay, ASilentRobotStaysWhereItWasLastSeenAndItsHitsAreStillRemoved
       p2.x_m = 2.0;
       (*stage)->add_pose(p2);
     }
-    StoredScan s{};
+    ScanPoints s{};
     s.robot_id = 1;
     s.seq = ++seq;
-    s.stamp_ns = t;
-    s.recv_realtime_ns = t;
+    s.stamp = Time::from_ns(t);
+    Receipt receipt;
+    receipt.recv_realtime_ns = t;
     s.origin_z_mm = 300;
     s.points[s.count++] = ScanPoint{1750, 0, 150, 0, 0};  // robot 2's front face
     s.points[s.count++] = ScanPoint{5000, 0, 300, 1, 0};  // the wall
     s.points[s.count++] = ScanPoint{4000, 0, 300, 2, 0};  // the box
-    (*stage)->add_scan(s);
+    (*stage)->add_scan(s, receipt);
   }
   (*stage)->flush();
   ASSERT_TRUE((*stage)->write_model().ok());
@@ -312,18 +314,19 @@ TEST(SessionReplay, ARobotIdOutOfRangeIsSkippedAndCountedByTheReader) {
       teamscan_msg_RobotPose p{};
       p.robot_id = robot;
       store->append_pose(p, at);
-      StoredScan s{};
+      ScanPoints s{};
       s.robot_id = robot;
-      s.recv_realtime_ns = 2'000;
       s.points[s.count++] = ScanPoint{1000, 0, 0, 0, 0};
-      store->append_scan(s);
+      Receipt receipt;
+      receipt.recv_realtime_ns = 2'000;
+      store->append_scan(s, receipt);
     }
   }
   SessionReadStats stats;
   std::vector<std::uint32_t> poses, scans;
   const Status st = replay_session_files(
       dir, [&](const PoseObservation& p) { poses.push_back(p.robot_id); },
-      [&](const StoredScan& s) { scans.push_back(s.robot_id); }, stats);
+      [&](const ScanPoints& s, const Receipt&) { scans.push_back(s.robot_id); }, stats);
   ASSERT_TRUE(st.ok()) << st.error().what;
   EXPECT_EQ(poses, (std::vector<std::uint32_t>{1}));
   EXPECT_EQ(scans, (std::vector<std::uint32_t>{1}));

@@ -68,14 +68,14 @@ TEST(SessionStore, NothingIsLostWhenTheProcessIsKilled) {
   if (pid == 0) {
     auto s = SessionStore::open(dir);
     if (!s) ::_exit(3);
-    static StoredScan scan;
+    static ScanPoints scan;
     scan.robot_id = 2;
     scan.count = 10;
     teamscan_msg_RobotPose p{};
     p.robot_id = 2;
     for (std::uint32_t i = 1; i <= 500; ++i) {
       scan.seq = i;
-      s->append_scan(scan);
+      s->append_scan(scan, Receipt{});
       p.seq = i;
       s->append_pose(p, ReceiveTime{Time::from_ns(i), Time::from_ns(i)});
     }
@@ -90,7 +90,7 @@ TEST(SessionStore, NothingIsLostWhenTheProcessIsKilled) {
   std::uint32_t expected_seq = 1;
   ScanDecodeStats stats;
   std::string err;
-  ASSERT_TRUE(read_scan_file(dir + "/scans.bin", [&](const StoredScan& s) {
+  ASSERT_TRUE(read_scan_file(dir + "/scans.bin", [&](const ScanPoints& s, const Receipt&) {
     EXPECT_EQ(s.seq, expected_seq++);
     ++n;
   }, stats, err)) << err;
@@ -106,24 +106,24 @@ TEST(SessionStore, NothingIsLostWhenTheProcessIsKilled) {
 
 TEST(SessionStore, ReopeningAppendsWithoutASecondHeader) {
   const std::string dir = temp_dir() + "/s";
-  static StoredScan scan;
+  static ScanPoints scan;
   scan.count = 1;
   {
     auto s = SessionStore::open(dir);
     ASSERT_TRUE(s.ok());
     scan.seq = 1;
-    s->append_scan(scan);
+    s->append_scan(scan, Receipt{});
   }
   {
     auto s = SessionStore::open(dir);
     ASSERT_TRUE(s.ok());
     scan.seq = 2;
-    s->append_scan(scan);
+    s->append_scan(scan, Receipt{});
   }
   std::vector<std::uint32_t> seqs;
   ScanDecodeStats stats;
   std::string err;
-  ASSERT_TRUE(read_scan_file(dir + "/scans.bin", [&](const StoredScan& s) { seqs.push_back(s.seq); }, stats, err));
+  ASSERT_TRUE(read_scan_file(dir + "/scans.bin", [&](const ScanPoints& s, const Receipt&) { seqs.push_back(s.seq); }, stats, err));
   EXPECT_EQ(seqs, (std::vector<std::uint32_t>{1, 2}));
   EXPECT_EQ(stats.bytes_skipped, 0u);
   const std::string poses = slurp(dir + "/poses.csv");
