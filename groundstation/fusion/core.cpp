@@ -65,6 +65,16 @@ Status FusionCore::reset() {
   return ok_status();
 }
 
+void FusionCore::take_state(FusionCore& other) {
+  std::function<void(const FusedScan&)> on_release = std::move(on_release_);
+  *this = std::move(other);
+  on_release_ = std::move(on_release);
+}
+
+bool FusionCore::holds(std::uint8_t robot, std::uint32_t scan) const {
+  return std::any_of(held_.begin(), held_.end(), [&](const Held& h) { return h.robot == robot && h.scan == scan; });
+}
+
 void FusionCore::add_pose(const PoseInput& pose) {
   ++counters_.poses_in;
   if (first_arrival_ns_ == INT64_MIN) first_arrival_ns_ = pose.arrival_ns;

@@ -173,6 +173,10 @@ class FusionCore {
   // its session into it): held scans, poses, map, model store and registration dropped, the release
   // callback kept. The object stays, so references to it and to its pose history stay valid.
   [[nodiscard]] Status reset();
+  // Takes over `other`'s whole state (held scans, poses, map, model store, registration, counters), its
+  // release callback excepted: this object keeps its own, and references to it and to its pose history
+  // stay valid (the station's catch-up built `other` from its session while this one ran live).
+  void take_state(FusionCore& other);
 
   // Called for every released scan, in release order.
   void set_release_callback(std::function<void(const FusedScan&)> f) { on_release_ = std::move(f); }
@@ -202,6 +206,8 @@ class FusionCore {
   }
   [[nodiscard]] const CoreOptions& options() const { return options_; }
   [[nodiscard]] std::size_t held_scans() const { return held_.size(); }
+  // True if (robot, scan) is held (not released yet).
+  [[nodiscard]] bool holds(std::uint8_t robot, std::uint32_t scan) const;
   [[nodiscard]] std::size_t model_voxels() const { return model_.voxels(); }
   [[nodiscard]] std::size_t model_memory_bytes() const { return model_.memory_bytes(); }
   // The filter's map state (voxel counts, free-space grid), bytes.

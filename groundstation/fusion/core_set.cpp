@@ -48,6 +48,10 @@ void CoreSet::resume_at(std::int64_t arrival_ns) {
   for (const auto& c : cores_) c->resume_at(arrival_ns);
 }
 
+void CoreSet::take_state(CoreSet& other) {
+  for (std::size_t i = 0; i < cores_.size() && i < other.cores_.size(); ++i) cores_[i]->take_state(*other.cores_[i]);
+}
+
 const FusionCore* CoreSet::compared(const std::string& method) const {
   for (std::size_t i = 1; i < cores_.size(); ++i)
     if (cores_[i]->options().method == method) return cores_[i].get();

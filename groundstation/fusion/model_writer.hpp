@@ -118,6 +118,8 @@ class ModelWriter {
   // From the loop: true when a write finished since the last call; starts a coalesced write if free.
   bool poll();
   [[nodiscard]] bool in_flight() const;
+  // A periodic write's snapshot is being taken in the loop's turns (it reads the cores).
+  [[nodiscard]] bool snapshotting() const { return snapshotting_; }
   // Finishes a snapshot in progress on this thread and waits for the writer thread.
   void wait();
   // The writer thread's scheduling read back from the kernel; `policy` -1 before the first request().

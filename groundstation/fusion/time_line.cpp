@@ -33,11 +33,20 @@ TimeLine::TimeLine(const Dataset& dataset) : dataset_{dataset} {
 
 void TimeLine::feed(const std::function<void(PoseInput&)>& on_pose, const std::function<void(ScanInput&)>& on_scan,
                     const std::function<void(double)>& progress) const {
-  ScanInput in;  // reused: its vectors keep their capacity
   const std::size_t progress_every = std::max<std::size_t>(1, events_.size() / 100);
-  for (std::size_t k = 0; k < events_.size(); ++k) {
+  for (std::size_t k = 0; k < events_.size();) {
+    if (progress) progress(static_cast<double>(k) / static_cast<double>(events_.size()));
+    const std::size_t end = std::min(events_.size(), k + progress_every);
+    while (k < end) k = feed_part(k, 1, on_pose, on_scan);  // one scan (and the poses before it) at a time
+  }
+}
+
+std::size_t TimeLine::feed_part(std::size_t from, std::size_t max_scans, const std::function<void(PoseInput&)>& on_pose,
+                                const std::function<void(ScanInput&)>& on_scan) const {
+  std::size_t scans = 0;
+  std::size_t k = from;
+  for (; k < events_.size() && (max_scans == 0 || scans < max_scans); ++k) {
     const Event& e = events_[k];
-    if (progress && k % progress_every == 0) progress(static_cast<double>(k) / static_cast<double>(events_.size()));
     if (e.kind == 0) {
       const TrajectorySample& s = dataset_.odom[e.index];
       PoseInput p{s.robot, s.stamp_ns, s.stamp_ns, s.pose, s.v_mps, s.w_radps};
@@ -45,6 +54,7 @@ void TimeLine::feed(const std::function<void(PoseInput&)>& on_pose, const std::f
       continue;
     }
     const ScanRecord& r = records_[e.index];
+    ScanInput& in = scratch_;
     in.points.clear();
     in.flags.clear();
     in.beams.clear();
@@ -62,7 +72,9 @@ void TimeLine::feed(const std::function<void(PoseInput&)>& on_pose, const std::f
     in.origin_m = r.origin;
     in.arrival_ns = r.stamp_ns;
     on_scan(in);
+    ++scans;
   }
+  return k;
 }
 
 void feed_in_time_order(const Dataset& dataset, FusionCore& core, bool flush) {

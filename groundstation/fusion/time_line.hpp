@@ -31,6 +31,12 @@ class TimeLine {
   // every 1 %.
   void feed(const std::function<void(PoseInput&)>& on_pose, const std::function<void(ScanInput&)>& on_scan,
             const std::function<void(double)>& progress = {}) const;
+  // feed() in parts, the same calls in the same order: from event `from` on until `max_scans` scans were
+  // fed (0: to the end). Returns the next event to feed (events() once all are fed).
+  std::size_t feed_part(std::size_t from, std::size_t max_scans, const std::function<void(PoseInput&)>& on_pose,
+                        const std::function<void(ScanInput&)>& on_scan) const;
+  // The poses and scans to feed.
+  [[nodiscard]] std::size_t events() const { return events_.size(); }
 
   // The scan rows fed (each (robot, scan) once) and every scan's point indices in Dataset::points.
   [[nodiscard]] const std::vector<ScanRecord>& records() const { return records_; }
@@ -51,6 +57,7 @@ class TimeLine {
   std::map<std::pair<std::uint8_t, std::uint32_t>, std::vector<std::size_t>> by_scan_;
   std::vector<ScanRecord> records_;
   std::vector<Event> events_;
+  mutable ScanInput scratch_;  // a fed scan's input: its vectors keep their capacity
 };
 
 // A data set through `core` in time order (TimeLine), then every held scan released (flush): the core's

@@ -240,7 +240,7 @@ const toml::table* read_fusion(TomlReader& r, FusionOptions& f) {
                             "write_all_points", "map_interval_s", "map_resolution_m", "latency_log", "hold_s", "team_lag_s",
                             "min_scan_interval_s",
                             "model_resolution_m", "max_points_per_voxel", "compare_methods", "write_slice_ms", "writer_cpus",
-                            "registration"});
+                            "catch_up_min_scans", "catch_up_quiet_s", "catch_up_slice_scans", "registration"});
   r.boolean(fusion, "fusion", "enabled", f.enabled);
   if (r.string(fusion, "fusion", "method", core.method, false) && core.method.empty())
     r.fail("fusion.method", "must not be empty", r.node(fusion, "method"));
@@ -265,6 +265,12 @@ const toml::table* read_fusion(TomlReader& r, FusionOptions& f) {
   r.integer_in(fusion, "fusion", "max_points_per_voxel", max_per_voxel, 0, 1'000'000);
   core.max_points_per_voxel = static_cast<std::uint32_t>(max_per_voxel);
   r.boolean(fusion, "fusion", "registration", core.registration);
+  std::int64_t catch_up_min = f.catch_up_min_scans, catch_up_slice = f.catch_up_slice_scans;
+  r.integer_in(fusion, "fusion", "catch_up_min_scans", catch_up_min, 0, 1'000'000'000);
+  f.catch_up_min_scans = static_cast<std::uint32_t>(catch_up_min);
+  r.number_in(fusion, "fusion", "catch_up_quiet_s", f.catch_up_quiet_s, 0.0, 3600.0, true);
+  r.integer_in(fusion, "fusion", "catch_up_slice_scans", catch_up_slice, 0, 1'000'000);
+  f.catch_up_slice_scans = static_cast<std::uint32_t>(catch_up_slice);
   f.write_interval = from_seconds(write_s);
   f.map_interval = from_seconds(map_s);
   return fusion;

@@ -64,7 +64,10 @@ class RunLoop {
 // One loop, one tick: wait for data at most until the next team publication is due.
 void RunLoop::tick() {
   const Time before_poll = now_monotonic();
-  const std::size_t handled = st_.poll(std::min<Duration>(cfg_.station.team_period, std::chrono::milliseconds(50)));
+  // A catch-up in slices turns again at once (after the samples that are there); else wait for data.
+  const bool busy = d_.fusion && d_.fusion->catch_up_has_work();
+  const std::size_t handled =
+      st_.poll(busy ? Duration{0} : std::min<Duration>(cfg_.station.team_period, std::chrono::milliseconds(50)));
   now_ = now_monotonic();
   if (handled > 0) handle_max_ = std::max(handle_max_, now_ - before_poll);
   if (d_.fusion) {

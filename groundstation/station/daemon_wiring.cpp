@@ -246,9 +246,13 @@ std::optional<int> start_daemon(const GroundStationConfig& cfg, const std::strin
   if (d.fusion) d.fusion->set_write_callback([&cfg, &d](const ModelWriteReport& w) { log_model_write(cfg, d, w); });
   if (d.fusion) {
     d.fusion->set_catch_up_callback([&d](const FusionCounters& c) {  // after a back-fill (fusion.hpp catch_up)
-      char text[160];
-      std::snprintf(text, sizeof text, "fusion: caught up in time order: %llu scans of the session decided again in %.2f s",
-                    static_cast<unsigned long long>(c.caught_up_scans), c.last_catch_up_s);
+      char text[320];
+      std::snprintf(text, sizeof text,
+                    "fusion: caught up in time order: %llu scans of the session decided again in %.2f s "
+                    "(%llu loop turns, at most %.1f ms of one; %llu live scans fed behind them)",
+                    static_cast<unsigned long long>(c.caught_up_scans), c.last_catch_up_s,
+                    static_cast<unsigned long long>(c.catch_up_turns), c.catch_up_slice_max_s * 1e3,
+                    static_cast<unsigned long long>(c.caught_up_live_scans));
       d.store->log_event(now_realtime(), text);
     });
   }

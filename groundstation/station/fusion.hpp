@@ -25,6 +25,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -34,6 +35,7 @@
 #include "common/thread_placement.hpp"
 #include "common/time.hpp"
 #include "groundstation/fusion/core.hpp"
+#include "groundstation/fusion/core_rebuild.hpp"
 #include "groundstation/fusion/core_set.hpp"
 #include "groundstation/fusion/model_writer.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
@@ -80,6 +82,11 @@ struct FusionOptions {
   // clock (the back-fill is over). 0 scans: never in the loop; flush() catches up whenever one is due.
   std::uint32_t catch_up_min_scans = 75;
   double catch_up_quiet_s = 2.0;
+  // The catch-up in the loop is done in slices: the session folder is read off the loop (a loader
+  // thread), then each loop turn feeds the rebuilt cores at most this many scans while the live cores
+  // go on taking, fusing and showing the robots' scans; the rebuilt cores take over once they caught up
+  // with the live ones. 0: the whole catch-up in the turn it is due, holding the loop (catch_up()).
+  std::uint32_t catch_up_slice_scans = 16;
   // The CPUs the model writer thread may run on (empty: the process's affinity). A station whose loop
   // is pinned to one core keeps the writer's file work (page-cache copies, kernel sections that the
   // loop cannot preempt) off that core with this; the snapshot itself stays in the loop.
@@ -111,7 +118,10 @@ struct FusionCounters {
   std::uint64_t replayed_scans = 0;   // scans of the session folder replayed at start-up
   std::uint64_t catch_ups = 0;        // cores rebuilt in time order from the session folder (catch_up)
   std::uint64_t caught_up_scans = 0;  // scans the last catch-up fed
-  double last_catch_up_s = 0.0;       // how long the last catch-up held the loop (CLOCK_MONOTONIC)
+  double last_catch_up_s = 0.0;       // the last catch-up, from due to done (CLOCK_MONOTONIC): in slices, the span
+  std::uint64_t catch_up_turns = 0;   // the last catch-up's loop turns that fed the rebuilt cores (0: in one turn)
+  double catch_up_slice_max_s = 0.0;  // ... its longest share of one loop turn (a slice, the start or the take-over)
+  std::uint64_t caught_up_live_scans = 0;  // ... live scans fed to the rebuilt cores behind the session
   std::uint64_t catch_up_failures = 0;  // the session folder could not be read back (the cores as they were)
   std::uint64_t writes = 0;           // model writes done (every core's files written)
   std::uint64_t write_failures = 0;   // writes with a file not written (the first error: last_write())
@@ -141,8 +151,15 @@ class FusionStage {
   // arrives after the core released its teammates' scans of that time, so its scans were released late,
   // out of stamp order, with the team state there was: after a catch-up every decision, the model store's
   // choice of points per voxel and the decisions at release are those of `teamscan eval` of the session
-  // so far. Holds the loop for a replay of the whole session (counters().last_catch_up_s).
+  // so far. Holds the loop for a replay of the whole session (counters().last_catch_up_s); a catch-up in
+  // slices under way is dropped first. The loop's catch-up (tick()) is the same in slices.
   [[nodiscard]] Status catch_up(std::int64_t realtime_ns);
+  // A catch-up in slices is under way (the session being read, or the rebuilt cores being fed).
+  [[nodiscard]] bool catching_up() const { return run_ != nullptr; }
+  // ... and its rebuilt cores are being fed: the loop should turn again without waiting for data.
+  [[nodiscard]] bool catch_up_has_work() const;
+  // The catch-up under way: scans of the session fed of those to feed, live inputs queued behind them.
+  [[nodiscard]] fusion::RebuildProgress catch_up_progress() const;
   // Called after every catch-up with the counters (caught_up_scans, last_catch_up_s), on its thread.
   void set_catch_up_callback(std::function<void(const FusionCounters&)> f) { on_catch_up_ = std::move(f); }
   // Scans released late (CoreCounters::scans_late) since the last catch-up (the primary core's count).
@@ -153,7 +170,8 @@ class FusionStage {
   // when no scan was released late).
   void flush();
   // The loop's clock (CLOCK_REALTIME, the receive times' clock): held scans that waited long enough go;
-  // a catch-up once one is due (FusionOptions::catch_up_min_scans, catch_up_quiet_s).
+  // a catch-up once one is due (FusionOptions::catch_up_min_scans, catch_up_quiet_s), in slices of
+  // catch_up_slice_scans, one per call, until the rebuilt cores take over.
   void tick(std::int64_t realtime_ns);
 
   // Writes every core's model from memory into the session folder (fused.pcd, and fused_all.pcd when
@@ -223,6 +241,14 @@ class FusionStage {
   void on_release(const fusion::FusedScan& scan);
   void add_scan_to_cores(const fusion::ScanInput& in);
   void finish_write(const ModelWriteReport& report);
+  struct CatchUpRun;
+  void start_catch_up(std::int64_t realtime_ns);
+  void continue_catch_up();
+  void finish_catch_up();
+  void drop_catch_up();
+  void on_rebuilt_release(const fusion::FusedScan& scan);
+  void record_fused(std::uint8_t robot, std::uint32_t scan, std::int64_t stamp_ns, std::int64_t arrival_ns,
+                    const Pose2& map_from_robot);
 
   FusionOptions options_;
   std::string session_dir_;
@@ -240,6 +266,10 @@ class FusionStage {
   std::uint64_t late_base_ = 0;  // the primary's scans_late after the last catch-up
   std::uint64_t late_seen_ = 0;  // ... at the last tick, and when it last grew
   std::int64_t late_at_ns_ = 0;
+  std::unique_ptr<CatchUpRun> run_;  // the catch-up in slices under way (fusion.cpp)
+  // Scans the live cores released during the last catch-up that the rebuilt ones still held when they
+  // took over: released again later, shown but not counted twice (latency, trajectory).
+  std::set<std::pair<std::uint8_t, std::uint32_t>> released_before_;
   std::function<void(const ModelWriteReport&)> on_write_;
   std::function<void(const FusionCounters&)> on_catch_up_;
   std::unique_ptr<fusion::ModelWriter> writer_;  // after cores_: destroyed (its thread joined) first

@@ -2,6 +2,7 @@
 #include "groundstation/station/session_replay.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -48,7 +49,7 @@ namespace {
 // scans.bin streamed in chunks: next() decodes one record at a time (resyncing past bad bytes).
 class ScanFileStream {
  public:
-  explicit ScanFileStream(SessionReadStats& stats) : stats_{stats} {}
+  ScanFileStream(SessionReadStats& stats, std::uint64_t limit_bytes) : stats_{stats}, left_{limit_bytes} {}
   ~ScanFileStream() {
     if (fd_ >= 0) ::close(fd_);
   }
@@ -109,13 +110,19 @@ class ScanFileStream {
   static constexpr std::size_t kChunk = 4u << 20;
   Status fill() {
     while (have_ < buf_.size() && !eof_) {
-      const ssize_t n = ::read(fd_, buf_.data() + have_, buf_.size() - have_);
+      const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(buf_.size() - have_, left_));
+      if (want == 0) {
+        eof_ = true;  // the extent read
+        break;
+      }
+      const ssize_t n = ::read(fd_, buf_.data() + have_, want);
       if (n < 0) {
         if (errno == EINTR) continue;
         return Error{"session: cannot read scans.bin", errno};
       }
       if (n == 0) eof_ = true;
       have_ += static_cast<std::size_t>(n);
+      left_ -= static_cast<std::uint64_t>(n);
     }
     return ok_status();
   }
@@ -124,6 +131,7 @@ class ScanFileStream {
   int fd_ = -1;
   std::vector<std::uint8_t> buf_;
   std::size_t have_ = 0, pos_ = 0;
+  std::uint64_t left_;  // bytes of the file still to read (SessionExtent)
   bool eof_ = false;
   std::uint32_t version_ = kScanFileVersion;
   Status error_ = ok_status();
@@ -132,11 +140,17 @@ class ScanFileStream {
 // poses.csv streamed line by line.
 class PoseFileStream {
  public:
-  explicit PoseFileStream(SessionReadStats& stats) : stats_{stats} {}
+  PoseFileStream(SessionReadStats& stats, std::uint64_t limit_bytes) : stats_{stats}, left_{limit_bytes} {}
   void open(const std::string& path) { in_.open(path); }
   bool next(PoseObservation& out) {
     std::string line;
-    while (in_ && std::getline(in_, line)) {
+    while (in_ && left_ > 0 && std::getline(in_, line)) {
+      // A line beyond the extent (appended after it was taken) is not read.
+      if (line.size() >= left_) {
+        left_ = 0;
+        return false;
+      }
+      left_ -= line.size() + 1;
       if (line.empty() || line.rfind("recv_realtime_ns", 0) == 0) continue;
       std::uint16_t rejected = 0;
       if (!parse_pose_line(line.c_str(), out, &rejected)) {
@@ -154,6 +168,7 @@ class PoseFileStream {
 
  private:
   SessionReadStats& stats_;
+  std::uint64_t left_;  // bytes of the file still to read (SessionExtent)
   std::ifstream in_;
 };
 
@@ -168,12 +183,20 @@ bool valid_robot(std::uint32_t robot_id, SessionReadStats& stats) {
 
 }  // namespace
 
+SessionExtent session_extent_now(const std::string& dir) {
+  SessionExtent e;
+  struct stat st{};
+  e.scans_bytes = ::stat((dir + "/scans.bin").c_str(), &st) == 0 ? static_cast<std::uint64_t>(st.st_size) : 0;
+  e.poses_bytes = ::stat((dir + "/poses.csv").c_str(), &st) == 0 ? static_cast<std::uint64_t>(st.st_size) : 0;
+  return e;
+}
+
 Status replay_session_files(const std::string& dir, const std::function<void(const PoseObservation&)>& on_pose,
                             const std::function<void(const ScanPoints&, const Receipt&)>& on_scan,
-                            SessionReadStats& stats) {
-  PoseFileStream poses(stats);
+                            SessionReadStats& stats, const SessionExtent& extent) {
+  PoseFileStream poses(stats, extent.poses_bytes);
   poses.open(dir + "/poses.csv");
-  ScanFileStream scans(stats);
+  ScanFileStream scans(stats, extent.scans_bytes);
   if (Status st = scans.open(dir + "/scans.bin"); !st.ok()) return st;
   auto scan = std::make_unique<ScanPoints>();
   Receipt receipt;
@@ -201,7 +224,7 @@ Status replay_session_files(const std::string& dir, const std::function<void(con
   return scans.error();
 }
 
-Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& stats) {
+Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& stats, const SessionExtent& extent) {
   Dataset ds;
   ds.scenario = "session";
   std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
@@ -241,7 +264,7 @@ Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& s
         }
         robots.insert(in.robot);
       },
-      stats);
+      stats, extent);
   if (!st.ok()) return st.error();
   // Each scan's pose as the core decides it (for exports and pictures; the core recomputes it).
   std::stable_sort(ds.odom.begin(), ds.odom.end(), [](const TrajectorySample& a, const TrajectorySample& b) {

@@ -26,6 +26,16 @@ struct SessionReadStats {
   bool scans_torn_tail = false;        // scans.bin ends inside a record (a crash mid-write)
 };
 
+// How much of the files to read: the first `scans_bytes` of scans.bin and `poses_bytes` of poses.csv
+// (whole records: the station appends each with one write(2)). The station's catch-up reads the folder as
+// it was at one loop turn (its files' sizes then) while the loop appends to it.
+struct SessionExtent {
+  std::uint64_t scans_bytes = UINT64_MAX;
+  std::uint64_t poses_bytes = UINT64_MAX;
+};
+// The files' sizes now (a missing file: 0).
+[[nodiscard]] SessionExtent session_extent_now(const std::string& dir);
+
 // One poses.csv line (session_store.cpp append_pose) as the station's PoseObservation; false: malformed.
 // `rejected` (optional): the line's refusal code (sample_validation.hpp; 0 = accepted or an older file).
 [[nodiscard]] bool parse_pose_line(const char* line, PoseObservation& out, std::uint16_t* rejected = nullptr);
@@ -36,11 +46,12 @@ struct SessionReadStats {
 // need not check either again.
 [[nodiscard]] Status replay_session_files(const std::string& dir, const std::function<void(const PoseObservation&)>& on_pose,
                                           const std::function<void(const ScanPoints&, const Receipt&)>& on_scan,
-                                          SessionReadStats& stats);
+                                          SessionReadStats& stats, const SessionExtent& extent = {});
 
 // The session as a data set (no labels): odometry from poses.csv, every scan's placed points from
 // scans.bin (a (robot, seq) stored twice, a DDS history replay, kept once), stamps as received, each
 // scan's pose the fusion core's scan pose. `teamscan eval SESSION` runs on this.
-[[nodiscard]] Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& stats);
+[[nodiscard]] Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& stats,
+                                                   const SessionExtent& extent = {});
 
 }  // namespace teamscan::station

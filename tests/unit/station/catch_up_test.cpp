@@ -3,7 +3,9 @@
 // lost), then back-fills its scans behind its live ones. Its teammates' scans are released during the
 // shadow without waiting for it; the back-filled ones are released out of stamp order; the station
 // catches up once the back-fill is over, and its model files at the end are byte for byte those of the
-// session fed through a core in `teamscan eval`'s time order (fusion/time_line.hpp).
+// session fed through a core in `teamscan eval`'s time order (fusion/time_line.hpp). The catch-up in
+// slices (FusionOptions::catch_up_slice_scans) ends with the cores the whole one in a single turn makes,
+// and meanwhile the live scans are fused turn by turn.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,7 +14,9 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <set>
 #include <sstream>
+#include <thread>
 
 #include "groundstation/fusion/model_writer.hpp"
 #include "groundstation/fusion/time_line.hpp"
@@ -109,6 +113,12 @@ void run_station(const std::vector<Sample>& samples, SessionStore& store, Fusion
       stage.add_scan(x.scan, x.receipt);
     }
     stage.tick(x.recv_ns);  // the loop's turn
+  }
+  // A catch-up in slices still under way (its session read is on a thread of its own): the loop turns
+  // on with the clock where it is until it is done.
+  while (stage.catching_up()) {
+    if (!stage.catch_up_has_work()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    stage.tick(samples.back().recv_ns);
   }
   store.sync();
 }
@@ -222,6 +232,156 @@ TEST(CatchUp, ABackFillReleasedAsItCameIsNotEvalsModel) {
   EXPECT_NE(file_bytes(dir + "/live_all.pcd"), file_bytes(dir + "/eval_all.pcd"));
   // The same points, chosen and decided differently.
   std::filesystem::remove_all(dir);
+}
+
+// A longer survey for the catch-up in slices: robot 2 of three out of contact for 4 s, its 40 scans of
+// the shadow back-filled behind its live ones, the catch-up due 2 s after, 7 s of live scans after that.
+Dataset long_survey() {
+  bench::SurveyOptions so;
+  so.robots = 3;
+  so.duration_s = 16.0;
+  so.room_m = 6.0;
+  so.seed = 11;
+  return bench::synthetic_survey(so);
+}
+
+// The primary core's model files after every held scan was released (no catch-up at the end).
+std::string primary_model_bytes(FusionStage& stage, const std::string& dir) {
+  stage.core().flush();
+  if (!fusion::write_model_files(stage.core(), dir + "/primary.pcd", dir + "/primary_all.pcd").ok()) return {};
+  return file_bytes(dir + "/primary.pcd") + file_bytes(dir + "/primary_all.pcd");
+}
+
+// However the catch-up is sliced (a few scans per loop turn, or the whole one in one turn), the cores
+// it leaves are the same: the rebuilt ones take the live inputs since it began in their order.
+TEST(CatchUp, InSlicesTheCoresEndAsTheWholeCatchUpsInOneTurn) {
+  const Dataset d = long_survey();
+  const std::int64_t t0 = d.scans.front().stamp_ns;
+  const std::vector<Sample> samples = received(d, Shadow{2, t0 + 2'000'000'000, t0 + 6'000'000'000});
+  std::string models[2];
+  std::uint64_t catch_ups[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    FusionOptions o = options();
+    o.catch_up_slice_scans = k == 0 ? 0 : 3;
+    const std::string dir = temp_dir();
+    auto store = SessionStore::open(dir);
+    ASSERT_TRUE(store.ok());
+    auto created = FusionStage::create(o, dir);
+    ASSERT_TRUE(created.ok());
+    FusionStage& stage = **created;
+    run_station(samples, *store, stage);
+    EXPECT_FALSE(stage.catching_up());
+    catch_ups[k] = stage.counters().catch_ups;
+    if (k == 1) {
+      EXPECT_GT(stage.counters().catch_up_turns, 20u);  // in slices, over many turns
+      EXPECT_GT(stage.counters().caught_up_live_scans, 0u);  // live scans came meanwhile
+    }
+    std::printf("slice %u: %llu catch-ups, the last %llu scans of the session + %llu live ones over %llu turns\n",
+                o.catch_up_slice_scans, static_cast<unsigned long long>(stage.counters().catch_ups),
+                static_cast<unsigned long long>(stage.counters().caught_up_scans),
+                static_cast<unsigned long long>(stage.counters().caught_up_live_scans),
+                static_cast<unsigned long long>(stage.counters().catch_up_turns));
+    models[k] = primary_model_bytes(stage, dir);
+    EXPECT_GT(models[k].size(), 1000u);
+    std::filesystem::remove_all(dir);
+  }
+  EXPECT_EQ(catch_ups[0], 1u);
+  EXPECT_EQ(catch_ups[1], catch_ups[0]);
+  EXPECT_TRUE(models[0] == models[1]) << "the whole catch-up's model " << models[0].size() << " bytes, the sliced one's "
+                                      << models[1].size();
+}
+
+// The loop is not held by a catch-up: with a back-fill's whole session to decide again, each turn feeds
+// the rebuilt cores at most catch_up_slice_scans scans, and every live scan that comes meanwhile is
+// released by the live cores within as many turns as with no catch-up at all (until the rebuilt cores take
+// over, the live ones are the very cores of a run without a catch-up).
+TEST(CatchUp, LiveScansAreFusedTurnByTurnWhileTheCatchUpRuns) {
+  const Dataset d = long_survey();
+  const std::int64_t t0 = d.scans.front().stamp_ns;
+  const std::vector<Sample> samples = received(d, Shadow{2, t0 + 2'000'000'000, t0 + 6'000'000'000});
+  constexpr std::uint32_t kSlice = 2;
+  // Per live scan received at or after the catch-up began: the turns until the live core released it.
+  std::vector<int> turns_to_release[2];
+  std::uint64_t catch_up_turns = 0;
+  std::int64_t started_ns = 0;
+  std::set<std::pair<std::uint8_t, std::uint32_t>> during;
+  for (int k = 0; k < 2; ++k) {
+    FusionOptions o = options();
+    o.catch_up_slice_scans = kSlice;
+    if (k == 1) o.catch_up_min_scans = 0;  // the same run without a catch-up in the loop
+    const std::string dir = temp_dir();
+    auto store = SessionStore::open(dir);
+    ASSERT_TRUE(store.ok());
+    auto created = FusionStage::create(o, dir);
+    ASSERT_TRUE(created.ok());
+    FusionStage& stage = **created;
+    struct Pending {
+      std::uint8_t robot;
+      std::uint32_t seq;
+      int turns;
+    };
+    std::vector<Pending> pending;
+    std::size_t fed_before = 0;
+    std::size_t most_fed_in_a_turn = 0;
+    for (const Sample& x : samples) {
+      if (x.is_pose) {
+        store->append_pose(x.pose, ReceiveTime{Time::from_ns(x.recv_ns), Time::from_ns(x.recv_ns)});
+        stage.add_pose(pose_observation(x.pose, Time::from_ns(x.recv_ns)));
+      } else {
+        store->append_scan(x.scan);
+        stage.add_scan(x.scan);
+        // The teammates' live scans that come while the catch-up runs (the same ones in the run without).
+        const std::pair<std::uint8_t, std::uint32_t> key{static_cast<std::uint8_t>(x.scan.robot_id), x.scan.seq};
+        if (k == 0 && stage.catching_up() && key.first != 2) during.insert(key);
+        if (during.count(key)) pending.push_back({key.first, key.second, 0});
+      }
+      const bool was_catching_up = stage.catching_up();
+      stage.tick(x.recv_ns);  // the loop's turn
+      if (k == 0 && started_ns == 0 && stage.catching_up()) {
+        started_ns = x.recv_ns;
+        // The session read is on a thread of its own: wait for it here, so that the turns below all
+        // feed the rebuilt cores (the count does not depend on how fast the thread was).
+        while (!stage.catch_up_has_work() && stage.catching_up()) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+          stage.tick(x.recv_ns);  // the clock where it is: it releases nothing more
+        }
+        const fusion::RebuildProgress p = stage.catch_up_progress();
+        fed_before = p.fed_scans + p.queued_fed_scans;  // the turns below are counted from here
+      }
+      if (was_catching_up && stage.catching_up()) {
+        const fusion::RebuildProgress p = stage.catch_up_progress();
+        const std::size_t fed = p.fed_scans + p.queued_fed_scans;
+        most_fed_in_a_turn = std::max(most_fed_in_a_turn, fed - fed_before);
+        fed_before = fed;
+        ++catch_up_turns;
+      }
+      for (Pending& p : pending) {
+        if (p.turns < 0) continue;
+        if (stage.core().holds(p.robot, p.seq)) {
+          ++p.turns;
+        } else {
+          turns_to_release[k].push_back(p.turns);
+          p.turns = -1;
+        }
+      }
+    }
+    if (k == 0) {
+      ASSERT_NE(started_ns, 0) << "no catch-up began";
+      EXPECT_FALSE(stage.catching_up()) << "the catch-up did not end before the survey";
+      EXPECT_EQ(stage.counters().catch_ups, 1u);
+      EXPECT_LE(most_fed_in_a_turn, kSlice) << "a turn fed the rebuilt cores more than the slice";
+      EXPECT_GE(catch_up_turns, stage.counters().caught_up_scans / kSlice);  // it took many turns
+    }
+    std::filesystem::remove_all(dir);
+  }
+  ASSERT_GT(turns_to_release[0].size(), 30u);
+  ASSERT_EQ(turns_to_release[0].size(), turns_to_release[1].size());
+  const int most[2] = {*std::max_element(turns_to_release[0].begin(), turns_to_release[0].end()),
+                       *std::max_element(turns_to_release[1].begin(), turns_to_release[1].end())};
+  std::printf("catch-up over %llu turns; a live scan released within %d turns (without a catch-up: %d)\n",
+              static_cast<unsigned long long>(catch_up_turns), most[0], most[1]);
+  EXPECT_LE(most[0], most[1]);
+  EXPECT_LE(most[0], 10);
 }
 
 }  // namespace

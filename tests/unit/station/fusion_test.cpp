@@ -956,6 +956,17 @@ TEST(FusionConfig, CompareMethodsAreKnownOtherThanThePrimaryAndListedOnce) {
   EXPECT_EQ(method_file_name("model", "tracked"), "model.tracked");
   GroundStationConfig d;
   EXPECT_TRUE(d.fusion.compare_methods.empty());  // default: none
+  // The catch-up after a back-fill: its trigger and its slice per loop turn.
+  EXPECT_EQ(d.fusion.catch_up_min_scans, 75u);
+  EXPECT_DOUBLE_EQ(d.fusion.catch_up_quiet_s, 2.0);
+  EXPECT_EQ(d.fusion.catch_up_slice_scans, 16u);
+  GroundStationConfig cu;
+  ASSERT_TRUE(parse_groundstation_config("[fusion]\ncatch_up_min_scans = 10\ncatch_up_quiet_s = 0.5\ncatch_up_slice_scans = 0\n",
+                                         "t.toml", cu, e))
+      << e.message;
+  EXPECT_EQ(cu.fusion.catch_up_min_scans, 10u);
+  EXPECT_DOUBLE_EQ(cu.fusion.catch_up_quiet_s, 0.5);
+  EXPECT_EQ(cu.fusion.catch_up_slice_scans, 0u);
 
   const std::pair<const char*, const char*> bad[] = {
       {"[fusion]\ncompare_methods = [\"magic\"]\n", "fusion.compare_methods: must list methods among"},
@@ -964,6 +975,8 @@ TEST(FusionConfig, CompareMethodsAreKnownOtherThanThePrimaryAndListedOnce) {
       {"[fusion]\ncompare_methods = \"position\"\n", "fusion.compare_methods: must be an array of strings"},
       {"[fusion]\ncompare_methods = [1]\n", "fusion.compare_methods: must be an array of strings"},
       {"[fusion]\nwrite_slice_ms = -1\n", "fusion.write_slice_ms: must be in"},
+      {"[fusion]\ncatch_up_slice_scans = -1\n", "fusion.catch_up_slice_scans: must be in"},
+      {"[fusion]\ncatch_up_quiet_s = -1\n", "fusion.catch_up_quiet_s: must be in"},
       {"[fusion]\nwriter_cpus = 1\n", "fusion.writer_cpus: must be an array of integers"},
       {"[fusion]\nwriter_cpus = [\"1\"]\n", "fusion.writer_cpus: must be an array of integers"},
       {"[fusion]\nwriter_cpus = [-1]\n", "fusion.writer_cpus: each must be in [0, 1023], got -1"},

@@ -5,6 +5,7 @@
 // Read-only: the page sends nothing to the station.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+import { radioText } from './radio.mjs';
 
 const VOXEL_MAGIC = 0x58565354; // "TSVX" little-endian
 const VOXEL_HEADER = 24;
@@ -283,6 +284,7 @@ const view = {
       marker_y_m: g.group.position.y,
       track_points: g.trackCount,
       row_text: (document.getElementById('robot-' + g.id) || {}).textContent || '',
+      radio_text: (document.getElementById('radio-' + g.id) || {}).textContent || '',
     }));
   },
 };
@@ -322,6 +324,9 @@ function updateTable() {
     html += `<tr id="robot-${id}" class="${r.lost ? 'lost' : ''}"><td><span class="swatch" style="background:#${c}"></span></td>` +
       `<td>robot ${id}</td><td>${r.lost ? 'LOST' : 'alive'}</td><td>${fmt(r.scan_rate_hz, 1)}</td><td>${r.scans_lost}</td>` +
       `<td>${fmt(r.latency_ms, 1)} ms</td><td>${r.ghosts_removed}</td></tr>`;
+    // Its radio: in a shadow, back-filling after it, whole again (docs/radio.md "What the operator sees").
+    const radio = radioText(r, view.stateStamp);
+    if (radio) html += `<tr id="radio-${id}" class="radio"><td></td><td colspan="6">${radio}</td></tr>`;
   }
   body.innerHTML = html;
 }
