@@ -46,12 +46,19 @@ struct SlamOptions {
   // least this floor; 1 = isotropic weights.
   double closure_weak_axis_floor = 0.1;
   int optimize_every_n_nodes = 500;
+  // At the end, a second search with the optimised estimate (as Cartographer's constraint builder
+  // keeps doing): every searched node against its `rematch_submaps` nearest finished submaps (by the
+  // corrected poses, any time, within closure_max_distance_m) it has no constraint with yet, in a
+  // window the optimisation has made small; then the last optimisation. 0: no second search.
+  int rematch_submaps = 3;
+  SearchWindow rematch_window{0.3, 0.05, 0.01};
   GraphOptions graph;
 };
 
 struct SlamStats {
   std::size_t nodes = 0, submaps = 0, searches = 0, closures = 0, optimizations = 0;
   std::size_t tracked = 0;  // closures refined from a followed one, without a search
+  std::size_t rematches = 0;  // closures added by the second search at the end
 };
 
 class PlanarSlam {
@@ -79,6 +86,8 @@ class PlanarSlam {
   void insert(Robot& r, std::size_t node, const Pose2& local, const std::vector<Vec2>& points);
   void close_loops(Robot& r, std::size_t node, const std::vector<Vec2>& points);
   void after_optimization();
+  [[nodiscard]] bool add_closure(std::size_t submap, std::size_t node, const std::vector<Vec2>& points, const Pose2& start);
+  void rematch();
 
   SlamOptions options_;
   PoseGraph graph_;
@@ -86,7 +95,8 @@ class PlanarSlam {
   std::vector<std::unique_ptr<Robot>> robots_;
   std::vector<Pose2> node_local_;
   std::vector<std::uint8_t> node_robot_;
-  std::size_t searches_ = 0, tracked_ = 0;
+  std::vector<std::vector<Vec2>> node_points_;  // the searched nodes' returns (empty for the others), for rematch()
+  std::size_t searches_ = 0, tracked_ = 0, rematches_ = 0;
 };
 
 }  // namespace teamscan::posegraph
