@@ -69,11 +69,11 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
   r.last_odometry = odometry;
   r.last_local = local;
   r.last_node = node;
+  if (options_.closure_every_n_nodes > 0 && node % static_cast<std::size_t>(options_.closure_every_n_nodes) == 0) close_loops(r, node, points);
   node_points_.emplace_back();
-  if (options_.closure_every_n_nodes > 0 && node % static_cast<std::size_t>(options_.closure_every_n_nodes) == 0) {
-    close_loops(r, node, points);
-    if (options_.rematch_submaps > 0 && points.size() >= 20) node_points_.back() = points;
-  }
+  if (options_.rematch_submaps > 0 && options_.rematch_every_n_nodes > 0 && points.size() >= 20 &&
+      node % static_cast<std::size_t>(options_.rematch_every_n_nodes) == 0)
+    node_points_.back() = points;
   insert(r, node, local, points);
   if (options_.optimize_every_n_nodes > 0 && (node + 1) % static_cast<std::size_t>(options_.optimize_every_n_nodes) == 0) {
     graph_.optimize();
@@ -196,7 +196,7 @@ void PlanarSlam::after_optimization() {
 }
 
 void PlanarSlam::finish() {
-  if (options_.rematch_submaps > 0) {
+  for (int round = 0; options_.rematch_submaps > 0 && round < options_.rematch_rounds; ++round) {
     graph_.optimize();
     rematch();
   }

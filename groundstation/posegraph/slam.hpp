@@ -50,7 +50,11 @@ struct SlamOptions {
   // keeps doing): every searched node against its `rematch_submaps` nearest finished submaps (by the
   // corrected poses, any time, within closure_max_distance_m) it has no constraint with yet, in a
   // window the optimisation has made small; then the last optimisation. 0: no second search.
+  // `rematch_every_n_nodes`: which nodes (their returns are kept until the end); `rematch_rounds`:
+  // optimisation and search repeated, each from the last one's estimate.
   int rematch_submaps = 3;
+  int rematch_every_n_nodes = 3;
+  int rematch_rounds = 1;
   SearchWindow rematch_window{0.3, 0.05, 0.01};
   GraphOptions graph;
 };

@@ -63,6 +63,8 @@ SlamOptions options_from_env() {
       {"closure_pool", &o.closure_pool},
       {"optimize_every_n_nodes", &o.optimize_every_n_nodes},
       {"rematch_submaps", &o.rematch_submaps},
+      {"rematch_every_n_nodes", &o.rematch_every_n_nodes},
+      {"rematch_rounds", &o.rematch_rounds},
       {"graph.max_iterations", &o.graph.max_iterations},
       {"graph.final_max_iterations", &o.graph.final_max_iterations},
   };
@@ -108,9 +110,11 @@ void dump_errors(const char* path, const std::vector<trajectory::Relation>& rela
 
 void BM_IntelPoseGraph(benchmark::State& state) {
   const char* n = std::getenv("TEAMSCAN_BENCH_SLAM_SCANS");
-  const char* beams = std::getenv("TEAMSCAN_BENCH_SLAM_BEAMS");  // 0 end to end, 1 180°/n from −90°, 2 180°/n centred
+  // FLASER beams 180°/n apart from −90° (`import carmen --flaser-step-fov-over-n`), which fits this log best;
+  // TEAMSCAN_BENCH_SLAM_BEAMS: 0 end to end, 1 180°/n from −90°, 2 180°/n centred.
+  const char* beams = std::getenv("TEAMSCAN_BENCH_SLAM_BEAMS");
   const test::IntelLog log = test::intel_log(n ? static_cast<std::size_t>(std::atol(n)) : SIZE_MAX,
-                                             static_cast<test::FlaserBeams>(beams ? std::atoi(beams) : 0));
+                                             static_cast<test::FlaserBeams>(beams ? std::atoi(beams) : 1));
   const Result<std::string> rel = read_log_text(teamscan::test::real_data_path("intel.relations"));
   if (log.points.empty() || !rel) {
     state.SkipWithError("intel.clf.xz or intel.relations not readable");
