@@ -27,7 +27,7 @@ struct SlamOptions {
   RefineOptions local{1.0, 1.0, 1.0, 20};  // scan to submap, a weak pull to the odometry's prediction
   // Loop closure: every `closure_every_n_nodes`-th node is searched against the `closure_submaps`
   // nearest finished submaps within `closure_max_distance_m` (submap origin to node).
-  int closure_every_n_nodes = 3;
+  int closure_every_n_nodes = 6;
   int closure_submaps = 3;
   double closure_max_distance_m = 7.0;
   SearchWindow closure_window{3.0, 0.35, 0.01};
@@ -45,14 +45,14 @@ struct SlamOptions {
   // A closure's translation weight along its match's weak axis: √(weak_ratio) (TranslationAxes), at
   // least this floor; 1 = isotropic weights.
   double closure_weak_axis_floor = 0.1;
-  int optimize_every_n_nodes = 500;
+  int optimize_every_n_nodes = 1000;
   // At the end, a second search with the optimised estimate (as Cartographer's constraint builder
   // keeps doing): every searched node against its `rematch_submaps` nearest finished submaps (by the
   // corrected poses, any time, within closure_max_distance_m) it has no constraint with yet, in a
   // window the optimisation has made small; then the last optimisation. 0: no second search.
   // `rematch_every_n_nodes`: which nodes (their returns are kept until the end); `rematch_rounds`:
   // optimisation and search repeated, each from the last one's estimate.
-  int rematch_submaps = 3;
+  int rematch_submaps = 20;
   int rematch_every_n_nodes = 3;
   int rematch_rounds = 1;
   SearchWindow rematch_window{0.3, 0.05, 0.01};
