@@ -3,8 +3,9 @@
 // and inserts it into its two active submaps; the team's pose graph gets one node per scan, the
 // inserted scans' constraints, odometry between consecutive nodes and loop closures found by the
 // correlative search around the current estimate against every finished submap near it, of this robot
-// or another; it is optimised every few hundred nodes and at the end. Deterministic: one thread, the
-// scans in the order given give the same poses.
+// or another; it is optimised every thousand nodes; at the end the kept nodes are searched again from
+// their optimised poses against the finished submaps near them (any time), then optimised a last time.
+// Deterministic: one thread, the scans in the order given give the same poses.
 #pragma once
 
 #include <cstdint>
