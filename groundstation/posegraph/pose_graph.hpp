@@ -54,6 +54,8 @@ class PoseGraph {
 
   [[nodiscard]] const std::vector<Pose2>& nodes() const { return nodes_; }
   [[nodiscard]] const std::vector<Pose2>& submaps() const { return submaps_; }
+  [[nodiscard]] const std::vector<Constraint>& constraints() const { return constraints_; }
+  [[nodiscard]] const Constraint& last_constraint() const { return constraints_.back(); }
   [[nodiscard]] std::size_t closures() const;
   [[nodiscard]] std::size_t optimizations() const { return optimizations_; }
 

@@ -70,6 +70,10 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
   r.last_local = local;
   r.last_node = node;
   if (options_.closure_every_n_nodes > 0 && node % static_cast<std::size_t>(options_.closure_every_n_nodes) == 0) close_loops(r, node, points);
+  node_points_.emplace_back();
+  if (options_.rematch_submaps > 0 && options_.rematch_every_n_nodes > 0 && points.size() >= 20 &&
+      node % static_cast<std::size_t>(options_.rematch_every_n_nodes) == 0)
+    node_points_.back() = points;
   insert(r, node, local, points);
   if (options_.optimize_every_n_nodes > 0 && (node + 1) % static_cast<std::size_t>(options_.optimize_every_n_nodes) == 0) {
     graph_.optimize();
@@ -136,17 +140,53 @@ void PlanarSlam::close_loops(Robot& r, std::size_t node, const std::vector<Vec2>
       if (!found.found) continue;
       start = found.pose;
     }
-    const Pose2 refined = refine_pose(m.grid, points, start, options_.closure_refine);
-    if (pose_score(m.grid, points, refined) < options_.closure_min_refined_score) continue;
-    Constraint closure{id, node, refined, Constraint::Kind::closure};
-    if (options_.closure_weak_axis_floor < 1.0) {
-      const TranslationAxes axes = translation_axes(m.grid, points, refined);
-      closure.strong_axis_rad = axes.strong_axis_rad;
-      closure.weak_axis_factor = std::max(options_.closure_weak_axis_floor, std::sqrt(axes.weak_ratio));
-    }
-    graph_.add_constraint(closure);
+    if (!add_closure(id, node, points, start)) continue;
+    const Pose2 refined = graph_.last_constraint().submap_from_node;
     if (followed != r.followed.end()) *followed = {id, node, refined};
     else if (recent > 0) r.followed.push_back({id, node, refined});
+  }
+}
+
+// Refines `start` (submap_from_node) on the submap's grid and adds it as a closure if it scores.
+bool PlanarSlam::add_closure(std::size_t submap, std::size_t node, const std::vector<Vec2>& points, const Pose2& start) {
+  const Submap& m = *submaps_[submap];
+  const Pose2 refined = refine_pose(m.grid, points, start, options_.closure_refine);
+  if (pose_score(m.grid, points, refined) < options_.closure_min_refined_score) return false;
+  Constraint closure{submap, node, refined, Constraint::Kind::closure};
+  if (options_.closure_weak_axis_floor < 1.0) {
+    const TranslationAxes axes = translation_axes(m.grid, points, refined);
+    closure.strong_axis_rad = axes.strong_axis_rad;
+    closure.weak_axis_factor = std::max(options_.closure_weak_axis_floor, std::sqrt(axes.weak_ratio));
+  }
+  graph_.add_constraint(closure);
+  return true;
+}
+
+void PlanarSlam::rematch() {
+  // The pairs already tied, sorted for lookup.
+  std::vector<std::pair<std::size_t, std::size_t>> tied;  // (node, submap)
+  tied.reserve(graph_.constraints().size());
+  for (const Constraint& c : graph_.constraints()) tied.emplace_back(c.node, c.submap);
+  std::sort(tied.begin(), tied.end());
+  std::vector<std::pair<double, std::size_t>> near;
+  for (std::size_t node = 0; node < node_points_.size(); ++node) {
+    const std::vector<Vec2>& points = node_points_[node];
+    if (points.empty()) continue;
+    const Pose2& global = graph_.nodes()[node];
+    near.clear();
+    for (std::size_t i = 0; i < submaps_.size(); ++i) {
+      if (!submaps_[i]->matcher || std::binary_search(tied.begin(), tied.end(), std::pair{node, i})) continue;
+      const Pose2& s = graph_.submaps()[i];
+      const double d = std::hypot(s.x_m - global.x_m, s.y_m - global.y_m);
+      if (d <= options_.closure_max_distance_m) near.emplace_back(d, i);
+    }
+    std::sort(near.begin(), near.end());
+    if (near.size() > static_cast<std::size_t>(options_.rematch_submaps)) near.resize(static_cast<std::size_t>(options_.rematch_submaps));
+    for (const auto& [distance, id] : near) {
+      const SearchResult found = submaps_[id]->matcher->search(points, graph_.submaps()[id].inverse() * global, options_.rematch_window,
+                                                               options_.closure_min_score);
+      if (found.found && add_closure(id, node, points, found.pose)) ++rematches_;
+    }
   }
 }
 
@@ -156,12 +196,16 @@ void PlanarSlam::after_optimization() {
 }
 
 void PlanarSlam::finish() {
+  for (int round = 0; options_.rematch_submaps > 0 && round < options_.rematch_rounds; ++round) {
+    graph_.optimize();
+    rematch();
+  }
   graph_.optimize(true);
   after_optimization();
 }
 
 SlamStats PlanarSlam::stats() const {
-  return {graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_};
+  return {graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_, rematches_};
 }
 
 }  // namespace teamscan::posegraph

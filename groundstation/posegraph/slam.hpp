@@ -3,8 +3,9 @@
 // and inserts it into its two active submaps; the team's pose graph gets one node per scan, the
 // inserted scans' constraints, odometry between consecutive nodes and loop closures found by the
 // correlative search around the current estimate against every finished submap near it, of this robot
-// or another; it is optimised every few hundred nodes and at the end. Deterministic: one thread, the
-// scans in the order given give the same poses.
+// or another; it is optimised every thousand nodes; at the end the kept nodes are searched again from
+// their optimised poses against the finished submaps near them (any time), then optimised a last time.
+// Deterministic: one thread, the scans in the order given give the same poses.
 #pragma once
 
 #include <cstdint>
@@ -27,7 +28,7 @@ struct SlamOptions {
   RefineOptions local{1.0, 1.0, 1.0, 20};  // scan to submap, a weak pull to the odometry's prediction
   // Loop closure: every `closure_every_n_nodes`-th node is searched against the `closure_submaps`
   // nearest finished submaps within `closure_max_distance_m` (submap origin to node).
-  int closure_every_n_nodes = 3;
+  int closure_every_n_nodes = 6;
   int closure_submaps = 3;
   double closure_max_distance_m = 7.0;
   SearchWindow closure_window{3.0, 0.35, 0.01};
@@ -45,13 +46,24 @@ struct SlamOptions {
   // A closure's translation weight along its match's weak axis: √(weak_ratio) (TranslationAxes), at
   // least this floor; 1 = isotropic weights.
   double closure_weak_axis_floor = 0.1;
-  int optimize_every_n_nodes = 500;
+  int optimize_every_n_nodes = 1000;
+  // At the end, a second search with the optimised estimate (as Cartographer's constraint builder
+  // keeps doing): every searched node against its `rematch_submaps` nearest finished submaps (by the
+  // corrected poses, any time, within closure_max_distance_m) it has no constraint with yet, in a
+  // window the optimisation has made small; then the last optimisation. 0: no second search.
+  // `rematch_every_n_nodes`: which nodes (their returns are kept until the end); `rematch_rounds`:
+  // optimisation and search repeated, each from the last one's estimate.
+  int rematch_submaps = 20;
+  int rematch_every_n_nodes = 3;
+  int rematch_rounds = 1;
+  SearchWindow rematch_window{0.3, 0.05, 0.01};
   GraphOptions graph;
 };
 
 struct SlamStats {
   std::size_t nodes = 0, submaps = 0, searches = 0, closures = 0, optimizations = 0;
   std::size_t tracked = 0;  // closures refined from a followed one, without a search
+  std::size_t rematches = 0;  // closures added by the second search at the end
 };
 
 class PlanarSlam {
@@ -79,6 +91,8 @@ class PlanarSlam {
   void insert(Robot& r, std::size_t node, const Pose2& local, const std::vector<Vec2>& points);
   void close_loops(Robot& r, std::size_t node, const std::vector<Vec2>& points);
   void after_optimization();
+  [[nodiscard]] bool add_closure(std::size_t submap, std::size_t node, const std::vector<Vec2>& points, const Pose2& start);
+  void rematch();
 
   SlamOptions options_;
   PoseGraph graph_;
@@ -86,7 +100,8 @@ class PlanarSlam {
   std::vector<std::unique_ptr<Robot>> robots_;
   std::vector<Pose2> node_local_;
   std::vector<std::uint8_t> node_robot_;
-  std::size_t searches_ = 0, tracked_ = 0;
+  std::vector<std::vector<Vec2>> node_points_;  // the searched nodes' returns (empty for the others), for rematch()
+  std::size_t searches_ = 0, tracked_ = 0, rematches_ = 0;
 };
 
 }  // namespace teamscan::posegraph

@@ -47,6 +47,10 @@ SlamOptions options_from_env() {
       {"graph.local_translation_weight", &o.graph.local_translation_weight},
       {"graph.local_rotation_weight", &o.graph.local_rotation_weight},
       {"graph.closure_huber_scale", &o.graph.closure_huber_scale},
+      {"closure_window.linear_m", &o.closure_window.linear_m},
+      {"closure_window.angular_rad", &o.closure_window.angular_rad},
+      {"rematch_window.linear_m", &o.rematch_window.linear_m},
+      {"rematch_window.angular_rad", &o.rematch_window.angular_rad},
   };
   std::map<std::string, int*> i = {
       {"scans_per_submap", &o.scans_per_submap},
@@ -58,6 +62,9 @@ SlamOptions options_from_env() {
       {"closure_depth", &o.closure_depth},
       {"closure_pool", &o.closure_pool},
       {"optimize_every_n_nodes", &o.optimize_every_n_nodes},
+      {"rematch_submaps", &o.rematch_submaps},
+      {"rematch_every_n_nodes", &o.rematch_every_n_nodes},
+      {"rematch_rounds", &o.rematch_rounds},
       {"graph.max_iterations", &o.graph.max_iterations},
       {"graph.final_max_iterations", &o.graph.final_max_iterations},
   };
@@ -103,7 +110,11 @@ void dump_errors(const char* path, const std::vector<trajectory::Relation>& rela
 
 void BM_IntelPoseGraph(benchmark::State& state) {
   const char* n = std::getenv("TEAMSCAN_BENCH_SLAM_SCANS");
-  const test::IntelLog log = test::intel_log(n ? static_cast<std::size_t>(std::atol(n)) : SIZE_MAX);
+  // FLASER beams 180°/n apart from −90° (`import carmen --flaser-step-fov-over-n`), which fits this log best;
+  // TEAMSCAN_BENCH_SLAM_BEAMS: 0 end to end, 1 180°/n from −90°, 2 180°/n centred.
+  const char* beams = std::getenv("TEAMSCAN_BENCH_SLAM_BEAMS");
+  const test::IntelLog log = test::intel_log(n ? static_cast<std::size_t>(std::atol(n)) : SIZE_MAX,
+                                             static_cast<test::FlaserBeams>(beams ? std::atoi(beams) : 1));
   const Result<std::string> rel = read_log_text(teamscan::test::real_data_path("intel.relations"));
   if (log.points.empty() || !rel) {
     state.SkipWithError("intel.clf.xz or intel.relations not readable");
@@ -126,8 +137,8 @@ void BM_IntelPoseGraph(benchmark::State& state) {
       odometry.push_back({log.stamps_us[k], log.odometry[k]});
     }
     const SlamStats st = slam.stats();
-    std::printf("%zu nodes, %zu submaps, %zu searches, %zu followed, %zu closures, %zu optimisations; CPU %.1f s\n", st.nodes, st.submaps,
-                st.searches, st.tracked, st.closures, st.optimizations, cpu);
+    std::printf("%zu nodes, %zu submaps, %zu searches, %zu followed, %zu closures (%zu from the second search), %zu optimisations; CPU %.1f s\n",
+                st.nodes, st.submaps, st.searches, st.tracked, st.closures, st.rematches, st.optimizations, cpu);
     print("odometry", trajectory::relation_errors(all, odometry));
     print("local SLAM, within 100 s", trajectory::relation_errors(near, local));
     print("pose graph", trajectory::relation_errors(all, corrected));

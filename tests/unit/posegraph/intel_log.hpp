@@ -21,7 +21,11 @@ struct IntelLog {
   std::vector<std::vector<Vec2>> points;
 };
 
-inline IntelLog intel_log(std::size_t max_scans) {
+// How FLASER beams are placed: end to end over 180° (as `import carmen` by default), 180°/n apart from
+// −90° (`--flaser-step-fov-over-n`), or 180°/n apart centred on the robot's heading.
+enum class FlaserBeams { end_to_end, fov_over_n, fov_over_n_centred };
+
+inline IntelLog intel_log(std::size_t max_scans, FlaserBeams beams = FlaserBeams::end_to_end) {
   IntelLog log;
   const Result<std::string> text = read_log_text(teamscan::test::real_data_path("intel.clf.xz"));
   if (!text) return log;
@@ -31,8 +35,12 @@ inline IntelLog intel_log(std::size_t max_scans) {
     // As `teamscan import carmen` places them: FLASER beams span 180° end to end; ROBOTLASER1 its own.
     const std::size_t n = l.ranges_m.size();
     const bool flaser = l.angle_step_rad == 0.0;
-    const double start = flaser ? -kPi / 2 : l.start_angle_rad;
-    const double step = flaser ? (n > 1 ? kPi / static_cast<double>(n - 1) : 0.0) : l.angle_step_rad;
+    const double nd = static_cast<double>(n);
+    double start = l.start_angle_rad, step = l.angle_step_rad;
+    if (flaser) {
+      step = beams == FlaserBeams::end_to_end ? (n > 1 ? kPi / (nd - 1.0) : 0.0) : kPi / nd;
+      start = beams == FlaserBeams::fov_over_n_centred ? -0.5 * step * (nd - 1.0) : -kPi / 2;
+    }
     std::vector<Vec2> pts;
     for (std::size_t i = 0; i < n; ++i) {
       const double a = start + step * static_cast<double>(i), r = l.ranges_m[i];
