@@ -2,6 +2,8 @@
 // released scans, the fused model from its memory (fusion.hpp).
 #include "groundstation/station/fusion.hpp"
 
+#include "groundstation/station/catch_up_run.hpp"
+
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
@@ -72,34 +74,6 @@ const fusion::ScanInput& scan_input(const ScanPoints& s, const Receipt& receipt,
   return out;
 }
 
-// The catch-up in slices. The live cores go on as they are (the live map, the latency, the team state);
-// a second set of cores is built from the session folder as it was at this turn (read on a loader thread)
-// and fed it in time order, catch_up_slice_scans per turn, then the live inputs since this turn in their
-// order; once it has caught up, the live cores take over its state.
-struct FusionStage::CatchUpRun {
-  explicit CatchUpRun(std::int64_t realtime_ns, double resolution_m) : rebuild{realtime_ns}, map{resolution_m} {}
-  fusion::CoreRebuild rebuild;
-  std::future<Result<fusion::RebuildSource>> loading;
-  std::uint64_t scans_needed = 0;  // the scans the live cores had taken: the session read must hold them
-  LiveMap map;                     // the rebuilt primary's model, as the live map will show it
-  std::uint64_t scans = 0, points = 0, live_removed = 0;
-  bool behind = false;             // the session is fed: the rebuilt cores take the queued live inputs
-  std::uint64_t late_base = 0;     // the rebuilt primary's scans_late after the session
-  // The scans the live primary released since the start, and those the rebuilt one released from the
-  // queue (its own release of a live input), with what their latency and trajectory need.
-  std::set<std::pair<std::uint8_t, std::uint32_t>> live_released;
-  struct Released {
-    std::uint8_t robot;
-    std::uint32_t scan;
-    std::int64_t stamp_ns, arrival_ns;
-    Pose2 map_from_robot;
-  };
-  std::vector<Released> rebuilt_released;
-  Time started;
-  std::uint64_t turns = 0;
-  Duration slice_max{0};
-};
-
 Result<std::unique_ptr<FusionStage>> FusionStage::create(const FusionOptions& options, std::string session_dir) {
   if (!(options.map_resolution_m > 0.0)) return Error{"fusion: map resolution must be > 0 (fusion.map_resolution_m)"};
   auto cores = fusion::CoreSet::create(options.core, options.compare_methods);
@@ -166,178 +140,6 @@ std::size_t FusionStage::filter_memory_bytes() const {
   std::size_t n = 0;
   for (std::size_t i = 0; i < cores_->size(); ++i) n += cores_->at(i).map_memory_bytes();
   return n;
-}
-
-std::uint64_t FusionStage::late_since_catch_up() const {
-  return core().counters().scans_late - late_base_;
-}
-
-void FusionStage::flush() {
-  // Once a scan was released late in this run, the final model is the time order's, whatever came
-  // after the last catch-up (a catch-up in slices under way is replaced by the whole one now).
-  if ((counters_.catch_ups > 0 || late_since_catch_up() > 0 || run_) && !catch_up(now_realtime().ns()).ok())
-    ++counters_.catch_up_failures;
-  cores_->flush();
-}
-
-void FusionStage::tick(std::int64_t realtime_ns) {
-  if (resume_) return;
-  cores_->advance_to(realtime_ns);
-  if (run_) {
-    run_->rebuild.advance_to(realtime_ns);  // the live clock's step, behind the session for the rebuilt cores
-    continue_catch_up();
-    return;
-  }
-  const std::uint64_t late = core().counters().scans_late;
-  if (late != late_seen_) {
-    late_seen_ = late;
-    late_at_ns_ = realtime_ns;
-  }
-  if (options_.catch_up_min_scans > 0 && late_since_catch_up() >= options_.catch_up_min_scans &&
-      realtime_ns - late_at_ns_ >= from_seconds(options_.catch_up_quiet_s).count()) {
-    if (options_.catch_up_slice_scans > 0) {
-      start_catch_up(realtime_ns);
-    } else if (!catch_up(realtime_ns).ok()) {
-      ++counters_.catch_up_failures;  // not tried again before more scans come late
-      late_base_ = late;
-    }
-  }
-}
-
-void FusionStage::start_catch_up(std::int64_t realtime_ns) {
-  const Time started = now_monotonic();
-  if (session_dir_.empty()) {
-    ++counters_.catch_up_failures;
-    late_base_ = core().counters().scans_late;
-    return;
-  }
-  auto run = std::make_unique<CatchUpRun>(realtime_ns, options_.map_resolution_m);
-  run->started = started;
-  run->scans_needed = core().counters().scans_released + core().held_scans();
-  // The folder as it is now: the store wrote every sample the cores took, each record whole.
-  const SessionExtent extent = session_extent_now(session_dir_);
-  try {
-    run->loading = std::async(std::launch::async, [dir = session_dir_, extent, core = options_.core,
-                                                   compared = options_.compare_methods]() -> Result<fusion::RebuildSource> {
-      SessionReadStats stats;
-      Result<Dataset> session = read_session_dataset(dir, stats, extent);
-      if (!session) return session.error();
-      return fusion::make_rebuild_source(std::move(session.value()), core, compared);
-    });
-  } catch (const std::system_error&) {
-    ++counters_.catch_up_failures;  // no thread: not tried again before more scans come late
-    late_base_ = core().counters().scans_late;
-    return;
-  }
-  run->slice_max = now_monotonic() - started;
-  run_ = std::move(run);
-}
-
-bool FusionStage::catch_up_has_work() const { return run_ && run_->rebuild.loaded(); }
-
-fusion::RebuildProgress FusionStage::catch_up_progress() const {
-  return run_ ? run_->rebuild.progress() : fusion::RebuildProgress{};
-}
-
-void FusionStage::drop_catch_up() {
-  if (!run_) return;
-  if (run_->loading.valid()) run_->loading.wait();
-  run_.reset();
-}
-
-void FusionStage::continue_catch_up() {
-  CatchUpRun& run = *run_;
-  const Time started = now_monotonic();
-  if (!run.rebuild.loaded()) {
-    if (run.loading.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
-    Result<fusion::RebuildSource> source = run.loading.get();
-    if (!source || source->dataset->scans.size() < run.scans_needed) {
-      // Not read, or not this station's folder: the cores stay as they are, no new try before more
-      // scans come late.
-      ++counters_.catch_up_failures;
-      late_base_ = late_seen_ = core().counters().scans_late;
-      run_.reset();
-      return;
-    }
-    run.rebuild.load(std::move(source.value()));
-    run.rebuild.cores().primary().set_release_callback([this](const fusion::FusedScan& f) { on_rebuilt_release(f); });
-  }
-  if (!run.behind && run.rebuild.time_line_done()) {
-    // The session is fed (step() stops at its end): the queued live inputs from here on.
-    run.behind = true;
-    run.late_base = run.rebuild.cores().primary().counters().scans_late;
-  }
-  const bool done = run.rebuild.step(options_.catch_up_slice_scans);
-  ++run.turns;
-  run.slice_max = std::max(run.slice_max, now_monotonic() - started);
-  // A periodic write's snapshot reads the live cores over several turns: the take-over waits for it.
-  if (done && run.behind && !writer_->snapshotting()) finish_catch_up();
-}
-
-void FusionStage::finish_catch_up() {
-  CatchUpRun& run = *run_;
-  const Time started = now_monotonic();
-  cores_->take_state(run.rebuild.cores());
-  map_ = std::move(run.map);
-  counters_.scans = run.scans;
-  counters_.points = run.points;
-  counters_.live_removed = run.live_removed;
-  // The scans the rebuilt primary released from the queue but the live one had not: they are fused and
-  // in the map from now. Those the live primary released that the rebuilt one still holds are released
-  // again later: not counted twice.
-  std::set<std::pair<std::uint8_t, std::uint32_t>> rebuilt;
-  for (const CatchUpRun::Released& r : run.rebuilt_released) {
-    rebuilt.emplace(r.robot, r.scan);
-    if (!run.live_released.count({r.robot, r.scan})) record_fused(r.robot, r.scan, r.stamp_ns, r.arrival_ns, r.map_from_robot);
-  }
-  released_before_.clear();
-  for (const auto& key : run.live_released)
-    if (!rebuilt.count(key) && core().holds(key.first, key.second)) released_before_.insert(key);
-  resume_ = false;
-  late_base_ = late_seen_ = run.late_base;
-  ++counters_.catch_ups;
-  counters_.caught_up_scans = run.rebuild.progress().time_line_scans;
-  counters_.caught_up_live_scans = run.rebuild.progress().queued_fed_scans;
-  counters_.catch_up_turns = run.turns;
-  const Duration slice_max = run.slice_max;
-  const Time catch_up_started = run.started;
-  run_.reset();  // the session read and the rebuilt cores' husks go with it
-  const Time done = now_monotonic();
-  counters_.catch_up_slice_max_s = to_seconds(std::max(slice_max, done - started));
-  counters_.last_catch_up_s = to_seconds(done - catch_up_started);
-  if (on_catch_up_) on_catch_up_(counters_);
-}
-
-Status FusionStage::catch_up(std::int64_t realtime_ns) {
-  if (session_dir_.empty()) return Error{"fusion: no session folder to catch up from"};
-  drop_catch_up();
-  const Time started = now_monotonic();
-  SessionReadStats stats;
-  Result<Dataset> session = read_session_dataset(session_dir_, stats);
-  if (!session) return session.error();
-  // Storage comes first, so the folder holds every scan the core took; if not (not this station's
-  // folder), the cores stay as they are.
-  if (session->scans.size() < core().counters().scans_released + core().held_scans())
-    return Error{"fusion: the session folder holds fewer scans than the fusion core took: no catch-up"};
-  writer_->wait();  // a snapshot in progress reads the cores
-  map_ = LiveMap{options_.map_resolution_m};
-  counters_.scans = counters_.points = counters_.live_removed = 0;
-  catching_up_ = true;
-  const Result<std::size_t> fed = fusion::refeed_in_time_order(session.value(), *cores_);
-  catching_up_ = false;
-  if (!fed) return fed.error();
-  cores_->resume_at(realtime_ns);
-  resume_ = false;
-  released_before_.clear();
-  late_base_ = late_seen_ = core().counters().scans_late;
-  ++counters_.catch_ups;
-  counters_.caught_up_scans = fed.value();
-  counters_.caught_up_live_scans = 0;
-  counters_.catch_up_turns = 0;
-  counters_.last_catch_up_s = to_seconds(now_monotonic() - started);
-  counters_.catch_up_slice_max_s = counters_.last_catch_up_s;
-  if (on_catch_up_) on_catch_up_(counters_);
-  return ok_status();
 }
 
 // Every core takes the same input in the same order; the primary's answer counts the duplicates.

@@ -266,7 +266,7 @@ class FusionStage {
   std::uint64_t late_base_ = 0;  // the primary's scans_late after the last catch-up
   std::uint64_t late_seen_ = 0;  // ... at the last tick, and when it last grew
   std::int64_t late_at_ns_ = 0;
-  std::unique_ptr<CatchUpRun> run_;  // the catch-up in slices under way (fusion.cpp)
+  std::unique_ptr<CatchUpRun> run_;  // the catch-up in slices under way (catch_up_run.hpp)
   // Scans the live cores released during the last catch-up that the rebuilt ones still held when they
   // took over: released again later, shown but not counted twice (latency, trajectory).
   std::set<std::pair<std::uint8_t, std::uint32_t>> released_before_;
