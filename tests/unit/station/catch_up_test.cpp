@@ -328,8 +328,8 @@ TEST(CatchUp, LiveScansAreFusedTurnByTurnWhileTheCatchUpRuns) {
         store->append_pose(x.pose, ReceiveTime{Time::from_ns(x.recv_ns), Time::from_ns(x.recv_ns)});
         stage.add_pose(pose_observation(x.pose, Time::from_ns(x.recv_ns)));
       } else {
-        store->append_scan(x.scan);
-        stage.add_scan(x.scan);
+        store->append_scan(x.scan, x.receipt);
+        stage.add_scan(x.scan, x.receipt);
         // The teammates' live scans that come while the catch-up runs (the same ones in the run without).
         const std::pair<std::uint8_t, std::uint32_t> key{static_cast<std::uint8_t>(x.scan.robot_id), x.scan.seq};
         if (k == 0 && stage.catching_up() && key.first != 2) during.insert(key);
