@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <limits>
 
 namespace teamscan {
 namespace {
@@ -220,6 +221,9 @@ ProcessingClock processing_clock(const CarmenLog& log) {
 Result<Dataset> carmen_to_dataset(const CarmenLog& log, const CarmenImportOptions& o) {
   if (log.lasers.empty()) return Error{"no FLASER or ROBOTLASER1 line"};
   const ProcessingClock clock = processing_clock(log);
+  // Every processing time lies in [first_us, last_us]; in nanoseconds from the first it must fit int64.
+  if (clock.last_us - clock.first_us > std::numeric_limits<std::int64_t>::max() / 1000)
+    return Error{"the log's stamps span more than 292 years: not one robot's log"};
   auto stamp_ns = [&](std::int64_t us) { return (us - clock.first_us) * 1000; };
   Dataset d;
   d.scenario = o.name;

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "common/dataset/carmen.hpp"
 
@@ -94,6 +95,25 @@ TEST(Carmen, StampsThatStepBackKeepFileOrder) {
   EXPECT_EQ(d->odom[2].stamp_ns, (600'001 - 337'284 + 2) * 1000);
   for (std::size_t i = 1; i < d->odom.size(); ++i) EXPECT_GT(d->odom[i].stamp_ns, d->odom[i - 1].stamp_ns);
   EXPECT_DOUBLE_EQ(d->scans[1].pose.x_m, 0.1);
+}
+
+// Stamps a log can hold (twelve digits of seconds) but no robot's run spans: refused with a message,
+// never an overflow of the nanosecond stamps.
+TEST(Carmen, StampsSpanningCenturiesAreRefused) {
+  const CarmenLog log = parse_carmen(
+      "FLASER 2 1 1 0 0 0 0.0 0 0 -99999999999.5 h 0\n"
+      "FLASER 2 1 1 0 0 0 0.1 0 0 399999999999.0 h 0\n");
+  ASSERT_EQ(log.lasers.size(), 2u);
+  const Result<Dataset> d = carmen_to_dataset(log, CarmenImportOptions{});
+  ASSERT_FALSE(d);
+  EXPECT_NE(std::string(d.error().what).find("292 years"), std::string::npos) << d.error().what;
+  // A span that fits still converts.
+  const CarmenLog near = parse_carmen(
+      "FLASER 2 1 1 0 0 0 0.0 0 0 -1000.5 h 0\n"
+      "FLASER 2 1 1 0 0 0 0.1 0 0 1000.0 h 0\n");
+  const Result<Dataset> ok = carmen_to_dataset(near, CarmenImportOptions{});
+  ASSERT_TRUE(ok);
+  EXPECT_EQ(ok->scans[1].stamp_ns, 2'000'500'000'000);
 }
 
 // ROBOTLASER1: its own start angle and step, the laser's pose beside the robot's (the mount).
