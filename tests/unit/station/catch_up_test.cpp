@@ -123,6 +123,16 @@ void run_station(const std::vector<Sample>& samples, SessionStore& store, Fusion
   store.sync();
 }
 
+// Three robots surveying a 6 m room for `duration_s`.
+Dataset survey(double duration_s, std::uint64_t seed) {
+  bench::SurveyOptions so;
+  so.robots = 3;
+  so.duration_s = duration_s;
+  so.room_m = 6.0;
+  so.seed = seed;
+  return bench::synthetic_survey(so);
+}
+
 FusionOptions options() {
   FusionOptions o;
   o.core.method = "best";
@@ -132,12 +142,7 @@ FusionOptions options() {
 }
 
 TEST(CatchUp, AfterABackFillTheModelIsEvalsOfTheSessionByteForByte) {
-  bench::SurveyOptions so;
-  so.robots = 3;
-  so.duration_s = 8.0;
-  so.room_m = 6.0;
-  so.seed = 7;
-  const Dataset d = bench::synthetic_survey(so);
+  const Dataset d = survey(8.0, 7);
   ASSERT_FALSE(d.scans.empty());
   const std::int64_t t0 = d.scans.front().stamp_ns;
   const Shadow sh{2, t0 + 2'000'000'000, t0 + 4'500'000'000};
@@ -201,12 +206,7 @@ TEST(CatchUp, AfterABackFillTheModelIsEvalsOfTheSessionByteForByte) {
 // Without the catch-up (the back-fill released as it came) the model is not eval's of the session: the
 // test above is not vacuous.
 TEST(CatchUp, ABackFillReleasedAsItCameIsNotEvalsModel) {
-  bench::SurveyOptions so;
-  so.robots = 3;
-  so.duration_s = 8.0;
-  so.room_m = 6.0;
-  so.seed = 7;
-  const Dataset d = bench::synthetic_survey(so);
+  const Dataset d = survey(8.0, 7);
   const std::int64_t t0 = d.scans.front().stamp_ns;
   const std::vector<Sample> samples = received(d, Shadow{2, t0 + 2'000'000'000, t0 + 4'500'000'000});
   FusionOptions o = options();
@@ -236,14 +236,7 @@ TEST(CatchUp, ABackFillReleasedAsItCameIsNotEvalsModel) {
 
 // A longer survey for the catch-up in slices: robot 2 of three out of contact for 4 s, its 40 scans of
 // the shadow back-filled behind its live ones, the catch-up due 2 s after, 7 s of live scans after that.
-Dataset long_survey() {
-  bench::SurveyOptions so;
-  so.robots = 3;
-  so.duration_s = 16.0;
-  so.room_m = 6.0;
-  so.seed = 11;
-  return bench::synthetic_survey(so);
-}
+Dataset long_survey() { return survey(16.0, 11); }
 
 // The primary core's model files after every held scan was released (no catch-up at the end).
 std::string primary_model_bytes(FusionStage& stage, const std::string& dir) {
