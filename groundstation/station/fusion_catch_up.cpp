@@ -3,6 +3,7 @@
 // one call (shutdown, catch_up_slice_scans = 0).
 #include <algorithm>
 #include <chrono>
+#include <exception>
 #include <future>
 #include <set>
 #include <system_error>
@@ -99,7 +100,12 @@ void FusionStage::continue_catch_up() {
   const Time started = now_monotonic();
   if (!run.rebuild.loaded()) {
     if (run.loading.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
-    Result<fusion::RebuildSource> source = run.loading.get();
+    // The loader's exception (out of memory reading a large session) is a failed catch-up, not the loop's.
+    Result<fusion::RebuildSource> source = Error{"fusion: the catch-up's session read failed"};
+    try {
+      source = run.loading.get();
+    } catch (const std::exception&) {
+    }
     if (!source || source->dataset->scans.size() < run.scans_needed) {
       // Not read, or not this station's folder: the cores stay as they are, no new try before more
       // scans come late.
