@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cmath>
+#include <concepts>
 #include <cstdint>
 #include <limits>
 #include <numbers>
@@ -27,17 +28,27 @@ inline constexpr double kRadToDeg = 180.0 / kPi;
   return a;
 }
 
-// Metres to whole millimetres, the unit of the wire (int32, DESIGN.md "Frames, units, time") and of the
-// robot's fixed-point filter: rounded to nearest, a half millimetre away from zero, saturated to the
-// int32 range (far beyond any site, where the direction filter leaves a point or a teammate alone). Not
-// a number gives the largest value, so it never reads as a place. The one conversion every layer uses.
-[[nodiscard]] inline std::int32_t to_mm(double m) {
-  const double mm = m * 1000.0;
-  // llround is undefined outside the long long range; the int32 saturation bounds it long before that.
-  if (!(mm < 2147483647.0)) return std::numeric_limits<std::int32_t>::max();  // also NaN
-  if (mm < -2147483648.0) return std::numeric_limits<std::int32_t>::min();
-  return static_cast<std::int32_t>(std::llround(mm));  // within [INT32_MIN, INT32_MAX] by the bounds above
+// A value rounded to the nearest integer of type Int, a half away from zero, saturated to Int's range.
+// Not a number gives Int's largest value, so it never reads as a place. The one rounding every layer's
+// unit conversions use (to_mm, the team message's sigmas, rates in milli-units).
+template <std::integral Int>
+[[nodiscard]] inline Int round_saturated(double v) {
+  constexpr double kHi = static_cast<double>(std::numeric_limits<Int>::max());
+  constexpr double kLo = static_cast<double>(std::numeric_limits<Int>::min());
+  // llround is undefined outside the long long range; the bounds below hold it well inside.
+  if (!(v < kHi)) return std::numeric_limits<Int>::max();  // also NaN
+  if (v <= kLo) return std::numeric_limits<Int>::min();
+  return static_cast<Int>(std::llround(v));  // within [min, max] by the bounds above
 }
+
+// Metres to whole millimetres in an integer of type Int (rounded and saturated as round_saturated).
+template <std::integral Int>
+[[nodiscard]] inline Int to_mm_as(double m) { return round_saturated<Int>(m * 1000.0); }
+
+// Metres to whole millimetres, the unit of the wire (int32, DESIGN.md "Frames, units, time") and of the
+// robot's fixed-point filter: saturated to the int32 range (far beyond any site, where the direction
+// filter leaves a point or a teammate alone). The one conversion every layer uses.
+[[nodiscard]] inline std::int32_t to_mm(double m) { return to_mm_as<std::int32_t>(m); }
 
 // Integer millimetres, the unit of the wire (int32, map frame) and of the LMS in mm mode.
 struct Millimetres {

@@ -241,7 +241,7 @@ Status FusionStage::write_latency() const {
 }
 
 std::uint32_t FusionStage::map_resolution_mm() const {
-  return static_cast<std::uint32_t>(std::lround(options_.map_resolution_m * 1000.0));
+  return to_mm_as<std::uint32_t>(options_.map_resolution_m);
 }
 
 void CorrectionShare::share(const fusion::FusionCore& core, TeamSource& team, Time at) {

@@ -8,6 +8,7 @@
 
 #include "common/odom_correction.hpp"
 #include "common/scan_points.hpp"
+#include "common/units.hpp"
 #include "teamscan.h"
 
 namespace teamscan::station {
@@ -21,8 +22,6 @@ constexpr const char* kReasonNames[kRejectReasons] = {
 };
 
 constexpr std::int64_t kOneDayNs = 86'400'000'000'000;
-
-std::int64_t metres_to_mm(double m) { return static_cast<std::int64_t>(std::llround(m * 1000.0)); }
 
 }  // namespace
 
@@ -43,12 +42,12 @@ const char* topic_name(SampleTopic t) {
 
 SampleValidator::SampleValidator(const ValidationOptions& o)
     : options_{o},
-      min_x_mm_{metres_to_mm(o.site_min_x_m)},
-      max_x_mm_{metres_to_mm(o.site_max_x_m)},
-      min_y_mm_{metres_to_mm(o.site_min_y_m)},
-      max_y_mm_{metres_to_mm(o.site_max_y_m)},
-      min_z_mm_{metres_to_mm(o.site_min_z_m)},
-      max_z_mm_{metres_to_mm(o.site_max_z_m)} {}
+      min_x_mm_{to_mm_as<std::int64_t>(o.site_min_x_m)},
+      max_x_mm_{to_mm_as<std::int64_t>(o.site_max_x_m)},
+      min_y_mm_{to_mm_as<std::int64_t>(o.site_min_y_m)},
+      max_y_mm_{to_mm_as<std::int64_t>(o.site_max_y_m)},
+      min_z_mm_{to_mm_as<std::int64_t>(o.site_min_z_m)},
+      max_z_mm_{to_mm_as<std::int64_t>(o.site_max_z_m)} {}
 
 bool SampleValidator::inside_site_xy(std::int64_t x, std::int64_t y) const {
   return x >= min_x_mm_ && x <= max_x_mm_ && y >= min_y_mm_ && y <= max_y_mm_;

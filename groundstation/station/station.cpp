@@ -53,16 +53,12 @@ std::uint32_t publication_robot(dds_entity_t reader, dds_instance_handle_t handl
   return id;
 }
 
-std::uint16_t to_mm_u16(double m) {
-  return static_cast<std::uint16_t>(std::clamp(std::round(m * 1000.0), 0.0, 65535.0));
-}
+// A body dimension in whole mm, saturated (a NaN: 0).
+std::uint16_t body_mm(double m) { return std::isnan(m) ? 0 : to_mm_as<std::uint16_t>(m); }
 
 // A σ in whole mm / µrad, saturated (a NaN or a negative σ: 0, "unknown").
-std::uint32_t to_mm_u32(double m) {
-  const double v = std::round(m * 1000.0);
-  return v > 0.0 ? static_cast<std::uint32_t>(std::min(v, 4294967295.0)) : 0u;
-}
-std::uint32_t to_urad_u32(double rad) { return to_mm_u32(rad * 1000.0); }
+std::uint32_t sigma_mm(double m) { return std::isnan(m) ? 0u : to_mm_as<std::uint32_t>(m); }
+std::uint32_t sigma_urad(double rad) { return std::isnan(rad) ? 0u : round_saturated<std::uint32_t>(rad * 1e6); }
 
 }  // namespace
 
@@ -75,17 +71,17 @@ void team_member_from(const TeamMemberEstimate& e, bool lost, teamscan_msg_TeamM
   m.cov_xx_mm2 = static_cast<float>(e.cov_xx_m2 * 1e6);
   m.cov_xy_mm2 = static_cast<float>(e.cov_xy_m2 * 1e6);
   m.cov_yy_mm2 = static_cast<float>(e.cov_yy_m2 * 1e6);
-  m.length_mm = to_mm_u16(e.body.length_m);
-  m.width_mm = to_mm_u16(e.body.width_m);
-  m.height_mm = to_mm_u16(e.body.height_m);
+  m.length_mm = body_mm(e.body.length_m);
+  m.width_mm = body_mm(e.body.width_m);
+  m.height_mm = body_mm(e.body.height_m);
   m.lost = lost ? 1 : 0;
   m.reserved = 0;
   m.valid_ns = e.valid.ns();
   m.corr_x_mm = e.correction.x_mm;
   m.corr_y_mm = e.correction.y_mm;
   m.corr_yaw_urad = e.correction.yaw_urad;
-  m.corr_sigma_mm = to_mm_u32(e.correction_sigma_m);
-  m.corr_sigma_yaw_urad = to_urad_u32(e.correction_sigma_yaw_rad);
+  m.corr_sigma_mm = sigma_mm(e.correction_sigma_m);
+  m.corr_sigma_yaw_urad = sigma_urad(e.correction_sigma_yaw_rad);
   m.corr_seq = e.correction.seq;
 }
 

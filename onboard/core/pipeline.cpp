@@ -45,7 +45,7 @@ bool OnboardPipeline::on_odometry(Time stamp, const Pose2& odom_from_robot, doub
   out.yaw_urad = static_cast<std::int32_t>(std::lround(map_from_robot.theta_rad * 1e6));
   out.vx_mmps = static_cast<std::int32_t>(std::lround(trans_vel_mm_s * std::cos(map_from_robot.theta_rad)));
   out.vy_mmps = static_cast<std::int32_t>(std::lround(trans_vel_mm_s * std::sin(map_from_robot.theta_rad)));
-  out.yaw_rate_mradps = static_cast<std::int32_t>(std::lround(rot_vel_rad_s * 1e3));
+  out.yaw_rate_mradps = round_saturated<std::int32_t>(rot_vel_rad_s * 1e3);
   return true;
 }
 

@@ -48,5 +48,26 @@ TEST(ToMm, NotANumberIsTheLargestValue) {
   EXPECT_EQ(to_mm(std::numeric_limits<double>::quiet_NaN()), std::numeric_limits<std::int32_t>::max());
 }
 
+TEST(ToMm, OtherWidthsRoundTheSameWayAndSaturateToTheirRange) {
+  EXPECT_EQ(to_mm_as<std::uint16_t>(2.5 / 1000.0), 3);
+  EXPECT_EQ(to_mm_as<std::uint16_t>(-1.0), 0);
+  EXPECT_EQ(to_mm_as<std::uint16_t>(65.5349), 65535);  // rounds up to the largest value
+  EXPECT_EQ(to_mm_as<std::uint16_t>(70.0), 65535);
+  EXPECT_EQ(to_mm_as<std::uint32_t>(-0.0004), 0u);
+  EXPECT_EQ(to_mm_as<std::uint32_t>(4294967.2951), 4294967295u);
+  EXPECT_EQ(to_mm_as<std::uint32_t>(1e300), 4294967295u);
+  EXPECT_EQ(to_mm_as<std::int64_t>(-2.5 / 1000.0), -3);
+  EXPECT_EQ(to_mm_as<std::int64_t>(1e9), 1'000'000'000'000);  // beyond the int32 range, exact
+  EXPECT_EQ(to_mm_as<std::int64_t>(1e300), std::numeric_limits<std::int64_t>::max());
+  EXPECT_EQ(to_mm_as<std::int64_t>(-1e300), std::numeric_limits<std::int64_t>::min());
+  EXPECT_EQ(to_mm_as<std::uint32_t>(std::numeric_limits<double>::quiet_NaN()), 4294967295u);
+}
+
+TEST(RoundSaturated, MilliUnitsOfARate) {
+  EXPECT_EQ(round_saturated<std::int32_t>(0.0125 * 1e3), 13);   // 12.5 mrad/s: half away from zero
+  EXPECT_EQ(round_saturated<std::int32_t>(-0.0125 * 1e3), -13);
+  EXPECT_EQ(round_saturated<std::int32_t>(1e20), std::numeric_limits<std::int32_t>::max());
+}
+
 }  // namespace
 }  // namespace teamscan
