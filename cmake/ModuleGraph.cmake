@@ -2,7 +2,8 @@
 # (the module) and the modules it links. teamscan_module_graph() checks it, and the headers each module
 # includes, against the layering of DESIGN.md "Layout" (dependencies point down the table, never back
 # up, so no two modules include each other; a violation stops the configure) and writes ${CMAKE_BINARY_DIR}/module_graph.md, the table docs/architecture.md carries
-# (checked by the test architecture_doc_test).
+# (checked by the test architecture_doc_test). It also checks that each module's sources open only its
+# own namespace (TEAMSCAN_MODULE_NAMESPACES) or one nested in it, and writes that namespace into the table.
 
 # Which modules each module may link (DESIGN.md "Layout"); a module may always link its own folder.
 set(TEAMSCAN_ALLOWED_DEPS
@@ -35,6 +36,59 @@ set(TEAMSCAN_ALLOWED_DEPS
   "tools/demo:common common/dataset sim groundstation/mapping groundstation/fusion groundstation/registration groundstation/station tools/render tools/pki"
 )
 
+# Each module's namespace: a folder's own name under teamscan (the folders groundstation/, drivers/ and
+# tools/ group modules and add no level). common/ and common/dataset/ hold the vocabulary every module
+# speaks (time, units, poses, the scan, the data set) and stay in teamscan itself; onboard/core/, bridge/
+# and daemon/ are the robot program's three layers (no I/O, DDS, the loop) in its one namespace, which
+# its ring nests in; the direction cone both sides decide with is a namespace of its own.
+set(TEAMSCAN_MODULE_NAMESPACES
+  "common:teamscan"
+  "common/dataset:teamscan"
+  "common/mcap:teamscan::mcap"
+  "drivers/serial:teamscan::serial"
+  "drivers/arcos:teamscan::arcos"
+  "drivers/lms200:teamscan::lms200"
+  "dds/security:teamscan::dds::security"
+  "dds:teamscan::dds"
+  "dds/ros2:teamscan::dds::ros2"
+  "onboard/cone:teamscan::cone"
+  "onboard/core:teamscan::onboard"
+  "onboard/ring:teamscan::onboard::ring"
+  "onboard/bridge:teamscan::onboard"
+  "onboard/daemon:teamscan::onboard"
+  "sim:teamscan::sim"
+  "groundstation/registration:teamscan::registration"
+  "groundstation/trajectory:teamscan::trajectory"
+  "groundstation/posegraph:teamscan::posegraph"
+  "groundstation/mapping:teamscan::mapping"
+  "groundstation/fusion:teamscan::fusion"
+  "groundstation/view:teamscan::view"
+  "groundstation/station:teamscan::station"
+  "tools/render:teamscan::render"
+  "tools/pki:teamscan::pki"
+  "tools/mcap_export:teamscan::mcap_export"
+  "tools/demo:teamscan::demo"
+)
+
+# The namespaces a module's own sources open (named ones under teamscan) that are neither its namespace
+# nor nested in it, appended to the variable named by out_violations.
+function(_teamscan_check_namespace m ns out_violations)
+  set(v "${${out_violations}}")
+  file(GLOB files ${TEAMSCAN_SOURCE_DIR}/${m}/*.hpp ${TEAMSCAN_SOURCE_DIR}/${m}/*.cpp)
+  foreach(f ${files})
+    file(STRINGS ${f} opens REGEX "^namespace teamscan[A-Za-z0-9_:]* {")
+    foreach(line ${opens})
+      string(REGEX REPLACE "^namespace (teamscan[A-Za-z0-9_:]*) {.*" "\\1" opened "${line}")
+      string(FIND "${opened}::" "${ns}::" at)
+      if(NOT opened STREQUAL ns AND NOT at EQUAL 0)
+        file(RELATIVE_PATH rf ${TEAMSCAN_SOURCE_DIR} ${f})
+        string(APPEND v "  ${rf} opens ${opened}, not ${m}/'s ${ns}\n")
+      endif()
+    endforeach()
+  endforeach()
+  set(${out_violations} "${v}" PARENT_SCOPE)
+endfunction()
+
 function(_teamscan_module_of target out)
   get_target_property(dir ${target} SOURCE_DIR)
   file(RELATIVE_PATH rel ${TEAMSCAN_SOURCE_DIR} ${dir})
@@ -64,7 +118,7 @@ function(teamscan_module_graph)
   endforeach()
   list(REMOVE_DUPLICATES modules)
   list(SORT modules)
-  set(table "| module | targets | links (modules of ours) |\n| --- | --- | --- |\n")
+  set(table "| module | namespace | targets | links (modules of ours) |\n| --- | --- | --- | --- |\n")
   set(violations "")
   foreach(m ${modules})
     set(deps ${_deps_${m}})
@@ -100,7 +154,25 @@ function(teamscan_module_graph)
     if(ds STREQUAL "")
       set(ds "–")
     endif()
-    string(APPEND table "| `${m}/` | ${ts} | ${ds} |\n")
+    set(ns "")
+    foreach(rule ${TEAMSCAN_MODULE_NAMESPACES})
+      string(REPLACE ":" ";" parts "${rule}")
+      list(GET parts 0 rm)
+      if(rm STREQUAL m)
+        list(SUBLIST parts 1 -1 nsparts)
+        string(REPLACE ";" ":" ns "${nsparts}")
+      endif()
+    endforeach()
+    if(ns STREQUAL "")
+      if(NOT m STREQUAL "idl")
+        string(APPEND violations "  ${m}: no namespace (cmake/ModuleGraph.cmake TEAMSCAN_MODULE_NAMESPACES)\n")
+      endif()
+      set(nsc "–")
+    else()
+      _teamscan_check_namespace(${m} ${ns} violations)
+      set(nsc "`${ns}`")
+    endif()
+    string(APPEND table "| `${m}/` | ${nsc} | ${ts} | ${ds} |\n")
   endforeach()
   # The same rule for the headers a module includes: a header-only dependency (a template, a struct)
   # links nothing, so the link graph alone would not see it, nor a cycle of includes between modules.
@@ -128,7 +200,7 @@ function(teamscan_module_graph)
     endforeach()
   endforeach()
   if(violations)
-    message(FATAL_ERROR "Module layering violated (DESIGN.md \"Layout\"):\n${violations}")
+    message(FATAL_ERROR "Module layering or namespaces violated (DESIGN.md \"Layout\"):\n${violations}")
   endif()
   file(WRITE ${CMAKE_BINARY_DIR}/module_graph.md "${table}")
 endfunction()

@@ -17,8 +17,8 @@ namespace teamscan::mapping {
 namespace {
 // The onboard filter's parameters from ours (the stale-team policy does not apply offline: the tracker
 // already marks a lost teammate invalid).
-onboard::DirectionFilterParams onboard_params(const DirectionOptions& o) {
-  onboard::DirectionFilterParams params;
+cone::DirectionFilterParams onboard_params(const DirectionOptions& o) {
+  cone::DirectionFilterParams params;
   params.half_angle_deg = rad_to_deg(o.half_angle_rad);
   params.range_gate = o.range_gate;
   params.range_gate_margin_m = o.range_gate_margin_m;
@@ -91,11 +91,11 @@ FilterParams DirectionFilter::params() const {
 }
 
 bool DirectionFilter::cone_contains(Vec2 self_m, Vec2 other_m, const MapPoint& p) const {
-  const onboard::DirectionFilterParams params = onboard_params(options_);
-  const onboard::Teammate mate{0, to_mm(other_m.x), to_mm(other_m.y), to_mm(options_.body_radius_m), to_mm(options_.height_m)};
-  onboard::ConeFixed cone;
-  if (!onboard::prepare_cone(to_mm(self_m.x), to_mm(self_m.y), mate, options_.half_angle_rad, params, cone)) return false;
-  return onboard::cone_contains(cone, to_mm(p.x), to_mm(p.y), to_mm(p.z));
+  const cone::DirectionFilterParams params = onboard_params(options_);
+  const cone::Teammate mate{0, to_mm(other_m.x), to_mm(other_m.y), to_mm(options_.body_radius_m), to_mm(options_.height_m)};
+  cone::ConeFixed fixed;
+  if (!cone::prepare_cone(to_mm(self_m.x), to_mm(self_m.y), mate, options_.half_angle_rad, params, fixed)) return false;
+  return cone::cone_contains(fixed, to_mm(p.x), to_mm(p.y), to_mm(p.z));
 }
 
 void DirectionFilter::point_bits(const ScanView& scan, std::span<std::uint8_t> removed) const {
@@ -108,18 +108,18 @@ void DirectionFilter::point_bits(const ScanView& scan, std::span<std::uint8_t> r
     return;
   }
   if (!scan.team) return;
-  const onboard::DirectionFilterParams params = onboard_params(options_);
+  const cone::DirectionFilterParams params = onboard_params(options_);
   const std::int32_t apex_x_mm = to_mm(scan.map_from_robot.x_m), apex_y_mm = to_mm(scan.map_from_robot.y_m);
   for (const RobotEstimate& other : scan.team->robots) {
     if (other.robot == scan.robot || !other.valid) continue;
     // The cone is prepared once per teammate and scan, exactly as the daemon does (PAPER_NOTES 7).
-    const onboard::Teammate mate{other.robot, to_mm(other.position_m.x), to_mm(other.position_m.y),
+    const cone::Teammate mate{other.robot, to_mm(other.position_m.x), to_mm(other.position_m.y),
                                  to_mm(options_.body_radius_m), to_mm(options_.height_m)};
-    onboard::ConeFixed cone;
-    if (!onboard::prepare_cone(apex_x_mm, apex_y_mm, mate, options_.half_angle_rad, params, cone)) continue;
+    cone::ConeFixed fixed;
+    if (!cone::prepare_cone(apex_x_mm, apex_y_mm, mate, options_.half_angle_rad, params, fixed)) continue;
     for (std::size_t i = 0; i < scan.points.size(); ++i) {
       const MapPoint& p = scan.points[i];
-      if (onboard::cone_contains(cone, to_mm(p.x), to_mm(p.y), to_mm(p.z))) removed[i] = 1;
+      if (cone::cone_contains(fixed, to_mm(p.x), to_mm(p.y), to_mm(p.z))) removed[i] = 1;
     }
   }
 }

@@ -103,7 +103,7 @@ enum class DirectionSource : std::uint8_t {
 
 // Eq. 7: filter p if it lies ahead of R1 along the horizontal line L from R1 to R2 and
 // d_p(p, L) < d_r(p_L)·tan(ha). Recomputed offline with the robot's own fixed-point code
-// (onboard/cone/direction_cone.hpp: prepare_cone + cone_contains on int32 mm), so offline and live
+// (onboard/cone/direction_cone.hpp: cone::prepare_cone + cone::cone_contains on int32 mm), so offline and live
 // decisions are the same arithmetic. Gates off = the paper's rule, unchanged.
 struct DirectionOptions {
   double half_angle_rad = 0.12217304763960307;  // 7° (paper: 5° and 7°); the onboard code caps it at 60°

@@ -7,7 +7,7 @@
 #include "common/result.hpp"
 #include "common/units.hpp"
 
-namespace teamscan::onboard {
+namespace teamscan::cone {
 
 std::int32_t tan_q16(double angle_rad) {
   return static_cast<std::int32_t>(std::lround(std::tan(angle_rad) * static_cast<double>(std::int32_t{1} << kTanFractionBits)));
@@ -50,4 +50,4 @@ bool prepare_cone(std::int32_t apex_x_mm, std::int32_t apex_y_mm, const Teammate
   return true;
 }
 
-}  // namespace teamscan::onboard
+}  // namespace teamscan::cone

@@ -9,7 +9,7 @@
 
 #include "common/time.hpp"
 
-namespace teamscan::onboard {
+namespace teamscan::cone {
 
 // ---- Fixed-point domain and overflow bounds -------------------------------------------------------
 // Inputs are int32 mm in the map frame. The filter evaluates only coordinates with |c| <= 2^21 mm
@@ -104,4 +104,4 @@ struct ConeFixed {
 // floor(sqrt(v)) for v >= 0, exact over int64.
 [[nodiscard]] std::int64_t isqrt64(std::int64_t v);
 
-}  // namespace teamscan::onboard
+}  // namespace teamscan::cone

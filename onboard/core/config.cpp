@@ -31,7 +31,7 @@ std::uint64_t RingConfig::slots() const {
 }
 
 std::uint32_t OnboardConfig::max_range_mm() const {
-  return static_cast<std::uint32_t>(std::lround(lms_max_range_m * 1000.0));
+  return to_mm_as<std::uint32_t>(lms_max_range_m);
 }
 
 namespace {
@@ -211,7 +211,7 @@ Result<OnboardConfig> parse_onboard_config(std::string_view toml_text, std::stri
   r.number(reg, "registration", "x_m", c.registration_x_m, false);
   r.number(reg, "registration", "y_m", c.registration_y_m, false);
   r.number(reg, "registration", "theta_deg", c.registration_theta_deg, false);
-  const double extent_m = kDirectionFilterExtentMm * 1e-3;
+  const double extent_m = cone::kDirectionFilterExtentMm * 1e-3;
   if (std::abs(c.registration_x_m) > extent_m || std::abs(c.registration_y_m) > extent_m)
     r.fail("registration", "outside the ±2097 m map extent", r.node(reg, "x_m"));
 
@@ -221,7 +221,7 @@ Result<OnboardConfig> parse_onboard_config(std::string_view toml_text, std::stri
          {"enabled", "half_angle_deg", "range_gate", "range_gate_margin_m", "height_gate", "height_gate_margin_m",
           "body_radius_m", "height_m", "max_team_age_s", "stale_policy", "stale_growth_deg_per_s", "extrapolate_team"});
   r.boolean(filter, "filter", "enabled", c.filter_enabled);
-  DirectionFilterParams& f = c.filter;
+  cone::DirectionFilterParams& f = c.filter;
   r.number(filter, "filter", "half_angle_deg", f.half_angle_deg, false);
   r.boolean(filter, "filter", "range_gate", f.range_gate);
   r.number(filter, "filter", "range_gate_margin_m", f.range_gate_margin_m, false);
@@ -238,8 +238,8 @@ Result<OnboardConfig> parse_onboard_config(std::string_view toml_text, std::stri
   }
   std::string policy = "widen";
   if (r.string(filter, "filter", "stale_policy", policy, false)) {
-    if (policy == "widen") f.stale_policy = StalePolicy::widen;
-    else if (policy == "disable") f.stale_policy = StalePolicy::disable;
+    if (policy == "widen") f.stale_policy = cone::StalePolicy::widen;
+    else if (policy == "disable") f.stale_policy = cone::StalePolicy::disable;
     else r.fail("filter.stale_policy", "\"" + policy + "\" is not \"widen\" or \"disable\"", r.node(filter, "stale_policy"));
   }
   r.number(filter, "filter", "stale_growth_deg_per_s", f.stale_growth_deg_per_s, false);
@@ -367,7 +367,7 @@ std::string describe(const OnboardConfig& c) {
                 c.mount.x_m, c.mount.y_m, c.mount.z_m, c.mount.roll_deg, c.mount.pitch_deg, c.mount.yaw_deg,
                 c.registration_x_m, c.registration_y_m, c.registration_theta_deg, c.filter_enabled ? "on" : "off",
                 c.filter.half_angle_deg, c.filter.range_gate ? "on" : "off", c.filter.height_gate ? "on" : "off",
-                to_seconds(c.filter.max_team_age), c.filter.stale_policy == StalePolicy::widen ? "widen" : "disable",
+                to_seconds(c.filter.max_team_age), c.filter.stale_policy == cone::StalePolicy::widen ? "widen" : "disable",
                 c.dds_domain, c.publish == PublishMode::all ? "all" : "kept", c.scan_history_depth,
                 to_seconds(c.status_period), to_seconds(c.odometry_max_extrapolation), to_seconds(c.odometry_max_hold),
                 c.ring.enabled() ? c.ring.path.c_str() : "off", c.ring.capacity_s,

@@ -56,7 +56,7 @@ struct OnboardConfig {
   double registration_x_m = 0, registration_y_m = 0, registration_theta_deg = 0;  // map_from_odom
 
   bool filter_enabled = true;
-  DirectionFilterParams filter;
+  cone::DirectionFilterParams filter;
 
   std::uint32_t dds_domain = 0;
   PublishMode publish = PublishMode::all;

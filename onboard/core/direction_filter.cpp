@@ -17,10 +17,10 @@ std::int64_t div_round(std::int64_t a, std::int64_t b) { return a >= 0 ? (a + b 
 
 }  // namespace
 
-Result<DirectionFilter> DirectionFilter::create(const DirectionFilterParams& params, std::uint32_t own_robot_id) {
-  if (!(params.half_angle_deg > 0.0 && params.half_angle_deg <= kMaxHalfAngleDeg))
+Result<DirectionFilter> DirectionFilter::create(const cone::DirectionFilterParams& params, std::uint32_t own_robot_id) {
+  if (!(params.half_angle_deg > 0.0 && params.half_angle_deg <= cone::kMaxHalfAngleDeg))
     return Error{"filter.half_angle_deg must be in (0, 60]"};
-  if (!(params.range_gate_margin_m >= 0.0 && params.range_gate_margin_m * 1000.0 <= kMaxGateMm))
+  if (!(params.range_gate_margin_m >= 0.0 && params.range_gate_margin_m * 1000.0 <= cone::kMaxGateMm))
     return Error{"filter.range_gate_margin_m must be in [0, 131]"};
   if (!(params.height_gate_margin_m >= -10.0 && params.height_gate_margin_m <= 10.0))
     return Error{"filter.height_gate_margin_m must be in [-10, 10]"};
@@ -53,7 +53,7 @@ void DirectionFilter::set_team(const TeamSnapshot& team) {
     // Body radius: half the footprint's diagonal (the farthest a hit on the body lies from its centre).
     if (m.length_mm > 0 && m.width_mm > 0) {
       const std::int64_t l = m.length_mm, w = m.width_mm;
-      std::int64_t diagonal_mm = isqrt64(l * l + w * w);
+      std::int64_t diagonal_mm = cone::isqrt64(l * l + w * w);
       if (diagonal_mm * diagonal_mm < l * l + w * w) ++diagonal_mm;  // ceil: never smaller than the body
       out.mate.body_radius_mm = static_cast<std::int32_t>((diagonal_mm + 1) / 2);
     } else {
@@ -72,13 +72,13 @@ double DirectionFilter::effective_half_angle_rad(Time valid, Time stamp) const {
   const Duration excess = (stamp - valid) - params_.max_team_age;
   if (excess <= Duration::zero()) return ha;
   const double widened = ha + deg_to_rad(params_.stale_growth_deg_per_s * to_seconds(excess));
-  return std::min(widened, deg_to_rad(kMaxHalfAngleDeg));
+  return std::min(widened, deg_to_rad(cone::kMaxHalfAngleDeg));
 }
 
 DirectionFilterStats DirectionFilter::apply(std::int32_t apex_x_mm, std::int32_t apex_y_mm, Time stamp,
                                             ScanPoint* points, std::uint16_t count) const {
   DirectionFilterStats stats;
-  std::array<ConeFixed, kMaxRobots> cones;
+  std::array<cone::ConeFixed, kMaxRobots> cones;
   std::uint16_t n_cones = 0;
   bool stale = !have_team_;
   for (std::uint16_t i = 0; i < mate_count_; ++i) {
@@ -87,12 +87,12 @@ DirectionFilterStats DirectionFilter::apply(std::int32_t apex_x_mm, std::int32_t
     if (!is_fresh) {
       stale = true;
       ++stats.stale_mates;
-      if (params_.stale_policy == StalePolicy::disable) {
+      if (params_.stale_policy == cone::StalePolicy::disable) {
         ++stats.skipped_mates;
         continue;
       }
     }
-    Teammate mate = m.mate;
+    cone::Teammate mate = m.mate;
     if (params_.extrapolate_team) {
       // Move the teammate to the scan's time along its reported velocity, over at most max_team_age.
       const std::int64_t dt_us = std::clamp<std::int64_t>((stamp - m.valid).count() / 1000, 0,
@@ -100,7 +100,7 @@ DirectionFilterStats DirectionFilter::apply(std::int32_t apex_x_mm, std::int32_t
       mate.x_mm = saturate_i32(std::int64_t{mate.x_mm} + div_round(std::int64_t{m.vx_mmps} * dt_us, 1'000'000));
       mate.y_mm = saturate_i32(std::int64_t{mate.y_mm} + div_round(std::int64_t{m.vy_mmps} * dt_us, 1'000'000));
     }
-    if (!prepare_cone(apex_x_mm, apex_y_mm, mate, effective_half_angle_rad(m.valid, stamp), params_, cones[n_cones])) {
+    if (!cone::prepare_cone(apex_x_mm, apex_y_mm, mate, effective_half_angle_rad(m.valid, stamp), params_, cones[n_cones])) {
       ++stats.skipped_mates;
       continue;
     }
@@ -115,12 +115,12 @@ DirectionFilterStats DirectionFilter::apply(std::int32_t apex_x_mm, std::int32_t
       p.flags |= kPointTeamStale;
       ++stats.stale_points;
     }
-    if (!in_cone_extent(p.x_mm) || !in_cone_extent(p.y_mm)) {
+    if (!cone::in_cone_extent(p.x_mm) || !cone::in_cone_extent(p.y_mm)) {
       ++stats.out_of_extent;
       continue;
     }
     for (std::uint16_t c = 0; c < n_cones; ++c) {
-      if (cone_contains(cones[c], p.x_mm, p.y_mm, p.z_mm)) {
+      if (cone::cone_contains(cones[c], p.x_mm, p.y_mm, p.z_mm)) {
         p.flags |= kPointDirectionFiltered;
         ++stats.filtered;
         break;

@@ -30,7 +30,7 @@ struct DirectionFilterStats {
 class DirectionFilter {
  public:
   // Checks the parameters; the error names the offending one.
-  [[nodiscard]] static Result<DirectionFilter> create(const DirectionFilterParams& params, std::uint32_t own_robot_id);
+  [[nodiscard]] static Result<DirectionFilter> create(const cone::DirectionFilterParams& params, std::uint32_t own_robot_id);
 
   // Replaces the team state (from teamscan/team). This robot's own entry and members beyond kMaxRobots
   // are left out. A member the ground station marks lost keeps its last known position and counts as
@@ -49,17 +49,17 @@ class DirectionFilter {
   // Whether the state of a member valid at `valid` is fresh at `stamp`, and the half-angle to use.
   [[nodiscard]] bool fresh(Time valid, Time stamp) const { return stamp - valid <= params_.max_team_age; }
   [[nodiscard]] double effective_half_angle_rad(Time valid, Time stamp) const;
-  [[nodiscard]] const DirectionFilterParams& params() const { return params_; }
+  [[nodiscard]] const cone::DirectionFilterParams& params() const { return params_; }
 
  private:
   struct Mate {
-    Teammate mate;
+    cone::Teammate mate;
     std::int32_t vx_mmps = 0, vy_mmps = 0;
     Time valid;
     bool lost = false;
   };
 
-  DirectionFilterParams params_;
+  cone::DirectionFilterParams params_;
   std::uint32_t own_robot_id_ = 0;
   bool have_team_ = false;
   std::uint16_t mate_count_ = 0;

@@ -433,7 +433,7 @@ TEST(TrackedFilter, TeammatesAreMovedToEachBeamsTime) {
   TrackedOptions o;
   o.sweep_s = 0.1;  // exaggerated sweep: the first of 2 beams is 75 ms before the stamp
   const double h = expected_half_length(o, 0.01);
-  // Teammate drives +x at 1 m/s, at x = 0 at the stamp. A point 3 cm behind its front at the stamp:
+  // cone::Teammate drives +x at 1 m/s, at x = 0 at the stamp. A point 3 cm behind its front at the stamp:
   const float x = static_cast<float>(h - 0.03);
   const std::vector<MapPoint> pts{{x, 0.0f, 0.2f}, {x, 0.0f, 0.2f}};
   // Beam 0 at −75 ms sees the front 7.5 cm further back: outside; beam 1 at −25 ms (2.5 cm back): inside.
@@ -609,7 +609,7 @@ TEST(BestFilter, TheDriftBandNeedsFreeSpaceEvidenceTheCoreBoxDoesNot) {
   m.tracked.sweep_s = 0.0;
   auto best = make_filter("best", m);
   ASSERT_NE(best, nullptr);
-  // Teammate 2 at (2, 0) heading +x with drift σ 10 cm; robot 1 scans from (0, 3) at 0.3 m height.
+  // cone::Teammate 2 at (2, 0) heading +x with drift σ 10 cm; robot 1 scans from (0, 3) at 0.3 m height.
   TeamState team = team_with(2, {2.0, 0.0}, 0.0, 0.01);
   team.robots[0].drift_cov_m2 = Eigen::Matrix2d::Identity() * 0.01;
   team.robots[0].position_cov_m2 += team.robots[0].drift_cov_m2;

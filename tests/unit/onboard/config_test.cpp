@@ -43,7 +43,7 @@ TEST(OnboardConfig, DownLaserExample) {
   EXPECT_GT(c->mount.pitch_deg, 0.0);  // nose down
   EXPECT_TRUE(c->filter.range_gate);
   EXPECT_TRUE(c->filter.height_gate);
-  EXPECT_EQ(c->filter.stale_policy, StalePolicy::widen);
+  EXPECT_EQ(c->filter.stale_policy, cone::StalePolicy::widen);
   EXPECT_EQ(c->filter.max_team_age, 500ms);
   EXPECT_EQ(c->publish, PublishMode::all);
   EXPECT_EQ(c->scan_history_depth, 300u);

@@ -16,13 +16,13 @@ namespace {
 
 __extension__ typedef __int128 i128;
 
-constexpr std::int32_t kE = kDirectionFilterExtentMm;
+constexpr std::int32_t kE = cone::kDirectionFilterExtentMm;
 
-ConeFixed cone(std::int32_t ax, std::int32_t ay, std::int32_t mx, std::int32_t my, double ha_deg,
-               DirectionFilterParams p = {}, std::int32_t radius_mm = 360, std::int32_t height_mm = 500) {
-  ConeFixed c;
-  const Teammate m{2, mx, my, radius_mm, height_mm};
-  EXPECT_TRUE(prepare_cone(ax, ay, m, deg_to_rad(ha_deg), p, c));
+cone::ConeFixed make_cone(std::int32_t ax, std::int32_t ay, std::int32_t mx, std::int32_t my, double ha_deg,
+               cone::DirectionFilterParams p = {}, std::int32_t radius_mm = 360, std::int32_t height_mm = 500) {
+  cone::ConeFixed c;
+  const cone::Teammate m{2, mx, my, radius_mm, height_mm};
+  EXPECT_TRUE(cone::prepare_cone(ax, ay, m, deg_to_rad(ha_deg), p, c));
   return c;
 }
 
@@ -30,27 +30,27 @@ ConeFixed cone(std::int32_t ax, std::int32_t ay, std::int32_t mx, std::int32_t m
 
 TEST(DirectionFilter, PaperConeHandComputed) {
   // R1 at the origin, R2 5 m ahead on x, ha = 7°: tan 7° = 0.122785, so at 10 m the cone is ±1227.8 mm.
-  const ConeFixed c = cone(0, 0, 5000, 0, 7.0);
-  EXPECT_TRUE(cone_contains(c, 5000, 0, 0));
-  EXPECT_TRUE(cone_contains(c, 10000, 1200, 0));   // behind R2, still inside: the paper has no range limit
-  EXPECT_TRUE(cone_contains(c, 10000, -1227, 0));
-  EXPECT_FALSE(cone_contains(c, 10000, 1229, 0));
-  EXPECT_FALSE(cone_contains(c, 10000, -1240, 0));
-  EXPECT_TRUE(cone_contains(c, 1000, 100, 0));      // between R1 and R2
-  EXPECT_FALSE(cone_contains(c, -1000, 0, 0));      // behind R1
-  EXPECT_FALSE(cone_contains(c, 0, 0, 0));          // R1 itself: not ahead
-  EXPECT_TRUE(cone_contains(c, 80000, 9800, 5000)); // height is ignored by the paper's rule
-  EXPECT_FALSE(cone_contains(c, 80000, 9840, 0));   // 80 m · tan 7° = 9822.8 mm
+  const cone::ConeFixed c = make_cone(0, 0, 5000, 0, 7.0);
+  EXPECT_TRUE(cone::cone_contains(c, 5000, 0, 0));
+  EXPECT_TRUE(cone::cone_contains(c, 10000, 1200, 0));   // behind R2, still inside: the paper has no range limit
+  EXPECT_TRUE(cone::cone_contains(c, 10000, -1227, 0));
+  EXPECT_FALSE(cone::cone_contains(c, 10000, 1229, 0));
+  EXPECT_FALSE(cone::cone_contains(c, 10000, -1240, 0));
+  EXPECT_TRUE(cone::cone_contains(c, 1000, 100, 0));      // between R1 and R2
+  EXPECT_FALSE(cone::cone_contains(c, -1000, 0, 0));      // behind R1
+  EXPECT_FALSE(cone::cone_contains(c, 0, 0, 0));          // R1 itself: not ahead
+  EXPECT_TRUE(cone::cone_contains(c, 80000, 9800, 5000)); // height is ignored by the paper's rule
+  EXPECT_FALSE(cone::cone_contains(c, 80000, 9840, 0));   // 80 m · tan 7° = 9822.8 mm
 }
 
 TEST(DirectionFilter, ConeAlongADiagonalAndOffsetApex) {
   // R1 at (1000, −2000), R2 3 m away at 45°. A point 4 m along L, 0.4 m to the side (5.7°) is inside a
   // 7° cone, one 0.6 m to the side (8.5°) is not.
   const double s = std::sqrt(0.5);
-  const ConeFixed c = cone(1000, -2000, 1000 + static_cast<std::int32_t>(std::lround(3000 * s)),
+  const cone::ConeFixed c = make_cone(1000, -2000, 1000 + static_cast<std::int32_t>(std::lround(3000 * s)),
                            -2000 + static_cast<std::int32_t>(std::lround(3000 * s)), 7.0);
   auto at = [&](double along, double side) {
-    return cone_contains(c, 1000 + static_cast<std::int32_t>(std::lround(along * s - side * s)),
+    return cone::cone_contains(c, 1000 + static_cast<std::int32_t>(std::lround(along * s - side * s)),
                          -2000 + static_cast<std::int32_t>(std::lround(along * s + side * s)), 0);
   };
   EXPECT_TRUE(at(4000, 400));
@@ -60,36 +60,36 @@ TEST(DirectionFilter, ConeAlongADiagonalAndOffsetApex) {
 }
 
 TEST(DirectionFilter, DegenerateConeIsRefused) {
-  ConeFixed c;
-  EXPECT_FALSE(prepare_cone(100, 100, Teammate{2, 100, 100, 360, 500}, deg_to_rad(7), {}, c));
-  EXPECT_FALSE(prepare_cone(kE + 1, 0, Teammate{2, 100, 100, 360, 500}, deg_to_rad(7), {}, c));
-  EXPECT_FALSE(prepare_cone(0, 0, Teammate{2, 0, -kE - 1, 360, 500}, deg_to_rad(7), {}, c));
+  cone::ConeFixed c;
+  EXPECT_FALSE(cone::prepare_cone(100, 100, cone::Teammate{2, 100, 100, 360, 500}, deg_to_rad(7), {}, c));
+  EXPECT_FALSE(cone::prepare_cone(kE + 1, 0, cone::Teammate{2, 100, 100, 360, 500}, deg_to_rad(7), {}, c));
+  EXPECT_FALSE(cone::prepare_cone(0, 0, cone::Teammate{2, 0, -kE - 1, 360, 500}, deg_to_rad(7), {}, c));
 }
 
 // ---- the gated rule ----------------------------------------------------------------------------------
 
 TEST(DirectionFilter, RangeGateKeepsWhatLiesBehindTheTeammate) {
-  DirectionFilterParams p;
+  cone::DirectionFilterParams p;
   p.range_gate = true;
   p.range_gate_margin_m = 0.3;  // gate = 360 + 300 = 660 mm around |R1R2| = 5000 mm
-  const ConeFixed c = cone(0, 0, 5000, 0, 7.0, p);
-  EXPECT_TRUE(cone_contains(c, 5000, 0, 0));
-  EXPECT_TRUE(cone_contains(c, 5660, 0, 0));
-  EXPECT_FALSE(cone_contains(c, 5661, 0, 0));
-  EXPECT_TRUE(cone_contains(c, 4340, 0, 0));
-  EXPECT_FALSE(cone_contains(c, 4339, 0, 0));
-  EXPECT_FALSE(cone_contains(c, 10000, 0, 0));  // the paper's rule would filter this wall point
-  EXPECT_TRUE(cone_contains(c, 5500, 600, 0));  // the gate measures along L: d_along = 5500
+  const cone::ConeFixed c = make_cone(0, 0, 5000, 0, 7.0, p);
+  EXPECT_TRUE(cone::cone_contains(c, 5000, 0, 0));
+  EXPECT_TRUE(cone::cone_contains(c, 5660, 0, 0));
+  EXPECT_FALSE(cone::cone_contains(c, 5661, 0, 0));
+  EXPECT_TRUE(cone::cone_contains(c, 4340, 0, 0));
+  EXPECT_FALSE(cone::cone_contains(c, 4339, 0, 0));
+  EXPECT_FALSE(cone::cone_contains(c, 10000, 0, 0));  // the paper's rule would filter this wall point
+  EXPECT_TRUE(cone::cone_contains(c, 5500, 600, 0));  // the gate measures along L: d_along = 5500
 }
 
 TEST(DirectionFilter, HeightGateKeepsWhatLiesAboveTheTeammate) {
-  DirectionFilterParams p;
+  cone::DirectionFilterParams p;
   p.height_gate = true;
   p.height_gate_margin_m = 0.1;  // z_max = 500 + 100
-  const ConeFixed c = cone(0, 0, 5000, 0, 7.0, p);
-  EXPECT_TRUE(cone_contains(c, 5000, 0, 600));
-  EXPECT_FALSE(cone_contains(c, 5000, 0, 601));
-  EXPECT_TRUE(cone_contains(c, 20000, 0, -300));  // no range gate: far floor point still filtered
+  const cone::ConeFixed c = make_cone(0, 0, 5000, 0, 7.0, p);
+  EXPECT_TRUE(cone::cone_contains(c, 5000, 0, 600));
+  EXPECT_FALSE(cone::cone_contains(c, 5000, 0, 601));
+  EXPECT_TRUE(cone::cone_contains(c, 20000, 0, -300));  // no range gate: far floor point still filtered
 }
 
 // ---- the filter with a team state and the stale policy -------------------------------------------
@@ -110,7 +110,7 @@ TeamSnapshot team_with(std::int32_t x_mm, std::int32_t y_mm, Time valid, std::ui
 const Time kStamp = Time::from_ns(1'000'000'000'000);
 
 TEST(DirectionFilter, CreateRefusesBadParametersNamingThem) {
-  DirectionFilterParams p;
+  cone::DirectionFilterParams p;
   p.half_angle_deg = 0;
   auto r = DirectionFilter::create(p, 1);
   ASSERT_FALSE(r.ok());
@@ -129,7 +129,7 @@ TEST(DirectionFilter, CreateRefusesBadParametersNamingThem) {
 }
 
 TEST(DirectionFilter, FreshTeamFiltersWithoutStaleFlag) {
-  DirectionFilterParams p;
+  cone::DirectionFilterParams p;
   p.extrapolate_team = false;
   auto f = DirectionFilter::create(p, 1);
   ASSERT_TRUE(f.ok());
@@ -146,7 +146,7 @@ TEST(DirectionFilter, FreshTeamFiltersWithoutStaleFlag) {
 }
 
 TEST(DirectionFilter, StaleTeamWidensTheConeAndSaysSo) {
-  DirectionFilterParams p;
+  cone::DirectionFilterParams p;
   p.extrapolate_team = false;
   p.max_team_age = 500ms;
   p.stale_growth_deg_per_s = 10.0;
@@ -166,8 +166,8 @@ TEST(DirectionFilter, StaleTeamWidensTheConeAndSaysSo) {
 }
 
 TEST(DirectionFilter, StaleTeamDisablesTheFilterAndSaysSo) {
-  DirectionFilterParams p;
-  p.stale_policy = StalePolicy::disable;
+  cone::DirectionFilterParams p;
+  p.stale_policy = cone::StalePolicy::disable;
   auto f = DirectionFilter::create(p, 1);
   ASSERT_TRUE(f.ok());
   f->set_team(team_with(5000, 0, kStamp - 501ms));
@@ -197,7 +197,7 @@ TEST(DirectionFilter, NoTeamStateYetFlagsStaleAndFiltersNothing) {
 }
 
 TEST(DirectionFilter, OwnEntryIgnoredLostMemberTreatedAsStale) {
-  DirectionFilterParams p;
+  cone::DirectionFilterParams p;
   p.extrapolate_team = false;
   auto f = DirectionFilter::create(p, 2);
   ASSERT_TRUE(f.ok());
@@ -218,7 +218,7 @@ TEST(DirectionFilter, OwnEntryIgnoredLostMemberTreatedAsStale) {
 }
 
 TEST(DirectionFilter, TeammateExtrapolatedToTheScanTime) {
-  DirectionFilterParams p;
+  cone::DirectionFilterParams p;
   p.range_gate = true;
   p.range_gate_margin_m = 0.0;  // gate = body radius = ceil(hypot(508, 497) / 2) = 356 mm
   auto f = DirectionFilter::create(p, 1);
@@ -234,8 +234,8 @@ TEST(DirectionFilter, TeammateExtrapolatedToTheScanTime) {
 
 // ---- overflow bounds and agreement with the reference ----------------------------------------------
 
-// The same decision as cone_contains, evaluated in 128 bits: equal results prove no int64 overflow.
-bool cone_contains_exact(const ConeFixed& c, std::int32_t x, std::int32_t y, std::int32_t z) {
+// The same decision as cone::cone_contains, evaluated in 128 bits: equal results prove no int64 overflow.
+bool cone_contains_exact(const cone::ConeFixed& c, std::int32_t x, std::int32_t y, std::int32_t z) {
   if (x > kE || x < -kE || y > kE || y < -kE) return false;
   const i128 vx = i128{x} - c.apex_x_mm, vy = i128{y} - c.apex_y_mm;
   const i128 along = i128{c.ux_mm} * vx + i128{c.uy_mm} * vy;
@@ -249,7 +249,7 @@ bool cone_contains_exact(const ConeFixed& c, std::int32_t x, std::int32_t y, std
 }
 
 TEST(DirectionFilter, NoOverflowAtTheCornersOfTheDomain) {
-  DirectionFilterParams p;
+  cone::DirectionFilterParams p;
   p.range_gate = true;
   p.range_gate_margin_m = 131.0;
   p.height_gate = true;
@@ -260,21 +260,21 @@ TEST(DirectionFilter, NoOverflowAtTheCornersOfTheDomain) {
       for (std::int32_t mx : {-kE, kE - 1, kE})
         for (std::int32_t my : {-kE, 0, kE})
           for (double ha : {0.5, 7.0, 60.0}) {
-            ConeFixed c;
-            if (!prepare_cone(ax, ay, Teammate{2, mx, my, kMaxGateMm, 500}, deg_to_rad(ha), p, c)) continue;
+            cone::ConeFixed c;
+            if (!cone::prepare_cone(ax, ay, cone::Teammate{2, mx, my, cone::kMaxGateMm, 500}, deg_to_rad(ha), p, c)) continue;
             for (std::int32_t x : vals)
               for (std::int32_t y : vals)
                 for (std::int32_t z : {-kE, 0, 600, kE}) {
-                  ASSERT_EQ(cone_contains(c, x, y, z), cone_contains_exact(c, x, y, z))
+                  ASSERT_EQ(cone::cone_contains(c, x, y, z), cone_contains_exact(c, x, y, z))
                       << ax << "," << ay << " -> " << mx << "," << my << " ha " << ha << " p " << x << "," << y;
                   ++checked;
                 }
           }
   EXPECT_GT(checked, 10000);
   // Beyond the extent nothing is judged, even where the cone points.
-  const ConeFixed c = cone(0, 0, 1000, 0, 60.0);
-  EXPECT_FALSE(cone_contains(c, kE + 1, 0, 0));
-  EXPECT_TRUE(cone_contains(c, kE, 0, 0));
+  const cone::ConeFixed c = make_cone(0, 0, 1000, 0, 60.0);
+  EXPECT_FALSE(cone::cone_contains(c, kE + 1, 0, 0));
+  EXPECT_TRUE(cone::cone_contains(c, kE, 0, 0));
 }
 
 struct Agreement {
@@ -293,16 +293,16 @@ Agreement compare_random(std::uint64_t seed, long n, std::int32_t max_reach_mm) 
   auto clampE = [](std::int64_t v) { return static_cast<std::int32_t>(std::clamp<std::int64_t>(v, -kE, kE)); };
   Agreement a;
   for (long i = 0; i < n; ++i) {
-    DirectionFilterParams p;
+    cone::DirectionFilterParams p;
     p.range_gate = coin(rng) == 0;
     p.height_gate = coin(rng) == 0;
     p.range_gate_margin_m = 0.3;
     p.height_gate_margin_m = 0.1;
     const double ha = deg_to_rad(ha_deg(rng));
     const std::int32_t ax = coord(rng), ay = coord(rng);
-    const Teammate m{2, clampE(std::int64_t{ax} + reach(rng) / 4), clampE(std::int64_t{ay} + reach(rng) / 4), 360, 500};
-    ConeFixed c;
-    if (!prepare_cone(ax, ay, m, ha, p, c)) continue;
+    const cone::Teammate m{2, clampE(std::int64_t{ax} + reach(rng) / 4), clampE(std::int64_t{ay} + reach(rng) / 4), 360, 500};
+    cone::ConeFixed c;
+    if (!cone::prepare_cone(ax, ay, m, ha, p, c)) continue;
     // Half the points near L (so that the cone's inside and edges are well sampled), half anywhere.
     std::int32_t x, y;
     if (coin(rng) < 2) {
@@ -317,7 +317,7 @@ Agreement compare_random(std::uint64_t seed, long n, std::int32_t max_reach_mm) 
       y = clampE(std::int64_t{ay} + reach(rng));
     }
     const std::int32_t z = zs(rng);
-    const bool fixed = cone_contains(c, x, y, z);
+    const bool fixed = cone::cone_contains(c, x, y, z);
     if (fixed != cone_contains_exact(c, x, y, z)) ++a.int128_mismatch;
     const ConeReference ref{ax * 1e-3, ay * 1e-3, m.x_mm * 1e-3, m.y_mm * 1e-3, ha,
                             p.range_gate, (m.body_radius_mm + 300) * 1e-3, p.height_gate, (m.height_mm + 100) * 1e-3};

@@ -166,7 +166,7 @@ TEST(OnboardPipeline, OwnCorrectionMovesThePublishedScanAndTheScanSaysWhichOne) 
 
 TEST(OnboardPipeline, DirectionFilterUsesTheCorrectedOwnPositionAgainstCorrectedTeammates) {
   // The robot stands at odometry-map (1, 0) facing +y; the station's correction shifts its odometry by
-  // 1.5 m along −x: corrected, it stands at (−0.5, 0). Teammate 2 (corrected, as every position in
+  // 1.5 m along −x: corrected, it stands at (−0.5, 0). cone::Teammate 2 (corrected, as every position in
   // teamscan/team) stands 6 m straight ahead of the corrected robot at (−0.5, 6).
   const OdomCorrection shift{-1500, 0, 0, 1};
   for (const bool corrected : {true, false}) {
