@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/units.hpp"
+
 namespace teamscan::station {
 
 LiveMap::LiveMap(double resolution_m) : resolution_m_{resolution_m}, inverse_resolution_{1.0 / resolution_m} {}
@@ -51,9 +53,9 @@ void LiveMap::add_keyed(std::uint64_t key, bool removed, std::uint8_t robot) {
 teamscan_msg_MapVoxel LiveMap::message(std::uint64_t key, const Cell& c) const {
   const mapping::VoxelKey k = mapping::VoxelMap::unpack(key);
   teamscan_msg_MapVoxel v{};
-  v.x_mm = static_cast<std::int32_t>(std::lround((k.x + 0.5) * resolution_m_ * 1000.0));
-  v.y_mm = static_cast<std::int32_t>(std::lround((k.y + 0.5) * resolution_m_ * 1000.0));
-  v.z_mm = static_cast<std::int32_t>(std::lround((k.z + 0.5) * resolution_m_ * 1000.0));
+  v.x_mm = to_mm((k.x + 0.5) * resolution_m_);
+  v.y_mm = to_mm((k.y + 0.5) * resolution_m_);
+  v.z_mm = to_mm((k.z + 0.5) * resolution_m_);
   v.hits = static_cast<std::uint16_t>(std::min<std::uint32_t>(c.hits, 0xFFFFu));
   v.flags = c.kept == 0 ? 1 : 0;
   return v;
