@@ -1,7 +1,7 @@
 // The view's wire protocol: voxel messages and JSON state (protocol.hpp).
 #include "groundstation/view/protocol.hpp"
 
-#include <cstdio>
+#include <cmath>
 #include <cstring>
 
 #include <nlohmann/json.hpp>
@@ -24,12 +24,9 @@ std::uint32_t get_u32(const unsigned char* p) {
          (static_cast<std::uint32_t>(p[2]) << 16) | (static_cast<std::uint32_t>(p[3]) << 24);
 }
 
-void append_number(std::string& o, const char* format, double v) {
-  char b[48];
-  const int n = std::snprintf(b, sizeof b, format, v);
-  o.append(b, static_cast<std::size_t>(n));
-}
-void append_u64(std::string& o, std::uint64_t v) { o += std::to_string(v); }
+// A figure for the page, to the given fraction (1e4: 0.1 mm in metres): shorter messages, the same
+// figures the page shows. Not a number stays one (written as null).
+double rounded(double v, double per_unit) { return std::isfinite(v) ? std::round(v * per_unit) / per_unit : v; }
 
 }  // namespace
 
@@ -94,78 +91,48 @@ std::string json_escape(std::string_view s) {
 }
 
 std::string encode_error(std::string_view what) {
-  return "{\"type\":\"error\",\"error\":\"" + json_escape(what) + "\"}";
+  const nlohmann::json j{{"type", "error"}, {"error", std::string{what}}};
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 std::string encode_state(const StateHeader& h, std::span<const RobotView> robots, bool include_tracks) {
-  std::string o;
-  o.reserve(256 + robots.size() * 320);
-  o += "{\"type\":\"state\",\"whole\":";
-  o += h.whole ? "true" : "false";
-  o += ",\"seq\":";
-  append_u64(o, h.seq);
-  o += ",\"stamp_ns\":";
-  o += std::to_string(h.stamp_ns);
-  o += ",\"map_voxels\":";
-  append_u64(o, h.map_voxels);
-  o += ",\"map_release\":";
-  append_u64(o, h.map_release);
-  o += ",\"resolution_m\":";
-  append_number(o, "%.3f", h.map_resolution_mm * 1e-3);
-  o += ",\"robots\":[";
-  bool first = true;
+  nlohmann::json rs = nlohmann::json::array();
   for (const RobotView& r : robots) {
     const RobotState& s = r.state;
-    if (!first) o.push_back(',');
-    first = false;
-    o += "{\"id\":";
-    append_u64(o, s.robot_id);
-    o += ",\"lost\":";
-    o += s.lost ? "true" : "false";
-    o += ",\"x_m\":";
-    append_number(o, "%.4f", s.x_m);
-    o += ",\"y_m\":";
-    append_number(o, "%.4f", s.y_m);
-    o += ",\"yaw_rad\":";
-    append_number(o, "%.4f", s.yaw_rad);
-    o += ",\"cov_xx_m2\":";
-    append_number(o, "%.6g", s.cov_xx_m2);
-    o += ",\"cov_xy_m2\":";
-    append_number(o, "%.6g", s.cov_xy_m2);
-    o += ",\"cov_yy_m2\":";
-    append_number(o, "%.6g", s.cov_yy_m2);
-    o += ",\"scans\":";
-    append_u64(o, s.scans);
-    o += ",\"scan_rate_hz\":";
-    append_number(o, "%.1f", r.scan_rate_hz);
-    o += ",\"scans_lost\":";
-    append_u64(o, s.scans_lost);
-    o += ",\"latency_ms\":";
-    append_number(o, "%.1f", s.latency_ms);
-    o += ",\"ghosts_removed\":";
-    append_u64(o, s.ghosts_removed);
-    o += ",\"shadow_s\":";
-    append_number(o, "%.1f", s.shadow_s);
-    o += ",\"scans_buffered\":";
-    append_u64(o, s.scans_buffered);
-    o += ",\"backfill_pct\":";
-    append_number(o, "%.1f", s.backfill_pct);
-    o += ",\"last_shadow_s\":";
-    append_number(o, "%.1f", s.last_shadow_s);
-    o += ",\"whole_again_ns\":";
-    o += std::to_string(s.whole_again_ns);
+    nlohmann::json o{{"id", s.robot_id},
+                     {"lost", s.lost},
+                     {"x_m", rounded(s.x_m, 1e4)},
+                     {"y_m", rounded(s.y_m, 1e4)},
+                     {"yaw_rad", rounded(s.yaw_rad, 1e4)},
+                     {"cov_xx_m2", s.cov_xx_m2},
+                     {"cov_xy_m2", s.cov_xy_m2},
+                     {"cov_yy_m2", s.cov_yy_m2},
+                     {"scans", s.scans},
+                     {"scan_rate_hz", rounded(r.scan_rate_hz, 10)},
+                     {"scans_lost", s.scans_lost},
+                     {"latency_ms", rounded(s.latency_ms, 10)},
+                     {"ghosts_removed", s.ghosts_removed},
+                     {"shadow_s", rounded(s.shadow_s, 10)},
+                     {"scans_buffered", s.scans_buffered},
+                     {"backfill_pct", rounded(s.backfill_pct, 10)},
+                     {"last_shadow_s", rounded(s.last_shadow_s, 10)},
+                     {"whole_again_ns", s.whole_again_ns}};
     if (include_tracks) {
-      o += r.track_whole ? ",\"track\":[" : ",\"track_add\":[";
-      for (std::size_t i = 0; i < r.track_xy.size(); ++i) {
-        if (i) o.push_back(',');
-        append_number(o, "%.3f", static_cast<double>(r.track_xy[i]));
-      }
-      o.push_back(']');
+      nlohmann::json track = nlohmann::json::array();
+      for (const float v : r.track_xy) track.push_back(rounded(static_cast<double>(v), 1e3));
+      o[r.track_whole ? "track" : "track_add"] = std::move(track);
     }
-    o.push_back('}');
+    rs.push_back(std::move(o));
   }
-  o += "]}";
-  return o;
+  const nlohmann::json j{{"type", "state"},
+                         {"whole", h.whole},
+                         {"seq", h.seq},
+                         {"stamp_ns", h.stamp_ns},
+                         {"map_voxels", h.map_voxels},
+                         {"map_release", h.map_release},
+                         {"resolution_m", rounded(h.map_resolution_mm * 1e-3, 1e3)},
+                         {"robots", std::move(rs)}};
+  return j.dump();  // a value that is not a number (a NaN latency) is written as null
 }
 
 }  // namespace teamscan::view

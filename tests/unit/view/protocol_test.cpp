@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <nlohmann/json.hpp>
 
 namespace teamscan::view {
@@ -130,6 +132,17 @@ TEST(ViewProtocol, StateIsJsonWithEveryRobotField) {
   const nlohmann::json none = nlohmann::json::parse(encode_state(h, std::span<const RobotView>(&r, 1), false));
   EXPECT_FALSE(none["robots"][0].contains("track"));
   EXPECT_FALSE(none["robots"][0].contains("track_add"));
+}
+
+TEST(ViewProtocol, AFigureThatIsNotANumberIsNullAndTheMessageStillParses) {
+  RobotView r;
+  r.state.robot_id = 2;
+  r.state.latency_ms = std::numeric_limits<double>::quiet_NaN();
+  r.state.x_m = 1.23456;
+  StateHeader h;
+  const nlohmann::json j = nlohmann::json::parse(encode_state(h, std::span<const RobotView>(&r, 1), false));
+  EXPECT_TRUE(j["robots"][0]["latency_ms"].is_null());
+  EXPECT_DOUBLE_EQ(j["robots"][0]["x_m"].get<double>(), 1.2346);  // to 0.1 mm
 }
 
 TEST(ViewProtocol, ErrorMessagesAreEscapedJson) {
