@@ -13,22 +13,38 @@ namespace {
 using GridAdapter = ceres::Grid2D<float, 1>;
 using Interpolator = ceres::BiCubicInterpolator<GridAdapter>;
 
-// 1 − the interpolated grid value at each point moved by the pose: zero on a return.
-struct OccupiedCost {
+// 1 − the interpolated grid value at each point moved by the pose: zero on a return. The Jacobian is
+// the interpolator's gradient chained through the rigid motion (what automatic differentiation would
+// compute, without carrying dual numbers through every spline).
+class OccupiedCost final : public ceres::CostFunction {
+ public:
   OccupiedCost(const Interpolator& interpolator, const std::vector<Vec2>& points, double weight, double inv_resolution)
-      : interpolator_(interpolator), points_(points), weight_(weight), inv_resolution_(inv_resolution) {}
-  template <typename T>
-  bool operator()(const T* const pose, T* residual) const {
-    const T c = ceres::cos(pose[2]), s = ceres::sin(pose[2]);
+      : interpolator_(interpolator), points_(points), weight_(weight), inv_resolution_(inv_resolution) {
+    set_num_residuals(static_cast<int>(points.size()));
+    mutable_parameter_block_sizes()->push_back(3);
+  }
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const double* pose = parameters[0];
+    const double c = std::cos(pose[2]), s = std::sin(pose[2]);
+    double* jacobian = jacobians != nullptr ? jacobians[0] : nullptr;
     for (std::size_t i = 0; i < points_.size(); ++i) {
-      const T x = pose[0] + c * points_[i].x - s * points_[i].y;
-      const T y = pose[1] + s * points_[i].x + c * points_[i].y;
-      T v;
-      interpolator_.Evaluate(y * inv_resolution_, x * inv_resolution_, &v);
-      residual[i] = weight_ * (1.0 - v);
+      const double rx = c * points_[i].x - s * points_[i].y, ry = s * points_[i].x + c * points_[i].y;
+      const double x = pose[0] + rx, y = pose[1] + ry;
+      double v = 0, dv_drow = 0, dv_dcol = 0;
+      interpolator_.Evaluate(y * inv_resolution_, x * inv_resolution_, &v, &dv_drow, &dv_dcol);
+      residuals[i] = weight_ * (1.0 - v);
+      if (jacobian != nullptr) {
+        const double gx = -weight_ * inv_resolution_ * dv_dcol, gy = -weight_ * inv_resolution_ * dv_drow;
+        double* row = jacobian + 3 * i;
+        row[0] = gx;
+        row[1] = gy;
+        row[2] = gx * -ry + gy * rx;  // d(x, y)/dθ = (−ry, rx)
+      }
     }
     return true;
   }
+
+ private:
   const Interpolator& interpolator_;
   const std::vector<Vec2>& points_;
   double weight_, inv_resolution_;
@@ -59,9 +75,7 @@ Pose2 refine_pose(const Grid& grid, const std::vector<Vec2>& points, const Pose2
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem problem(po);
   const double w = options.occupied_weight / std::sqrt(static_cast<double>(points.size()));
-  auto* occupied = new ceres::AutoDiffCostFunction<OccupiedCost, ceres::DYNAMIC, 3>(
-      new OccupiedCost(interpolator, points, w, 1.0 / grid.resolution_m()), static_cast<int>(points.size()));
-  problem.AddResidualBlock(occupied, nullptr, pose);
+  problem.AddResidualBlock(new OccupiedCost(interpolator, points, w, 1.0 / grid.resolution_m()), nullptr, pose);
   problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, 3, 3>(
                                new PriorCost(guess, options.translation_weight, options.rotation_weight)),
                            nullptr, pose);
