@@ -2,7 +2,6 @@
 #include "groundstation/posegraph/matching.hpp"
 
 #include <ceres/ceres.h>
-#include <ceres/cubic_interpolation.h>
 
 #include <algorithm>
 #include <cmath>
@@ -10,8 +9,47 @@
 namespace teamscan::posegraph {
 namespace {
 
-using GridAdapter = ceres::Grid2D<float, 1>;
-using Interpolator = ceres::BiCubicInterpolator<GridAdapter>;
+// The cubic Hermite (Catmull-Rom) spline through p[0..3] at x ∈ [0, 1] between p[1] and p[2], and its
+// derivative (as ceres::CubicHermiteSpline).
+inline void hermite(const double p[4], double x, double* f, double* dfdx) {
+  const double a = 0.5 * (-p[0] + 3.0 * p[1] - 3.0 * p[2] + p[3]);
+  const double b = 0.5 * (2.0 * p[0] - 5.0 * p[1] + 4.0 * p[2] - p[3]);
+  const double c = 0.5 * (-p[0] + p[2]);
+  *f = p[1] + x * (c + x * (b + x * a));
+  if (dfdx != nullptr) *dfdx = c + x * (2.0 * b + 3.0 * a * x);
+}
+
+// Bicubic interpolation of the grid at continuous cell coordinates (row = y, column = x), cells beyond
+// the box taking the nearest border cell's value: ceres::BiCubicInterpolator over ceres::Grid2D, with
+// the 4 × 4 neighbourhood read directly where it lies inside the box.
+class Interpolator {
+ public:
+  explicit Interpolator(const Grid& grid) : values_(grid.values().data()), box_(grid.box()) {}
+  void Evaluate(double r, double c, double* f, double* dfdr = nullptr, double* dfdc = nullptr) const {
+    const int row = static_cast<int>(std::floor(r)), col = static_cast<int>(std::floor(c));
+    double p[4][4];
+    const int y = row - 1 - box_.y0, x = col - 1 - box_.x0;
+    if (y >= 0 && x >= 0 && y + 3 < box_.height && x + 3 < box_.width) {
+      const float* at = values_ + static_cast<std::ptrdiff_t>(y) * box_.width + x;
+      for (int i = 0; i < 4; ++i, at += box_.width)
+        for (int j = 0; j < 4; ++j) p[i][j] = static_cast<double>(at[j]);
+    } else {
+      for (int i = 0; i < 4; ++i) {
+        const int yi = std::clamp(y + i, 0, box_.height - 1);
+        for (int j = 0; j < 4; ++j)
+          p[i][j] = static_cast<double>(values_[static_cast<std::ptrdiff_t>(yi) * box_.width + std::clamp(x + j, 0, box_.width - 1)]);
+      }
+    }
+    double rows[4], drows_dc[4];
+    for (int i = 0; i < 4; ++i) hermite(p[i], c - col, &rows[i], &drows_dc[i]);
+    hermite(rows, r - row, f, dfdr);
+    if (dfdc != nullptr) hermite(drows_dc, r - row, dfdc, nullptr);
+  }
+
+ private:
+  const float* values_;
+  CellBox box_;
+};
 
 // 1 − the interpolated grid value at each point moved by the pose: zero on a return. The Jacobian is
 // the interpolator's gradient chained through the rigid motion (what automatic differentiation would
@@ -67,9 +105,7 @@ struct PriorCost {
 
 Pose2 refine_pose(const Grid& grid, const std::vector<Vec2>& points, const Pose2& guess, const RefineOptions& options) {
   if (grid.empty() || points.empty()) return guess;
-  const CellBox& b = grid.box();
-  const GridAdapter adapter(grid.values().data(), b.y0, b.y0 + b.height, b.x0, b.x0 + b.width);
-  const Interpolator interpolator(adapter);
+  const Interpolator interpolator(grid);
   double pose[3] = {guess.x_m, guess.y_m, guess.theta_rad};
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
@@ -92,9 +128,7 @@ Pose2 refine_pose(const Grid& grid, const std::vector<Vec2>& points, const Pose2
 TranslationAxes translation_axes(const Grid& grid, const std::vector<Vec2>& points, const Pose2& pose) {
   TranslationAxes axes;
   if (grid.empty() || points.empty()) return axes;
-  const CellBox& b = grid.box();
-  const GridAdapter adapter(grid.values().data(), b.y0, b.y0 + b.height, b.x0, b.x0 + b.width);
-  const Interpolator interpolator(adapter);
+  const Interpolator interpolator(grid);
   const double inv = 1.0 / grid.resolution_m();
   // At the match the points sit on the grid's ridges, where its gradient vanishes: the information is
   // taken from the gradients a small displacement (one cell, either way in x and in y) would meet,

@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "common/pose.hpp"
@@ -57,6 +58,9 @@ struct SlamOptions {
   int rematch_every_n_nodes = 3;
   int rematch_rounds = 1;
   SearchWindow rematch_window{0.3, 0.05, 0.01};
+  // Threads for the loop-closure searches and refinements (the caller's among them). Their results
+  // join the graph in a fixed order, so the poses are the same to the bit whatever this is.
+  int threads = 2;
   GraphOptions graph;
 };
 
@@ -91,7 +95,8 @@ class PlanarSlam {
   void insert(Robot& r, std::size_t node, const Pose2& local, const std::vector<Vec2>& points);
   void close_loops(Robot& r, std::size_t node, const std::vector<Vec2>& points);
   void after_optimization();
-  [[nodiscard]] bool add_closure(std::size_t submap, std::size_t node, const std::vector<Vec2>& points, const Pose2& start);
+  [[nodiscard]] std::optional<Constraint> make_closure(std::size_t submap, std::size_t node, const std::vector<Vec2>& points,
+                                                      const Pose2& start) const;
   void rematch();
 
   SlamOptions options_;

@@ -65,6 +65,7 @@ SlamOptions options_from_env() {
       {"rematch_submaps", &o.rematch_submaps},
       {"rematch_every_n_nodes", &o.rematch_every_n_nodes},
       {"rematch_rounds", &o.rematch_rounds},
+      {"threads", &o.threads},
       {"graph.max_iterations", &o.graph.max_iterations},
       {"graph.final_max_iterations", &o.graph.final_max_iterations},
   };
