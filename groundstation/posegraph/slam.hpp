@@ -5,7 +5,8 @@
 // correlative search around the current estimate against every finished submap near it, of this robot
 // or another; it is optimised every thousand nodes; at the end the kept nodes are searched again from
 // their optimised poses against the finished submaps near them (any time), then optimised a last time.
-// Deterministic: one thread, the scans in the order given give the same poses.
+// Deterministic: the closure searches run on several threads, but their closures join the graph in a
+// fixed order, so the scans in the order given give the same poses to the bit, whatever the threads did.
 #pragma once
 
 #include <cstdint>
