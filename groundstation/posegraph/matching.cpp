@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace teamscan::posegraph {
 namespace {
@@ -209,14 +210,20 @@ CorrelativeMatcher::CorrelativeMatcher(const Grid& grid, int depth, int pool) : 
   }
 }
 
-float CorrelativeMatcher::score(const Level& level, const std::vector<std::array<int, 2>>& scan, int dx, int dy) const {
+float CorrelativeMatcher::score(const Level& level, const RotatedScan& scan, int dx, int dy) const {
+  if (scan.cells.empty()) return 0.0f;
   int sum = 0;
-  for (const auto& c : scan) sum += level.at(c[0] + dx, c[1] + dy);
-  return scan.empty() ? 0.0f : static_cast<float>(sum) / (255.0f * static_cast<float>(scan.size()));
+  if (scan.x_min + dx >= 0 && scan.y_min + dy >= 0 && scan.x_max + dx < level.width && scan.y_max + dy < level.height) {
+    const std::uint8_t* at = level.values.data() + static_cast<std::ptrdiff_t>(dy) * level.width + dx;
+    for (const std::ptrdiff_t i : scan.index) sum += at[i];
+  } else {
+    for (const auto& c : scan.cells) sum += level.at(c[0] + dx, c[1] + dy);
+  }
+  return static_cast<float>(sum) / (255.0f * static_cast<float>(scan.cells.size()));
 }
 
-void CorrelativeMatcher::branch(const std::vector<std::vector<std::array<int, 2>>>& scans, std::vector<Candidate>& candidates, int depth,
-                                int max_x, int max_y, float& best_score, Candidate& best) const {
+void CorrelativeMatcher::branch(const std::vector<RotatedScan>& scans, std::vector<Candidate>& candidates, int depth, int max_x, int max_y,
+                                float& best_score, Candidate& best) const {
   std::stable_sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
   for (const Candidate& c : candidates) {
     if (c.score <= best_score) break;  // sorted: no later candidate can beat the best either
@@ -255,19 +262,28 @@ SearchResult CorrelativeMatcher::search(const std::vector<Vec2>& points, const P
   const Level& base = levels_.front();
   const double inv = 1.0 / resolution_m_;
   // Each rotation's points as level cells with the guess's translation and the window's low corner.
-  std::vector<std::vector<std::array<int, 2>>> scans;
+  std::vector<RotatedScan> scans;
   std::vector<double> angles;
   for (int k = -n_angles; k <= n_angles; ++k) {
     const double a = guess.theta_rad + k * step;
     const Pose2 pose{guess.x_m, guess.y_m, a};
-    std::vector<std::array<int, 2>> cells;
-    cells.reserve(points.size());
+    RotatedScan scan;
+    scan.cells.reserve(points.size());
+    scan.index.reserve(points.size());
+    scan.x_min = scan.y_min = std::numeric_limits<int>::max();
+    scan.x_max = scan.y_max = std::numeric_limits<int>::min();
     for (const Vec2& p : points) {
       const Vec2 q = pose.apply(p);
-      cells.push_back({static_cast<int>(std::lround(q.x * inv)) - box_.x0 + base.pad - linear,
-                       static_cast<int>(std::lround(q.y * inv)) - box_.y0 + base.pad - linear});
+      const int x = static_cast<int>(std::lround(q.x * inv)) - box_.x0 + base.pad - linear;
+      const int y = static_cast<int>(std::lround(q.y * inv)) - box_.y0 + base.pad - linear;
+      scan.cells.push_back({x, y});
+      scan.index.push_back(static_cast<std::ptrdiff_t>(y) * base.width + x);
+      scan.x_min = std::min(scan.x_min, x);
+      scan.y_min = std::min(scan.y_min, y);
+      scan.x_max = std::max(scan.x_max, x);
+      scan.y_max = std::max(scan.y_max, y);
     }
-    scans.push_back(std::move(cells));
+    scans.push_back(std::move(scan));
     angles.push_back(a);
   }
   const int depth = static_cast<int>(levels_.size()) - 1;
