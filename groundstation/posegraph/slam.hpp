@@ -23,7 +23,7 @@ namespace teamscan::posegraph {
 
 struct SlamOptions {
   double resolution_m = 0.03;
-  double hit_sigma_m = 0.03;
+  double hit_sigma_m = 0.025;
   double min_range_m = 0.1;
   double max_range_m = 12.0;        // returns beyond are not inserted (and not matched): bounds a submap's grid
   int scans_per_submap = 35;        // a submap is finished after 2× this many scans
