@@ -55,7 +55,7 @@ struct SlamOptions {
   // window the optimisation has made small; then the last optimisation. 0: no second search.
   // `rematch_every_n_nodes`: which nodes (their returns are kept until the end); `rematch_rounds`:
   // optimisation and search repeated, each from the last one's estimate.
-  int rematch_submaps = 20;
+  int rematch_submaps = 10;
   int rematch_every_n_nodes = 3;
   int rematch_rounds = 1;
   SearchWindow rematch_window{0.3, 0.05, 0.01};
