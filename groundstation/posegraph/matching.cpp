@@ -2,33 +2,88 @@
 #include "groundstation/posegraph/matching.hpp"
 
 #include <ceres/ceres.h>
-#include <ceres/cubic_interpolation.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace teamscan::posegraph {
 namespace {
 
-using GridAdapter = ceres::Grid2D<float, 1>;
-using Interpolator = ceres::BiCubicInterpolator<GridAdapter>;
+// The cubic Hermite (Catmull-Rom) spline through p[0..3] at x ∈ [0, 1] between p[1] and p[2], and its
+// derivative (as ceres::CubicHermiteSpline).
+inline void hermite(const double p[4], double x, double* f, double* dfdx) {
+  const double a = 0.5 * (-p[0] + 3.0 * p[1] - 3.0 * p[2] + p[3]);
+  const double b = 0.5 * (2.0 * p[0] - 5.0 * p[1] + 4.0 * p[2] - p[3]);
+  const double c = 0.5 * (-p[0] + p[2]);
+  *f = p[1] + x * (c + x * (b + x * a));
+  if (dfdx != nullptr) *dfdx = c + x * (2.0 * b + 3.0 * a * x);
+}
 
-// 1 − the interpolated grid value at each point moved by the pose: zero on a return.
-struct OccupiedCost {
+// Bicubic interpolation of the grid at continuous cell coordinates (row = y, column = x), cells beyond
+// the box taking the nearest border cell's value: ceres::BiCubicInterpolator over ceres::Grid2D, with
+// the 4 × 4 neighbourhood read directly where it lies inside the box.
+class Interpolator {
+ public:
+  explicit Interpolator(const Grid& grid) : values_(grid.values().data()), box_(grid.box()) {}
+  void Evaluate(double r, double c, double* f, double* dfdr = nullptr, double* dfdc = nullptr) const {
+    const int row = static_cast<int>(std::floor(r)), col = static_cast<int>(std::floor(c));
+    double p[4][4];
+    const int y = row - 1 - box_.y0, x = col - 1 - box_.x0;
+    if (y >= 0 && x >= 0 && y + 3 < box_.height && x + 3 < box_.width) {
+      const float* at = values_ + static_cast<std::ptrdiff_t>(y) * box_.width + x;
+      for (int i = 0; i < 4; ++i, at += box_.width)
+        for (int j = 0; j < 4; ++j) p[i][j] = static_cast<double>(at[j]);
+    } else {
+      for (int i = 0; i < 4; ++i) {
+        const int yi = std::clamp(y + i, 0, box_.height - 1);
+        for (int j = 0; j < 4; ++j)
+          p[i][j] = static_cast<double>(values_[static_cast<std::ptrdiff_t>(yi) * box_.width + std::clamp(x + j, 0, box_.width - 1)]);
+      }
+    }
+    double rows[4], drows_dc[4];
+    for (int i = 0; i < 4; ++i) hermite(p[i], c - col, &rows[i], &drows_dc[i]);
+    hermite(rows, r - row, f, dfdr);
+    if (dfdc != nullptr) hermite(drows_dc, r - row, dfdc, nullptr);
+  }
+
+ private:
+  const float* values_;
+  CellBox box_;
+};
+
+// 1 − the interpolated grid value at each point moved by the pose: zero on a return. The Jacobian is
+// the interpolator's gradient chained through the rigid motion (what automatic differentiation would
+// compute, without carrying dual numbers through every spline).
+class OccupiedCost final : public ceres::CostFunction {
+ public:
   OccupiedCost(const Interpolator& interpolator, const std::vector<Vec2>& points, double weight, double inv_resolution)
-      : interpolator_(interpolator), points_(points), weight_(weight), inv_resolution_(inv_resolution) {}
-  template <typename T>
-  bool operator()(const T* const pose, T* residual) const {
-    const T c = ceres::cos(pose[2]), s = ceres::sin(pose[2]);
+      : interpolator_(interpolator), points_(points), weight_(weight), inv_resolution_(inv_resolution) {
+    set_num_residuals(static_cast<int>(points.size()));
+    mutable_parameter_block_sizes()->push_back(3);
+  }
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const double* pose = parameters[0];
+    const double c = std::cos(pose[2]), s = std::sin(pose[2]);
+    double* jacobian = jacobians != nullptr ? jacobians[0] : nullptr;
     for (std::size_t i = 0; i < points_.size(); ++i) {
-      const T x = pose[0] + c * points_[i].x - s * points_[i].y;
-      const T y = pose[1] + s * points_[i].x + c * points_[i].y;
-      T v;
-      interpolator_.Evaluate(y * inv_resolution_, x * inv_resolution_, &v);
-      residual[i] = weight_ * (1.0 - v);
+      const double rx = c * points_[i].x - s * points_[i].y, ry = s * points_[i].x + c * points_[i].y;
+      const double x = pose[0] + rx, y = pose[1] + ry;
+      double v = 0, dv_drow = 0, dv_dcol = 0;
+      interpolator_.Evaluate(y * inv_resolution_, x * inv_resolution_, &v, &dv_drow, &dv_dcol);
+      residuals[i] = weight_ * (1.0 - v);
+      if (jacobian != nullptr) {
+        const double gx = -weight_ * inv_resolution_ * dv_dcol, gy = -weight_ * inv_resolution_ * dv_drow;
+        double* row = jacobian + 3 * i;
+        row[0] = gx;
+        row[1] = gy;
+        row[2] = gx * -ry + gy * rx;  // d(x, y)/dθ = (−ry, rx)
+      }
     }
     return true;
   }
+
+ private:
   const Interpolator& interpolator_;
   const std::vector<Vec2>& points_;
   double weight_, inv_resolution_;
@@ -51,17 +106,13 @@ struct PriorCost {
 
 Pose2 refine_pose(const Grid& grid, const std::vector<Vec2>& points, const Pose2& guess, const RefineOptions& options) {
   if (grid.empty() || points.empty()) return guess;
-  const CellBox& b = grid.box();
-  const GridAdapter adapter(grid.values().data(), b.y0, b.y0 + b.height, b.x0, b.x0 + b.width);
-  const Interpolator interpolator(adapter);
+  const Interpolator interpolator(grid);
   double pose[3] = {guess.x_m, guess.y_m, guess.theta_rad};
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem problem(po);
   const double w = options.occupied_weight / std::sqrt(static_cast<double>(points.size()));
-  auto* occupied = new ceres::AutoDiffCostFunction<OccupiedCost, ceres::DYNAMIC, 3>(
-      new OccupiedCost(interpolator, points, w, 1.0 / grid.resolution_m()), static_cast<int>(points.size()));
-  problem.AddResidualBlock(occupied, nullptr, pose);
+  problem.AddResidualBlock(new OccupiedCost(interpolator, points, w, 1.0 / grid.resolution_m()), nullptr, pose);
   problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, 3, 3>(
                                new PriorCost(guess, options.translation_weight, options.rotation_weight)),
                            nullptr, pose);
@@ -78,9 +129,7 @@ Pose2 refine_pose(const Grid& grid, const std::vector<Vec2>& points, const Pose2
 TranslationAxes translation_axes(const Grid& grid, const std::vector<Vec2>& points, const Pose2& pose) {
   TranslationAxes axes;
   if (grid.empty() || points.empty()) return axes;
-  const CellBox& b = grid.box();
-  const GridAdapter adapter(grid.values().data(), b.y0, b.y0 + b.height, b.x0, b.x0 + b.width);
-  const Interpolator interpolator(adapter);
+  const Interpolator interpolator(grid);
   const double inv = 1.0 / grid.resolution_m();
   // At the match the points sit on the grid's ridges, where its gradient vanishes: the information is
   // taken from the gradients a small displacement (one cell, either way in x and in y) would meet,
@@ -161,14 +210,20 @@ CorrelativeMatcher::CorrelativeMatcher(const Grid& grid, int depth, int pool) : 
   }
 }
 
-float CorrelativeMatcher::score(const Level& level, const std::vector<std::array<int, 2>>& scan, int dx, int dy) const {
+float CorrelativeMatcher::score(const Level& level, const RotatedScan& scan, int dx, int dy) const {
+  if (scan.cells.empty()) return 0.0f;
   int sum = 0;
-  for (const auto& c : scan) sum += level.at(c[0] + dx, c[1] + dy);
-  return scan.empty() ? 0.0f : static_cast<float>(sum) / (255.0f * static_cast<float>(scan.size()));
+  if (scan.x_min + dx >= 0 && scan.y_min + dy >= 0 && scan.x_max + dx < level.width && scan.y_max + dy < level.height) {
+    const std::uint8_t* at = level.values.data() + static_cast<std::ptrdiff_t>(dy) * level.width + dx;
+    for (const std::ptrdiff_t i : scan.index) sum += at[i];
+  } else {
+    for (const auto& c : scan.cells) sum += level.at(c[0] + dx, c[1] + dy);
+  }
+  return static_cast<float>(sum) / (255.0f * static_cast<float>(scan.cells.size()));
 }
 
-void CorrelativeMatcher::branch(const std::vector<std::vector<std::array<int, 2>>>& scans, std::vector<Candidate>& candidates, int depth,
-                                int max_x, int max_y, float& best_score, Candidate& best) const {
+void CorrelativeMatcher::branch(const std::vector<RotatedScan>& scans, std::vector<Candidate>& candidates, int depth, int max_x, int max_y,
+                                float& best_score, Candidate& best) const {
   std::stable_sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
   for (const Candidate& c : candidates) {
     if (c.score <= best_score) break;  // sorted: no later candidate can beat the best either
@@ -207,19 +262,28 @@ SearchResult CorrelativeMatcher::search(const std::vector<Vec2>& points, const P
   const Level& base = levels_.front();
   const double inv = 1.0 / resolution_m_;
   // Each rotation's points as level cells with the guess's translation and the window's low corner.
-  std::vector<std::vector<std::array<int, 2>>> scans;
+  std::vector<RotatedScan> scans;
   std::vector<double> angles;
   for (int k = -n_angles; k <= n_angles; ++k) {
     const double a = guess.theta_rad + k * step;
     const Pose2 pose{guess.x_m, guess.y_m, a};
-    std::vector<std::array<int, 2>> cells;
-    cells.reserve(points.size());
+    RotatedScan scan;
+    scan.cells.reserve(points.size());
+    scan.index.reserve(points.size());
+    scan.x_min = scan.y_min = std::numeric_limits<int>::max();
+    scan.x_max = scan.y_max = std::numeric_limits<int>::min();
     for (const Vec2& p : points) {
       const Vec2 q = pose.apply(p);
-      cells.push_back({static_cast<int>(std::lround(q.x * inv)) - box_.x0 + base.pad - linear,
-                       static_cast<int>(std::lround(q.y * inv)) - box_.y0 + base.pad - linear});
+      const int x = static_cast<int>(std::lround(q.x * inv)) - box_.x0 + base.pad - linear;
+      const int y = static_cast<int>(std::lround(q.y * inv)) - box_.y0 + base.pad - linear;
+      scan.cells.push_back({x, y});
+      scan.index.push_back(static_cast<std::ptrdiff_t>(y) * base.width + x);
+      scan.x_min = std::min(scan.x_min, x);
+      scan.y_min = std::min(scan.y_min, y);
+      scan.x_max = std::max(scan.x_max, x);
+      scan.y_max = std::max(scan.y_max, y);
     }
-    scans.push_back(std::move(cells));
+    scans.push_back(std::move(scan));
     angles.push_back(a);
   }
   const int depth = static_cast<int>(levels_.size()) - 1;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -74,9 +75,16 @@ class CorrelativeMatcher {
     }
   };
   struct Candidate;
-  void branch(const std::vector<std::vector<std::array<int, 2>>>& scans, std::vector<Candidate>& candidates, int depth, int max_x,
-              int max_y, float& best_score, Candidate& best) const;
-  [[nodiscard]] float score(const Level& level, const std::vector<std::array<int, 2>>& scan, int dx, int dy) const;
+  // A rotation's points as level cells (every level has the same width and height), their bounding
+  // box, and their row-major indices: where the box stays inside the level, a score reads no bounds.
+  struct RotatedScan {
+    std::vector<std::array<int, 2>> cells;
+    std::vector<std::ptrdiff_t> index;
+    int x_min = 0, y_min = 0, x_max = -1, y_max = -1;
+  };
+  void branch(const std::vector<RotatedScan>& scans, std::vector<Candidate>& candidates, int depth, int max_x, int max_y,
+              float& best_score, Candidate& best) const;
+  [[nodiscard]] float score(const Level& level, const RotatedScan& scan, int dx, int dy) const;
 
   CellBox box_;  // in search cells
   double resolution_m_;  // of a search cell

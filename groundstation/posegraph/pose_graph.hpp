@@ -13,11 +13,13 @@
 namespace teamscan::posegraph {
 
 struct GraphOptions {
-  // Residual weights (per metre, per radian), as Cartographer's 2-D defaults.
+  // Residual weights (per metre, per radian), as Cartographer's 2-D defaults but the odometry's and
+  // local SLAM's: local SLAM's motion between consecutive nodes is held ten times less stiffly, so the
+  // closures of a node (many, after the second search) can correct it.
   double matcher_translation_weight = 5e2, matcher_rotation_weight = 1.6e3;       // inserted scans
   double closure_translation_weight = 1.1e4, closure_rotation_weight = 1e5;      // loop closures
   double odometry_translation_weight = 1e2, odometry_rotation_weight = 1e3;       // consecutive nodes
-  double local_translation_weight = 1e5, local_rotation_weight = 1e5;             // consecutive local SLAM poses
+  double local_translation_weight = 1e4, local_rotation_weight = 1e4;             // consecutive local SLAM poses
   double closure_huber_scale = 1e1;
   int max_iterations = 20;
   int final_max_iterations = 20;  // the last optimisation, over the whole log

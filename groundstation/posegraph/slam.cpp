@@ -2,9 +2,35 @@
 #include "groundstation/posegraph/slam.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <optional>
+#include <thread>
 
 namespace teamscan::posegraph {
+namespace {
+
+// f(0) … f(n − 1) on `threads` threads (the caller's one of them), each index once, in no fixed order:
+// f must write only its own index's result.
+template <typename F>
+void parallel_for(std::size_t n, int threads, const F& f) {
+  const std::size_t extra = std::min(n, static_cast<std::size_t>(std::max(1, threads))) - (n > 0 ? 1 : 0);
+  if (extra == 0) {
+    for (std::size_t i = 0; i < n; ++i) f(i);
+    return;
+  }
+  std::atomic<std::size_t> next{0};
+  const auto work = [&] {
+    for (std::size_t i = next.fetch_add(1); i < n; i = next.fetch_add(1)) f(i);
+  };
+  std::vector<std::thread> pool;
+  pool.reserve(extra);
+  for (std::size_t t = 0; t < extra; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+}
+
+}  // namespace
 
 struct PlanarSlam::Submap {
   Submap(std::uint8_t robot_id, const Pose2& local_pose, const SlamOptions& o)
@@ -126,40 +152,60 @@ void PlanarSlam::close_loops(Robot& r, std::size_t node, const std::vector<Vec2>
   if (near.size() > static_cast<std::size_t>(options_.closure_submaps)) near.resize(static_cast<std::size_t>(options_.closure_submaps));
   const auto recent = static_cast<std::size_t>(std::max(0, options_.closure_track_nodes));
   std::erase_if(r.followed, [&](const Robot::Followed& f) { return node - f.node > recent; });
-  for (const auto& [distance, id] : near) {
-    const Submap& m = *submaps_[id];
-    auto followed = std::find_if(r.followed.begin(), r.followed.end(), [id = id](const Robot::Followed& f) { return f.submap == id; });
+  // Which submaps are followed (a start without a search) is decided first; the searches and
+  // refinements then run in parallel, and their closures join the graph in the order of `near`.
+  struct Job {
+    std::size_t submap = 0;
+    std::size_t followed = 0;  // index in r.followed, or its size: searched
     Pose2 start;
-    if (followed != r.followed.end()) {
-      start = followed->submap_from_node * (node_local_[followed->node].inverse() * node_local_[node]);
+    std::optional<Constraint> closure;
+  };
+  std::vector<Job> jobs;
+  for (const auto& [distance, id] : near) {
+    const auto it = std::find_if(r.followed.begin(), r.followed.end(), [id = id](const Robot::Followed& f) { return f.submap == id; });
+    Job job{id, static_cast<std::size_t>(it - r.followed.begin()), {}, {}};
+    if (it != r.followed.end()) {
+      job.start = it->submap_from_node * (node_local_[it->node].inverse() * node_local_[node]);
       ++tracked_;
     } else {
       ++searches_;
-      const SearchResult found = m.matcher->search(points, graph_.submaps()[id].inverse() * global, options_.closure_window,
-                                                   options_.closure_min_score);
-      if (!found.found) continue;
+    }
+    jobs.push_back(job);
+  }
+  parallel_for(jobs.size(), options_.threads, [&](std::size_t k) {
+    Job& job = jobs[k];
+    Pose2 start = job.start;
+    if (job.followed == r.followed.size()) {
+      const SearchResult found = submaps_[job.submap]->matcher->search(points, graph_.submaps()[job.submap].inverse() * global,
+                                                                      options_.closure_window, options_.closure_min_score);
+      if (!found.found) return;
       start = found.pose;
     }
-    if (!add_closure(id, node, points, start)) continue;
-    const Pose2 refined = graph_.last_constraint().submap_from_node;
-    if (followed != r.followed.end()) *followed = {id, node, refined};
-    else if (recent > 0) r.followed.push_back({id, node, refined});
+    job.closure = make_closure(job.submap, node, points, start);
+  });
+  const std::size_t followed = r.followed.size();
+  for (const Job& job : jobs) {
+    if (!job.closure) continue;
+    graph_.add_constraint(*job.closure);
+    const Pose2 refined = job.closure->submap_from_node;
+    if (job.followed < followed) r.followed[job.followed] = {job.submap, node, refined};
+    else if (recent > 0) r.followed.push_back({job.submap, node, refined});
   }
 }
 
-// Refines `start` (submap_from_node) on the submap's grid and adds it as a closure if it scores.
-bool PlanarSlam::add_closure(std::size_t submap, std::size_t node, const std::vector<Vec2>& points, const Pose2& start) {
+// Refines `start` (submap_from_node) on the submap's grid: the closure, if it scores. Reads only.
+std::optional<Constraint> PlanarSlam::make_closure(std::size_t submap, std::size_t node, const std::vector<Vec2>& points,
+                                                   const Pose2& start) const {
   const Submap& m = *submaps_[submap];
   const Pose2 refined = refine_pose(m.grid, points, start, options_.closure_refine);
-  if (pose_score(m.grid, points, refined) < options_.closure_min_refined_score) return false;
+  if (pose_score(m.grid, points, refined) < options_.closure_min_refined_score) return std::nullopt;
   Constraint closure{submap, node, refined, Constraint::Kind::closure};
   if (options_.closure_weak_axis_floor < 1.0) {
     const TranslationAxes axes = translation_axes(m.grid, points, refined);
     closure.strong_axis_rad = axes.strong_axis_rad;
     closure.weak_axis_factor = std::max(options_.closure_weak_axis_floor, std::sqrt(axes.weak_ratio));
   }
-  graph_.add_constraint(closure);
-  return true;
+  return closure;
 }
 
 void PlanarSlam::rematch() {
@@ -168,12 +214,17 @@ void PlanarSlam::rematch() {
   tied.reserve(graph_.constraints().size());
   for (const Constraint& c : graph_.constraints()) tied.emplace_back(c.node, c.submap);
   std::sort(tied.begin(), tied.end());
-  std::vector<std::pair<double, std::size_t>> near;
-  for (std::size_t node = 0; node < node_points_.size(); ++node) {
+  std::vector<std::size_t> kept;  // the nodes whose returns were kept
+  for (std::size_t node = 0; node < node_points_.size(); ++node)
+    if (!node_points_[node].empty()) kept.push_back(node);
+  // Each node's searches read the graph and the submaps only: in parallel, each node's closures in
+  // its own slot, joined to the graph in node order afterwards (the same graph whatever the threads did).
+  std::vector<std::vector<Constraint>> found(kept.size());
+  parallel_for(kept.size(), options_.threads, [&](std::size_t k) {
+    const std::size_t node = kept[k];
     const std::vector<Vec2>& points = node_points_[node];
-    if (points.empty()) continue;
     const Pose2& global = graph_.nodes()[node];
-    near.clear();
+    std::vector<std::pair<double, std::size_t>> near;
     for (std::size_t i = 0; i < submaps_.size(); ++i) {
       if (!submaps_[i]->matcher || std::binary_search(tied.begin(), tied.end(), std::pair{node, i})) continue;
       const Pose2& s = graph_.submaps()[i];
@@ -183,11 +234,17 @@ void PlanarSlam::rematch() {
     std::sort(near.begin(), near.end());
     if (near.size() > static_cast<std::size_t>(options_.rematch_submaps)) near.resize(static_cast<std::size_t>(options_.rematch_submaps));
     for (const auto& [distance, id] : near) {
-      const SearchResult found = submaps_[id]->matcher->search(points, graph_.submaps()[id].inverse() * global, options_.rematch_window,
-                                                               options_.closure_min_score);
-      if (found.found && add_closure(id, node, points, found.pose)) ++rematches_;
+      const SearchResult result = submaps_[id]->matcher->search(points, graph_.submaps()[id].inverse() * global, options_.rematch_window,
+                                                                options_.closure_min_score);
+      if (!result.found) continue;
+      if (std::optional<Constraint> closure = make_closure(id, node, points, result.pose)) found[k].push_back(*closure);
     }
-  }
+  });
+  for (const std::vector<Constraint>& closures : found)
+    for (const Constraint& c : closures) {
+      graph_.add_constraint(c);
+      ++rematches_;
+    }
 }
 
 void PlanarSlam::after_optimization() {

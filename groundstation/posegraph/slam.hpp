@@ -5,11 +5,13 @@
 // correlative search around the current estimate against every finished submap near it, of this robot
 // or another; it is optimised every thousand nodes; at the end the kept nodes are searched again from
 // their optimised poses against the finished submaps near them (any time), then optimised a last time.
-// Deterministic: one thread, the scans in the order given give the same poses.
+// Deterministic: the closure searches run on several threads, but their closures join the graph in a
+// fixed order, so the scans in the order given give the same poses to the bit, whatever the threads did.
 #pragma once
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "common/pose.hpp"
@@ -21,7 +23,7 @@ namespace teamscan::posegraph {
 
 struct SlamOptions {
   double resolution_m = 0.03;
-  double hit_sigma_m = 0.03;
+  double hit_sigma_m = 0.025;
   double min_range_m = 0.1;
   double max_range_m = 12.0;        // returns beyond are not inserted (and not matched): bounds a submap's grid
   int scans_per_submap = 35;        // a submap is finished after 2× this many scans
@@ -53,10 +55,13 @@ struct SlamOptions {
   // window the optimisation has made small; then the last optimisation. 0: no second search.
   // `rematch_every_n_nodes`: which nodes (their returns are kept until the end); `rematch_rounds`:
   // optimisation and search repeated, each from the last one's estimate.
-  int rematch_submaps = 20;
+  int rematch_submaps = 10;
   int rematch_every_n_nodes = 3;
   int rematch_rounds = 1;
   SearchWindow rematch_window{0.3, 0.05, 0.01};
+  // Threads for the loop-closure searches and refinements (the caller's among them). Their results
+  // join the graph in a fixed order, so the poses are the same to the bit whatever this is.
+  int threads = 2;
   GraphOptions graph;
 };
 
@@ -91,7 +96,8 @@ class PlanarSlam {
   void insert(Robot& r, std::size_t node, const Pose2& local, const std::vector<Vec2>& points);
   void close_loops(Robot& r, std::size_t node, const std::vector<Vec2>& points);
   void after_optimization();
-  [[nodiscard]] bool add_closure(std::size_t submap, std::size_t node, const std::vector<Vec2>& points, const Pose2& start);
+  [[nodiscard]] std::optional<Constraint> make_closure(std::size_t submap, std::size_t node, const std::vector<Vec2>& points,
+                                                      const Pose2& start) const;
   void rematch();
 
   SlamOptions options_;

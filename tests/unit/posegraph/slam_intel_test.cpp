@@ -1,7 +1,8 @@
 // The team SLAM on real data: the first 2 000 scans of the Intel Research Lab log
 // (tests/data/real/intel.clf.xz) through PlanarSlam; the relations (intel.relations) within that part
-// are met better than by odometry alone, a second run gives the same poses to the bit, and the second
-// closure search at the end (rematch) adds closures without making the relations worse.
+// are met better than by odometry alone, a second run gives the same poses to the bit, the number of
+// threads the closure searches run on does not change a bit of them, and the second closure search
+// at the end (rematch) adds closures without making the relations worse.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -53,6 +54,26 @@ TEST(SlamIntel, BetterThanOdometryAndDeterministic) {
   const std::vector<Pose2> b = run(part);
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a[i], b[i]) << i;
+}
+
+TEST(SlamIntel, ThreadsDoNotChangeThePoses) {
+  const Part part = test::intel_log(1200);
+  ASSERT_EQ(part.points.size(), 1200u);
+  SlamOptions one, three;
+  one.threads = 1;
+  three.threads = 3;
+  SlamStats st_one, st_two, st_three;
+  const std::vector<Pose2> a = run(part, one, &st_one), b = run(part, {}, &st_two), c = run(part, three, &st_three);
+  ASSERT_GT(st_one.searches, 0u);
+  ASSERT_GT(st_one.rematches, 0u);
+  EXPECT_EQ(st_two.closures, st_one.closures);
+  EXPECT_EQ(st_three.closures, st_one.closures);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_EQ(a.size(), c.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a[i], b[i]) << i;
+    ASSERT_EQ(a[i], c[i]) << i;
+  }
 }
 
 TEST(SlamIntel, SecondSearchAddsClosuresAndDoesNotWorsen) {
