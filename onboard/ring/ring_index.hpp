@@ -23,6 +23,10 @@ struct RingIndexOptions {
   // Scans newer than this many below the newest are left to the live writer's DDS history, which a
   // returning station receives anyway (dds.scan_history_depth): the back-fill takes the older ones.
   std::uint32_t live_window = 300;
+  // Of those, what a station that comes back after a shadow gets at once from the live writer (its
+  // late-joiner depth, dds/qos.hpp; 0: all live_window): at the return the back-fill takes every scan
+  // below the newest rejoin_window, not only those below live_window.
+  std::uint32_t rejoin_window = 0;
   double backfill_rate_hz = 300.0;   // back-filled scans per second at most (live ones come first)
   std::uint32_t backfill_burst = 8;  // back-filled scans per loop turn at most
   // The station counts as reachable while its confirmations keep arriving: the newest within this.
@@ -122,6 +126,7 @@ class RingIndex {
   Time confirmed_moved_{};    // monotonic: confirmed_seq_ last changed
   std::uint32_t backfill_total_ = 0;
   Duration last_shadow_{0};
+  std::uint32_t rejoin_limit_ = 0;   // at the last return: the newest scan the live writer no longer offers
   std::uint32_t backfill_next_ = 0;  // next seq to back-fill (0: from the confirmed one)
   Time backfill_sent_{};             // monotonic: the last back-filled scan
   double tokens_ = 0.0;

@@ -217,6 +217,39 @@ TEST(RingIndex, BackfillsWhatIsNotConfirmedInOrderAtTheRate) {
   EXPECT_EQ(idx->shadow(now).backfill_remaining, 0u);
 }
 
+TEST(RingIndex, AfterAShadowTheBackfillTakesAllButTheLiveWritersRejoinWindow) {
+  // The live writer offers a returning station only its newest scan (late-joiner depth 1): at the return
+  // the back-fill takes everything below it at once, not only what is below the live window.
+  RingIndexOptions o = index_options(64);
+  o.live_window = 10;
+  o.rejoin_window = 1;
+  auto idx = std::move(RingIndex::create(o).value());
+  for (std::uint32_t s = 1; s <= 5; ++s) idx->written(RecordKind::kScan, s, true);
+  Time now = t0;
+  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);
+  for (std::uint32_t s = 6; s <= 30; ++s) idx->written(RecordKind::kScan, s, true);
+  now = now + std::chrono::seconds(10);
+  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);
+  EXPECT_EQ(idx->shadow(now).backfill_total, 24u);  // 6..29; 30 comes live
+  std::vector<std::uint32_t> sent;
+  std::uint64_t slot = 0;
+  std::uint32_t seq = 0;
+  for (int turn = 0; turn < 10; ++turn) {
+    now = now + std::chrono::milliseconds(100);
+    idx->start_turn(now);
+    while (idx->next_backfill(now, slot, seq)) sent.push_back(seq);
+  }
+  ASSERT_EQ(sent.size(), 24u);
+  EXPECT_EQ(sent.front(), 6u);
+  EXPECT_EQ(sent.back(), 29u);
+  // The first contact is no return: with rejoin_window = 1, a station heard for the first time still
+  // gets the live window live (nothing below it is back-filled twice).
+  auto fresh = std::move(RingIndex::create(o).value());
+  for (std::uint32_t s = 1; s <= 30; ++s) fresh->written(RecordKind::kScan, s, true);
+  ASSERT_EQ(fresh->on_confirmation(3, 25, t0), Confirmation::kAccepted);
+  EXPECT_EQ(fresh->shadow(t0).backfill_total, 0u);
+}
+
 TEST(RingIndex, ResendsWhenTheConfirmationsDoNotFollow) {
   auto idx = std::move(RingIndex::create(index_options(64)).value());
   for (std::uint32_t s = 1; s <= 20; ++s) idx->written(RecordKind::kScan, s, true);
