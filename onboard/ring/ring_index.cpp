@@ -170,11 +170,13 @@ void RingIndex::start_turn(Time now) {
 
 bool RingIndex::next_backfill(Time now, std::uint64_t& slot, std::uint32_t& seq) {
   if (!reachable(now) || turn_left_ == 0 || tokens_ < 1.0 || !any_scan_) return false;
-  const std::uint32_t limit = backfill_limit();
+  std::uint32_t limit = backfill_limit();
+  if (options_.backfill_window > 0 && confirmed_seq_ + options_.backfill_window < limit)
+    limit = confirmed_seq_ + options_.backfill_window;
   // Sent, but the confirmations have not followed for resend_after: a back-filled scan went missing on
   // the way (or the station restarted without it); send again from the confirmed one.
   if (backfill_next_ > confirmed_seq_ + 1 && now - confirmed_moved_ >= options_.resend_after &&
-      now - backfill_sent_ < options_.resend_after * 2) {
+      now - backfill_sent_ < options_.resend_after * 4) {
     backfill_next_ = confirmed_seq_ + 1;
     confirmed_moved_ = now;
     ++counters_.backfill_rewinds;

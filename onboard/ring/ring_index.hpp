@@ -31,8 +31,14 @@ struct RingIndexOptions {
   std::uint32_t backfill_burst = 8;  // back-filled scans per loop turn at most
   // The station counts as reachable while its confirmations keep arriving: the newest within this.
   Duration reachable_timeout = std::chrono::seconds(3);
-  // A back-fill the confirmations did not follow within this is sent again from the confirmed seq.
-  Duration resend_after = std::chrono::seconds(5);
+  // At most this many scans above the station's confirmation are back-filled before it confirms more:
+  // below the back-fill writer's history (dds::kBackfillHistoryDepth), so a back-filled scan the link
+  // delays is never replaced in that history before the station has it (which would leave a hole that
+  // only a resend fills), and the back-fill never sends faster than the link takes it. 0: no window.
+  std::uint32_t backfill_window = 200;
+  // A back-fill the confirmations did not follow within this is sent again from the confirmed seq (at most
+  // backfill_window scans: the rest was never sent).
+  Duration resend_after = std::chrono::seconds(2);
 };
 
 struct RingCounters {

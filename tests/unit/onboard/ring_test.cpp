@@ -273,6 +273,52 @@ TEST(RingIndex, ResendsWhenTheConfirmationsDoNotFollow) {
   EXPECT_EQ(idx->counters().backfill_rewinds, 1u);
 }
 
+TEST(RingIndex, TheBackfillStaysWithinItsWindowAboveTheConfirmation) {
+  // A slow link: the back-fill sends at most backfill_window scans above what the station confirmed, so
+  // none is pushed out of the back-fill writer's history before the station has it; each confirmation
+  // opens the window by as much as it moved.
+  RingIndexOptions o = index_options(256);
+  o.backfill_window = 20;
+  o.backfill_rate_hz = 1000.0;
+  auto idx = std::move(RingIndex::create(o).value());
+  for (std::uint32_t s = 1; s <= 5; ++s) idx->written(RecordKind::kScan, s, true);
+  Time now = t0;
+  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);
+  for (std::uint32_t s = 6; s <= 200; ++s) idx->written(RecordKind::kScan, s, true);
+  now = now + std::chrono::seconds(10);
+  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);  // back after a shadow
+  std::uint64_t slot = 0;
+  std::uint32_t seq = 0;
+  auto send_turns = [&](int turns, std::vector<std::uint32_t>& sent) {
+    for (int turn = 0; turn < turns; ++turn) {
+      now = now + std::chrono::milliseconds(10);
+      idx->start_turn(now);
+      while (idx->next_backfill(now, slot, seq)) sent.push_back(seq);
+    }
+  };
+  std::vector<std::uint32_t> sent;
+  send_turns(20, sent);
+  ASSERT_EQ(sent.size(), 20u);  // 6..25, then it waits for the station
+  EXPECT_EQ(sent.back(), 25u);
+  ASSERT_EQ(idx->on_confirmation(3, 15, now), Confirmation::kAccepted);
+  sent.clear();
+  send_turns(20, sent);
+  ASSERT_EQ(sent.size(), 10u);  // 26..35
+  EXPECT_EQ(sent.front(), 26u);
+  EXPECT_EQ(sent.back(), 35u);
+  // 16 never arrives: after resend_after without progress, the window is sent again from 16, no further.
+  for (int i = 0; i < 3; ++i) {
+    now = now + std::chrono::seconds(1);
+    ASSERT_EQ(idx->on_confirmation(3, 15, now), Confirmation::kAccepted);
+  }
+  sent.clear();
+  send_turns(20, sent);
+  ASSERT_EQ(sent.size(), 20u);
+  EXPECT_EQ(sent.front(), 16u);
+  EXPECT_EQ(sent.back(), 35u);
+  EXPECT_EQ(idx->counters().backfill_rewinds, 1u);
+}
+
 TEST(RingIndex, AnOldConfirmationIsNoContact) {
   auto idx = std::move(RingIndex::create(index_options(64)).value());
   for (std::uint32_t s = 1; s <= 20; ++s) idx->written(RecordKind::kScan, s, true);
