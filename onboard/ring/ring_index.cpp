@@ -171,8 +171,9 @@ void RingIndex::start_turn(Time now) {
 bool RingIndex::next_backfill(Time now, std::uint64_t& slot, std::uint32_t& seq) {
   if (!reachable(now) || turn_left_ == 0 || tokens_ < 1.0 || !any_scan_) return false;
   std::uint32_t limit = backfill_limit();
-  if (options_.backfill_window > 0 && confirmed_seq_ + options_.backfill_window < limit)
-    limit = confirmed_seq_ + options_.backfill_window;
+  // The window opens above the confirmation, or above what the ring no longer holds (a full ring dropped it).
+  const std::uint32_t base = std::max(confirmed_seq_, oldest_scan_seq_ > 0 ? oldest_scan_seq_ - 1 : 0);
+  if (options_.backfill_window > 0 && base + options_.backfill_window < limit) limit = base + options_.backfill_window;
   // Sent, but the confirmations have not followed for resend_after: a back-filled scan went missing on
   // the way (or the station restarted without it); send again from the confirmed one.
   if (backfill_next_ > confirmed_seq_ + 1 && now - confirmed_moved_ >= options_.resend_after &&
