@@ -36,15 +36,18 @@ dds_qos_t* make_state_reader_qos() {
 }
 
 dds_qos_t* make_scan_writer_qos(std::uint32_t robot_id, std::uint32_t depth, Duration liveliness_lease,
-                                Duration max_blocking) {
+                                Duration max_blocking, std::uint32_t late_joiner_depth) {
   const auto d = static_cast<std::int32_t>(depth == 0 ? 1 : depth);
+  const auto late = late_joiner_depth == 0 || late_joiner_depth > depth ? d : static_cast<std::int32_t>(late_joiner_depth);
   dds_qos_t* q = reliable(max_blocking);
   dds_qset_partition1(q, security::robot_identity(robot_id).c_str());
   // Keep-last on the writer never blocks the robot's loop: a reader that falls more than `depth`
   // sweeps behind sees gaps (DDS_SYSTEMD.md 1.3), which the ground station counts from seq.
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, d);
   dds_qset_durability(q, DDS_DURABILITY_TRANSIENT_LOCAL);
-  dds_qset_durability_service(q, 0, DDS_HISTORY_KEEP_LAST, d, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED,
+  // The durability-service depth is what a reader that (re)joins gets at once; `d` what an unacknowledged
+  // sample has to be repaired in before newer ones replace it.
+  dds_qset_durability_service(q, 0, DDS_HISTORY_KEEP_LAST, late, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED,
                               DDS_LENGTH_UNLIMITED);
   dds_qset_liveliness(q, DDS_LIVELINESS_AUTOMATIC, to_dds(liveliness_lease));
   return q;

@@ -27,8 +27,12 @@ inline constexpr const char* kRobotsPartition = "robot*";
 // teamscan/scan and teamscan/pose: the writer keeps the last `depth` samples per robot, transient-local with the same
 // durability-service depth: a reader that joins late (a restarted ground station) receives the last
 // `depth` sweeps. Without the durability-service depth Cyclone keeps only 1 sample for late joiners.
+// late_joiner_depth (1..depth; 0: depth): a reader that joins late, or matches again after a radio shadow,
+// receives only the newest late_joiner_depth samples; `depth` stays the repair window of a matched reader.
+// A robot with a ring gives its live writer 1: what a returning station missed comes from the back-fill, and
+// the live scans are not queued behind seconds of history on a slow link (docs/radio.md).
 [[nodiscard]] dds_qos_t* make_scan_writer_qos(std::uint32_t robot_id, std::uint32_t depth, Duration liveliness_lease,
-                                              Duration max_blocking);
+                                              Duration max_blocking, std::uint32_t late_joiner_depth = 0);
 // The reader keeps all (reliable, transient-local): a sample the writer delivered is never overwritten
 // in the reader's cache because the taking thread was slow; only the writer's bounded history decides
 // what a reader that is away for too long misses.

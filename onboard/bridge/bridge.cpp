@@ -157,7 +157,8 @@ Result<DdsBridge> DdsBridge::create(const DdsBridgeOptions& options) {
   q = dds::make_state_writer_qos(options.robot_id, options.liveliness_lease, options.max_blocking);
   Result<dds_entity_t> status_writer = dds::create_writer<teamscan_msg_RobotStatus>(b.participant_, q);
   dds_delete_qos(q);
-  q = dds::make_scan_writer_qos(options.robot_id, options.scan_history_depth, options.liveliness_lease, options.max_blocking);
+  q = dds::make_scan_writer_qos(options.robot_id, options.scan_history_depth, options.liveliness_lease, options.max_blocking,
+                                options.scan_late_joiner_depth);
   Result<dds_entity_t> scan_writer = dds::create_writer<teamscan_msg_ScanPoints>(b.participant_, q);
   dds_delete_qos(q);
   if (!pose_writer.ok()) return pose_writer.error();

@@ -22,6 +22,9 @@ struct DdsBridgeOptions {
   // Scans kept by the writer (and offered to late joiners, durability transient-local): a ground station
   // that restarts within depth / scan rate seconds receives every scan it missed. 300 = 4 s at 75 Hz.
   std::uint32_t scan_history_depth = 300;
+  // Of those, what a reader that joins late or matches again after a radio shadow gets at once (0: all of
+  // scan_history_depth). With store_and_forward the ring back-fills the rest (dds/qos.hpp).
+  std::uint32_t scan_late_joiner_depth = 0;
   // Poses kept the same way, as long as the scans (64 = 6.4 s at the 10 Hz SIP rate ≥ the scans' 4 s):
   // an outage of the ground station leaves no hole in the poses while no scan is missing, so the scans
   // of the outage get their team state and their ghosts are removed (docs/groundstation.md).

@@ -30,6 +30,10 @@ struct LaserMount {
 // a preallocated file of fixed-size records; what the station has not confirmed is back-filled when it is
 // reachable again. No path: no ring.
 inline constexpr double kRingRecordsPerSecond = 85.0;  // the LMS' 75 scans and the Pioneer's 10 SIPs a second
+// With a ring, the live scan writer offers a station that joins late or comes back after a shadow only its
+// newest scan (its late-joiner depth; dds/qos.hpp): the ring back-fills the rest, so the live scans after a
+// return are not queued behind seconds of history on a slow link (docs/radio.md).
+inline constexpr std::uint32_t kRingLiveLateJoinerDepth = 1;
 struct RingConfig {
   std::string path;                         // e.g. /var/lib/teamscan/ring.bin; empty: no ring
   double capacity_s = 1800.0;               // the ring holds this long at kRingRecordsPerSecond

@@ -51,7 +51,8 @@ Result<std::unique_ptr<OnboardDaemon>> OnboardDaemon::create(const OnboardConfig
   if (!pipeline.ok()) return pipeline.error();
   std::unique_ptr<ring::ScanRing> ring;
   if (config.ring.enabled()) {
-    Result<std::unique_ptr<ring::ScanRing>> opened = ring::ScanRing::open(config.ring, config.robot_id, config.scan_history_depth);
+    Result<std::unique_ptr<ring::ScanRing>> opened = ring::ScanRing::open(config.ring, config.robot_id, config.scan_history_depth,
+                                                                           kRingLiveLateJoinerDepth);
     if (!opened.ok()) {
       log_message(LogLevel::err, "ring %s: %s (%s)", config.ring.path.c_str(), opened.error().what,
                   std::strerror(opened.error().sys_errno));

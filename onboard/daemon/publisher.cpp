@@ -31,6 +31,7 @@ Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig& config, c
   options.domain_id = config.dds_domain;
   options.scan_history_depth = config.scan_history_depth;
   options.store_and_forward = config.ring.enabled();
+  if (options.store_and_forward) options.scan_late_joiner_depth = kRingLiveLateJoinerDepth;
   Result<DdsBridge> bridge = DdsBridge::create(options);
   if (!bridge.ok()) return bridge.error();
   return std::unique_ptr<Publisher>(new DdsPublisher(std::move(bridge.value())));

@@ -125,7 +125,8 @@ bool RingIndex::reachable(Time now) const {
 }
 
 std::uint32_t RingIndex::backfill_limit() const {
-  return newest_scan_seq_ > options_.live_window ? newest_scan_seq_ - options_.live_window : 0;
+  const std::uint32_t live = newest_scan_seq_ > options_.live_window ? newest_scan_seq_ - options_.live_window : 0;
+  return std::max(live, rejoin_limit_);
 }
 
 Confirmation RingIndex::on_confirmation(std::uint32_t robot_id, std::uint32_t contiguous_seq, Time now, bool fresh) {
@@ -140,6 +141,7 @@ Confirmation RingIndex::on_confirmation(std::uint32_t robot_id, std::uint32_t co
   }
   ++counters_.confirmations;
   const bool back = fresh && !reachable(now);
+  const bool was_confirmed = ever_confirmed_;
   if (back && ever_confirmed_) last_shadow_ = now - last_confirmation_;  // the shadow that ends here
   if (!ever_confirmed_ || contiguous_seq != confirmed_seq_) confirmed_moved_ = now;
   if (!fresh && !ever_confirmed_) last_confirmation_ = now - options_.reachable_timeout - Duration{1};
@@ -147,7 +149,10 @@ Confirmation RingIndex::on_confirmation(std::uint32_t robot_id, std::uint32_t co
   confirmed_seq_ = contiguous_seq;
   if (fresh) last_confirmation_ = now;
   if (back) {
-    // The station is back (or heard for the first time): back-fill from its confirmed scan on.
+    // The station is back (or heard for the first time): back-fill from its confirmed scan on. After a
+    // shadow the live writer offers the returning station only its newest rejoin_window scans.
+    const std::uint32_t rejoin = options_.rejoin_window == 0 ? options_.live_window : options_.rejoin_window;
+    if (was_confirmed) rejoin_limit_ = std::max(rejoin_limit_, newest_scan_seq_ > rejoin ? newest_scan_seq_ - rejoin : 0);
     const std::uint32_t limit = backfill_limit();
     backfill_total_ = limit > confirmed_seq_ ? limit - confirmed_seq_ : 0;
     backfill_next_ = 0;
@@ -165,11 +170,14 @@ void RingIndex::start_turn(Time now) {
 
 bool RingIndex::next_backfill(Time now, std::uint64_t& slot, std::uint32_t& seq) {
   if (!reachable(now) || turn_left_ == 0 || tokens_ < 1.0 || !any_scan_) return false;
-  const std::uint32_t limit = backfill_limit();
+  std::uint32_t limit = backfill_limit();
+  // The window opens above the confirmation, or above what the ring no longer holds (a full ring dropped it).
+  const std::uint32_t base = std::max(confirmed_seq_, oldest_scan_seq_ > 0 ? oldest_scan_seq_ - 1 : 0);
+  if (options_.backfill_window > 0 && base + options_.backfill_window < limit) limit = base + options_.backfill_window;
   // Sent, but the confirmations have not followed for resend_after: a back-filled scan went missing on
   // the way (or the station restarted without it); send again from the confirmed one.
   if (backfill_next_ > confirmed_seq_ + 1 && now - confirmed_moved_ >= options_.resend_after &&
-      now - backfill_sent_ < options_.resend_after * 2) {
+      now - backfill_sent_ < options_.resend_after * 4) {
     backfill_next_ = confirmed_seq_ + 1;
     confirmed_moved_ = now;
     ++counters_.backfill_rewinds;

@@ -23,12 +23,22 @@ struct RingIndexOptions {
   // Scans newer than this many below the newest are left to the live writer's DDS history, which a
   // returning station receives anyway (dds.scan_history_depth): the back-fill takes the older ones.
   std::uint32_t live_window = 300;
+  // Of those, what a station that comes back after a shadow gets at once from the live writer (its
+  // late-joiner depth, dds/qos.hpp; 0: all live_window): at the return the back-fill takes every scan
+  // below the newest rejoin_window, not only those below live_window.
+  std::uint32_t rejoin_window = 0;
   double backfill_rate_hz = 300.0;   // back-filled scans per second at most (live ones come first)
   std::uint32_t backfill_burst = 8;  // back-filled scans per loop turn at most
   // The station counts as reachable while its confirmations keep arriving: the newest within this.
   Duration reachable_timeout = std::chrono::seconds(3);
-  // A back-fill the confirmations did not follow within this is sent again from the confirmed seq.
-  Duration resend_after = std::chrono::seconds(5);
+  // At most this many scans above the station's confirmation are back-filled before it confirms more:
+  // below the back-fill writer's history (dds::kBackfillHistoryDepth), so a back-filled scan the link
+  // delays is never replaced in that history before the station has it (which would leave a hole that
+  // only a resend fills), and the back-fill never sends faster than the link takes it. 0: no window.
+  std::uint32_t backfill_window = 200;
+  // A back-fill the confirmations did not follow within this is sent again from the confirmed seq (at most
+  // backfill_window scans: the rest was never sent).
+  Duration resend_after = std::chrono::seconds(2);
 };
 
 struct RingCounters {
@@ -122,6 +132,7 @@ class RingIndex {
   Time confirmed_moved_{};    // monotonic: confirmed_seq_ last changed
   std::uint32_t backfill_total_ = 0;
   Duration last_shadow_{0};
+  std::uint32_t rejoin_limit_ = 0;   // at the last return: the newest scan the live writer no longer offers
   std::uint32_t backfill_next_ = 0;  // next seq to back-fill (0: from the confirmed one)
   Time backfill_sent_{};             // monotonic: the last back-filled scan
   double tokens_ = 0.0;

@@ -11,11 +11,12 @@
 namespace teamscan::onboard::ring {
 
 Result<std::unique_ptr<ScanRing>> ScanRing::open(const RingConfig& config, std::uint32_t robot_id,
-                                                 std::uint32_t live_window) {
+                                                 std::uint32_t live_window, std::uint32_t rejoin_window) {
   RingIndexOptions o;
   o.slots = config.slots();
   o.robot_id = robot_id;
   o.live_window = live_window;
+  o.rejoin_window = rejoin_window;
   o.backfill_rate_hz = config.backfill_rate_hz;
   Result<std::unique_ptr<RingIndex>> index = RingIndex::create(o);
   if (!index.ok()) return index.error();

@@ -31,9 +31,10 @@ struct FlushCounters {
 class ScanRing {
  public:
   // Opens or creates config.path, recovers it (reads every slot; docs/onboard.md gives its time) and
-  // prepares the tables. live_window: the live writer's scan history depth (dds.scan_history_depth).
+  // prepares the tables. live_window: the live writer's scan history depth (dds.scan_history_depth);
+  // rejoin_window: its late-joiner depth (RingIndexOptions).
   [[nodiscard]] static Result<std::unique_ptr<ScanRing>> open(const RingConfig& config, std::uint32_t robot_id,
-                                                              std::uint32_t live_window);
+                                                              std::uint32_t live_window, std::uint32_t rejoin_window = 0);
 
   // One published sample into the ring (a file error is counted in RingCounters::write_errors and returned).
   [[nodiscard]] Status append_scan(const ScanPoints& scan, Time now);

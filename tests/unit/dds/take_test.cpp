@@ -124,6 +124,42 @@ std::vector<teamscan_msg_RobotPose> take_until(dds_entity_t reader, TakeBuffer<t
   return got;
 }
 
+// What a reader that joins late gets of a scan-QoS writer's history: all of it, or only the newest
+// late_joiner_depth samples (a robot with a ring: its back-fill sends the rest, docs/radio.md).
+std::size_t late_joiner_gets(std::uint32_t late_joiner_depth) {
+  Result<Participant> p = Participant::create(test::test_domain_id());
+  if (!p.ok()) return 0;
+  dds_qos_t* q = make_scan_writer_qos(1, 20, std::chrono::seconds(2), std::chrono::milliseconds(100), late_joiner_depth);
+  Result<dds_entity_t> w = create_writer<teamscan_msg_RobotPose>(p.value(), q);
+  dds_delete_qos(q);
+  if (!w.ok()) return 0;
+  for (std::uint32_t seq = 1; seq <= 10; ++seq) {
+    teamscan_msg_RobotPose s{};
+    s.robot_id = 1;
+    s.seq = seq;
+    if (dds_write(w.value(), &s) != DDS_RETCODE_OK) return 0;
+  }
+  q = make_state_reader_qos();
+  Result<dds_entity_t> r = create_reader<teamscan_msg_RobotPose>(p.value(), q);
+  dds_delete_qos(q);
+  if (!r.ok()) return 0;
+  TakeBuffer<teamscan_msg_RobotPose> buf(16);
+  std::size_t got = 0;
+  // The history arrives at once (in-process); 1 s is ample for all 10 to show up when offered.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+  while (got < 10 && std::chrono::steady_clock::now() < deadline) {
+    (void)take_all(
+        r.value(), buf, [] {}, [&](const teamscan_msg_RobotPose&, const dds_sample_info_t& info) { got += info.valid_data ? 1 : 0; });
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return got;
+}
+
+TEST(DdsQos, ALateJoinerGetsTheNewestLateJoinerDepthSamples) {
+  EXPECT_EQ(late_joiner_gets(0), 10u);  // the whole history (depth 20)
+  EXPECT_EQ(late_joiner_gets(1), 1u);
+}
+
 TEST(DdsTake, EverySampleOnceInBatchesOfTheBufferSize) {
   PosePair pp = make_pair();
   ASSERT_GT(pp.reader, 0);

@@ -217,6 +217,39 @@ TEST(RingIndex, BackfillsWhatIsNotConfirmedInOrderAtTheRate) {
   EXPECT_EQ(idx->shadow(now).backfill_remaining, 0u);
 }
 
+TEST(RingIndex, AfterAShadowTheBackfillTakesAllButTheLiveWritersRejoinWindow) {
+  // The live writer offers a returning station only its newest scan (late-joiner depth 1): at the return
+  // the back-fill takes everything below it at once, not only what is below the live window.
+  RingIndexOptions o = index_options(64);
+  o.live_window = 10;
+  o.rejoin_window = 1;
+  auto idx = std::move(RingIndex::create(o).value());
+  for (std::uint32_t s = 1; s <= 5; ++s) idx->written(RecordKind::kScan, s, true);
+  Time now = t0;
+  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);
+  for (std::uint32_t s = 6; s <= 30; ++s) idx->written(RecordKind::kScan, s, true);
+  now = now + std::chrono::seconds(10);
+  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);
+  EXPECT_EQ(idx->shadow(now).backfill_total, 24u);  // 6..29; 30 comes live
+  std::vector<std::uint32_t> sent;
+  std::uint64_t slot = 0;
+  std::uint32_t seq = 0;
+  for (int turn = 0; turn < 10; ++turn) {
+    now = now + std::chrono::milliseconds(100);
+    idx->start_turn(now);
+    while (idx->next_backfill(now, slot, seq)) sent.push_back(seq);
+  }
+  ASSERT_EQ(sent.size(), 24u);
+  EXPECT_EQ(sent.front(), 6u);
+  EXPECT_EQ(sent.back(), 29u);
+  // The first contact is no return: with rejoin_window = 1, a station heard for the first time still
+  // gets the live window live (nothing below it is back-filled twice).
+  auto fresh = std::move(RingIndex::create(o).value());
+  for (std::uint32_t s = 1; s <= 30; ++s) fresh->written(RecordKind::kScan, s, true);
+  ASSERT_EQ(fresh->on_confirmation(3, 25, t0), Confirmation::kAccepted);
+  EXPECT_EQ(fresh->shadow(t0).backfill_total, 0u);
+}
+
 TEST(RingIndex, ResendsWhenTheConfirmationsDoNotFollow) {
   auto idx = std::move(RingIndex::create(index_options(64)).value());
   for (std::uint32_t s = 1; s <= 20; ++s) idx->written(RecordKind::kScan, s, true);
@@ -237,6 +270,52 @@ TEST(RingIndex, ResendsWhenTheConfirmationsDoNotFollow) {
   bool again = false;
   while (idx->next_backfill(now, slot, seq)) again = again || seq == 6;
   EXPECT_TRUE(again);
+  EXPECT_EQ(idx->counters().backfill_rewinds, 1u);
+}
+
+TEST(RingIndex, TheBackfillStaysWithinItsWindowAboveTheConfirmation) {
+  // A slow link: the back-fill sends at most backfill_window scans above what the station confirmed, so
+  // none is pushed out of the back-fill writer's history before the station has it; each confirmation
+  // opens the window by as much as it moved.
+  RingIndexOptions o = index_options(256);
+  o.backfill_window = 20;
+  o.backfill_rate_hz = 1000.0;
+  auto idx = std::move(RingIndex::create(o).value());
+  for (std::uint32_t s = 1; s <= 5; ++s) idx->written(RecordKind::kScan, s, true);
+  Time now = t0;
+  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);
+  for (std::uint32_t s = 6; s <= 200; ++s) idx->written(RecordKind::kScan, s, true);
+  now = now + std::chrono::seconds(10);
+  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);  // back after a shadow
+  std::uint64_t slot = 0;
+  std::uint32_t seq = 0;
+  auto send_turns = [&](int turns, std::vector<std::uint32_t>& sent) {
+    for (int turn = 0; turn < turns; ++turn) {
+      now = now + std::chrono::milliseconds(10);
+      idx->start_turn(now);
+      while (idx->next_backfill(now, slot, seq)) sent.push_back(seq);
+    }
+  };
+  std::vector<std::uint32_t> sent;
+  send_turns(20, sent);
+  ASSERT_EQ(sent.size(), 20u);  // 6..25, then it waits for the station
+  EXPECT_EQ(sent.back(), 25u);
+  ASSERT_EQ(idx->on_confirmation(3, 15, now), Confirmation::kAccepted);
+  sent.clear();
+  send_turns(20, sent);
+  ASSERT_EQ(sent.size(), 10u);  // 26..35
+  EXPECT_EQ(sent.front(), 26u);
+  EXPECT_EQ(sent.back(), 35u);
+  // 16 never arrives: after resend_after without progress, the window is sent again from 16, no further.
+  for (int i = 0; i < 3; ++i) {
+    now = now + std::chrono::seconds(1);
+    ASSERT_EQ(idx->on_confirmation(3, 15, now), Confirmation::kAccepted);
+  }
+  sent.clear();
+  send_turns(20, sent);
+  ASSERT_EQ(sent.size(), 20u);
+  EXPECT_EQ(sent.front(), 16u);
+  EXPECT_EQ(sent.back(), 35u);
   EXPECT_EQ(idx->counters().backfill_rewinds, 1u);
 }
 
