@@ -312,6 +312,13 @@ Status DdsBridge::wait_for_scan_acks(Duration timeout) {
   return ok_status();
 }
 
+std::uint32_t DdsBridge::scan_reader_matches() const {
+  if (scan_writer_ <= 0 || !participant_.valid()) return 0;
+  dds_publication_matched_status_t st{};
+  if (dds_get_publication_matched_status(scan_writer_, &st) < 0) return 0;
+  return st.total_count;
+}
+
 std::uint32_t DdsBridge::scan_subscribers() const {
   if (scan_writer_ <= 0 || !participant_.valid()) return 0;
   dds_publication_matched_status_t st{};

@@ -84,6 +84,8 @@ class DdsBridge {
 
   // Number of ground stations (readers) currently matched to the scan writer.
   [[nodiscard]] std::uint32_t scan_subscribers() const;
+  // Readers matched to the scan writer since it was created (each rematch counts): DDS's total_count.
+  [[nodiscard]] std::uint32_t scan_reader_matches() const;
   [[nodiscard]] const DdsBridgeCounters& counters() const { return counters_; }
 
  private:

@@ -319,6 +319,12 @@ void OnboardDaemon::on_stored(Time now) {
 void OnboardDaemon::service_ring(Time now) {
   if (!ring_) return;
   if (publisher_.take_stored(stored_msg_)) on_stored(now);
+  // A station (re)matched the live writer since the last turn: what the writer no longer offers it is
+  // the back-fill's from now on, even if the confirmations never lapsed (a station restarted in seconds).
+  if (const std::uint32_t matches = publisher_.scan_reader_matches(); matches != scan_reader_matches_) {
+    if (matches > scan_reader_matches_) ring_->on_live_reader_matched(now);
+    scan_reader_matches_ = matches;
+  }
   const Status f = ring_->flush_if_due(now);
   if (!f.ok()) ring_failed(f, "flush", now);
   const ring::ShadowState st = ring_->index().shadow(now);

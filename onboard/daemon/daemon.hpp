@@ -131,6 +131,7 @@ class OnboardDaemon {
   std::uint64_t ring_errors_ = 0;
   Time next_ring_error_log_{};          // monotonic
   bool station_reachable_ = false;      // as the ring saw it last turn (for the journal's transitions)
+  std::uint32_t scan_reader_matches_ = 0;  // the live writer's reader matches seen (Publisher::scan_reader_matches)
   // Scans waiting for the SIP that covers them: a fixed ring (16 scans = 213 ms at 75 Hz).
   struct PendingScan {
     lms200::ScanTelegram telegram;

@@ -16,6 +16,7 @@ class DdsPublisher final : public Publisher {
   bool take_team(TeamSnapshot& out) override { return bridge_.take_team(out); }
   Status publish_backfill(const ScanPoints& scan) override { return bridge_.publish_backfill(scan); }
   bool take_stored(StoredSnapshot& out) override { return bridge_.take_stored(out); }
+  std::uint32_t scan_reader_matches() const override { return bridge_.scan_reader_matches(); }
   const char* name() const override { return "dds"; }
 
  private:

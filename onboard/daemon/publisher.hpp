@@ -22,6 +22,9 @@ class Publisher {
   // teamscan/stored since the last call. A publisher without them refuses and never has one.
   [[nodiscard]] virtual Status publish_backfill(const ScanPoints&) { return Error{"publisher: no back-fill writer"}; }
   [[nodiscard]] virtual bool take_stored(StoredSnapshot&) { return false; }
+  // How many readers (ground stations) have matched the live scan writer since it was created, including
+  // each rematch after a restart or a radio shadow; never decreases.
+  [[nodiscard]] virtual std::uint32_t scan_reader_matches() const { return 0; }
   [[nodiscard]] virtual const char* name() const = 0;
 };
 

@@ -161,6 +161,12 @@ Confirmation RingIndex::on_confirmation(std::uint32_t robot_id, std::uint32_t co
   return Confirmation::kAccepted;
 }
 
+void RingIndex::on_live_reader_matched(Time now) {
+  const std::uint32_t rejoin = options_.rejoin_window == 0 ? options_.live_window : options_.rejoin_window;
+  rejoin_limit_ = std::max(rejoin_limit_, newest_scan_seq_ > rejoin ? newest_scan_seq_ - rejoin : 0);
+  confirmed_moved_ = now;  // the resend rule's clock starts at the match, not at the last station's last move
+}
+
 void RingIndex::start_turn(Time now) {
   const double dt = std::max(0.0, to_seconds(now - tokens_at_));
   tokens_ = std::min(static_cast<double>(options_.backfill_burst), tokens_ + dt * options_.backfill_rate_hz);

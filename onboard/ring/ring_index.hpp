@@ -93,6 +93,11 @@ class RingIndex {
   // restarted robot receives at once): only a fresh one says the station is reachable.
   Confirmation on_confirmation(std::uint32_t robot_id, std::uint32_t contiguous_seq, Time now, bool fresh = true);
 
+  // A station's reader matched the live scan writer (a station that started, restarted or came back from a
+  // shadow, however short): the writer offers it only its newest rejoin_window scans, so every scan below
+  // those is the back-fill's, whether or not the confirmations ever stopped.
+  void on_live_reader_matched(Time now);
+
   // The next scan to back-fill, if one is due at `now` (monotonic): its slot and seq. Call again until
   // false; at most backfill_burst per turn (start_turn) and backfill_rate_hz on average.
   void start_turn(Time now);

@@ -50,6 +50,7 @@ class ScanRing {
   }
   // Back-fill: start_turn once per loop turn, then next_backfill until false; each true fills `out` with a
   // scan read back from the ring.
+  void on_live_reader_matched(Time now) { index_->on_live_reader_matched(now); }
   void start_turn(Time now) { index_->start_turn(now); }
   [[nodiscard]] bool next_backfill(Time now, ScanPoints& out);
 

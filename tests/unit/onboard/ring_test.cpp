@@ -250,6 +250,36 @@ TEST(RingIndex, AfterAShadowTheBackfillTakesAllButTheLiveWritersRejoinWindow) {
   EXPECT_EQ(fresh->shadow(t0).backfill_total, 0u);
 }
 
+TEST(RingIndex, AStationThatMatchesAgainWithinTheTimeoutGetsWhatTheLiveWriterNoLongerOffers) {
+  // The station restarts in two seconds: its confirmations never lapse for reachable_timeout, so no
+  // return is seen from them; but its new reader got only the live writer's newest scan, and the scans
+  // published while it was down are the back-fill's.
+  RingIndexOptions o = index_options(64);
+  o.live_window = 10;
+  o.rejoin_window = 1;
+  auto idx = std::move(RingIndex::create(o).value());
+  for (std::uint32_t s = 1; s <= 5; ++s) idx->written(RecordKind::kScan, s, true);
+  Time now = t0;
+  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);
+  for (std::uint32_t s = 6; s <= 12; ++s) idx->written(RecordKind::kScan, s, true);
+  now = now + std::chrono::seconds(2);
+  std::uint64_t slot = 0;
+  std::uint32_t seq = 0;
+  idx->start_turn(now);
+  EXPECT_FALSE(idx->next_backfill(now, slot, seq)) << "all within the live window: the live writer's";
+  idx->on_live_reader_matched(now);
+  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);  // the restarted station, from its session
+  std::vector<std::uint32_t> sent;
+  for (int turn = 0; turn < 10; ++turn) {
+    now = now + std::chrono::milliseconds(100);
+    idx->start_turn(now);
+    while (idx->next_backfill(now, slot, seq)) sent.push_back(seq);
+  }
+  ASSERT_EQ(sent.size(), 6u);  // 6..11; 12 came live
+  EXPECT_EQ(sent.front(), 6u);
+  EXPECT_EQ(sent.back(), 11u);
+}
+
 TEST(RingIndex, ResendsWhenTheConfirmationsDoNotFollow) {
   auto idx = std::move(RingIndex::create(index_options(64)).value());
   for (std::uint32_t s = 1; s <= 20; ++s) idx->written(RecordKind::kScan, s, true);
