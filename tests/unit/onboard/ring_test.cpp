@@ -149,6 +149,45 @@ RingIndexOptions index_options(std::uint64_t slots) {
 
 const Time t0 = Time::from_ns(1'000'000'000'000);
 
+// Scans first..last written to the ring, all successfully.
+void write_scans(RingIndex& idx, std::uint32_t first, std::uint32_t last) {
+  for (std::uint32_t s = first; s <= last; ++s) idx.written(RecordKind::kScan, s, true);
+}
+
+// A live writer that keeps 10 scans for a matched station but offers one that (re)joins only its newest.
+RingIndexOptions rejoin_options() {
+  RingIndexOptions o = index_options(64);
+  o.live_window = 10;
+  o.rejoin_window = 1;
+  return o;
+}
+
+// A ring whose station confirmed scans 1..5 at t0; then 6..newest were written while `silence` passed
+// (`now` is t0 + silence).
+std::unique_ptr<RingIndex> confirmed_5_then(const RingIndexOptions& o, std::uint32_t newest, Time& now,
+                                            Duration silence) {
+  auto idx = std::move(RingIndex::create(o).value());
+  write_scans(*idx, 1, 5);
+  now = t0;
+  EXPECT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);
+  write_scans(*idx, 6, newest);
+  now = now + silence;
+  return idx;
+}
+
+// `turns` loop turns `step` apart from `now` (advanced), each taking every back-fill due: the seqs sent.
+std::vector<std::uint32_t> backfill_turns(RingIndex& idx, Time& now, int turns, Duration step) {
+  std::vector<std::uint32_t> sent;
+  std::uint64_t slot = 0;
+  std::uint32_t seq = 0;
+  for (int turn = 0; turn < turns; ++turn) {
+    now = now + step;
+    idx.start_turn(now);
+    while (idx.next_backfill(now, slot, seq)) sent.push_back(seq);
+  }
+  return sent;
+}
+
 TEST(RingIndex, FullRingDropsOnlyUnconfirmedScans) {
   auto idx = std::move(RingIndex::create(index_options(16)).value());
   for (std::uint32_t s = 1; s <= 16; ++s) idx->written(RecordKind::kScan, s, true);
@@ -220,32 +259,19 @@ TEST(RingIndex, BackfillsWhatIsNotConfirmedInOrderAtTheRate) {
 TEST(RingIndex, AfterAShadowTheBackfillTakesAllButTheLiveWritersRejoinWindow) {
   // The live writer offers a returning station only its newest scan (late-joiner depth 1): at the return
   // the back-fill takes everything below it at once, not only what is below the live window.
-  RingIndexOptions o = index_options(64);
-  o.live_window = 10;
-  o.rejoin_window = 1;
-  auto idx = std::move(RingIndex::create(o).value());
-  for (std::uint32_t s = 1; s <= 5; ++s) idx->written(RecordKind::kScan, s, true);
-  Time now = t0;
-  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);
-  for (std::uint32_t s = 6; s <= 30; ++s) idx->written(RecordKind::kScan, s, true);
-  now = now + std::chrono::seconds(10);
+  const RingIndexOptions o = rejoin_options();
+  Time now;
+  auto idx = confirmed_5_then(o, 30, now, std::chrono::seconds(10));
   ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);
   EXPECT_EQ(idx->shadow(now).backfill_total, 24u);  // 6..29; 30 comes live
-  std::vector<std::uint32_t> sent;
-  std::uint64_t slot = 0;
-  std::uint32_t seq = 0;
-  for (int turn = 0; turn < 10; ++turn) {
-    now = now + std::chrono::milliseconds(100);
-    idx->start_turn(now);
-    while (idx->next_backfill(now, slot, seq)) sent.push_back(seq);
-  }
+  const std::vector<std::uint32_t> sent = backfill_turns(*idx, now, 10, std::chrono::milliseconds(100));
   ASSERT_EQ(sent.size(), 24u);
   EXPECT_EQ(sent.front(), 6u);
   EXPECT_EQ(sent.back(), 29u);
   // The first contact is no return: with rejoin_window = 1, a station heard for the first time still
   // gets the live window live (nothing below it is back-filled twice).
   auto fresh = std::move(RingIndex::create(o).value());
-  for (std::uint32_t s = 1; s <= 30; ++s) fresh->written(RecordKind::kScan, s, true);
+  write_scans(*fresh, 1, 30);
   ASSERT_EQ(fresh->on_confirmation(3, 25, t0), Confirmation::kAccepted);
   EXPECT_EQ(fresh->shadow(t0).backfill_total, 0u);
 }
@@ -254,27 +280,13 @@ TEST(RingIndex, AStationThatMatchesAgainWithinTheTimeoutGetsWhatTheLiveWriterNoL
   // The station restarts in two seconds: its confirmations never lapse for reachable_timeout, so no
   // return is seen from them; but its new reader got only the live writer's newest scan, and the scans
   // published while it was down are the back-fill's.
-  RingIndexOptions o = index_options(64);
-  o.live_window = 10;
-  o.rejoin_window = 1;
-  auto idx = std::move(RingIndex::create(o).value());
-  for (std::uint32_t s = 1; s <= 5; ++s) idx->written(RecordKind::kScan, s, true);
-  Time now = t0;
-  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);
-  for (std::uint32_t s = 6; s <= 12; ++s) idx->written(RecordKind::kScan, s, true);
-  now = now + std::chrono::seconds(2);
-  std::uint64_t slot = 0;
-  std::uint32_t seq = 0;
-  idx->start_turn(now);
-  EXPECT_FALSE(idx->next_backfill(now, slot, seq)) << "all within the live window: the live writer's";
+  const RingIndexOptions o = rejoin_options();
+  Time now;
+  auto idx = confirmed_5_then(o, 12, now, std::chrono::seconds(2));
+  EXPECT_TRUE(backfill_turns(*idx, now, 1, Duration{0}).empty()) << "all within the live window: the live writer's";
   idx->on_live_reader_matched(now);
   ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);  // the restarted station, from its session
-  std::vector<std::uint32_t> sent;
-  for (int turn = 0; turn < 10; ++turn) {
-    now = now + std::chrono::milliseconds(100);
-    idx->start_turn(now);
-    while (idx->next_backfill(now, slot, seq)) sent.push_back(seq);
-  }
+  const std::vector<std::uint32_t> sent = backfill_turns(*idx, now, 10, std::chrono::milliseconds(100));
   ASSERT_EQ(sent.size(), 6u);  // 6..11; 12 came live
   EXPECT_EQ(sent.front(), 6u);
   EXPECT_EQ(sent.back(), 11u);
@@ -310,29 +322,15 @@ TEST(RingIndex, TheBackfillStaysWithinItsWindowAboveTheConfirmation) {
   RingIndexOptions o = index_options(256);
   o.backfill_window = 20;
   o.backfill_rate_hz = 1000.0;
-  auto idx = std::move(RingIndex::create(o).value());
-  for (std::uint32_t s = 1; s <= 5; ++s) idx->written(RecordKind::kScan, s, true);
-  Time now = t0;
-  ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);
-  for (std::uint32_t s = 6; s <= 200; ++s) idx->written(RecordKind::kScan, s, true);
-  now = now + std::chrono::seconds(10);
+  Time now;
+  auto idx = confirmed_5_then(o, 200, now, std::chrono::seconds(10));
   ASSERT_EQ(idx->on_confirmation(3, 5, now), Confirmation::kAccepted);  // back after a shadow
-  std::uint64_t slot = 0;
-  std::uint32_t seq = 0;
-  auto send_turns = [&](int turns, std::vector<std::uint32_t>& sent) {
-    for (int turn = 0; turn < turns; ++turn) {
-      now = now + std::chrono::milliseconds(10);
-      idx->start_turn(now);
-      while (idx->next_backfill(now, slot, seq)) sent.push_back(seq);
-    }
-  };
-  std::vector<std::uint32_t> sent;
-  send_turns(20, sent);
+  constexpr auto kTurn = std::chrono::milliseconds(10);
+  std::vector<std::uint32_t> sent = backfill_turns(*idx, now, 20, kTurn);
   ASSERT_EQ(sent.size(), 20u);  // 6..25, then it waits for the station
   EXPECT_EQ(sent.back(), 25u);
   ASSERT_EQ(idx->on_confirmation(3, 15, now), Confirmation::kAccepted);
-  sent.clear();
-  send_turns(20, sent);
+  sent = backfill_turns(*idx, now, 20, kTurn);
   ASSERT_EQ(sent.size(), 10u);  // 26..35
   EXPECT_EQ(sent.front(), 26u);
   EXPECT_EQ(sent.back(), 35u);
@@ -341,8 +339,7 @@ TEST(RingIndex, TheBackfillStaysWithinItsWindowAboveTheConfirmation) {
     now = now + std::chrono::seconds(1);
     ASSERT_EQ(idx->on_confirmation(3, 15, now), Confirmation::kAccepted);
   }
-  sent.clear();
-  send_turns(20, sent);
+  sent = backfill_turns(*idx, now, 20, kTurn);
   ASSERT_EQ(sent.size(), 20u);
   EXPECT_EQ(sent.front(), 16u);
   EXPECT_EQ(sent.back(), 35u);
