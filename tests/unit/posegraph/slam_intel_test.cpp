@@ -38,12 +38,18 @@ trajectory::RelationErrors errors(const Part& part, const std::vector<Pose2>& po
   return trajectory::relation_errors(relations, t);
 }
 
+// Intel's published relations (tests/data/real/intel.relations); empty if the file cannot be read.
+std::vector<trajectory::Relation> intel_relations() {
+  const Result<std::string> rel = read_log_text(teamscan::test::real_data_path("intel.relations"));
+  if (!rel) return {};
+  return trajectory::parse_relations(rel.value()).relations;
+}
+
 TEST(SlamIntel, BetterThanOdometryAndDeterministic) {
   const Part part = test::intel_log(2000);
   ASSERT_EQ(part.points.size(), 2000u);
-  const Result<std::string> rel = read_log_text(teamscan::test::real_data_path("intel.relations"));
-  ASSERT_TRUE(rel);
-  const std::vector<trajectory::Relation> relations = trajectory::parse_relations(rel.value()).relations;
+  const std::vector<trajectory::Relation> relations = intel_relations();
+  ASSERT_FALSE(relations.empty());
   const std::vector<Pose2> a = run(part);
   const trajectory::RelationErrors odo = errors(part, part.odometry, relations), slam = errors(part, a, relations);
   std::printf("relations within the part: %zu; odometry %.4f m %.3f deg; pose graph %.4f m %.3f deg\n", slam.used,
@@ -79,9 +85,8 @@ TEST(SlamIntel, ThreadsDoNotChangeThePoses) {
 TEST(SlamIntel, SecondSearchAddsClosuresAndDoesNotWorsen) {
   const Part part = test::intel_log(2000);
   ASSERT_EQ(part.points.size(), 2000u);
-  const Result<std::string> rel = read_log_text(teamscan::test::real_data_path("intel.relations"));
-  ASSERT_TRUE(rel);
-  const std::vector<trajectory::Relation> relations = trajectory::parse_relations(rel.value()).relations;
+  const std::vector<trajectory::Relation> relations = intel_relations();
+  ASSERT_FALSE(relations.empty());
   SlamOptions without;
   without.rematch_submaps = 0;
   SlamStats st_with, st_without;
