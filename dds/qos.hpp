@@ -42,11 +42,17 @@ inline constexpr const char* kRobotsPartition = "robot*";
 [[nodiscard]] dds_qos_t* make_team_writer_qos(Duration liveliness_lease);
 [[nodiscard]] dds_qos_t* make_team_reader_qos();
 
-// Store and forward (docs/onboard.md "The ring"): teamscan/backfill takes the scan QoS above (the robot's
-// writer with depth kBackfillHistoryDepth), teamscan/stored the team state's (keep-last 1, transient-local).
-// The depth is the back-fill's repair window on a lossy link: a back-filled scan whose fragments are lost
-// must be repaired before this many newer ones replace it (at the back-fill's 300 Hz, 1 s; docs/radio.md).
-inline constexpr std::uint32_t kBackfillHistoryDepth = 300;
+// Store and forward (docs/onboard.md "The ring"): teamscan/backfill takes the scan QoS above, teamscan/stored
+// the team state's (keep-last 1, transient-local).
+// The back-fill goes out on kBackfillLanes writers of the one topic, scan seq modulo the lanes: each writer
+// is its own reliable stream with its own repairs. Cyclone 0.10's reader asks, per acknowledgement, for the
+// fragments of only the first partly received sample of a writer (ddsi_acknack.c), so on a lossy link, where
+// most scans lose a fragment, one writer repairs about one scan per heartbeat round; the lanes repair in
+// parallel (docs/radio.md "The back-fill's lanes").
+inline constexpr std::uint32_t kBackfillLanes = 4;
+// Each lane's history: a back-filled scan whose fragments are lost must be repaired before this many newer
+// ones of its lane replace it (at the back-fill's 300 Hz over four lanes, 2 s; docs/radio.md).
+inline constexpr std::uint32_t kBackfillHistoryDepth = 150;
 
 // teamscan/map (ground station -> viewers): reliable, keep-last 1, volatile.
 [[nodiscard]] dds_qos_t* make_map_qos();

@@ -183,15 +183,18 @@ Result<DdsBridge> DdsBridge::create(const DdsBridgeOptions& options) {
   if (rc < 0) return dds_error("dds: cannot register status instance", rc);
 
   if (options.store_and_forward) {
-    q = dds::make_scan_writer_qos(options.robot_id, dds::kBackfillHistoryDepth, options.liveliness_lease,
-                                  options.max_blocking);
-    Result<dds_entity_t> backfill_writer = dds::create_writer<teamscan_msg_ScanPoints>(b.participant_, q, dds::kTopicBackfill);
-    dds_delete_qos(q);
-    if (!backfill_writer.ok()) return backfill_writer.error();
-    b.backfill_writer_ = backfill_writer.value();
     s.backfill_tx.robot_id = options.robot_id;
-    rc = dds_register_instance(b.backfill_writer_, &ih, &s.backfill_tx);
-    if (rc < 0) return dds_error("dds: cannot register back-fill instance", rc);
+    for (dds_entity_t& lane : b.backfill_writers_) {
+      q = dds::make_scan_writer_qos(options.robot_id, dds::kBackfillHistoryDepth, options.liveliness_lease,
+                                    options.max_blocking);
+      Result<dds_entity_t> backfill_writer =
+          dds::create_writer<teamscan_msg_ScanPoints>(b.participant_, q, dds::kTopicBackfill);
+      dds_delete_qos(q);
+      if (!backfill_writer.ok()) return backfill_writer.error();
+      lane = backfill_writer.value();
+      rc = dds_register_instance(lane, &ih, &s.backfill_tx);
+      if (rc < 0) return dds_error("dds: cannot register back-fill instance", rc);
+    }
     q = dds::make_team_reader_qos();
     Result<dds_entity_t> stored_reader = dds::create_reader<teamscan_msg_StoredState>(b.participant_, q);
     dds_delete_qos(q);
@@ -240,12 +243,13 @@ Status DdsBridge::publish_scan(const ScanPoints& scan) {
 }
 
 Status DdsBridge::publish_backfill(const ScanPoints& scan) {
-  if (!participant_.valid() || backfill_writer_ <= 0 || scan.robot_id != robot_id_) {
+  const dds_entity_t lane = backfill_writers_[scan.seq % dds::kBackfillLanes];
+  if (!participant_.valid() || lane <= 0 || scan.robot_id != robot_id_) {
     ++counters_.write_errors;
     return Error{"dds: back-fill for another robot id or no back-fill writer", 0, static_cast<long>(scan.robot_id)};
   }
   encode_scan(scan, samples_->backfill_tx);
-  const dds_return_t rc = dds_write(backfill_writer_, &samples_->backfill_tx);
+  const dds_return_t rc = dds_write(lane, &samples_->backfill_tx);
   if (rc < 0) {
     ++counters_.write_errors;
     return dds_error("dds: back-fill write failed", rc);

@@ -11,6 +11,7 @@
 #include "common/result.hpp"
 #include "common/time.hpp"
 #include "dds/participant.hpp"
+#include "dds/qos.hpp"
 #include "dds/take.hpp"
 #include "onboard/core/messages.hpp"
 
@@ -70,7 +71,8 @@ class DdsBridge {
   [[nodiscard]] Status publish_pose(const OnboardPose& pose);
   [[nodiscard]] Status publish_scan(const ScanPoints& scan);
   [[nodiscard]] Status publish_status(const OnboardStatus& status);
-  // A scan re-published from the ring (teamscan/backfill); fails without store_and_forward.
+  // A scan re-published from the ring (teamscan/backfill, on the lane of its seq: dds::kBackfillLanes);
+  // fails without store_and_forward.
   [[nodiscard]] Status publish_backfill(const ScanPoints& scan);
 
   // The newest team state received since the last call, if any. Never blocks, never allocates.
@@ -105,7 +107,7 @@ class DdsBridge {
   dds_entity_t scan_writer_ = 0;
   dds_entity_t status_writer_ = 0;
   dds_entity_t team_reader_ = 0;
-  dds_entity_t backfill_writer_ = 0;
+  dds_entity_t backfill_writers_[dds::kBackfillLanes] = {};  // lane = scan seq % kBackfillLanes
   dds_entity_t stored_reader_ = 0;
   std::uint32_t robot_id_ = 0;
   std::unique_ptr<Samples> samples_;

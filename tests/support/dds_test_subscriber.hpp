@@ -78,6 +78,7 @@ class DdsTestSubscriber {
       for (int i = 0; i < n; ++i) {
         if (infos_[static_cast<std::size_t>(i)].valid_data) {
           out.push_back(samples_[static_cast<std::size_t>(i)]);
+          publications_.push_back(infos_[static_cast<std::size_t>(i)].publication_handle);
           ++got;
         } else {
           ++invalid_;
@@ -88,6 +89,8 @@ class DdsTestSubscriber {
   }
 
   [[nodiscard]] std::uint64_t invalid() const { return invalid_; }
+  // The publication (writer) handle of every valid sample taken so far, in the order taken.
+  [[nodiscard]] const std::vector<dds_instance_handle_t>& publications() const { return publications_; }
 
  private:
   dds_entity_t participant_ = -1;
@@ -97,6 +100,7 @@ class DdsTestSubscriber {
   std::vector<T> samples_;
   std::vector<void*> ptrs_;
   std::vector<dds_sample_info_t> infos_;
+  std::vector<dds_instance_handle_t> publications_;
   std::uint64_t invalid_ = 0;
 };
 

@@ -2,6 +2,8 @@
 // against independent test subscribers/writers, plus the transient-local late-joiner behaviour.
 #include <gtest/gtest.h>
 
+#include <map>
+#include <set>
 #include <vector>
 
 #include "onboard/bridge/bridge.hpp"
@@ -227,6 +229,50 @@ TEST(DdsRoundTrip, LateScanReaderGetsTheWholeHistory) {
   // Depth 100: the newest 100 (51..150), nothing older, nothing twice.
   ASSERT_EQ(got.size(), 100u);
   for (std::size_t i = 0; i < got.size(); ++i) EXPECT_EQ(got[i].seq, 51u + i);
+}
+
+// Store and forward: back-filled scans go out on dds::kBackfillLanes writers of teamscan/backfill, a scan's
+// lane fixed by its seq, so that each lane repairs its own losses (dds/qos.hpp).
+TEST(DdsRoundTrip, BackfillGoesOutOnItsLanesEveryScanOnce) {
+  dds_qos_t* q = make_scan_reader_qos();
+  DdsTestSubscriber<teamscan_msg_ScanPoints> sub(&teamscan_msg_ScanPoints_desc, kTopicBackfill, q, 64, test::test_domain_id());
+  dds_delete_qos(q);
+  ASSERT_TRUE(sub.ok());
+  DdsBridgeOptions o;
+  o.robot_id = 3;
+  o.domain_id = test::test_domain_id();
+  o.store_and_forward = true;
+  Result<DdsBridge> b = DdsBridge::create(o);
+  ASSERT_TRUE(b.ok()) << b.error().what;
+  ASSERT_TRUE(sub.wait_matched(kBackfillLanes, kWait));
+  static ScanPoints s;
+  s.robot_id = 3;
+  s.count = 1;
+  constexpr std::uint32_t kScans = 3 * kBackfillLanes;
+  for (std::uint32_t seq = 101; seq < 101 + kScans; ++seq) {
+    s.seq = seq;
+    ASSERT_TRUE(b.value().publish_backfill(s).ok());
+  }
+  std::vector<teamscan_msg_ScanPoints> got;
+  ASSERT_TRUE(sub.take_until(got, kScans, kWait));
+  ASSERT_EQ(got.size(), kScans);
+  EXPECT_EQ(b.value().counters().backfills_written, kScans);
+  std::map<std::uint32_t, dds_instance_handle_t> writer_of;
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    EXPECT_EQ(got[i].robot_id, 3u);
+    EXPECT_TRUE(writer_of.emplace(got[i].seq, sub.publications()[i]).second) << "seq " << got[i].seq << " twice";
+  }
+  std::set<dds_instance_handle_t> lanes;
+  for (const auto& [seq, writer] : writer_of) {
+    lanes.insert(writer);
+    if (seq >= 101 + kBackfillLanes) {
+      EXPECT_EQ(writer, writer_of.at(seq - kBackfillLanes)) << seq;
+    }
+    if (seq > 101) {
+      EXPECT_NE(writer, writer_of.at(seq - 1)) << seq;
+    }
+  }
+  EXPECT_EQ(lanes.size(), kBackfillLanes);
 }
 
 }  // namespace
