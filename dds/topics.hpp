@@ -15,9 +15,11 @@ inline constexpr const char* kTopicTeam = "teamscan/team";
 inline constexpr const char* kTopicMap = "teamscan/map";
 inline constexpr const char* kTopicStored = "teamscan/stored";      // StoredState: station -> robots
 inline constexpr const char* kTopicBackfill = "teamscan/backfill";  // ScanPoints from the ring: robot -> station
+inline constexpr const char* kTopicBackfillPose = "teamscan/backfill_pose";  // RobotPose from the ring: robot -> station
 
-// TopicOf<Sample>::name and ::descriptor() for every generated type that has a topic. ScanPoints has a
-// second topic, kTopicBackfill, named where its reader and writer are made.
+// TopicOf<Sample>::name and ::descriptor() for every generated type that has a topic. ScanPoints and
+// RobotPose have a second topic each, kTopicBackfill and kTopicBackfillPose, named where their readers and
+// writers are made.
 template <class Sample>
 struct TopicOf;
 

@@ -80,8 +80,13 @@ void FusionCore::add_pose(const PoseInput& pose) {
   if (first_arrival_ns_ == INT64_MIN) first_arrival_ns_ = pose.arrival_ns;
   if (!poses_.add(pose)) {
     ++counters_.poses_rejected;
-  } else if (pose.robot <= kMaxRobots) {
-    last_pose_arrival_ns_[pose.robot] = std::max(last_pose_arrival_ns_[pose.robot], pose.arrival_ns);
+  } else {
+    if (pose.robot <= kMaxRobots)
+      last_pose_arrival_ns_[pose.robot] = std::max(last_pose_arrival_ns_[pose.robot], pose.arrival_ns);
+    // A pose the released scans were decided without (a back-fill after a radio shadow).
+    const auto hold_ns = static_cast<std::int64_t>(options_.hold_s * 1e9);
+    if (newest_released_stamp_ns_ != INT64_MIN && newest_released_stamp_ns_ - pose.stamp_ns > hold_ns)
+      ++counters_.poses_late;
   }
   newest_arrival_ns_ = std::max(newest_arrival_ns_, pose.arrival_ns);
   release_ready(newest_arrival_ns_, false);

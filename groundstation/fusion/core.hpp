@@ -134,6 +134,9 @@ struct CoreCounters {
   // jitter of a few milliseconds. The station catches up after them (station/fusion.hpp).
   std::uint64_t scans_late = 0;
   std::uint64_t poses_in = 0;
+  // Poses stamped more than hold_s before a scan released earlier: the scans of their time were decided
+  // without them (a robot's pose back-fill after a radio shadow). The station catches up after them too.
+  std::uint64_t poses_late = 0;
   std::uint64_t poses_rejected = 0;    // duplicates, bad ids, non-finite
   std::uint64_t points = 0;
   std::uint64_t removed_at_release = 0;

@@ -28,7 +28,7 @@ struct FusionStage::CatchUpRun {
   LiveMap map;                     // the rebuilt primary's model, as the live map will show it
   std::uint64_t scans = 0, points = 0, live_removed = 0;
   bool behind = false;             // the session is fed: the rebuilt cores take the queued live inputs
-  std::uint64_t late_base = 0;     // the rebuilt primary's scans_late after the session
+  std::uint64_t late_base = 0;     // the rebuilt primary's scans_late + poses_late after the session
   // The scans the live primary released since the start, and those the rebuilt one released from the
   // queue (its own release of a live input), with what their latency and trajectory need.
   std::set<std::pair<std::uint8_t, std::uint32_t>> live_released;

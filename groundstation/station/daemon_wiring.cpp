@@ -115,6 +115,8 @@ void start_live_fusion(const GroundStationConfig& cfg, Daemon& d) {
     d.fusion->add_pose(p);
     d.corrections.share(d.fusion->core(), *team, now_realtime());
   });
+  // A back-filled pose enters the pose history (stamped in a shadow: the catch-up after it decides again).
+  d.station->add_backfill_pose_hook([&d](const PoseObservation& p) { d.fusion->add_pose(p); });
   d.station->add_scan_hook([&d, team](const ScanPoints& s, const Receipt& receipt) {
     d.fusion->add_scan(s, receipt);
     d.corrections.share(d.fusion->core(), *team, now_realtime());

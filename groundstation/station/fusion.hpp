@@ -77,8 +77,8 @@ struct FusionOptions {
   // A periodic write's snapshot takes at most this much of one loop turn (request_write, poll_write);
   // the rest waits for the next turns. 0: one step (64 model voxels per core) per turn.
   double write_slice_ms = 2.0;
-  // The catch-up (catch_up()): due once this many scans were released late (fusion::CoreCounters
-  // scans_late: a robot's back-fill after a radio shadow) since the last one and none for catch_up_quiet_s of the loop's
+  // The catch-up (catch_up()): due once this many scans were released late or poses came late
+  // (fusion::CoreCounters scans_late + poses_late: a robot's back-fill after a radio shadow) since the last one and none for catch_up_quiet_s of the loop's
   // clock (the back-fill is over). 0 scans: never in the loop; flush() catches up whenever one is due.
   std::uint32_t catch_up_min_scans = 75;
   double catch_up_quiet_s = 2.0;
@@ -162,7 +162,8 @@ class FusionStage {
   [[nodiscard]] fusion::RebuildProgress catch_up_progress() const;
   // Called after every catch-up with the counters (caught_up_scans, last_catch_up_s), on its thread.
   void set_catch_up_callback(std::function<void(const FusionCounters&)> f) { on_catch_up_ = std::move(f); }
-  // Scans released late (CoreCounters::scans_late) since the last catch-up (the primary core's count).
+  // Scans released late and poses taken late (CoreCounters::scans_late + poses_late) since the last
+  // catch-up (the primary core's count).
   [[nodiscard]] std::uint64_t late_since_catch_up() const;
   // Releases every scan the cores hold (shutdown), after a catch-up if any scan was released late in
   // this run (since the start or its session replay): the final model is then the one of
@@ -263,7 +264,7 @@ class FusionStage {
   bool replaying_ = false;  // replay_session(): no latency samples (they are not this run's)
   bool resume_ = false;     // the first live sample after a replay resumes the core's arrival clock
   bool catching_up_ = false;  // catch_up(): released scans are counted as the cores' again, not as live
-  std::uint64_t late_base_ = 0;  // the primary's scans_late after the last catch-up
+  std::uint64_t late_base_ = 0;  // the primary's scans_late + poses_late after the last catch-up
   std::uint64_t late_seen_ = 0;  // ... at the last tick, and when it last grew
   std::int64_t late_at_ns_ = 0;
   std::unique_ptr<CatchUpRun> run_;  // the catch-up in slices under way (catch_up_run.hpp)

@@ -18,8 +18,15 @@
 
 namespace teamscan::station {
 
+namespace {
+
+// The inputs a core took after it had decided past their stamps: back-filled scans and poses.
+std::uint64_t late_inputs(const fusion::CoreCounters& c) { return c.scans_late + c.poses_late; }
+
+}  // namespace
+
 std::uint64_t FusionStage::late_since_catch_up() const {
-  return core().counters().scans_late - late_base_;
+  return late_inputs(core().counters()) - late_base_;
 }
 
 void FusionStage::flush() {
@@ -38,7 +45,7 @@ void FusionStage::tick(std::int64_t realtime_ns) {
     continue_catch_up();
     return;
   }
-  const std::uint64_t late = core().counters().scans_late;
+  const std::uint64_t late = late_inputs(core().counters());
   if (late != late_seen_) {
     late_seen_ = late;
     late_at_ns_ = realtime_ns;
@@ -58,7 +65,7 @@ void FusionStage::start_catch_up(std::int64_t realtime_ns) {
   const Time started = now_monotonic();
   if (session_dir_.empty()) {
     ++counters_.catch_up_failures;
-    late_base_ = core().counters().scans_late;
+    late_base_ = late_inputs(core().counters());
     return;
   }
   auto run = std::make_unique<CatchUpRun>(realtime_ns, options_.map_resolution_m);
@@ -76,7 +83,7 @@ void FusionStage::start_catch_up(std::int64_t realtime_ns) {
     });
   } catch (const std::system_error&) {
     ++counters_.catch_up_failures;  // no thread: not tried again before more scans come late
-    late_base_ = core().counters().scans_late;
+    late_base_ = late_inputs(core().counters());
     return;
   }
   run->slice_max = now_monotonic() - started;
@@ -110,7 +117,7 @@ void FusionStage::continue_catch_up() {
       // Not read, or not this station's folder: the cores stay as they are, no new try before more
       // scans come late.
       ++counters_.catch_up_failures;
-      late_base_ = late_seen_ = core().counters().scans_late;
+      late_base_ = late_seen_ = late_inputs(core().counters());
       run_.reset();
       return;
     }
@@ -120,7 +127,7 @@ void FusionStage::continue_catch_up() {
   if (!run.behind && run.rebuild.time_line_done()) {
     // The session is fed (step() stops at its end): the queued live inputs from here on.
     run.behind = true;
-    run.late_base = run.rebuild.cores().primary().counters().scans_late;
+    run.late_base = late_inputs(run.rebuild.cores().primary().counters());
   }
   const bool done = run.rebuild.step(options_.catch_up_slice_scans);
   ++run.turns;
@@ -184,7 +191,7 @@ Status FusionStage::catch_up(std::int64_t realtime_ns) {
   cores_->resume_at(realtime_ns);
   resume_ = false;
   released_before_.clear();
-  late_base_ = late_seen_ = core().counters().scans_late;
+  late_base_ = late_seen_ = late_inputs(core().counters());
   ++counters_.catch_ups;
   counters_.caught_up_scans = fed.value();
   counters_.caught_up_live_scans = 0;

@@ -36,6 +36,7 @@ const char* topic_name(SampleTopic t) {
     case SampleTopic::kScan: return "scan";
     case SampleTopic::kStatus: return "status";
     case SampleTopic::kBackfill: return "backfill";
+    case SampleTopic::kBackfillPose: return "backfill_pose";
   }
   return "?";
 }
@@ -85,7 +86,7 @@ void SampleValidator::observe_clock(std::uint32_t id, std::int64_t stamp_ns, Tim
 
 Verdict SampleValidator::check_header(SampleTopic topic, std::uint32_t id, std::int64_t stamp_ns, Time received) {
   if (id == 0 || id > kMaxRobots) return {Reject::kRobotId, static_cast<std::int64_t>(id)};
-  const bool backfill = topic == SampleTopic::kBackfill;
+  const bool backfill = topic == SampleTopic::kBackfill || topic == SampleTopic::kBackfillPose;
   if (!backfill) observe_clock(id, stamp_ns, received);
   if (stamp_ns < options_.clock_set_after_ns) return {Reject::kClockUnset, stamp_ns};
   // Compared as differences from the receive time: stamps are past 2020 here, so no overflow.
@@ -152,19 +153,30 @@ Verdict SampleValidator::check_pose(const teamscan_msg_RobotPose& p, Time receiv
   constexpr SampleTopic t = SampleTopic::kPose;
   Verdict v = check_header(t, p.robot_id, p.stamp_ns, received);
   if (!v.ok()) return count(t, p.robot_id, v);
+  v = check_pose_body(p);
+  if (!v.ok()) return count(t, p.robot_id, v);
+  return count(t, p.robot_id, check_seq(t, p.robot_id, p.seq));
+}
+
+Verdict SampleValidator::check_backfill_pose(const teamscan_msg_RobotPose& p, Time received) {
+  constexpr SampleTopic t = SampleTopic::kBackfillPose;
+  Verdict v = check_header(t, p.robot_id, p.stamp_ns, received);
+  if (!v.ok()) return count(t, p.robot_id, v);
+  return count(t, p.robot_id, check_pose_body(p));
+}
+
+Verdict SampleValidator::check_pose_body(const teamscan_msg_RobotPose& p) const {
   if (!inside_site_xy(p.x_mm, p.y_mm)) {
     const std::int64_t x = p.x_mm, y = p.y_mm;
-    return count(t, p.robot_id, {Reject::kOutsideSite, std::llabs(x) > std::llabs(y) ? x : y});
+    return {Reject::kOutsideSite, std::llabs(x) > std::llabs(y) ? x : y};
   }
-  if (p.yaw_urad <= -kPiUrad - 1 || p.yaw_urad > kPiUrad) return count(t, p.robot_id, {Reject::kYaw, p.yaw_urad});
+  if (p.yaw_urad <= -kPiUrad - 1 || p.yaw_urad > kPiUrad) return {Reject::kYaw, p.yaw_urad};
   const double speed_mps = std::hypot(static_cast<double>(p.vx_mmps), static_cast<double>(p.vy_mmps)) * 1e-3;
-  if (!(speed_mps <= options_.max_speed_mps)) {
-    return count(t, p.robot_id, {Reject::kVelocity, static_cast<std::int64_t>(speed_mps * 1000.0)});
-  }
+  if (!(speed_mps <= options_.max_speed_mps)) return {Reject::kVelocity, static_cast<std::int64_t>(speed_mps * 1000.0)};
   if (std::abs(static_cast<double>(p.yaw_rate_mradps)) * 1e-3 > options_.max_yaw_rate_radps) {
-    return count(t, p.robot_id, {Reject::kVelocity, p.yaw_rate_mradps});
+    return {Reject::kVelocity, p.yaw_rate_mradps};
   }
-  return count(t, p.robot_id, check_seq(t, p.robot_id, p.seq));
+  return {};
 }
 
 Verdict SampleValidator::check_scan(const teamscan_msg_ScanPoints& s, Time received) {

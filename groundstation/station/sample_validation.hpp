@@ -39,10 +39,11 @@ enum class Reject : std::uint16_t {
 inline constexpr std::size_t kRejectReasons = 13;  // including kNone
 [[nodiscard]] const char* reject_name(Reject r);    // "robot_id", "beam_count", ... ("accepted" for kNone)
 
-// kBackfill: teamscan/backfill, scans a robot re-publishes from its ring (docs/onboard.md "The ring").
-enum class SampleTopic : std::uint8_t { kPose = 0, kScan = 1, kStatus = 2, kBackfill = 3 };
-inline constexpr std::size_t kSampleTopics = 4;
-[[nodiscard]] const char* topic_name(SampleTopic t);  // "pose", "scan", "status", "backfill"
+// kBackfill, kBackfillPose: teamscan/backfill and teamscan/backfill_pose, the scans and poses a robot
+// re-publishes from its ring (docs/onboard.md "The ring").
+enum class SampleTopic : std::uint8_t { kPose = 0, kScan = 1, kStatus = 2, kBackfill = 3, kBackfillPose = 4 };
+inline constexpr std::size_t kSampleTopics = 5;
+[[nodiscard]] const char* topic_name(SampleTopic t);  // "pose", "scan", "status", "backfill", "backfill_pose"
 
 struct ValidationOptions {
   // The site's bounds in the map frame (metres): poses, scan origins and placed points outside are
@@ -55,7 +56,7 @@ struct ValidationOptions {
   // and a loaded station's backlog.
   Duration max_stamp_age = std::chrono::seconds(30);
   Duration max_stamp_ahead = std::chrono::seconds(2);
-  // A back-filled scan (teamscan/backfill) is as old as the radio shadow it was taken in, plus its queue
+  // A back-filled scan or pose (teamscan/backfill, teamscan/backfill_pose) is as old as the radio shadow it was taken in, plus its queue
   // in the robot's ring: its stamp may lie this far before receipt. Its seq is not checked against the
   // live numbering (a back-fill goes back by the whole shadow); the station stores each seq once.
   Duration max_backfill_age = std::chrono::hours(24);
@@ -122,6 +123,8 @@ class SampleValidator {
   // A back-filled scan: check_scan's checks but for the seq, with the stamp window max_backfill_age; its
   // stamp is not taken into the robot's clock offset (it is old by design).
   Verdict check_backfill(const teamscan_msg_ScanPoints& scan, Time received);
+  // A back-filled pose: check_pose's checks but for the seq, with the stamp window max_backfill_age.
+  Verdict check_backfill_pose(const teamscan_msg_RobotPose& pose, Time received);
 
   // The rate-limited log line for a refusal (empty: not due). `now` is CLOCK_MONOTONIC.
   [[nodiscard]] std::string log_line(const Verdict& v, SampleTopic topic, std::uint32_t robot_id, Time now);
@@ -150,6 +153,8 @@ class SampleValidator {
   Verdict check_header(SampleTopic topic, std::uint32_t robot_id, std::int64_t stamp_ns, Time received);
   // The checks of a scan's body (count, correction, origin, points) after its header.
   Verdict check_scan_body(const teamscan_msg_ScanPoints& scan);
+  // ... and of a pose's (site, yaw, motion).
+  [[nodiscard]] Verdict check_pose_body(const teamscan_msg_RobotPose& pose) const;
   Verdict check_seq(SampleTopic topic, std::uint32_t robot_id, std::uint32_t seq);
   void observe_clock(std::uint32_t robot_id, std::int64_t stamp_ns, Time received);
   Verdict count(SampleTopic topic, std::uint32_t robot_id, Verdict v);

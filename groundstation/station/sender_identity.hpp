@@ -32,10 +32,10 @@ class SenderIdentity {
     return sender != 0 && sender == claimed_robot_id;
   }
 
-  // Publications remembered: a robot's writers (pose, scan, status and the back-fill's lanes) x 32 robots,
-  // twice over for restarts and intruders; the oldest entry is forgotten first (it is looked up again if it
-  // still sends).
-  static constexpr std::size_t kCapacity = (3 + dds::kBackfillLanes) * kMaxRobots * 2;
+  // Publications remembered: a robot's writers (pose, scan, status, the back-fill's lanes and its pose
+  // back-fill) x 32 robots, twice over for restarts and intruders; the oldest entry is forgotten first (it is
+  // looked up again if it still sends).
+  static constexpr std::size_t kCapacity = (4 + dds::kBackfillLanes) * kMaxRobots * 2;
 
  private:
   struct Entry {

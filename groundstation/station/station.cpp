@@ -23,10 +23,11 @@ namespace teamscan::station {
 
 namespace {
 
-// The readers (kBackfill: teamscan/backfill, the scans robots re-publish from their ring).
-enum Topic : int { kPose = 0, kScan = 1, kStatus = 2, kBackfill = 3 };
-constexpr int kTopics = 4;
-constexpr const char* kTopicNames[kTopics] = {"pose", "scan", "status", "backfill"};
+// The readers (kBackfill, kBackfillPose: teamscan/backfill and teamscan/backfill_pose, the scans and poses
+// robots re-publish from their ring).
+enum Topic : int { kPose = 0, kScan = 1, kStatus = 2, kBackfill = 3, kBackfillPose = 4 };
+constexpr int kTopics = 5;
+constexpr const char* kTopicNames[kTopics] = {"pose", "scan", "status", "backfill", "backfill_pose"};
 
 void liveliness_listener(dds_entity_t /*reader*/, const dds_liveliness_changed_status_t status, void* arg) {
   static_cast<Station*>(arg)->push_liveliness(status.last_publication_handle, status.alive_count_change,
@@ -174,6 +175,8 @@ Result<std::unique_ptr<Station>> Station::create(const StationOptions& options, 
   dds_qos_t* q = dds::make_state_reader_qos();
   Result<dds_entity_t> pose_reader = dds::create_reader<teamscan_msg_RobotPose>(d.participant, q, listener);
   Result<dds_entity_t> status_reader = dds::create_reader<teamscan_msg_RobotStatus>(d.participant, q, listener);
+  Result<dds_entity_t> backfill_pose_reader =
+      dds::create_reader<teamscan_msg_RobotPose>(d.participant, q, listener, dds::kTopicBackfillPose);
   dds_delete_qos(q);
   q = dds::make_scan_reader_qos();
   Result<dds_entity_t> scan_reader = dds::create_reader<teamscan_msg_ScanPoints>(d.participant, q, listener);
@@ -189,13 +192,14 @@ Result<std::unique_ptr<Station>> Station::create(const StationOptions& options, 
   Result<dds_entity_t> map_writer = dds::create_writer<teamscan_msg_MapUpdate>(d.participant, q);
   dds_delete_qos(q);
   for (const Result<dds_entity_t>* e :
-       {&pose_reader, &status_reader, &scan_reader, &backfill_reader, &team_writer, &stored_writer, &map_writer}) {
+       {&pose_reader, &status_reader, &scan_reader, &backfill_reader, &backfill_pose_reader, &team_writer, &stored_writer, &map_writer}) {
     if (!e->ok()) return Error{"station: cannot create a DDS topic, reader or writer", 0, e->error().detail};
   }
   d.readers[kPose] = pose_reader.value();
   d.readers[kStatus] = status_reader.value();
   d.readers[kScan] = scan_reader.value();
   d.readers[kBackfill] = backfill_reader.value();
+  d.readers[kBackfillPose] = backfill_pose_reader.value();
   d.team_writer = team_writer.value();
   d.stored_writer = stored_writer.value();
   d.map_writer = map_writer.value();
@@ -210,7 +214,7 @@ Result<std::unique_ptr<Station>> Station::create(const StationOptions& options, 
     (void)dds_waitset_attach(d.waitset, rc, t + 1);
   }
   st->recover_stored();
-  st->event("station started: listening to teamscan/pose, teamscan/scan, teamscan/status, teamscan/backfill");
+  st->event("station started: listening to teamscan/pose, teamscan/scan, teamscan/status, teamscan/backfill, teamscan/backfill_pose");
   return st;
 }
 
@@ -220,7 +224,10 @@ void Station::recover_stored() {
   // exactly the station's outage. Reads scans.bin once (bounded memory: record by record).
   SessionReadStats stats;
   const Status s = replay_session_files(
-      store_.dir(), [](const PoseObservation&) {},
+      store_.dir(),
+      [this](const PoseObservation& p) {
+        if (stored_poses_[p.robot_id].insert(p.seq)) ++counters_.recovered_poses;
+      },
       [this](const ScanPoints& scan, const Receipt& receipt) {
         if (receipt.rejected != 0 || scan.robot_id == 0 || scan.robot_id > kMaxRobots) return;
         if (stored_[scan.robot_id].insert(scan.seq)) ++counters_.recovered_scans;
@@ -230,7 +237,7 @@ void Station::recover_stored() {
     event(std::string("stored scans not recovered from the session folder: ") + s.error().what);
     return;
   }
-  if (counters_.recovered_scans == 0) return;
+  if (counters_.recovered_scans == 0 && counters_.recovered_poses == 0) return;
   std::string text = "recovered " + std::to_string(counters_.recovered_scans) + " stored scans from the session folder:";
   for (std::uint32_t id = 1; id <= kMaxRobots; ++id) {
     const StoredSeqs& q = stored_[id];
@@ -238,6 +245,7 @@ void Station::recover_stored() {
     text += " robot " + std::to_string(id) + " seq " + std::to_string(q.first()) + ".." + std::to_string(q.contiguous()) +
             (q.holes() > 0 ? " (" + std::to_string(q.holes()) + " missing above)" : "") + ";";
   }
+  text += " and " + std::to_string(counters_.recovered_poses) + " poses";
   stored_changed_ = true;
   event(text);
 }
@@ -279,6 +287,8 @@ std::size_t Station::poll(Duration max_wait) {
   take<teamscan_msg_ScanPoints>(kScan, [this](const auto& s, RobotRecord& r, const ReceiveTime& at) { on_scan(s, r, at); });
   take<teamscan_msg_ScanPoints>(kBackfill,
                                 [this](const auto& s, RobotRecord& r, const ReceiveTime& at) { on_backfill(s, r, at); });
+  take<teamscan_msg_RobotPose>(kBackfillPose,
+                               [this](const auto& p, RobotRecord& r, const ReceiveTime& at) { on_backfill_pose(p, r, at); });
   handle_liveliness_events();
   check_silence(now_monotonic());
   validator_.clock_changes([&](std::uint32_t, const std::string& text) { event(text); });
@@ -400,8 +410,9 @@ Verdict Station::check_and_store_if_refused(const Sample& sample, const ReceiveT
   Verdict v;
   SampleTopic topic;
   if constexpr (std::is_same_v<Sample, teamscan_msg_RobotPose>) {
-    v = validator_.check_pose(sample, at.realtime);
-    topic = SampleTopic::kPose;
+    const bool backfill = reader == kBackfillPose;
+    v = backfill ? validator_.check_backfill_pose(sample, at.realtime) : validator_.check_pose(sample, at.realtime);
+    topic = backfill ? SampleTopic::kBackfillPose : SampleTopic::kPose;
   } else if constexpr (std::is_same_v<Sample, teamscan_msg_RobotStatus>) {
     v = validator_.check_status(sample, at.realtime);
     topic = SampleTopic::kStatus;
@@ -435,9 +446,14 @@ PoseObservation pose_observation(const teamscan_msg_RobotPose& p, Time received)
 }
 
 void Station::on_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at) {
-  store_.append_pose(p, at);
-  ++r.poses;
-  ++counters_.poses;
+  // A seq far below the last one is a robot that lost its ring and numbers from 1 again (as for scans).
+  if (r.poses > 0 && p.seq < r.last_pose_seq && r.last_pose_seq - p.seq > options_.scan_history_depth) {
+    stored_poses_[p.robot_id].reset();
+  }
+  if (r.poses == 0 || p.seq > r.last_pose_seq || r.last_pose_seq - p.seq > options_.scan_history_depth) {
+    r.last_pose_seq = p.seq;
+  }
+  if (!store_pose(p, r, at)) return;
   const PoseObservation obs = pose_observation(p, at.realtime);
   team_.add_pose(obs);
   for (const PoseHook& h : pose_hooks_) {
@@ -448,6 +464,36 @@ void Station::on_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const Rec
       event(std::string("pose hook failed: ") + e.what());
     }
   }
+}
+
+void Station::on_backfill_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at) {
+  if (!store_pose(p, r, at)) return;
+  ++r.poses_backfilled;
+  ++counters_.poses_backfilled;
+  const PoseObservation obs = pose_observation(p, at.realtime);
+  for (const PoseHook& h : backfill_pose_hooks_) {
+    try {
+      h(obs);
+    } catch (const std::exception& e) {
+      ++counters_.hook_failures;
+      event(std::string("back-fill pose hook failed: ") + e.what());
+    }
+  }
+}
+
+bool Station::store_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at) {
+  // Each (robot, pose seq) enters the session once: the live writer's history replayed to a returning
+  // station and the ring's back-fill overlap.
+  if (!stored_poses_[p.robot_id].insert(p.seq)) {
+    ++r.poses_duplicate;
+    ++counters_.duplicate_poses;
+    return false;
+  }
+  stored_changed_ = true;
+  store_.append_pose(p, at);
+  ++r.poses;
+  ++counters_.poses;
+  return true;
 }
 
 void Station::on_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const ReceiveTime& at) {
@@ -500,7 +546,9 @@ void Station::on_ring_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, 
     r.backfilling = false;
     r.whole_again = at.realtime;
     event(robot + " whole again: " + std::to_string(s.backfill_total) + " scans back-filled, " +
-          std::to_string(stored_[s.robot_id].holes()) + " missing in the session");
+          std::to_string(stored_[s.robot_id].holes()) + " missing in the session; " +
+          std::to_string(r.poses_backfilled) + " poses back-filled so far, " +
+          std::to_string(stored_poses_[s.robot_id].holes()) + " missing");
   }
 }
 
@@ -627,12 +675,14 @@ bool Station::publish_stored(Time now_mono) {
   st.count = 0;
   for (std::uint32_t id = 1; id <= kMaxRobots; ++id) {
     const StoredSeqs& q = stored_[id];
-    if (!q.any()) continue;
+    const StoredSeqs& poses = stored_poses_[id];
+    if (!q.any() && !poses.any()) continue;
     teamscan_msg_RobotStored& e = st.robots[st.count++];
     e.robot_id = id;
     e.contiguous_seq = q.contiguous();
     e.first_seq = q.first();
     e.stored = static_cast<std::uint32_t>(std::min<std::uint64_t>(q.count(), 0xFFFFFFFFu));
+    e.pose_contiguous_seq = poses.contiguous();
   }
   if (dds_write(dds_->stored_writer, &st) < 0) return false;
   stored_changed_ = false;
@@ -660,6 +710,11 @@ Status Station::publish_map(std::span<const teamscan_msg_MapVoxel> voxels, std::
   const dds_return_t rc = dds_write(dds_->map_writer, &m);
   if (rc < 0) return Error{"station: map write failed", 0, rc};
   return ok_status();
+}
+
+const StoredSeqs& Station::stored_poses(std::uint32_t robot_id) const {
+  TEAMSCAN_EXPECTS(robot_id >= 1 && robot_id <= kMaxRobots);
+  return stored_poses_[robot_id];
 }
 
 const RobotRecord& Station::robot(std::uint32_t robot_id) const {

@@ -81,6 +81,9 @@ struct RobotRecord {
   std::uint64_t scans_repeated = 0;    // seq not above the last one (robot restart or duplicate)
   std::uint64_t scans_duplicate = 0;   // a seq the session holds already (history replay, back-fill): not stored again
   std::uint64_t scans_backfilled = 0;  // stored from teamscan/backfill (the robot's ring)
+  std::uint64_t poses_duplicate = 0;   // a pose seq the session holds already: not stored again
+  std::uint64_t poses_backfilled = 0;  // stored from teamscan/backfill_pose (the robot's ring)
+  std::uint32_t last_pose_seq = 0;
   // The robot's store and forward as its teamscan/status reports it (docs/onboard.md "The ring").
   std::uint32_t ring_unconfirmed = 0;    // scans in its ring the station has not confirmed
   std::uint32_t backfill_total = 0;      // to back-fill since it came back
@@ -99,8 +102,9 @@ struct RobotRecord {
   std::uint8_t clock_sync = 0;         // the robot's own report (RobotStatus.clock_sync): 0 unknown, 1 yes, 2 no
   std::uint32_t teams_rejected = 0;    // the robot's count of refused team states (RobotStatus)
   std::uint32_t corrections_rejected = 0;  // the robot's count of refused own corrections (RobotStatus)
-  std::uint64_t writer_handles[4] = {0, 0, 0, 0};    // pose, scan, status, backfill publication handles
-  std::uint64_t instance_handles[4] = {0, 0, 0, 0};  // this robot's instance on each reader
+  // pose, scan, status, backfill, backfill_pose: publication handles, this robot's instance on each reader
+  std::uint64_t writer_handles[5] = {0, 0, 0, 0, 0};
+  std::uint64_t instance_handles[5] = {0, 0, 0, 0, 0};
 };
 
 struct StationCounters {
@@ -117,8 +121,11 @@ struct StationCounters {
   std::uint64_t identity_mismatches = 0;  // a sample whose robot_id is not its sender's: refused, not stored
   std::uint64_t duplicate_scans = 0;   // a (robot, seq) the session holds already: not stored, not fused again
   std::uint64_t scans_backfilled = 0;  // stored from teamscan/backfill
+  std::uint64_t duplicate_poses = 0;   // a (robot, pose seq) the session holds already: not stored again
+  std::uint64_t poses_backfilled = 0;  // stored from teamscan/backfill_pose
   std::uint64_t stored_published = 0;  // teamscan/stored samples
   std::uint64_t recovered_scans = 0;   // (robot, seq) found in the session folder's scans.bin at start-up
+  std::uint64_t recovered_poses = 0;   // (robot, pose seq) found in its poses.csv
 };
 
 using ScanHook = std::function<void(const ScanPoints&, const Receipt&)>;
@@ -148,6 +155,9 @@ class Station {
   // Mapping stage hooks, run after the sample is stored (a hook that throws is counted and logged).
   void add_scan_hook(ScanHook hook) { scan_hooks_.push_back(std::move(hook)); }
   void add_pose_hook(PoseHook hook) { pose_hooks_.push_back(std::move(hook)); }
+  // Poses back-filled from a robot's ring (old by a radio shadow): stored, then these hooks only (the
+  // fusion core's pose history), not the live pose hooks (tracker, view, ROS 2).
+  void add_backfill_pose_hook(PoseHook hook) { backfill_pose_hooks_.push_back(std::move(hook)); }
   void add_lost_hook(LostHook hook) { lost_hooks_.push_back(std::move(hook)); }
 
   // The station's DDS participant, for other publishers of the process (the ROS 2 topics): one
@@ -159,8 +169,9 @@ class Station {
                                    std::uint32_t total_voxels);
 
   [[nodiscard]] const RobotRecord& robot(std::uint32_t robot_id) const;  // 1..32
-  // The scans of robot robot_id (1..32) the session holds (store and forward's confirmations).
+  // The scans and poses of robot robot_id (1..32) the session holds (store and forward's confirmations).
   [[nodiscard]] const StoredSeqs& stored(std::uint32_t robot_id) const;
+  [[nodiscard]] const StoredSeqs& stored_poses(std::uint32_t robot_id) const;
   [[nodiscard]] std::uint32_t robots_seen() const;
   [[nodiscard]] std::uint32_t robots_lost() const;
   [[nodiscard]] const StationCounters& counters() const { return counters_; }
@@ -199,6 +210,11 @@ class Station {
   template <class Sample>
   Verdict check_and_store_if_refused(const Sample& sample, const ReceiveTime& at, int topic);
   void on_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at);
+  // A pose from the robot's ring (teamscan/backfill_pose): stored unless the session holds its seq, then
+  // the back-fill pose hooks.
+  void on_backfill_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at);
+  // Enters an accepted pose into the session once per seq; false: a duplicate, counted.
+  bool store_pose(const teamscan_msg_RobotPose& p, RobotRecord& r, const ReceiveTime& at);
   void on_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const ReceiveTime& at);
   // The robot's ring report in its status: shadow, back-fill progress, whole again (events).
   void on_ring_status(const teamscan_msg_RobotStatus& s, RobotRecord& r, const ReceiveTime& at);
@@ -207,7 +223,8 @@ class Station {
   void on_backfill(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at);
   // Stores an accepted scan (once per seq) and runs the scan hooks; false: a duplicate, counted.
   bool store_scan(const teamscan_msg_ScanPoints& s, RobotRecord& r, const ReceiveTime& at);
-  // The (robot, seq) of every accepted scan already in the session folder (a restart on the same folder).
+  // The (robot, seq) of every accepted scan and pose already in the session folder (a restart on the same
+  // folder).
   void recover_stored();
   bool publish_stored(Time now_monotonic);
   void handle_liveliness_events();
@@ -227,6 +244,7 @@ class Station {
   SampleValidator validator_;
   std::array<RobotRecord, kMaxRobots + 1> robots_{};
   std::array<StoredSeqs, kMaxRobots + 1> stored_{};
+  std::array<StoredSeqs, kMaxRobots + 1> stored_poses_{};
   bool stored_changed_ = false;
   Time last_stored_;
   std::uint32_t stored_seq_ = 0;
@@ -236,6 +254,7 @@ class Station {
   std::uint32_t map_seq_ = 0;
   std::vector<ScanHook> scan_hooks_;
   std::vector<PoseHook> pose_hooks_;
+  std::vector<PoseHook> backfill_pose_hooks_;
   std::vector<LostHook> lost_hooks_;
   std::mutex events_mutex_;                  // liveliness events come on Cyclone's threads
   std::vector<LivelinessEvent> events_;

@@ -103,7 +103,7 @@ bool decode_stored(const teamscan_msg_StoredState& in, StoredSnapshot& out) {
   out.count = in.count;
   for (std::uint32_t i = 0; i < in.count; ++i) {
     const teamscan_msg_RobotStored& r = in.robots[i];
-    out.robots[i] = RobotStoredState{r.robot_id, r.contiguous_seq, r.first_seq, r.stored};
+    out.robots[i] = RobotStoredState{r.robot_id, r.contiguous_seq, r.first_seq, r.stored, r.pose_contiguous_seq};
   }
   return true;
 }
@@ -195,6 +195,16 @@ Result<DdsBridge> DdsBridge::create(const DdsBridgeOptions& options) {
       rc = dds_register_instance(lane, &ih, &s.backfill_tx);
       if (rc < 0) return dds_error("dds: cannot register back-fill instance", rc);
     }
+    q = dds::make_scan_writer_qos(options.robot_id, options.pose_history_depth, options.liveliness_lease,
+                                  options.max_blocking);
+    Result<dds_entity_t> backfill_pose_writer =
+        dds::create_writer<teamscan_msg_RobotPose>(b.participant_, q, dds::kTopicBackfillPose);
+    dds_delete_qos(q);
+    if (!backfill_pose_writer.ok()) return backfill_pose_writer.error();
+    b.backfill_pose_writer_ = backfill_pose_writer.value();
+    s.backfill_pose_tx.robot_id = options.robot_id;
+    rc = dds_register_instance(b.backfill_pose_writer_, &ih, &s.backfill_pose_tx);
+    if (rc < 0) return dds_error("dds: cannot register pose back-fill instance", rc);
     q = dds::make_team_reader_qos();
     Result<dds_entity_t> stored_reader = dds::create_reader<teamscan_msg_StoredState>(b.participant_, q);
     dds_delete_qos(q);
@@ -255,6 +265,21 @@ Status DdsBridge::publish_backfill(const ScanPoints& scan) {
     return dds_error("dds: back-fill write failed", rc);
   }
   ++counters_.backfills_written;
+  return ok_status();
+}
+
+Status DdsBridge::publish_backfill_pose(const OnboardPose& pose) {
+  if (!participant_.valid() || backfill_pose_writer_ <= 0 || pose.robot_id != robot_id_) {
+    ++counters_.write_errors;
+    return Error{"dds: pose back-fill for another robot id or no back-fill writer", 0, static_cast<long>(pose.robot_id)};
+  }
+  encode_pose(pose, samples_->backfill_pose_tx);
+  const dds_return_t rc = dds_write(backfill_pose_writer_, &samples_->backfill_pose_tx);
+  if (rc < 0) {
+    ++counters_.write_errors;
+    return dds_error("dds: pose back-fill write failed", rc);
+  }
+  ++counters_.backfill_poses_written;
   return ok_status();
 }
 

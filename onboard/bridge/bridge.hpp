@@ -13,6 +13,7 @@
 #include "dds/participant.hpp"
 #include "dds/qos.hpp"
 #include "dds/take.hpp"
+#include "onboard/core/config.hpp"
 #include "onboard/core/messages.hpp"
 
 namespace teamscan::onboard {
@@ -29,7 +30,7 @@ struct DdsBridgeOptions {
   // Poses kept the same way, as long as the scans (64 = 6.4 s at the 10 Hz SIP rate ≥ the scans' 4 s):
   // an outage of the ground station leaves no hole in the poses while no scan is missing, so the scans
   // of the outage get their team state and their ghosts are removed (docs/groundstation.md).
-  std::uint32_t pose_history_depth = 64;
+  std::uint32_t pose_history_depth = kPoseHistoryDepth;
   // Automatic liveliness lease of every writer: the ground station marks the robot lost within about
   // this long after the process dies. >= 2 s: a 1 s lease was lost spuriously on a loaded 2-core host
   // (DDS_SYSTEMD.md 3.2); the lease must stay below the 3 s detection requirement.
@@ -37,7 +38,8 @@ struct DdsBridgeOptions {
   // How long a reliable dds_write may block when the writer history is full (keep-last never blocks).
   Duration max_blocking = std::chrono::milliseconds(10);
   bool subscribe_team = true;               // create the teamscan/team reader
-  // Store and forward: the teamscan/backfill writer and the teamscan/stored reader (docs/onboard.md).
+  // Store and forward: the teamscan/backfill and teamscan/backfill_pose writers and the teamscan/stored
+  // reader (docs/onboard.md).
   bool store_and_forward = false;
   // DDS Security credential bundle of this robot (dds/security/credentials.hpp), checked by the caller;
   // null: an unsecured participant.
@@ -52,6 +54,7 @@ struct DdsBridgeCounters {
   std::uint32_t teams_taken = 0;
   std::uint32_t bad_team_samples = 0;       // count out of range; dropped
   std::uint32_t backfills_written = 0;
+  std::uint32_t backfill_poses_written = 0;
   std::uint32_t stored_taken = 0;
   std::uint32_t bad_stored_samples = 0;     // count out of range; dropped
 };
@@ -74,6 +77,8 @@ class DdsBridge {
   // A scan re-published from the ring (teamscan/backfill, on the lane of its seq: dds::kBackfillLanes);
   // fails without store_and_forward.
   [[nodiscard]] Status publish_backfill(const ScanPoints& scan);
+  // A pose re-published from the ring (teamscan/backfill_pose); fails without store_and_forward.
+  [[nodiscard]] Status publish_backfill_pose(const OnboardPose& pose);
 
   // The newest team state received since the last call, if any. Never blocks, never allocates.
   [[nodiscard]] bool take_team(TeamSnapshot& out);
@@ -97,6 +102,7 @@ class DdsBridge {
     teamscan_msg_ScanPoints scan_tx;
     teamscan_msg_RobotStatus status_tx;
     teamscan_msg_ScanPoints backfill_tx;
+    teamscan_msg_RobotPose backfill_pose_tx;
   };
   explicit DdsBridge(dds::Participant participant)
       : participant_{std::move(participant)}, team_rx_{1}, stored_rx_{1} {}
@@ -108,6 +114,7 @@ class DdsBridge {
   dds_entity_t status_writer_ = 0;
   dds_entity_t team_reader_ = 0;
   dds_entity_t backfill_writers_[dds::kBackfillLanes] = {};  // lane = scan seq % kBackfillLanes
+  dds_entity_t backfill_pose_writer_ = 0;
   dds_entity_t stored_reader_ = 0;
   std::uint32_t robot_id_ = 0;
   std::unique_ptr<Samples> samples_;

@@ -34,6 +34,9 @@ inline constexpr double kRingRecordsPerSecond = 85.0;  // the LMS' 75 scans and 
 // newest scan (its late-joiner depth; dds/qos.hpp): the ring back-fills the rest, so the live scans after a
 // return are not queued behind seconds of history on a slow link (docs/radio.md).
 inline constexpr std::uint32_t kRingLiveLateJoinerDepth = 1;
+// The live pose writer's history, offered whole to a station that joins late or returns (64 = 6.4 s at the
+// 10 Hz SIP rate, at least the scans' 4 s): the ring back-fills the poses older than these.
+inline constexpr std::uint32_t kPoseHistoryDepth = 64;
 struct RingConfig {
   std::string path;                         // e.g. /var/lib/teamscan/ring.bin; empty: no ring
   double capacity_s = 1800.0;               // the ring holds this long at kRingRecordsPerSecond

@@ -65,12 +65,13 @@ struct OnboardStatus {
   std::uint32_t last_shadow_ms = 0;
 };
 
-// What the station has stored of one robot's scans (teamscan/stored).
+// What the station has stored of one robot's scans and poses (teamscan/stored).
 struct RobotStoredState {
   std::uint32_t robot_id = 0;
   std::uint32_t contiguous_seq = 0;  // every scan from first_seq up to this one is stored
   std::uint32_t first_seq = 0;
   std::uint32_t stored = 0;
+  std::uint32_t pose_contiguous_seq = 0;  // every pose from the first stored up to this one is stored; 0: none
 };
 
 struct StoredSnapshot {

@@ -303,7 +303,7 @@ void OnboardDaemon::on_stored(Time now) {
   const bool fresh = age <= ring_->index().options().reachable_timeout;
   for (std::uint32_t i = 0; i < stored_msg_.count; ++i) {
     const RobotStoredState& r = stored_msg_.robots[i];
-    const ring::Confirmation c = ring_->on_confirmation(r.robot_id, r.contiguous_seq, now, fresh);
+    const ring::Confirmation c = ring_->on_confirmation(r.robot_id, r.contiguous_seq, now, fresh, r.pose_contiguous_seq);
     if (c == ring::Confirmation::kUnknownRobot || c == ring::Confirmation::kFuture) {
       ++confirmations_refused_;
       if (now >= next_ring_error_log_) {
@@ -341,6 +341,12 @@ void OnboardDaemon::service_ring(Time now) {
   ring_->start_turn(now);
   while (ring_->next_backfill(now, backfill_msg_)) {
     if (!publisher_.publish_backfill(backfill_msg_).ok()) {
+      ++publish_errors_;
+      break;
+    }
+  }
+  while (ring_->next_backfill_pose(now, backfill_pose_)) {
+    if (!publisher_.publish_backfill_pose(backfill_pose_).ok()) {
       ++publish_errors_;
       break;
     }

@@ -127,6 +127,7 @@ class OnboardDaemon {
   TeamSnapshot team_msg_{};
   StoredSnapshot stored_msg_{};
   ScanPoints backfill_msg_{};
+  OnboardPose backfill_pose_{};
   std::uint64_t confirmations_refused_ = 0;
   std::uint64_t ring_errors_ = 0;
   Time next_ring_error_log_{};          // monotonic

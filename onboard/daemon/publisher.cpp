@@ -15,6 +15,7 @@ class DdsPublisher final : public Publisher {
   Status publish_status(const OnboardStatus& status) override { return bridge_.publish_status(status); }
   bool take_team(TeamSnapshot& out) override { return bridge_.take_team(out); }
   Status publish_backfill(const ScanPoints& scan) override { return bridge_.publish_backfill(scan); }
+  Status publish_backfill_pose(const OnboardPose& pose) override { return bridge_.publish_backfill_pose(pose); }
   bool take_stored(StoredSnapshot& out) override { return bridge_.take_stored(out); }
   std::uint32_t scan_reader_matches() const override { return bridge_.scan_reader_matches(); }
   const char* name() const override { return "dds"; }

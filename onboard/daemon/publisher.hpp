@@ -21,6 +21,9 @@ class Publisher {
   // Store and forward (docs/onboard.md "The ring"): a scan re-published from the ring, and the newest
   // teamscan/stored since the last call. A publisher without them refuses and never has one.
   [[nodiscard]] virtual Status publish_backfill(const ScanPoints&) { return Error{"publisher: no back-fill writer"}; }
+  [[nodiscard]] virtual Status publish_backfill_pose(const OnboardPose&) {
+    return Error{"publisher: no pose back-fill writer"};
+  }
   [[nodiscard]] virtual bool take_stored(StoredSnapshot&) { return false; }
   // How many readers (ground stations) have matched the live scan writer since it was created, including
   // each rematch after a restart or a radio shadow; never decreases.

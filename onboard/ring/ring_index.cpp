@@ -16,9 +16,11 @@ Result<std::unique_ptr<RingIndex>> RingIndex::create(const RingIndexOptions& opt
   if (!r) return Error{"ring: out of memory"};
   r->slots_.reset(new (std::nothrow) Slot[options.slots]);
   r->scan_pos_.reset(new (std::nothrow) std::uint64_t[options.slots]);
-  if (!r->slots_ || !r->scan_pos_)
+  r->pose_pos_.reset(new (std::nothrow) std::uint64_t[options.slots]);
+  if (!r->slots_ || !r->scan_pos_ || !r->pose_pos_)
     return Error{"ring: out of memory for the slot tables", 0, static_cast<long>(options.slots)};
   std::fill_n(r->scan_pos_.get(), options.slots, 0);
+  std::fill_n(r->pose_pos_.get(), options.slots, 0);
   return r;
 }
 
@@ -49,8 +51,7 @@ void RingIndex::finish_recovery() {
   head_ = 0;
   for (std::uint64_t i = 0; i < options_.slots; ++i)
     if (slots_[i].kind != RecordKind::kEmpty) head_ = std::max(head_, slots_[i].ring_seq + 1);
-  std::uint64_t newest_scan = 0, oldest_scan = UINT64_MAX, newest_pose = 0;
-  bool any_pose = false;
+  std::uint64_t newest_scan = 0, oldest_scan = UINT64_MAX, newest_pose = 0, oldest_pose = UINT64_MAX;
   for (std::uint64_t i = 0; i < options_.slots; ++i) {
     Slot& s = slots_[i];
     if (s.kind == RecordKind::kEmpty) continue;
@@ -62,9 +63,17 @@ void RingIndex::finish_recovery() {
     }
     if (s.kind == RecordKind::kPose) {
       ++counters_.recovered_poses;
-      if (!any_pose || s.ring_seq >= newest_pose) newest_pose_seq_ = s.seq;
-      newest_pose = any_pose ? std::max(newest_pose, s.ring_seq) : s.ring_seq;
-      any_pose = true;
+      std::uint64_t& pos = pose_pos_[s.seq % options_.slots];
+      if (pos == 0 || pos - 1 < s.ring_seq) pos = s.ring_seq + 1;
+      if (!any_pose_ || s.ring_seq >= newest_pose) {
+        newest_pose = s.ring_seq;
+        newest_pose_seq_ = s.seq;
+      }
+      if (!any_pose_ || s.ring_seq < oldest_pose) {
+        oldest_pose = s.ring_seq;
+        oldest_pose_seq_ = s.seq;
+      }
+      any_pose_ = true;
       continue;
     }
     ++counters_.recovered_scans;
@@ -80,6 +89,10 @@ void RingIndex::finish_recovery() {
     }
     any_scan_ = true;
   }
+  // Whatever the recovery found was written by an earlier process: its live writers' DDS histories died
+  // with it, so the back-fill may take every recovered record, however recent.
+  recovered_scan_limit_ = any_scan_ ? newest_scan_seq_ : 0;
+  recovered_pose_limit_ = any_pose_ ? newest_pose_seq_ : 0;
 }
 
 void RingIndex::written(RecordKind kind, std::uint32_t seq, bool ok) {
@@ -90,6 +103,10 @@ void RingIndex::written(RecordKind kind, std::uint32_t seq, bool ok) {
     if (pos == s.ring_seq + 1) pos = 0;
     if (!ever_confirmed_ || s.seq > confirmed_seq_) ++counters_.dropped_unconfirmed;
     if (s.seq >= oldest_scan_seq_) oldest_scan_seq_ = s.seq + 1;
+  } else if (s.kind == RecordKind::kPose) {
+    std::uint64_t& pos = pose_pos_[s.seq % options_.slots];
+    if (pos == s.ring_seq + 1) pos = 0;
+    if (s.seq >= oldest_pose_seq_) oldest_pose_seq_ = s.seq + 1;
   }
   if (ok) {
     s = Slot{head_, seq, kind};
@@ -100,6 +117,9 @@ void RingIndex::written(RecordKind kind, std::uint32_t seq, bool ok) {
       newest_scan_seq_ = seq;
       ++counters_.scans_written;
     } else {
+      pose_pos_[seq % options_.slots] = head_ + 1;
+      if (!any_pose_) oldest_pose_seq_ = seq;
+      any_pose_ = true;
       newest_pose_seq_ = seq;
       ++counters_.poses_written;
     }
@@ -110,12 +130,12 @@ void RingIndex::written(RecordKind kind, std::uint32_t seq, bool ok) {
   ++head_;
 }
 
-bool RingIndex::locate_scan(std::uint32_t seq, std::uint64_t& slot) const {
-  const std::uint64_t pos = scan_pos_[seq % options_.slots];
+bool RingIndex::locate(RecordKind kind, std::uint32_t seq, std::uint64_t& slot) const {
+  const std::uint64_t pos = (kind == RecordKind::kScan ? scan_pos_ : pose_pos_)[seq % options_.slots];
   if (pos == 0) return false;
   const std::uint64_t i = (pos - 1) % options_.slots;
   const Slot& s = slots_[i];
-  if (s.kind != RecordKind::kScan || s.seq != seq || s.ring_seq != pos - 1) return false;
+  if (s.kind != kind || s.seq != seq || s.ring_seq != pos - 1) return false;
   slot = i;
   return true;
 }
@@ -126,10 +146,11 @@ bool RingIndex::reachable(Time now) const {
 
 std::uint32_t RingIndex::backfill_limit() const {
   const std::uint32_t live = newest_scan_seq_ > options_.live_window ? newest_scan_seq_ - options_.live_window : 0;
-  return std::max(live, rejoin_limit_);
+  return std::max({live, rejoin_limit_, recovered_scan_limit_});
 }
 
-Confirmation RingIndex::on_confirmation(std::uint32_t robot_id, std::uint32_t contiguous_seq, Time now, bool fresh) {
+Confirmation RingIndex::on_confirmation(std::uint32_t robot_id, std::uint32_t contiguous_seq, Time now, bool fresh,
+                                        std::uint32_t pose_contiguous_seq) {
   if (robot_id == 0 || robot_id > kMaxRobots) {
     ++counters_.confirmations_unknown_robot;
     return Confirmation::kUnknownRobot;
@@ -148,7 +169,18 @@ Confirmation RingIndex::on_confirmation(std::uint32_t robot_id, std::uint32_t co
   ever_confirmed_ = true;
   confirmed_seq_ = contiguous_seq;
   if (fresh) last_confirmation_ = now;
+  if (pose_contiguous_seq > 0) {
+    if (!any_pose_ || pose_contiguous_seq > newest_pose_seq_) {
+      ++counters_.pose_confirmations_future;
+    } else {
+      if (!pose_ever_confirmed_ || pose_contiguous_seq != pose_confirmed_seq_) pose_confirmed_moved_ = now;
+      pose_ever_confirmed_ = true;
+      pose_confirmed_seq_ = pose_contiguous_seq;
+    }
+  }
   if (back) {
+    pose_backfill_next_ = 0;
+    pose_confirmed_moved_ = now;
     // The station is back (or heard for the first time): back-fill from its confirmed scan on. After a
     // shadow the live writer offers the returning station only its newest rejoin_window scans.
     const std::uint32_t rejoin = options_.rejoin_window == 0 ? options_.live_window : options_.rejoin_window;
@@ -172,6 +204,7 @@ void RingIndex::start_turn(Time now) {
   tokens_ = std::min(static_cast<double>(options_.backfill_burst), tokens_ + dt * options_.backfill_rate_hz);
   tokens_at_ = now;
   turn_left_ = options_.backfill_burst;
+  pose_turn_left_ = options_.backfill_burst;
 }
 
 bool RingIndex::next_backfill(Time now, std::uint64_t& slot, std::uint32_t& seq) {
@@ -191,7 +224,7 @@ bool RingIndex::next_backfill(Time now, std::uint64_t& slot, std::uint32_t& seq)
   std::uint32_t s = std::max({backfill_next_, confirmed_seq_ + 1, oldest_scan_seq_});
   // Bounded work per call: a run of seqs the ring does not hold is skipped 64 at a time.
   for (int k = 0; k < 64 && s <= limit; ++k, ++s) {
-    if (locate_scan(s, slot)) {
+    if (locate(RecordKind::kScan, s, slot)) {
       seq = s;
       backfill_next_ = s + 1;
       tokens_ -= 1.0;
@@ -207,6 +240,34 @@ bool RingIndex::next_backfill(Time now, std::uint64_t& slot, std::uint32_t& seq)
 }
 
 void RingIndex::backfill_failed() { ++counters_.backfill_missing; }
+
+bool RingIndex::next_backfill_pose(Time now, std::uint64_t& slot, std::uint32_t& seq) {
+  if (!reachable(now) || pose_turn_left_ == 0 || !any_pose_ || !pose_ever_confirmed_) return false;
+  std::uint32_t limit = std::max(
+      newest_pose_seq_ > options_.pose_live_window ? newest_pose_seq_ - options_.pose_live_window : 0, recovered_pose_limit_);
+  const std::uint32_t base = std::max(pose_confirmed_seq_, oldest_pose_seq_ > 0 ? oldest_pose_seq_ - 1 : 0);
+  if (options_.backfill_window > 0 && base + options_.backfill_window < limit) limit = base + options_.backfill_window;
+  if (pose_backfill_next_ > pose_confirmed_seq_ + 1 && now - pose_confirmed_moved_ >= options_.resend_after &&
+      now - pose_backfill_sent_ < options_.resend_after * 4) {
+    pose_backfill_next_ = pose_confirmed_seq_ + 1;
+    pose_confirmed_moved_ = now;
+    ++counters_.backfill_rewinds;
+  }
+  std::uint32_t s = std::max({pose_backfill_next_, pose_confirmed_seq_ + 1, oldest_pose_seq_});
+  for (int k = 0; k < 64 && s <= limit; ++k, ++s) {
+    if (locate(RecordKind::kPose, s, slot)) {
+      seq = s;
+      pose_backfill_next_ = s + 1;
+      --pose_turn_left_;
+      ++counters_.poses_backfilled;
+      pose_backfill_sent_ = now;
+      return true;
+    }
+    ++counters_.backfill_missing;
+  }
+  pose_backfill_next_ = s;
+  return false;
+}
 
 ShadowState RingIndex::shadow(Time now) const {
   ShadowState st;

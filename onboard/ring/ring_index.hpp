@@ -39,6 +39,9 @@ struct RingIndexOptions {
   // A back-fill the confirmations did not follow within this is sent again from the confirmed seq (at most
   // backfill_window scans: the rest was never sent).
   Duration resend_after = std::chrono::seconds(2);
+  // Poses newer than this many below the newest are left to the live pose writer's DDS history, which it
+  // offers whole to a returning station (dds pose history depth): the pose back-fill takes the older ones.
+  std::uint32_t pose_live_window = 64;
 };
 
 struct RingCounters {
@@ -58,6 +61,8 @@ struct RingCounters {
   std::uint64_t backfilled = 0;                   // scans handed to the back-fill writer
   std::uint64_t backfill_rewinds = 0;             // back-fills sent again (the confirmations did not follow)
   std::uint64_t backfill_missing = 0;  // unconfirmed seqs the ring does not hold (never written, torn, overwritten)
+  std::uint64_t poses_backfilled = 0;           // poses handed to the pose back-fill writer
+  std::uint64_t pose_confirmations_future = 0;  // refused: a pose seq this robot has not written yet
 };
 
 enum class Confirmation : std::uint8_t { kAccepted, kOtherRobot, kUnknownRobot, kFuture };
@@ -88,10 +93,13 @@ class RingIndex {
   [[nodiscard]] std::uint64_t next_ring_seq() const { return head_; }
   void written(RecordKind kind, std::uint32_t seq, bool ok);
 
-  // A station confirmation: robot robot_id has stored every scan up to contiguous_seq. `now` monotonic.
-  // `fresh`: the confirmation was published just now (not the transient-local copy of an old one that a
-  // restarted robot receives at once): only a fresh one says the station is reachable.
-  Confirmation on_confirmation(std::uint32_t robot_id, std::uint32_t contiguous_seq, Time now, bool fresh = true);
+  // A station confirmation: robot robot_id has stored every scan up to contiguous_seq and every pose up to
+  // pose_contiguous_seq (0: none of its poses). `now` monotonic. `fresh`: the confirmation was published just
+  // now (not the transient-local copy of an old one that a restarted robot receives at once): only a fresh
+  // one says the station is reachable. The result is the scans'; a pose seq from the future is counted and
+  // ignored.
+  Confirmation on_confirmation(std::uint32_t robot_id, std::uint32_t contiguous_seq, Time now, bool fresh = true,
+                               std::uint32_t pose_contiguous_seq = 0);
 
   // A station's reader matched the live scan writer (a station that started, restarted or came back from a
   // shadow, however short): the writer offers it only its newest rejoin_window scans, so every scan below
@@ -102,14 +110,20 @@ class RingIndex {
   // false; at most backfill_burst per turn (start_turn) and backfill_rate_hz on average.
   void start_turn(Time now);
   [[nodiscard]] bool next_backfill(Time now, std::uint64_t& slot, std::uint32_t& seq);
-  // The slot's record could not be read or decoded: the scan is skipped.
+  // The slot's record could not be read or decoded: the scan (or pose) is skipped.
   void backfill_failed();
+  // The next pose to back-fill, if one is due: every pose in the ring above the station's pose confirmation
+  // and below the live pose writer's history, oldest first, at most backfill_burst per turn (start_turn),
+  // within backfill_window above the confirmation, sent again after resend_after without progress. Poses
+  // are small: they do not spend the scans' rate.
+  [[nodiscard]] bool next_backfill_pose(Time now, std::uint64_t& slot, std::uint32_t& seq);
 
   [[nodiscard]] ShadowState shadow(Time now) const;
   [[nodiscard]] const RingCounters& counters() const { return counters_; }
   [[nodiscard]] std::uint32_t newest_scan_seq() const { return newest_scan_seq_; }
   [[nodiscard]] std::uint32_t newest_pose_seq() const { return newest_pose_seq_; }
   [[nodiscard]] std::uint32_t oldest_scan_seq() const { return oldest_scan_seq_; }
+  [[nodiscard]] std::uint32_t pose_confirmed_seq() const { return pose_confirmed_seq_; }
   [[nodiscard]] std::uint64_t slots() const { return options_.slots; }
   [[nodiscard]] const RingIndexOptions& options() const { return options_; }
 
@@ -120,13 +134,14 @@ class RingIndex {
     RecordKind kind = RecordKind::kEmpty;
   };
   explicit RingIndex(const RingIndexOptions& options);
-  [[nodiscard]] bool locate_scan(std::uint32_t seq, std::uint64_t& slot) const;
+  [[nodiscard]] bool locate(RecordKind kind, std::uint32_t seq, std::uint64_t& slot) const;
   [[nodiscard]] bool reachable(Time now) const;
   [[nodiscard]] std::uint32_t backfill_limit() const;
 
   RingIndexOptions options_;
   std::unique_ptr<Slot[]> slots_;
   std::unique_ptr<std::uint64_t[]> scan_pos_;  // [seq % slots] = ring_seq + 1 of that scan (0: none)
+  std::unique_ptr<std::uint64_t[]> pose_pos_;  // the same for poses
   std::uint64_t head_ = 0;                     // ring_seq of the next record
   bool any_scan_ = false;
   std::uint32_t newest_scan_seq_ = 0, newest_pose_seq_ = 0, oldest_scan_seq_ = 0;
@@ -138,11 +153,22 @@ class RingIndex {
   std::uint32_t backfill_total_ = 0;
   Duration last_shadow_{0};
   std::uint32_t rejoin_limit_ = 0;   // at the last return: the newest scan the live writer no longer offers
+  // The newest scan and pose the start-up recovery found: no live writer of this process ever held them.
+  std::uint32_t recovered_scan_limit_ = 0, recovered_pose_limit_ = 0;
   std::uint32_t backfill_next_ = 0;  // next seq to back-fill (0: from the confirmed one)
   Time backfill_sent_{};             // monotonic: the last back-filled scan
   double tokens_ = 0.0;
   Time tokens_at_{};
   std::uint32_t turn_left_ = 0;
+
+  bool any_pose_ = false;
+  std::uint32_t oldest_pose_seq_ = 0;
+  bool pose_ever_confirmed_ = false;
+  std::uint32_t pose_confirmed_seq_ = 0;
+  std::uint32_t pose_backfill_next_ = 0;  // next pose seq to back-fill (0: from the confirmed one)
+  Time pose_confirmed_moved_{};           // monotonic
+  Time pose_backfill_sent_{};             // monotonic
+  std::uint32_t pose_turn_left_ = 0;
   RingCounters counters_{};
 };
 

@@ -17,6 +17,7 @@ Result<std::unique_ptr<ScanRing>> ScanRing::open(const RingConfig& config, std::
   o.robot_id = robot_id;
   o.live_window = live_window;
   o.rejoin_window = rejoin_window;
+  o.pose_live_window = kPoseHistoryDepth;
   o.backfill_rate_hz = config.backfill_rate_hz;
   Result<std::unique_ptr<RingIndex>> index = RingIndex::create(o);
   if (!index.ok()) return index.error();
@@ -95,6 +96,21 @@ bool ScanRing::next_backfill(Time now, ScanPoints& out) {
       return true;
     }
     index_->backfill_failed();  // torn since it was written (the disk): skipped
+  }
+  return false;
+}
+
+bool ScanRing::next_backfill_pose(Time now, OnboardPose& out) {
+  std::uint64_t slot = 0;
+  std::uint32_t seq = 0;
+  while (index_->next_backfill_pose(now, slot, seq)) {
+    RecordHeader h;
+    if (file_.read_slots(slot, 1, in_).ok() && check_record(in_, h) == RecordError::kNone &&
+        h.kind == RecordKind::kPose && h.seq == seq) {
+      decode_pose_payload(in_, h, out);
+      return true;
+    }
+    index_->backfill_failed();
   }
   return false;
 }

@@ -45,14 +45,17 @@ class ScanRing {
   // When the flush period ends for the records written so far (valid while flush_counters().unflushed > 0).
   [[nodiscard]] Time flush_due() const { return oldest_unflushed_ + config_.flush_period; }
 
-  Confirmation on_confirmation(std::uint32_t robot_id, std::uint32_t contiguous_seq, Time now, bool fresh = true) {
-    return index_->on_confirmation(robot_id, contiguous_seq, now, fresh);
+  Confirmation on_confirmation(std::uint32_t robot_id, std::uint32_t contiguous_seq, Time now, bool fresh = true,
+                               std::uint32_t pose_contiguous_seq = 0) {
+    return index_->on_confirmation(robot_id, contiguous_seq, now, fresh, pose_contiguous_seq);
   }
   // Back-fill: start_turn once per loop turn, then next_backfill until false; each true fills `out` with a
   // scan read back from the ring.
   void on_live_reader_matched(Time now) { index_->on_live_reader_matched(now); }
   void start_turn(Time now) { index_->start_turn(now); }
   [[nodiscard]] bool next_backfill(Time now, ScanPoints& out);
+  // The same for poses (RingIndex::next_backfill_pose), after the turn's scans.
+  [[nodiscard]] bool next_backfill_pose(Time now, OnboardPose& out);
 
   [[nodiscard]] const RingIndex& index() const { return *index_; }
   [[nodiscard]] const FlushCounters& flush_counters() const { return flush_; }

@@ -175,17 +175,17 @@ std::string permissions_xml(const std::string& name, const std::string& subject,
   std::string body;
   if (name == dds::security::kStationIdentity) {
     // The station publishes the team state, what it stored, the map and the ROS 2 view (default partition)
-    // and reads every robot's pose, scan, back-filled scan and status in the robots' partitions.
+    // and reads every robot's pose, scan, back-filled scan and pose and status in the robots' partitions.
     body = "    <publish><topics><topic>teamscan/team</topic><topic>teamscan/stored</topic><topic>teamscan/map</topic>"
            "<topic>rt/*</topic></topics></publish>\n"
            "    <subscribe>\n      <topics><topic>teamscan/scan</topic><topic>teamscan/pose</topic><topic>teamscan/status</topic>"
-           "<topic>teamscan/backfill</topic></topics>\n"
+           "<topic>teamscan/backfill</topic><topic>teamscan/backfill_pose</topic></topics>\n"
            "      <partitions><partition>robot*</partition></partitions>\n    </subscribe>\n";
   } else {
-    // Robot N publishes its pose, scan, back-filled scans and status only in its own partition robotN and
+    // Robot N publishes its pose, scan, back-filled scans and poses and status only in its own partition robotN and
     // reads the team state and what the station stored.
     body = "    <publish>\n      <topics><topic>teamscan/scan</topic><topic>teamscan/pose</topic><topic>teamscan/status</topic>"
-           "<topic>teamscan/backfill</topic></topics>\n"
+           "<topic>teamscan/backfill</topic><topic>teamscan/backfill_pose</topic></topics>\n"
            "      <partitions><partition>" + name + "</partition></partitions>\n    </publish>\n"
            "    <subscribe><topics><topic>teamscan/team</topic><topic>teamscan/stored</topic></topics></subscribe>\n";
   }

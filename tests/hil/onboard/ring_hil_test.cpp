@@ -407,15 +407,33 @@ TEST(RingHil, StationDownAndARobotKilledInTheShadowLoseNoScan) {
   station = 0;
 
   // The session: per robot every seq from its first to its last, each once.
-  std::map<std::uint32_t, std::vector<std::uint32_t>> seqs;
+  std::map<std::uint32_t, std::vector<std::uint32_t>> seqs, pose_seqs;
   station::SessionReadStats stats;
   const Status read = station::replay_session_files(
-      session.string(), [](const station::PoseObservation&) {},
+      session.string(), [&](const station::PoseObservation& p) { pose_seqs[p.robot_id].push_back(p.seq); },
       [&](const ScanPoints& s, const station::Receipt& receipt) {
         if (receipt.rejected == 0) seqs[s.robot_id].push_back(s.seq);
       },
       stats);
   ASSERT_TRUE(read.ok()) << read.error().what;
+  // ... and every pose: the 8 s outage held more poses than the live pose writer's history (64, 6.4 s at
+  // 10 Hz), the older ones came from the ring on teamscan/backfill_pose.
+  for (std::uint32_t id : {1u, 2u}) {
+    std::vector<std::uint32_t>& v = pose_seqs[id];
+    ASSERT_FALSE(v.empty());
+    std::sort(v.begin(), v.end());
+    const std::size_t n = v.size();
+    const std::uint32_t first = v.front(), last_seq = v.back();
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+    EXPECT_EQ(n, v.size()) << "robot " << id << ": " << n - v.size() << " poses stored twice";
+    std::string holes;
+    for (std::size_t i = 1; i < v.size() && holes.size() < 200; ++i)
+      if (v[i] != v[i - 1] + 1) holes += " " + std::to_string(v[i - 1] + 1) + ".." + std::to_string(v[i] - 1);
+    EXPECT_EQ(v.size(), static_cast<std::size_t>(last_seq - first + 1))
+        << "robot " << id << ": pose seq " << first << ".." << last_seq << ", " << (last_seq - first + 1 - v.size())
+        << " missing:" << holes;
+    std::printf("robot %u: stored %zu poses, seq %u..%u\n", id, n, first, last_seq);
+  }
   for (std::uint32_t id : {1u, 2u}) {
     std::vector<std::uint32_t>& v = seqs[id];
     ASSERT_FALSE(v.empty());

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "onboard/core/config.hpp"
 #include "onboard/ring/record.hpp"
 #include "onboard/ring/ring_index.hpp"
 #include "onboard/ring/scan_ring.hpp"
@@ -366,6 +367,85 @@ TEST(RingIndex, AnOldConfirmationIsNoContact) {
   EXPECT_EQ(seq, 6u);
 }
 
+// `turns` loop turns `step` apart from `now` (advanced), each taking every pose back-fill due: the seqs sent.
+std::vector<std::uint32_t> pose_backfill_turns(RingIndex& idx, Time& now, int turns, Duration step) {
+  std::vector<std::uint32_t> sent;
+  std::uint64_t slot = 0;
+  std::uint32_t seq = 0;
+  for (int turn = 0; turn < turns; ++turn) {
+    now = now + step;
+    idx.start_turn(now);
+    int in_turn = 0;
+    while (idx.next_backfill_pose(now, slot, seq)) {
+      sent.push_back(seq);
+      ++in_turn;
+    }
+    EXPECT_LE(in_turn, 8) << "backfill_burst per turn";
+  }
+  return sent;
+}
+
+TEST(RingIndex, BackfillsThePosesBelowTheLivePoseHistoryThatTheStationLacks) {
+  RingIndexOptions o = index_options(256);
+  o.pose_live_window = 10;
+  auto idx = std::move(RingIndex::create(o).value());
+  for (std::uint32_t s = 1; s <= 5; ++s) {
+    idx->written(RecordKind::kScan, s, true);
+    idx->written(RecordKind::kPose, s, true);
+  }
+  Time now = t0;
+  ASSERT_EQ(idx->on_confirmation(3, 5, now, true, 5), Confirmation::kAccepted);
+  EXPECT_EQ(idx->pose_confirmed_seq(), 5u);
+  // A shadow of 10 s: poses 6..60 written (and their scans).
+  for (std::uint32_t s = 6; s <= 60; ++s) {
+    idx->written(RecordKind::kPose, s, true);
+    idx->written(RecordKind::kScan, s, true);
+  }
+  now = now + std::chrono::seconds(10);
+  std::vector<std::uint32_t> sent = pose_backfill_turns(*idx, now, 1, Duration{0});
+  EXPECT_TRUE(sent.empty()) << "not reachable: nothing is sent";
+  ASSERT_EQ(idx->on_confirmation(3, 5, now, true, 5), Confirmation::kAccepted);  // back
+  sent = pose_backfill_turns(*idx, now, 10, std::chrono::milliseconds(100));
+  // 6..50: the newest 10 are the live pose writer's; in order, each once.
+  ASSERT_EQ(sent.size(), 45u);
+  for (std::size_t i = 0; i < sent.size(); ++i) EXPECT_EQ(sent[i], 6 + i);
+  EXPECT_EQ(idx->counters().poses_backfilled, 45u);
+  // The station stored them all (and the live history): nothing more, even after resend_after.
+  ASSERT_EQ(idx->on_confirmation(3, 60, now, true, 60), Confirmation::kAccepted);
+  now = now + std::chrono::seconds(3);
+  ASSERT_EQ(idx->on_confirmation(3, 60, now, true, 60), Confirmation::kAccepted);
+  EXPECT_TRUE(pose_backfill_turns(*idx, now, 5, std::chrono::milliseconds(100)).empty());
+}
+
+TEST(RingIndex, APoseLostOnTheWayIsSentAgainAndAPoseFromTheFutureIsRefused) {
+  RingIndexOptions o = index_options(256);
+  o.pose_live_window = 4;
+  auto idx = std::move(RingIndex::create(o).value());
+  for (std::uint32_t s = 1; s <= 30; ++s) idx->written(RecordKind::kPose, s, true);
+  idx->written(RecordKind::kScan, 1, true);
+  Time now = t0;
+  // A confirmation of a pose this robot never wrote: counted, the pose confirmation unchanged.
+  ASSERT_EQ(idx->on_confirmation(3, 1, now, true, 31), Confirmation::kAccepted);
+  EXPECT_EQ(idx->counters().pose_confirmations_future, 1u);
+  EXPECT_EQ(idx->pose_confirmed_seq(), 0u);
+  EXPECT_TRUE(pose_backfill_turns(*idx, now, 1, Duration{0}).empty()) << "no pose confirmed: none back-filled";
+  ASSERT_EQ(idx->on_confirmation(3, 1, now, true, 10), Confirmation::kAccepted);
+  std::vector<std::uint32_t> sent = pose_backfill_turns(*idx, now, 5, std::chrono::milliseconds(100));
+  ASSERT_EQ(sent.size(), 16u);  // 11..26
+  EXPECT_EQ(sent.front(), 11u);
+  EXPECT_EQ(sent.back(), 26u);
+  // 12 never arrived: the station stays at 11; after resend_after the poses go again from 12.
+  for (int i = 0; i < 3; ++i) {
+    now = now + std::chrono::seconds(1);
+    ASSERT_EQ(idx->on_confirmation(3, 1, now, true, 11), Confirmation::kAccepted);
+  }
+  sent = pose_backfill_turns(*idx, now, 5, std::chrono::milliseconds(100));
+  ASSERT_FALSE(sent.empty());
+  EXPECT_EQ(sent.front(), 12u);
+  EXPECT_EQ(sent.back(), 26u);
+  EXPECT_EQ(idx->counters().backfill_rewinds, 1u);
+}
+
 // A ring file in the test's temporary folder, removed at the end.
 struct TempRing {
   std::string path;
@@ -405,11 +485,39 @@ TEST(ScanRing, RecordsSurviveARestart) {
   EXPECT_EQ(idx.oldest_scan_seq(), 1u);
   // What it back-fills is what was written.
   Time now = t0;
-  ASSERT_EQ(ring.value()->on_confirmation(3, 10, now), Confirmation::kAccepted);
+  ASSERT_EQ(ring.value()->on_confirmation(3, 10, now, true, 25), Confirmation::kAccepted);
   ring.value()->start_turn(now + std::chrono::seconds(1));
   ScanPoints out;
   ASSERT_TRUE(ring.value()->next_backfill(now + std::chrono::seconds(1), out));
   expect_same(out, make_scan(11, 11 * 13 % 402));
+  // The poses written before the restart are in no live writer's history now: all of them are
+  // back-filled, the newest too, though they lie within the live pose history's depth.
+  std::vector<std::uint32_t> poses;
+  OnboardPose pose{};
+  while (ring.value()->next_backfill_pose(now + std::chrono::seconds(1), pose)) poses.push_back(pose.seq);
+  EXPECT_EQ(poses, (std::vector<std::uint32_t>{26, 27, 28, 29, 30}));
+}
+
+TEST(ScanRing, BackfilledPosesAreTheOnesWritten) {
+  TempRing t("poses", 1.0);
+  auto ring = ScanRing::open(t.config, 3, 4);
+  ASSERT_TRUE(ring.ok()) << ring.error().what;
+  for (std::uint32_t s = 1; s <= kPoseHistoryDepth + 20; ++s) {
+    const OnboardPose p{3, s, t0.ns() + s, static_cast<std::int32_t>(s), -2, 3, 4, 5, 6};
+    ASSERT_TRUE(ring.value()->append_pose(p, t0).ok());
+  }
+  Time now = t0;
+  ASSERT_EQ(ring.value()->on_confirmation(3, 0, now, true, 10), Confirmation::kAccepted);
+  now = now + std::chrono::milliseconds(100);
+  ring.value()->start_turn(now);
+  OnboardPose out{};
+  ASSERT_TRUE(ring.value()->next_backfill_pose(now, out));
+  EXPECT_EQ(out.robot_id, 3u);
+  EXPECT_EQ(out.seq, 11u);
+  EXPECT_EQ(out.stamp_ns, t0.ns() + 11);
+  EXPECT_EQ(out.x_mm, 11);
+  EXPECT_EQ(out.y_mm, -2);
+  EXPECT_EQ(out.yaw_rate_mradps, 6);
 }
 
 TEST(ScanRing, TornRecordsAreCountedAndSkipped) {
@@ -437,7 +545,8 @@ TEST(ScanRing, TornRecordsAreCountedAndSkipped) {
   EXPECT_EQ(idx.counters().torn, 2u);
   EXPECT_EQ(idx.counters().recovered_scans, 18u);
   EXPECT_EQ(idx.newest_scan_seq(), 20u);
-  // Back-filling from 0 skips the two torn scans (seqs 8 and 13) and sends the 14 others up to the live window.
+  // Back-filling from 0 skips the two torn scans (seqs 8 and 13) and sends the 18 others, the newest too:
+  // they were written before the restart, so no live writer of this process offers them.
   Time now = t0;
   ASSERT_EQ(ring.value()->on_confirmation(3, 0, now), Confirmation::kAccepted);
   std::vector<std::uint32_t> sent;
@@ -448,7 +557,7 @@ TEST(ScanRing, TornRecordsAreCountedAndSkipped) {
     while (ring.value()->next_backfill(now, out)) sent.push_back(out.seq);
   }
   std::vector<std::uint32_t> want;
-  for (std::uint32_t s = 1; s <= 16; ++s)
+  for (std::uint32_t s = 1; s <= 20; ++s)
     if (s != 8 && s != 13) want.push_back(s);
   EXPECT_EQ(sent, want);
 }

@@ -244,5 +244,27 @@ TEST(SampleValidation, BackfilledScansHaveOldStampsAndSeqsFarBack) {
   EXPECT_STREQ(topic_name(SampleTopic::kBackfill), "backfill");
 }
 
+// A back-filled pose (teamscan/backfill_pose): the same rules as a back-filled scan, a pose's body checks.
+TEST(SampleValidation, BackfilledPosesHaveOldStampsAndSeqsFarBack) {
+  SampleValidator v;
+  for (std::uint32_t seq = 5'000; seq < 5'010; ++seq) ASSERT_TRUE(v.check_pose(pose(3, seq), kRecv).ok());
+  const std::int64_t offset = v.clock(3).offset_ns;
+  const std::int64_t ten_minutes_ago = kNow - 600'000'000'000;
+  EXPECT_FALSE(v.check_pose(pose(3, 5'010, ten_minutes_ago), kRecv).ok());  // live: too old
+  for (std::uint32_t seq = 1'000; seq < 1'010; ++seq)
+    EXPECT_TRUE(v.check_backfill_pose(pose(3, seq, ten_minutes_ago), kRecv).ok()) << seq;
+  EXPECT_EQ(v.clock(3).offset_ns, offset);
+  EXPECT_TRUE(v.check_pose(pose(3, 5'011), kRecv).ok());  // the live numbering goes on
+  EXPECT_EQ(v.check_backfill_pose(pose(3, 900, kNow - 25LL * 3600 * 1'000'000'000), kRecv).reason, Reject::kStampBehind);
+  teamscan_msg_RobotPose bad = pose(3, 901, ten_minutes_ago);
+  bad.yaw_urad = 4'000'000;
+  EXPECT_EQ(v.check_backfill_pose(bad, kRecv).reason, Reject::kYaw);
+  bad = pose(3, 902, ten_minutes_ago);
+  bad.vx_mmps = 20'000;
+  EXPECT_EQ(v.check_backfill_pose(bad, kRecv).reason, Reject::kVelocity);
+  EXPECT_EQ(v.counters().rejected_by_topic[static_cast<std::size_t>(SampleTopic::kBackfillPose)], 3u);
+  EXPECT_STREQ(topic_name(SampleTopic::kBackfillPose), "backfill_pose");
+}
+
 }  // namespace
 }  // namespace teamscan::station
