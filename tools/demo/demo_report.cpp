@@ -76,7 +76,7 @@ struct DemoScore {
   const fusion::MethodResult* station_offline = nullptr;
   bool identity = false;      // the identity the verdict requires (session eval, or the replay with the registration)
   std::string identity_what;  // which one
-  std::uint64_t published = 0, stored = 0, missing = 0;
+  std::uint64_t published = 0, stored = 0, missing = 0, poses_missing = 0;
   std::vector<ShadowReport> shadows;  // --shadow (link_faults.hpp)
   std::vector<double> fused_latency_ms;  // scan -> fused map in the run window, sorted
   LiveRegistrationScore registration;
@@ -412,21 +412,24 @@ void score_corrections(const DemoSetup& s, const Collected& c, DemoScore& sc) {
 void score_delivery(const Collected& c, DemoScore& sc) {
   ReportJson robots = ReportJson::array();
   for (const RobotDelivery& d : c.live.delivery) {
-    const bool lost = d.gaps > 0 || d.stored == 0 || d.seq_last < d.last_status_published;
+    const bool lost = d.gaps > 0 || d.stored == 0 || d.seq_last < d.last_status_published || d.pose_gaps > 0 || d.poses == 0;
     sc.none_lost = sc.none_lost && !lost;
     sc.published += d.last_status_published;
     sc.stored += d.stored;
     sc.missing += d.gaps;
+    sc.poses_missing += d.pose_gaps;
     sc.delivery += strf(
         "  robot%u: %llu scans stored (seq %u..%u), %llu missing, %llu duplicates; robot's last status says %u "
         "published; "
         "%llu in the run window: %llu matched to the ray caster's truth, %llu not; the emulated LMS sent %llu (%llu "
-        "beams on a teammate in the window)\n",
+        "beams on a teammate in the window); %llu poses stored (seq %u..%u), %llu missing, %llu duplicates\n",
         unsigned(d.id), static_cast<unsigned long long>(d.stored), d.seq_first, d.seq_last,
         static_cast<unsigned long long>(d.gaps), static_cast<unsigned long long>(d.duplicates), d.last_status_published,
         static_cast<unsigned long long>(d.in_window), static_cast<unsigned long long>(d.truth_matched),
         static_cast<unsigned long long>(d.truth_unmatched), static_cast<unsigned long long>(d.measured),
-        static_cast<unsigned long long>(d.truth_ghost_beams));
+        static_cast<unsigned long long>(d.truth_ghost_beams), static_cast<unsigned long long>(d.poses),
+        d.pose_seq_first, d.pose_seq_last, static_cast<unsigned long long>(d.pose_gaps),
+        static_cast<unsigned long long>(d.pose_duplicates));
     robots.push_back({{"id", d.id},
                       {"stored", d.stored},
                       {"seq_first", d.seq_first},
@@ -438,7 +441,12 @@ void score_delivery(const Collected& c, DemoScore& sc) {
                       {"in_window", d.in_window},
                       {"truth_matched", d.truth_matched},
                       {"truth_unmatched", d.truth_unmatched},
-                      {"lms_sent", d.measured}});
+                      {"lms_sent", d.measured},
+                      {"poses", d.poses},
+                      {"pose_seq_first", d.pose_seq_first},
+                      {"pose_seq_last", d.pose_seq_last},
+                      {"poses_missing", d.pose_gaps},
+                      {"pose_duplicates", d.pose_duplicates}});
   }
   sc.json["robots"] = robots;
 }
@@ -706,6 +714,7 @@ DemoSummary summary_of(const DemoOptions& a, const DemoSetup& s, sim::LiveTeam& 
   d.network = (s.links ? "in network namespaces (" : "on loopback (") + s.dds + ")";
   d.scans_stored = sc.stored;
   d.scans_missing = sc.missing;
+  d.poses_missing = sc.poses_missing;
   d.none_lost = sc.none_lost;
   d.model_present = sc.station_model.present;
   d.model_error = sc.station_model.error;

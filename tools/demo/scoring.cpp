@@ -69,9 +69,11 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live,
   // Odometry as the robots published it (poses.csv), truth from the tracks at the same instants.
   Result<std::vector<PoseRow>> poses = read_poses_csv(session + "/poses.csv");
   if (!poses) L.session_error = std::string("poses.csv: ") + poses.error().what;
+  std::map<std::uint8_t, std::vector<std::uint32_t>> pose_seqs;
   for (const PoseRow& p : poses ? poses.value() : std::vector<PoseRow>{}) {
     const auto id = static_cast<std::uint8_t>(p.robot_id);
     if (!live_index.count(id)) continue;
+    pose_seqs[id].push_back(p.seq);
     const std::int64_t t = to_sim_ns(p.stamp_ns);
     if (t < scenario.start_time_ns || t > end_ns + 200'000'000) continue;
     TrajectorySample o;
@@ -182,6 +184,16 @@ LiveDataset build_live_dataset(const std::string& session, sim::LiveTeam& live,
       d.seq_first = q.front();
       d.seq_last = q.back();
       d.gaps = (static_cast<std::uint64_t>(q.back()) - q.front() + 1) - q.size();
+    }
+    std::vector<std::uint32_t>& pq = pose_seqs[id];
+    std::sort(pq.begin(), pq.end());
+    d.poses = pq.size();
+    pq.erase(std::unique(pq.begin(), pq.end()), pq.end());
+    d.pose_duplicates = d.poses - pq.size();
+    if (!pq.empty()) {
+      d.pose_seq_first = pq.front();
+      d.pose_seq_last = pq.back();
+      d.pose_gaps = (static_cast<std::uint64_t>(pq.back()) - pq.front() + 1) - pq.size();
     }
     d.last_status_published = last_pub[id];
     d.measured = live.scans_measured(i);

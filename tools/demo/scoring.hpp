@@ -27,6 +27,9 @@ struct RobotDelivery {
   std::uint8_t id = 0;
   std::uint64_t stored = 0, duplicates = 0, gaps = 0;  // gaps: seq numbers missing between first and last
   std::uint32_t seq_first = 0, seq_last = 0;
+  // Its poses (poses.csv): stored, stored twice, seq numbers missing between its first and last.
+  std::uint64_t poses = 0, pose_duplicates = 0, pose_gaps = 0;
+  std::uint32_t pose_seq_first = 0, pose_seq_last = 0;
   std::uint32_t last_status_published = 0;  // scans_published in the robot's last status
   std::uint64_t refused = 0;  // stored scans the station refused at the edge (docs/validation.md): never fused
   std::uint64_t in_window = 0, truth_matched = 0, truth_unmatched = 0;

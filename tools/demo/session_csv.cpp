@@ -3,6 +3,7 @@
 
 #include <charconv>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 
 namespace teamscan::demo {
@@ -144,25 +145,26 @@ Result<std::vector<PoseRow>> read_poses_csv(const std::string& path, std::size_t
   Result<CsvTable> table = CsvTable::read(path);
   if (!table) return table.error();
   const CsvTable& t = table.value();
-  static const char* const kNames[] = {"robot_id", "stamp_ns", "x_mm", "y_mm", "yaw_urad", "vx_mmps", "vy_mmps",
-                                       "yaw_rate_mradps"};
+  static const char* const kNames[] = {"robot_id", "seq",     "stamp_ns", "x_mm", "y_mm", "yaw_urad", "vx_mmps",
+                                       "vy_mmps",  "yaw_rate_mradps"};
   static const char* const kMissing[] = {
-      "poses.csv lacks the column robot_id", "poses.csv lacks the column stamp_ns", "poses.csv lacks the column x_mm",
-      "poses.csv lacks the column y_mm",     "poses.csv lacks the column yaw_urad", "poses.csv lacks the column vx_mmps",
-      "poses.csv lacks the column vy_mmps",  "poses.csv lacks the column yaw_rate_mradps"};
-  std::size_t cols[8];
-  if (const std::size_t m = columns(t, kNames, cols); m < 8) return Error{kMissing[m]};
+      "poses.csv lacks the column robot_id", "poses.csv lacks the column seq",     "poses.csv lacks the column stamp_ns",
+      "poses.csv lacks the column x_mm",     "poses.csv lacks the column y_mm",    "poses.csv lacks the column yaw_urad",
+      "poses.csv lacks the column vx_mmps",  "poses.csv lacks the column vy_mmps", "poses.csv lacks the column yaw_rate_mradps"};
+  constexpr std::size_t kColumns = std::size(kNames);
+  std::size_t cols[kColumns];
+  if (const std::size_t m = columns(t, kNames, cols); m < kColumns) return Error{kMissing[m]};
   std::vector<PoseRow> out;
   std::size_t bad = t.bad_rows();
   for (std::size_t r = 0; r < t.rows(); ++r) {
-    std::int64_t v[8];
+    std::int64_t v[kColumns];
     if (!integers(t, r, cols, v)) {
       ++bad;
       continue;
     }
-    out.push_back({static_cast<std::uint32_t>(v[0]), v[1], static_cast<std::int32_t>(v[2]), static_cast<std::int32_t>(v[3]),
-                   static_cast<std::int32_t>(v[4]), static_cast<std::int32_t>(v[5]), static_cast<std::int32_t>(v[6]),
-                   static_cast<std::int32_t>(v[7])});
+    out.push_back({static_cast<std::uint32_t>(v[0]), static_cast<std::uint32_t>(v[1]), v[2],
+                   static_cast<std::int32_t>(v[3]), static_cast<std::int32_t>(v[4]), static_cast<std::int32_t>(v[5]),
+                   static_cast<std::int32_t>(v[6]), static_cast<std::int32_t>(v[7]), static_cast<std::int32_t>(v[8])});
   }
   if (bad_rows) *bad_rows = bad;
   return out;

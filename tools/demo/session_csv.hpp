@@ -53,6 +53,7 @@ struct StatusRow {
 // One pose as stored in poses.csv (wire units).
 struct PoseRow {
   std::uint32_t robot_id = 0;
+  std::uint32_t seq = 0;
   std::int64_t stamp_ns = 0;
   std::int32_t x_mm = 0, y_mm = 0, yaw_urad = 0;
   std::int32_t vx_mmps = 0, vy_mmps = 0, yaw_rate_mradps = 0;

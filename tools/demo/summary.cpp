@@ -21,9 +21,10 @@ std::string summary_text(const DemoSummary& s) {
   if (s.speed != 1.0) std::snprintf(speed, sizeof speed, " at %.2gx real time", s.speed);
   t += line("teamscan demo: %s, %zu robots, %.0f s of robot time%s, DDS %s; registration %s", s.scenario.c_str(),
             s.robots, s.duration_s, speed, s.network.c_str(), s.registration_why.c_str());
-  t += line("  delivery: %llu scans stored from %zu robots, %llu missing from their sequence numbers: %s",
+  t += line("  delivery: %llu scans stored from %zu robots, %llu missing from their sequence numbers, %llu poses "
+            "missing: %s",
             static_cast<unsigned long long>(s.scans_stored), s.robots, static_cast<unsigned long long>(s.scans_missing),
-            s.none_lost ? "nothing lost" : "SCANS LOST");
+            static_cast<unsigned long long>(s.poses_missing), s.none_lost ? "nothing lost" : "SCANS OR POSES LOST");
   if (s.model_present) {
     t += line(
         "  ghosts: the station's model (%s) removed %.1f %% of the ghost points (DA) and kept %.2f %% of the scene "

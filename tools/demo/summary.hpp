@@ -16,7 +16,7 @@ struct DemoSummary {
   double duration_s = 0, speed = 1;
   std::string registration_why;  // "off: the scenario's robots do not drift", ...
   std::string network;           // "on loopback (cyclonedds-lo.xml)", "in network namespaces (...)"
-  std::uint64_t scans_stored = 0, scans_missing = 0;
+  std::uint64_t scans_stored = 0, scans_missing = 0, poses_missing = 0;
   bool none_lost = false;
   bool model_present = false;  // the station wrote its model
   std::string model_error;     // why not

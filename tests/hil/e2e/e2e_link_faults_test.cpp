@@ -76,6 +76,8 @@ TEST(E2eLinkFaults, LossOnEveryLinkAndTwoShadowsPerRobotLoseNothing) {
     const std::size_t r = robot_entry(s, id);
     ASSERT_NE(r, std::string::npos) << s;
     EXPECT_EQ(json_number(s, "missing", r), 0) << "robot " << id << "\n" << s;
+    EXPECT_EQ(json_number(s, "poses_missing", r), 0) << "robot " << id << "\n" << s;
+    EXPECT_GT(json_number(s, "poses", r), 500) << "robot " << id << "\n" << s;
     EXPECT_GE(json_number(s, "seq_last", r), json_number(s, "last_status_published", r)) << s;
     EXPECT_EQ(json_number(s, "shadows", r), 2) << s;
     EXPECT_EQ(json_value(s, "whole_again", r), "true") << "robot " << id << " never whole again\n" << log;
@@ -83,7 +85,7 @@ TEST(E2eLinkFaults, LossOnEveryLinkAndTwoShadowsPerRobotLoseNothing) {
     EXPECT_GT(json_number(s, "buffered_max", r), 0) << "robot " << id << " buffered nothing in its shadows\n" << s;
   }
   // The summary an operator reads says so too.
-  EXPECT_NE(read_file(dir + "/demo.out").find(" 0 missing from their sequence numbers: nothing lost"),
+  EXPECT_NE(read_file(dir + "/demo.out").find(" 0 missing from their sequence numbers, 0 poses missing: nothing lost"),
             std::string::npos)
       << log;
   EXPECT_EQ(json_value(s, "clean_exit"), "true") << log;

@@ -101,6 +101,7 @@ TEST(SessionCsv, PoseRowsByNameFromTheStationsOwnFile) {
     ASSERT_TRUE(store.ok());
     teamscan_msg_RobotPose p{};
     p.robot_id = 4;
+    p.seq = 17;
     p.stamp_ns = 5'000'000'000;
     p.x_mm = -1200;
     p.y_mm = 3400;
@@ -116,6 +117,7 @@ TEST(SessionCsv, PoseRowsByNameFromTheStationsOwnFile) {
   ASSERT_EQ(rows->size(), 1u);
   const PoseRow& r = (*rows)[0];
   EXPECT_EQ(r.robot_id, 4u);
+  EXPECT_EQ(r.seq, 17u);
   EXPECT_EQ(r.stamp_ns, 5'000'000'000);
   EXPECT_EQ(r.x_mm, -1200);
   EXPECT_EQ(r.y_mm, 3400);

@@ -69,11 +69,12 @@ TEST(DemoSummary, AFailureSaysWhich) {
   DemoSummary s = full();
   s.none_lost = false;
   s.scans_missing = 3;
+  s.poses_missing = 2;
   s.model_present = false;
   s.model_error = "no fused_all.pcd";
   const std::string t = summary_text(s);
   EXPECT_LE(lines(t), kSummaryLines);
-  EXPECT_NE(t.find("3 missing from their sequence numbers: SCANS LOST"), std::string::npos) << t;
+  EXPECT_NE(t.find("3 missing from their sequence numbers, 2 poses missing: SCANS OR POSES LOST"), std::string::npos) << t;
   EXPECT_NE(t.find("no usable model (no fused_all.pcd)"), std::string::npos) << t;
   EXPECT_NE(t.find("verdict: FAIL (nothing lost: NO"), std::string::npos) << t;
 }
