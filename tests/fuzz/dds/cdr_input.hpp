@@ -1,5 +1,5 @@
 // The fuzz input format of fuzz_cdr_samples and its seed generator: byte 0 selects the teamscan type
-// (0 pose, 1 scan, 2 status, 3 team, 4 map; modulo 5), bytes 1..4 are the CDR encapsulation header as on
+// (0 pose, 1 scan, 2 status, 3 team, 4 map, 5 stored; modulo 6), bytes 1..4 are the CDR encapsulation header as on
 // the wire (00 00: XCDR1 big-endian, 00 01: XCDR1 little-endian), the rest is the serialised sample.
 #pragma once
 
@@ -11,7 +11,7 @@
 
 namespace teamscan::fuzz {
 
-inline constexpr int kCdrTypes = 5;
+inline constexpr int kCdrTypes = 6;
 
 inline const dds_topic_descriptor_t& cdr_descriptor(int type) {
   switch (type % kCdrTypes) {
@@ -19,7 +19,8 @@ inline const dds_topic_descriptor_t& cdr_descriptor(int type) {
     case 1: return teamscan_msg_ScanPoints_desc;
     case 2: return teamscan_msg_RobotStatus_desc;
     case 3: return teamscan_msg_TeamState_desc;
-    default: return teamscan_msg_MapUpdate_desc;
+    case 4: return teamscan_msg_MapUpdate_desc;
+    default: return teamscan_msg_StoredState_desc;
   }
 }
 

@@ -4,9 +4,11 @@
 // the idlc-generated descriptor, and only a sample that passes is read with dds_stream_read. Then the
 // station's SampleValidator (pose, scan, status), its stored form (stored_from: the robot's applied
 // correction undone) and scans.bin encoding, and the daemon's decode_team + check_team and its own
-// correction's step check (team). The map is read and freed (its bounded sequence allocates).
+// correction's step check (team), and its decode_stored into its ring's confirmations and back-fill (stored).
+// The map is read and freed (its bounded sequence allocates).
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <vector>
 
 #include <dds/ddsi/ddsi_cdrstream.h>
@@ -17,6 +19,7 @@
 #include "groundstation/station/station.hpp"
 #include "onboard/core/team_validation.hpp"
 #include "onboard/bridge/bridge.hpp"
+#include "onboard/ring/ring_index.hpp"
 #include "tests/fuzz/dds/cdr_input.hpp"
 
 namespace {
@@ -29,6 +32,7 @@ union Sample {
   teamscan_msg_RobotStatus status;
   teamscan_msg_TeamState team;
   teamscan_msg_MapUpdate map;
+  teamscan_msg_StoredState stored;
 };
 
 bool host_little_endian() {
@@ -65,7 +69,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   static station::SampleValidator validator;
   const Time received = Time::from_ns(1'800'000'000'000'000'000);
   switch (type) {
-    case 0: (void)validator.check_pose(sample.pose, received); break;
+    case 0:
+      (void)validator.check_pose(sample.pose, received);
+      (void)validator.check_backfill_pose(sample.pose, received);
+      break;
     case 1: {
       const station::Verdict verdict = validator.check_scan(sample.scan, received);
       // The station stores every scan, whatever its count (the record clamps to MAX_BEAMS): an accepted
@@ -90,7 +97,37 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       }
       break;
     }
-    default: dds_stream_free_sample(&sample.map, desc.m_ops); break;
+    case 4: dds_stream_free_sample(&sample.map, desc.m_ops); break;
+    default: {
+      // The robot's side of store and forward: the station's confirmations into its ring's index (robot 3,
+      // scans and poses 1..100 written).
+      static std::unique_ptr<onboard::ring::RingIndex> index = [] {
+        onboard::ring::RingIndexOptions o;
+        o.slots = 256;
+        o.robot_id = 3;
+        auto r = std::move(onboard::ring::RingIndex::create(o).value());
+        for (std::uint32_t s = 1; s <= 100; ++s) {
+          r->written(onboard::ring::RecordKind::kScan, s, true);
+          r->written(onboard::ring::RecordKind::kPose, s, true);
+        }
+        return r;
+      }();
+      static onboard::StoredSnapshot snapshot;
+      if (onboard::decode_stored(sample.stored, snapshot)) {
+        for (std::uint32_t i = 0; i < snapshot.count; ++i) {
+          const onboard::RobotStoredState& r = snapshot.robots[i];
+          (void)index->on_confirmation(r.robot_id, r.contiguous_seq, received, true, r.pose_contiguous_seq);
+        }
+        index->start_turn(received);
+        std::uint64_t slot = 0;
+        std::uint32_t seq = 0;
+        while (index->next_backfill(received, slot, seq)) {
+        }
+        while (index->next_backfill_pose(received, slot, seq)) {
+        }
+      }
+      break;
+    }
   }
   return 0;
 }

@@ -124,5 +124,15 @@ int main(int argc, char** argv) {
   m.voxels._buffer = voxels;
   m.voxels._length = m.voxels._maximum = 3;
   write_seed(dir, "map", 4, &m, false);
+  // What the station stored (store and forward): robot 3 confirmed, an unknown robot, a seq from the future.
+  static teamscan_msg_StoredState st_msg{};
+  st_msg.seq = 1;
+  st_msg.stamp_ns = kNow;
+  st_msg.count = 3;
+  st_msg.robots[0] = teamscan_msg_RobotStored{3, 50, 1, 50, 40};
+  st_msg.robots[1] = teamscan_msg_RobotStored{40, 10, 1, 10, 10};
+  st_msg.robots[2] = teamscan_msg_RobotStored{3, 500, 1, 500, 500};
+  write_seed(dir, "stored", 5, &st_msg, false);
+  write_seed(dir, "stored", 5, &st_msg, true);
   return 0;
 }
