@@ -383,7 +383,13 @@ void Station::take(int topic, OnSample&& on_sample) {
         // a refused one is stored raw, marked with its reason, and goes nowhere else (not the robot's
         // bookkeeping, the team source or the hooks: tracker, filters, map, latency statistics).
         const Verdict v = check_and_store_if_refused(sample, at, topic);
-        if (!v.ok()) return;
+        if (!v.ok()) {
+          // Stored raw, so confirmed as stored when its robot sent it: its ring does not send it again and
+          // again. One claimed by another participant confirms nothing.
+          if (v.reason != Reject::kRobotId && senders_.robot_of(topic, info.publication_handle) == sample.robot_id)
+            confirm_refused(sample);
+          return;
+        }
         RobotRecord* r = heard(sample.robot_id, topic, info.publication_handle, info.instance_handle, at.monotonic);
         if (r == nullptr) {
           // Another participant publishing as this robot (DDS Security partitions): stored raw, marked.
@@ -404,6 +410,14 @@ void Station::store_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime&
   const Receipt receipt = stored_from(s, at, reason, dds_->stored);
   store_.append_scan(dds_->stored, receipt);
 }
+
+void Station::confirm_refused(const teamscan_msg_RobotPose& p) {
+  if (stored_poses_[p.robot_id].insert(p.seq)) stored_changed_ = true;
+}
+void Station::confirm_refused(const teamscan_msg_ScanPoints& s) {
+  if (stored_[s.robot_id].insert(s.seq)) stored_changed_ = true;
+}
+void Station::confirm_refused(const teamscan_msg_RobotStatus&) {}
 
 template <class Sample>
 Verdict Station::check_and_store_if_refused(const Sample& sample, const ReceiveTime& at, int reader) {

@@ -206,6 +206,10 @@ class Station {
   void store_refused(const teamscan_msg_RobotPose& p, const ReceiveTime& at, Reject reason);
   void store_refused(const teamscan_msg_RobotStatus& s, const ReceiveTime& at, Reject reason);
   void store_refused(const teamscan_msg_ScanPoints& s, const ReceiveTime& at, Reject reason);
+  // A refused sample its own robot sent: its seq counts as stored (teamscan/stored), as it is, raw.
+  void confirm_refused(const teamscan_msg_RobotPose& p);
+  void confirm_refused(const teamscan_msg_ScanPoints& s);
+  void confirm_refused(const teamscan_msg_RobotStatus& s);
   // Validates a received sample; a refused one is stored raw, marked, counted and logged (refused()).
   template <class Sample>
   Verdict check_and_store_if_refused(const Sample& sample, const ReceiveTime& at, int topic);
