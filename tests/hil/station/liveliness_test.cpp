@@ -19,6 +19,7 @@
 #include "teamscan.h"
 #include "tests/hil/station/process.hpp"
 #include "tests/support/dds_test_subscriber.hpp"
+#include "tests/hil/station/station_fixture.hpp"
 #include "tests/support/test_domain.hpp"
 
 namespace teamscan::station {
@@ -26,37 +27,13 @@ namespace {
 
 using namespace std::chrono_literals;
 
-struct Fixture {
-  std::string root;
-  std::optional<SessionStore> store;
-  LastPoseTeamSource team;
-  std::unique_ptr<Station> station;
-
-  Fixture() {
-    char tmpl[] = "/tmp/teamscan-live-XXXXXX";
-    root = ::mkdtemp(tmpl);
-    auto s = SessionStore::open(root + "/session");
-    if (!s) ADD_FAILURE() << s.error().what;
-    store.emplace(std::move(s.value()));
+// The station's liveliness view alone must see a robot die (no silence timeout).
+struct Fixture : test::StationFixture {
+  Fixture() : test::StationFixture(options()) {}
+  static StationOptions options() {
     StationOptions o;
-    o.silence_timeout = 0s;  // liveliness alone must do it
-    o.domain_id = test::test_domain_id();
-    auto st = Station::create(o, *store, team);
-    if (!st) ADD_FAILURE() << st.error().what;
-    station = std::move(st.value());
-  }
-  ~Fixture() { std::filesystem::remove_all(root); }
-
-  // Polls the station (and publishes team) until pred() or timeout; true if pred held.
-  template <class P>
-  bool run_until(P pred, Duration timeout) {
-    const Time deadline = now_monotonic() + timeout;
-    while (now_monotonic() < deadline) {
-      station->poll(20ms);
-      station->publish_team_if_due(now_monotonic());
-      if (pred()) return true;
-    }
-    return false;
+    o.silence_timeout = 0s;
+    return o;
   }
 };
 

@@ -14,6 +14,7 @@
 #include "groundstation/station/session_store.hpp"
 #include "groundstation/station/station.hpp"
 #include "onboard/bridge/bridge.hpp"
+#include "tests/hil/station/station_fixture.hpp"
 #include "tests/support/test_domain.hpp"
 
 namespace teamscan::station {
@@ -23,37 +24,7 @@ using namespace std::chrono_literals;
 
 constexpr std::uint32_t kRobot = 7;
 
-struct Fixture {
-  std::string root;
-  std::optional<SessionStore> store;
-  LastPoseTeamSource team;
-  std::unique_ptr<Station> station;
-
-  Fixture() {
-    char tmpl[] = "/tmp/teamscan-sf-XXXXXX";
-    root = ::mkdtemp(tmpl);
-    auto s = SessionStore::open(root + "/session");
-    if (!s) ADD_FAILURE() << s.error().what;
-    store.emplace(std::move(s.value()));
-    StationOptions o;
-    o.domain_id = test::test_domain_id();
-    auto st = Station::create(o, *store, team);
-    if (!st) ADD_FAILURE() << st.error().what;
-    station = std::move(st.value());
-  }
-  ~Fixture() { std::filesystem::remove_all(root); }
-
-  template <class P>
-  bool run_until(P pred, Duration timeout) {
-    const Time deadline = now_monotonic() + timeout;
-    while (now_monotonic() < deadline) {
-      station->poll(20ms);
-      station->publish_team_if_due(now_monotonic());
-      if (pred()) return true;
-    }
-    return false;
-  }
-};
+using Fixture = test::StationFixture;
 
 onboard::OnboardPose pose(std::uint32_t seq, std::int64_t stamp_ns) {
   return onboard::OnboardPose{kRobot, seq, stamp_ns, 1000 + static_cast<std::int32_t>(seq), 2000, 0, 100, 0, 0};

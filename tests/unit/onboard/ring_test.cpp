@@ -176,15 +176,23 @@ std::unique_ptr<RingIndex> confirmed_5_then(const RingIndexOptions& o, std::uint
   return idx;
 }
 
-// `turns` loop turns `step` apart from `now` (advanced), each taking every back-fill due: the seqs sent.
-std::vector<std::uint32_t> backfill_turns(RingIndex& idx, Time& now, int turns, Duration step) {
+// `turns` loop turns `step` apart from `now` (advanced), each taking every back-fill due (scans, or poses
+// with &RingIndex::next_backfill_pose), at most the burst of 8 a turn: the seqs sent.
+using NextBackfill = bool (RingIndex::*)(Time, std::uint64_t&, std::uint32_t&);
+std::vector<std::uint32_t> backfill_turns(RingIndex& idx, Time& now, int turns, Duration step,
+                                          NextBackfill next = &RingIndex::next_backfill) {
   std::vector<std::uint32_t> sent;
   std::uint64_t slot = 0;
   std::uint32_t seq = 0;
   for (int turn = 0; turn < turns; ++turn) {
     now = now + step;
     idx.start_turn(now);
-    while (idx.next_backfill(now, slot, seq)) sent.push_back(seq);
+    int in_turn = 0;
+    while ((idx.*next)(now, slot, seq)) {
+      sent.push_back(seq);
+      ++in_turn;
+    }
+    EXPECT_LE(in_turn, 8) << "backfill_burst per turn";
   }
   return sent;
 }
@@ -367,22 +375,9 @@ TEST(RingIndex, AnOldConfirmationIsNoContact) {
   EXPECT_EQ(seq, 6u);
 }
 
-// `turns` loop turns `step` apart from `now` (advanced), each taking every pose back-fill due: the seqs sent.
+// Pose back-fill turns (backfill_turns).
 std::vector<std::uint32_t> pose_backfill_turns(RingIndex& idx, Time& now, int turns, Duration step) {
-  std::vector<std::uint32_t> sent;
-  std::uint64_t slot = 0;
-  std::uint32_t seq = 0;
-  for (int turn = 0; turn < turns; ++turn) {
-    now = now + step;
-    idx.start_turn(now);
-    int in_turn = 0;
-    while (idx.next_backfill_pose(now, slot, seq)) {
-      sent.push_back(seq);
-      ++in_turn;
-    }
-    EXPECT_LE(in_turn, 8) << "backfill_burst per turn";
-  }
-  return sent;
+  return backfill_turns(idx, now, turns, step, &RingIndex::next_backfill_pose);
 }
 
 TEST(RingIndex, BackfillsThePosesBelowTheLivePoseHistoryThatTheStationLacks) {
