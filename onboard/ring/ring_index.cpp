@@ -164,7 +164,7 @@ Confirmation RingIndex::on_confirmation(std::uint32_t robot_id, std::uint32_t co
   const bool back = fresh && !reachable(now);
   const bool was_confirmed = ever_confirmed_;
   if (back && ever_confirmed_) last_shadow_ = now - last_confirmation_;  // the shadow that ends here
-  if (!ever_confirmed_ || contiguous_seq != confirmed_seq_) confirmed_moved_ = now;
+  if (!ever_confirmed_ || contiguous_seq != confirmed_seq_) scan_stream_.confirmed_moved = now;
   if (!fresh && !ever_confirmed_) last_confirmation_ = now - options_.reachable_timeout - Duration{1};
   ever_confirmed_ = true;
   confirmed_seq_ = contiguous_seq;
@@ -173,22 +173,22 @@ Confirmation RingIndex::on_confirmation(std::uint32_t robot_id, std::uint32_t co
     if (!any_pose_ || pose_contiguous_seq > newest_pose_seq_) {
       ++counters_.pose_confirmations_future;
     } else {
-      if (!pose_ever_confirmed_ || pose_contiguous_seq != pose_confirmed_seq_) pose_confirmed_moved_ = now;
+      if (!pose_ever_confirmed_ || pose_contiguous_seq != pose_confirmed_seq_) pose_stream_.confirmed_moved = now;
       pose_ever_confirmed_ = true;
       pose_confirmed_seq_ = pose_contiguous_seq;
     }
   }
   if (back) {
-    pose_backfill_next_ = 0;
-    pose_confirmed_moved_ = now;
+    pose_stream_.next = 0;
+    pose_stream_.confirmed_moved = now;
     // The station is back (or heard for the first time): back-fill from its confirmed scan on. After a
     // shadow the live writer offers the returning station only its newest rejoin_window scans.
     const std::uint32_t rejoin = options_.rejoin_window == 0 ? options_.live_window : options_.rejoin_window;
     if (was_confirmed) rejoin_limit_ = std::max(rejoin_limit_, newest_scan_seq_ > rejoin ? newest_scan_seq_ - rejoin : 0);
     const std::uint32_t limit = backfill_limit();
     backfill_total_ = limit > confirmed_seq_ ? limit - confirmed_seq_ : 0;
-    backfill_next_ = 0;
-    confirmed_moved_ = now;  // the back-fill starts now: resend_after counts from here
+    scan_stream_.next = 0;
+    scan_stream_.confirmed_moved = now;  // the back-fill starts now: resend_after counts from here
   }
   return Confirmation::kAccepted;
 }
@@ -196,7 +196,8 @@ Confirmation RingIndex::on_confirmation(std::uint32_t robot_id, std::uint32_t co
 void RingIndex::on_live_reader_matched(Time now) {
   const std::uint32_t rejoin = options_.rejoin_window == 0 ? options_.live_window : options_.rejoin_window;
   rejoin_limit_ = std::max(rejoin_limit_, newest_scan_seq_ > rejoin ? newest_scan_seq_ - rejoin : 0);
-  confirmed_moved_ = now;  // the resend rule's clock starts at the match, not at the last station's last move
+  // The resend rule's clock starts at the match, not at the last station's last move.
+  scan_stream_.confirmed_moved = now;
 }
 
 void RingIndex::start_turn(Time now) {
@@ -207,66 +208,55 @@ void RingIndex::start_turn(Time now) {
   pose_turn_left_ = options_.backfill_burst;
 }
 
-bool RingIndex::next_backfill(Time now, std::uint64_t& slot, std::uint32_t& seq) {
-  if (!reachable(now) || turn_left_ == 0 || tokens_ < 1.0 || !any_scan_) return false;
-  std::uint32_t limit = backfill_limit();
+bool RingIndex::next_in(Stream& st, RecordKind kind, std::uint32_t confirmed, std::uint32_t oldest, std::uint32_t limit,
+                        Time now, std::uint64_t& slot, std::uint32_t& seq) {
   // The window opens above the confirmation, or above what the ring no longer holds (a full ring dropped it).
-  const std::uint32_t base = std::max(confirmed_seq_, oldest_scan_seq_ > 0 ? oldest_scan_seq_ - 1 : 0);
+  const std::uint32_t base = std::max(confirmed, oldest > 0 ? oldest - 1 : 0);
   if (options_.backfill_window > 0 && base + options_.backfill_window < limit) limit = base + options_.backfill_window;
-  // Sent, but the confirmations have not followed for resend_after: a back-filled scan went missing on
+  // Sent, but the confirmations have not followed for resend_after: a back-filled record went missing on
   // the way (or the station restarted without it); send again from the confirmed one.
-  if (backfill_next_ > confirmed_seq_ + 1 && now - confirmed_moved_ >= options_.resend_after &&
-      now - backfill_sent_ < options_.resend_after * 4) {
-    backfill_next_ = confirmed_seq_ + 1;
-    confirmed_moved_ = now;
+  if (st.next > confirmed + 1 && now - st.confirmed_moved >= options_.resend_after &&
+      now - st.sent < options_.resend_after * 4) {
+    st.next = confirmed + 1;
+    st.confirmed_moved = now;
     ++counters_.backfill_rewinds;
   }
-  std::uint32_t s = std::max({backfill_next_, confirmed_seq_ + 1, oldest_scan_seq_});
-  // Bounded work per call: a run of seqs the ring does not hold is skipped 64 at a time.
+  std::uint32_t s = std::max({st.next, confirmed + 1, oldest});
   for (int k = 0; k < 64 && s <= limit; ++k, ++s) {
-    if (locate(RecordKind::kScan, s, slot)) {
+    if (locate(kind, s, slot)) {
       seq = s;
-      backfill_next_ = s + 1;
-      tokens_ -= 1.0;
-      --turn_left_;
-      ++counters_.backfilled;
-      backfill_sent_ = now;
+      st.next = s + 1;
+      st.sent = now;
       return true;
     }
     ++counters_.backfill_missing;
   }
-  backfill_next_ = s;
+  st.next = s;
   return false;
+}
+
+bool RingIndex::next_backfill(Time now, std::uint64_t& slot, std::uint32_t& seq) {
+  if (!reachable(now) || turn_left_ == 0 || tokens_ < 1.0 || !any_scan_) return false;
+  if (!next_in(scan_stream_, RecordKind::kScan, confirmed_seq_, oldest_scan_seq_, backfill_limit(), now, slot, seq))
+    return false;
+  tokens_ -= 1.0;
+  --turn_left_;
+  ++counters_.backfilled;
+  return true;
 }
 
 void RingIndex::backfill_failed() { ++counters_.backfill_missing; }
 
 bool RingIndex::next_backfill_pose(Time now, std::uint64_t& slot, std::uint32_t& seq) {
   if (!reachable(now) || pose_turn_left_ == 0 || !any_pose_ || !pose_ever_confirmed_) return false;
-  std::uint32_t limit = std::max(
-      newest_pose_seq_ > options_.pose_live_window ? newest_pose_seq_ - options_.pose_live_window : 0, recovered_pose_limit_);
-  const std::uint32_t base = std::max(pose_confirmed_seq_, oldest_pose_seq_ > 0 ? oldest_pose_seq_ - 1 : 0);
-  if (options_.backfill_window > 0 && base + options_.backfill_window < limit) limit = base + options_.backfill_window;
-  if (pose_backfill_next_ > pose_confirmed_seq_ + 1 && now - pose_confirmed_moved_ >= options_.resend_after &&
-      now - pose_backfill_sent_ < options_.resend_after * 4) {
-    pose_backfill_next_ = pose_confirmed_seq_ + 1;
-    pose_confirmed_moved_ = now;
-    ++counters_.backfill_rewinds;
-  }
-  std::uint32_t s = std::max({pose_backfill_next_, pose_confirmed_seq_ + 1, oldest_pose_seq_});
-  for (int k = 0; k < 64 && s <= limit; ++k, ++s) {
-    if (locate(RecordKind::kPose, s, slot)) {
-      seq = s;
-      pose_backfill_next_ = s + 1;
-      --pose_turn_left_;
-      ++counters_.poses_backfilled;
-      pose_backfill_sent_ = now;
-      return true;
-    }
-    ++counters_.backfill_missing;
-  }
-  pose_backfill_next_ = s;
-  return false;
+  const std::uint32_t live =
+      newest_pose_seq_ > options_.pose_live_window ? newest_pose_seq_ - options_.pose_live_window : 0;
+  if (!next_in(pose_stream_, RecordKind::kPose, pose_confirmed_seq_, oldest_pose_seq_,
+               std::max(live, recovered_pose_limit_), now, slot, seq))
+    return false;
+  --pose_turn_left_;
+  ++counters_.poses_backfilled;
+  return true;
 }
 
 ShadowState RingIndex::shadow(Time now) const {

@@ -138,6 +138,19 @@ class RingIndex {
   [[nodiscard]] bool reachable(Time now) const;
   [[nodiscard]] std::uint32_t backfill_limit() const;
 
+  // One back-fill (the scans', the poses'): where it is above the station's confirmation.
+  struct Stream {
+    std::uint32_t next = 0;  // the next seq to back-fill (0: from the confirmed one)
+    Time confirmed_moved{};  // monotonic: the confirmation last moved (or the back-fill started)
+    Time sent{};             // monotonic: the last record handed out
+  };
+  // The next record of `kind` for `st` above `confirmed` (the station's) up to `limit`: within
+  // backfill_window above the confirmation or what the ring no longer holds (below `oldest`), from the
+  // confirmation again when it did not move for resend_after after a send; a run of seqs the ring lacks
+  // is skipped 64 at a time (bounded work per call). False: none now.
+  bool next_in(Stream& st, RecordKind kind, std::uint32_t confirmed, std::uint32_t oldest, std::uint32_t limit,
+               Time now, std::uint64_t& slot, std::uint32_t& seq);
+
   RingIndexOptions options_;
   std::unique_ptr<Slot[]> slots_;
   std::unique_ptr<std::uint64_t[]> scan_pos_;  // [seq % slots] = ring_seq + 1 of that scan (0: none)
@@ -149,14 +162,12 @@ class RingIndex {
   bool ever_confirmed_ = false;
   std::uint32_t confirmed_seq_ = 0;
   Time last_confirmation_{};  // monotonic
-  Time confirmed_moved_{};    // monotonic: confirmed_seq_ last changed
+  Stream scan_stream_;
   std::uint32_t backfill_total_ = 0;
   Duration last_shadow_{0};
   std::uint32_t rejoin_limit_ = 0;   // at the last return: the newest scan the live writer no longer offers
   // The newest scan and pose the start-up recovery found: no live writer of this process ever held them.
   std::uint32_t recovered_scan_limit_ = 0, recovered_pose_limit_ = 0;
-  std::uint32_t backfill_next_ = 0;  // next seq to back-fill (0: from the confirmed one)
-  Time backfill_sent_{};             // monotonic: the last back-filled scan
   double tokens_ = 0.0;
   Time tokens_at_{};
   std::uint32_t turn_left_ = 0;
@@ -165,9 +176,7 @@ class RingIndex {
   std::uint32_t oldest_pose_seq_ = 0;
   bool pose_ever_confirmed_ = false;
   std::uint32_t pose_confirmed_seq_ = 0;
-  std::uint32_t pose_backfill_next_ = 0;  // next pose seq to back-fill (0: from the confirmed one)
-  Time pose_confirmed_moved_{};           // monotonic
-  Time pose_backfill_sent_{};             // monotonic
+  Stream pose_stream_;
   std::uint32_t pose_turn_left_ = 0;
   RingCounters counters_{};
 };
