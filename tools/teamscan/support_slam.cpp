@@ -13,6 +13,7 @@
 #include "groundstation/posegraph/slam.hpp"
 #include "groundstation/trajectory/relations.hpp"
 #include "groundstation/trajectory/tum.hpp"
+#include "tools/demo/eval_report.hpp"
 
 namespace teamscan::tool {
 namespace {
@@ -53,10 +54,6 @@ std::string stats_cell(const mapping::ErrorStats& e, double scale) {
   char buf[128];
   std::snprintf(buf, sizeof buf, scale > 1 ? "%.1f / %.1f / %.1f" : "%.2f / %.2f / %.2f", e.p50 * scale, e.p99 * scale, e.max * scale);
   return buf;
-}
-
-nlohmann::ordered_json stats_json(const mapping::ErrorStats& e) {
-  return {{"p50", e.p50}, {"p99", e.p99}, {"max", e.max}, {"count", e.count}};
 }
 
 }  // namespace
@@ -130,10 +127,10 @@ SlamEvalOutput slam_eval_outputs(const SlamEvalArgs& args, const Dataset& datase
                         "| --- | ---: | ---: |\n"
                         "| odometry | " + stats_cell(odo_m, 100) + " | " + stats_cell(odo_deg, 1) + " |\n"
                         "| pose graph | " + stats_cell(graph_m, 100) + " | " + stats_cell(graph_deg, 1) + " |\n";
-    out.pose_errors = {{"pose_m_odometry", stats_json(odo_m)},
-                       {"pose_deg_odometry", stats_json(odo_deg)},
-                       {"pose_m_graph", stats_json(graph_m)},
-                       {"pose_deg_graph", stats_json(graph_deg)}};
+    out.pose_errors = {{"pose_m_odometry", demo::stats_json(odo_m)},
+                       {"pose_deg_odometry", demo::stats_json(odo_deg)},
+                       {"pose_m_graph", demo::stats_json(graph_m)},
+                       {"pose_deg_graph", demo::stats_json(graph_deg)}};
   }
   std::vector<Pose2> odometry;
   odometry.reserve(dataset.scans.size());
