@@ -10,7 +10,7 @@
 #include <system_error>
 
 #include "common/dataset/pcd.hpp"
-#include "common/point_flags.hpp"
+#include "groundstation/fusion/match_points.hpp"
 #include "groundstation/mapping/tracked_filter.hpp"
 
 namespace teamscan::fusion {
@@ -241,42 +241,21 @@ void FusionCore::register_scan(const ScanInput& s) {
   if (!own.found) return;  // no odometry of its own: nothing to correct
   // Teammates' bodies at the scan's time (their corrected tracks): hits on them must not pull the match.
   const mapping::TeamState team = poses_.team_at(s.stamp_ns);
-  std::vector<mapping::BodyBox> boxes;
   const Pose2 correction = poses_.map_from_odom(s.robot, s.stamp_ns);
   const Vec3 sensor = registration::corrected(correction, s.origin_m);
-  for (const mapping::RobotEstimate& e : team.robots) {
-    if (!e.valid || e.robot == s.robot) continue;
-    boxes.push_back(mapping::body_box(e, options_.methods.tracked));
-    boxes.back().sensor_m = sensor;
-  }
   registration_points_.clear();
   registration_usable_.clear();
   registration_corrected_.clear();
-  mapping::PointBounds footprint;  // of the usable points, as box_contains sees them (floats)
   for (std::size_t i = 0; i < s.points.size(); ++i) {
     const mapping::MapPoint& p = s.points[i];
     registration_points_.push_back({p.x, p.y, p.z});
-    const std::uint16_t flags = i < s.flags.size() ? s.flags[i] : 0;
-    const bool usable = (flags & (point_flags::kInvalid | point_flags::kDirectionFiltered)) == 0;
-    registration_usable_.push_back(usable ? 1 : 0);
+    registration_usable_.push_back(match_usable_flags(i < s.flags.size() ? s.flags[i] : 0) ? 1 : 0);
     const Vec3 q = registration::corrected(correction, registration_points_.back());
     registration_corrected_.push_back({static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z)});
-    if (usable) footprint.add(registration_corrected_.back());
   }
-  // Only the teammates whose box can reach the scan's footprint are tested point by point (the tracked
-  // filter's cull).
-  std::erase_if(boxes, [&](const mapping::BodyBox& b) { return !mapping::box_may_reach(b, footprint, 0.0); });
-  for (std::size_t i = 0; i < s.points.size(); ++i) {
-    if (registration_usable_[i] != 0) {
-      for (const mapping::BodyBox& b : boxes) {
-        if (mapping::box_contains(b, registration_corrected_[i], 0.0)) {
-          registration_usable_[i] = 0;
-          break;
-        }
-      }
-    }
-    if (registration_usable_[i] == 0) ++counters_.registration_masked_points;
-  }
+  mask_teammates(team, s.robot, sensor, options_.methods.tracked, registration_corrected_, registration_usable_);
+  for (const std::uint8_t u : registration_usable_)
+    if (u == 0) ++counters_.registration_masked_points;
   const registration::RobotCorrection& c =
       registration_->add_scan(s.robot, s.stamp_ns, own.odom, registration_points_, registration_usable_);
   const Pose2& now = c.map_from_odom;

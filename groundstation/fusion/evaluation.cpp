@@ -13,6 +13,7 @@
 #include "common/error_message.hpp"
 #include "common/units.hpp"
 #include "groundstation/fusion/core.hpp"
+#include "groundstation/fusion/planar_returns.hpp"
 #include "groundstation/fusion/time_line.hpp"
 
 namespace teamscan::fusion {
@@ -175,7 +176,7 @@ Result<std::vector<std::uint8_t>> decide_through_core(const Dataset& dataset, co
 
 bool level_lasers(const Dataset& dataset) {
   bool level = !dataset.robots.empty();
-  for (const DatasetRobot& r : dataset.robots) level = level && r.mount_rpy_rad[0] == 0.0 && r.mount_rpy_rad[1] == 0.0;
+  for (const DatasetRobot& r : dataset.robots) level = level && level_laser(r);
   return level;
 }
 

@@ -58,6 +58,12 @@ struct PlanarSlam::Robot {
   std::vector<Followed> followed;  // its last closure with each submap, while recent
 };
 
+SlamOptions tilted_laser_options(SlamOptions base) {
+  base.local.translation_weight = 100.0;
+  base.local.rotation_weight = 400.0;
+  return base;
+}
+
 PlanarSlam::PlanarSlam(SlamOptions options) : options_(options), graph_(options.graph) {}
 PlanarSlam::~PlanarSlam() = default;
 

@@ -69,9 +69,6 @@ ReportJson plane_json(const PlaneFit& f) {
           {"rms_error_mm", number(f.rms_error_m * 1e3)}};
 }
 
-ReportJson stats_json(const ErrorStats& e) {
-  return {{"p50", number(e.p50)}, {"p99", number(e.p99)}, {"max", number(e.max)}, {"count", e.count}};
-}
 
 ReportJson counts_json(const EvalReport& r) {
   ReportJson c = {{"points", r.points}, {"ghosts", r.ghosts}, {"others", r.points - r.ghosts},
@@ -165,6 +162,10 @@ ReportJson registration_json(const RegistrationReport& g) {
 }
 
 }  // namespace
+
+ReportJson stats_json(const mapping::ErrorStats& e) {
+  return {{"p50", number(e.p50)}, {"p99", number(e.p99)}, {"max", number(e.max)}, {"count", e.count}};
+}
 
 ReportJson report_json_value(const EvalReport& r, const std::string& command) {
   ReportJson tracker;

@@ -10,6 +10,8 @@
 namespace teamscan::demo {
 
 // `command` is the command line that reproduces the report.
+// Error statistics as the report gives them: {"p50", "p99", "max", "count"}, 10 significant digits.
+[[nodiscard]] ReportJson stats_json(const mapping::ErrorStats& e);
 [[nodiscard]] ReportJson report_json_value(const fusion::EvalReport& report, const std::string& command);
 // report_json_value laid out by json_report (one top-level key per line, a method per line).
 [[nodiscard]] std::string report_json(const fusion::EvalReport& report, const std::string& command);

@@ -172,6 +172,9 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
     o << " --tracked-low-outline-margin " << number(a.tracked_low_outline_margin_m);
   for (double h : a.top_heights_m) o << " --top-height " << number(h);
   if (a.slam.pose_graph) o << " --pose-graph";
+  if (a.slam.min_height_m) o << " --pose-graph-min-height " << number(*a.slam.min_height_m);
+  if (a.slam.max_height_m) o << " --pose-graph-max-height " << number(*a.slam.max_height_m);
+  if (a.slam.node_span_s) o << " --pose-graph-node-span " << number(*a.slam.node_span_s);
   if (!a.slam.relations_path.empty()) o << " --relations " << a.slam.relations_path;
   return o.str();
 }
@@ -415,7 +418,7 @@ int run_eval(const EvalArgs& a) {
     // The pose graph reads the data set only: it runs beside the fusion core's evaluation.
     std::vector<Pose2> graph_poses;
     std::thread graph;
-    if (a.slam.pose_graph) graph = std::thread([&graph_poses, &d = std::as_const(dataset.value())] { graph_poses = pose_graph_poses(d); });
+    if (a.slam.pose_graph) graph = std::thread([&graph_poses, &slam_args = a.slam, &d = std::as_const(dataset.value())] { graph_poses = pose_graph_poses(d, slam_args); });
     Result<EvalReport> evaluated = fusion::evaluate(dataset.value(), options);
     if (graph.joinable()) graph.join();
     progress.finish();
@@ -464,6 +467,11 @@ int run_eval(const EvalArgs& a) {
       std::filesystem::create_directories(a.out_dir, ec);
       markdown += write_pictures(dataset.value(), report, a.out_dir) + "\n";
     }
+    if (!slam.pose_markdown.empty()) {
+      std::fputs(slam.pose_markdown.c_str(), stdout);
+      std::fputs("\n", stdout);
+      markdown += slam.pose_markdown + "\n";
+    }
     if (!slam.markdown.empty()) {
       std::fputs(slam.markdown.c_str(), stdout);
       std::fputs("\n", stdout);
@@ -471,6 +479,7 @@ int run_eval(const EvalArgs& a) {
     }
     demo::ReportJson report_value = demo::report_json_value(report, command);
     if (!slam.relations.is_null()) report_value["relations"] = slam.relations;
+    if (!slam.pose_errors.is_null()) report_value["pose_graph"] = slam.pose_errors;
     jsons.push_back(demo::json_report(report_value));
   }
   const std::string json = joined_json(jsons);

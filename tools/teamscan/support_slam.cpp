@@ -8,9 +8,12 @@
 #include <nlohmann/json.hpp>
 
 #include "common/dataset/log_text.hpp"
+#include "groundstation/fusion/planar_returns.hpp"
+#include "groundstation/mapping/dataset_registration.hpp"
 #include "groundstation/posegraph/slam.hpp"
 #include "groundstation/trajectory/relations.hpp"
 #include "groundstation/trajectory/tum.hpp"
+#include "tools/demo/eval_report.hpp"
 
 namespace teamscan::tool {
 namespace {
@@ -47,29 +50,43 @@ nlohmann::ordered_json to_json(const RelationErrors& e) {
           {"rotation_max_deg", e.rotation_max_deg}};
 }
 
+std::string stats_cell(const mapping::ErrorStats& e, double scale) {
+  char buf[128];
+  std::snprintf(buf, sizeof buf, scale > 1 ? "%.1f / %.1f / %.1f" : "%.2f / %.2f / %.2f", e.p50 * scale, e.p99 * scale, e.max * scale);
+  return buf;
+}
+
 }  // namespace
 
-std::vector<Pose2> pose_graph_poses(const Dataset& dataset) {
+std::vector<Pose2> pose_graph_poses(const Dataset& dataset, const SlamEvalArgs& args) {
   const auto start = std::chrono::steady_clock::now();
-  std::map<std::pair<std::uint8_t, std::uint32_t>, std::size_t> row;
-  for (std::size_t i = 0; i < dataset.scans.size(); ++i) row.emplace(std::make_pair(dataset.scans[i].robot, dataset.scans[i].scan), i);
-  // The returns back in each scan's robot frame (the data set holds them in the odometry's map frame).
-  std::vector<std::vector<Vec2>> points(dataset.scans.size());
-  for (const LabelledPoint& p : dataset.points) {
-    const auto it = row.find({p.robot, p.scan});
-    if (it == row.end()) continue;
-    points[it->second].push_back(dataset.scans[it->second].pose.inverse().apply({p.x, p.y}));
-  }
-  posegraph::PlanarSlam slam;
-  std::vector<std::size_t> node(dataset.scans.size());
-  for (std::size_t i = 0; i < dataset.scans.size(); ++i) node[i] = slam.add_scan(dataset.scans[i].robot, dataset.scans[i].pose, points[i]);
+  // Planar returns: a level laser's as they are, a tilted laser's in the wall band; the points the
+  // registration leaves out left out here too (groundstation/fusion/planar_returns.hpp).
+  fusion::PlanarReturnOptions options;
+  if (args.min_height_m) options.min_height_m = *args.min_height_m;
+  if (args.max_height_m) options.max_height_m = *args.max_height_m;
+  if (args.node_span_s) options.tilted_node_s = *args.node_span_s;
+  const fusion::PlanarReturns planar = fusion::planar_returns(dataset, options);
+  // Tilted lasers' nodes: local SLAM held closer to the odometry (posegraph::tilted_laser_options).
+  bool tilted = false;
+  for (const DatasetRobot& r : dataset.robots) tilted = tilted || !fusion::level_laser(r);
+  const posegraph::SlamOptions so = tilted ? posegraph::tilted_laser_options() : posegraph::SlamOptions{};
+  posegraph::PlanarSlam slam(so);
+  std::vector<Pose2> node_poses(planar.nodes.size());
+  std::vector<std::size_t> node(planar.nodes.size());
+  for (std::size_t k = 0; k < planar.nodes.size(); ++k)
+    node[k] = slam.add_scan(planar.nodes[k].robot, dataset.scans[planar.nodes[k].row].pose, planar.nodes[k].returns);
   slam.finish();
-  std::vector<Pose2> poses(dataset.scans.size());
-  for (std::size_t i = 0; i < dataset.scans.size(); ++i) poses[i] = slam.pose(node[i]);
+  for (std::size_t k = 0; k < planar.nodes.size(); ++k) node_poses[k] = slam.pose(node[k]);
+  std::vector<Pose2> poses = fusion::scan_poses(dataset, planar, node_poses);
   const posegraph::SlamStats st = slam.stats();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::fprintf(stderr, "teamscan eval: pose graph: %zu nodes, %zu submaps, %zu loop-closure searches, %zu closures, %zu optimisations, %.1f s\n",
-               st.nodes, st.submaps, st.searches, st.closures, st.optimizations, seconds);
+  std::fprintf(stderr,
+               "teamscan eval: pose graph: %llu returns taken (%llu masked, %llu out of the height band), %zu nodes, %zu submaps, "
+               "%zu loop-closure searches, %zu closures, %zu optimisations, %.1f s\n",
+               static_cast<unsigned long long>(planar.kept), static_cast<unsigned long long>(planar.masked),
+               static_cast<unsigned long long>(planar.out_of_band), st.nodes, st.submaps, st.searches, st.closures, st.optimizations,
+               seconds);
   return poses;
 }
 
@@ -77,6 +94,15 @@ void add_slam_eval_options(CLI::App& app, SlamEvalArgs& args) {
   app.add_flag("--pose-graph", args.pose_graph,
                "The trajectory of the 2-D pose graph (submaps, loop closure, Ceres; docs/slam.md) for --trajectory-out and "
                "--relations (offline; the filters still run on the fusion core's poses)");
+  const fusion::PlanarReturnOptions d;
+  app.add_option("--pose-graph-min-height", args.min_height_m,
+                 "--pose-graph: a tilted laser's returns taken from this height above the floor, m (default " +
+                     std::to_string(d.min_height_m).substr(0, 4) + "; below: the floor)");
+  app.add_option("--pose-graph-max-height", args.max_height_m,
+                 "--pose-graph: … up to this height, m (default " + std::to_string(d.max_height_m).substr(0, 4) + "; above: ceilings)");
+  app.add_option("--pose-graph-node-span", args.node_span_s,
+                 "--pose-graph: a tilted laser's scans gathered into one node of the graph over this span, s (default " +
+                     std::to_string(d.tilted_node_s).substr(0, 4) + ")");
   app.add_option("--trajectory-out", args.trajectory_dir,
                  "Write robot<N>.tum per robot into DIR (TUM 't x y z qx qy qz qw', one line per scan in processing order, "
                  "t = the scan's own stamp): the corrected poses, or odometry with --no-registration (docs/slam.md)");
@@ -90,6 +116,22 @@ SlamEvalOutput slam_eval_outputs(const SlamEvalArgs& args, const Dataset& datase
                                  const std::vector<std::uint8_t>& decided, const std::string& method) {
   SlamEvalOutput out;
   const bool odometry_only = method == "odometry";
+  // The graph's poses against the truth (a simulated data set), beside odometry alone: the registration's
+  // figures (per scan, translation and rotation), measured the same way.
+  if (args.pose_graph && !dataset.truth.empty() && corrected.size() == dataset.scans.size()) {
+    mapping::ErrorStats odo_m, odo_deg, graph_m, graph_deg, unused_points;
+    mapping::measure_errors(dataset, odo_m, odo_deg, unused_points);
+    mapping::measure_errors(dataset, graph_m, graph_deg, unused_points, {}, corrected);
+    out.pose_markdown = "**Pose graph** (pose error per scan against the truth; docs/slam.md):\n\n"
+                        "| poses | translation p50 / p99 / max (cm) | rotation p50 / p99 / max (°) |\n"
+                        "| --- | ---: | ---: |\n"
+                        "| odometry | " + stats_cell(odo_m, 100) + " | " + stats_cell(odo_deg, 1) + " |\n"
+                        "| pose graph | " + stats_cell(graph_m, 100) + " | " + stats_cell(graph_deg, 1) + " |\n";
+    out.pose_errors = {{"pose_m_odometry", demo::stats_json(odo_m)},
+                       {"pose_deg_odometry", demo::stats_json(odo_deg)},
+                       {"pose_m_graph", demo::stats_json(graph_m)},
+                       {"pose_deg_graph", demo::stats_json(graph_deg)}};
+  }
   std::vector<Pose2> odometry;
   odometry.reserve(dataset.scans.size());
   for (const ScanRecord& s : dataset.scans) odometry.push_back(s.pose);

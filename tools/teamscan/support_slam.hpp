@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,9 @@ struct SlamEvalArgs {
   std::string trajectory_dir;  // empty: none written
   std::string relations_path;  // empty: no relations figures
   bool pose_graph = false;     // --pose-graph: the trajectory of the pose graph (groundstation/posegraph)
+  // A tilted laser's returns in the graph: the height band and the span of scans one node gathers
+  // (fusion::PlanarReturnOptions; unset: its defaults).
+  std::optional<double> min_height_m, max_height_m, node_span_s;
 };
 
 void add_slam_eval_options(CLI::App& app, SlamEvalArgs& args);
@@ -26,6 +30,10 @@ void add_slam_eval_options(CLI::App& app, SlamEvalArgs& args);
 struct SlamEvalOutput {
   std::string markdown;     // the relations table (empty without --relations)
   nlohmann::ordered_json relations;  // the report's "relations" member (null without --relations)
+  // --pose-graph on a data set with truth: the graph's pose error per scan beside odometry alone
+  // (translation m, rotation °: p50, p99, max), as a table and as the report's "pose_graph" member.
+  std::string pose_markdown;
+  nlohmann::ordered_json pose_errors;
   bool ok = true;           // false: a file could not be read or written (the reason is on stderr)
 };
 
@@ -36,6 +44,6 @@ struct SlamEvalOutput {
 
 // `--pose-graph`: every scan of the data set, in its order, through the team's 2-D SLAM
 // (groundstation/posegraph); one pose per scan. Prints what it did and its time on stderr.
-[[nodiscard]] std::vector<Pose2> pose_graph_poses(const Dataset& dataset);
+[[nodiscard]] std::vector<Pose2> pose_graph_poses(const Dataset& dataset, const SlamEvalArgs& args = {});
 
 }  // namespace teamscan::tool
