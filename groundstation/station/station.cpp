@@ -689,8 +689,11 @@ bool Station::publish_stored(Time now_mono) {
   st.count = 0;
   for (std::uint32_t id = 1; id <= kMaxRobots; ++id) {
     const StoredSeqs& q = stored_[id];
+    // A robot is confirmed once the session holds one of its scans: an entry with contiguous_seq 0 would
+    // tell it that none of its ring's scans is stored, and it would back-fill them all. Its poses'
+    // confirmation rides along.
+    if (!q.any()) continue;
     const StoredSeqs& poses = stored_poses_[id];
-    if (!q.any() && !poses.any()) continue;
     teamscan_msg_RobotStored& e = st.robots[st.count++];
     e.robot_id = id;
     e.contiguous_seq = q.contiguous();
