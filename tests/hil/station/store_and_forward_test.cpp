@@ -61,6 +61,22 @@ TEST(StationStoreAndForward, BackfilledPosesAreStoredOnceAndConfirmedAndRefusedS
   // Live: poses 1..3, scans 1..3 of which 2 lies outside the site (refused at the edge, stored raw).
   for (std::uint32_t s = 1; s <= 3; ++s) ASSERT_TRUE(b.publish_pose(pose(s, now - (4 - s) * 100'000'000)).ok());
   ASSERT_TRUE(f.run_until([&] { return f.station->robot(kRobot).poses >= 3; }, 10s));
+  // Poses but no scan stored yet: teamscan/stored does not name the robot (contiguous_seq 0 would tell it
+  // none of its ring's scans is stored). It is published at least once a second.
+  bool named = false;
+  std::uint32_t stored_samples = 0;
+  f.run_until(
+      [&] {
+        onboard::StoredSnapshot got{};
+        while (b.take_stored(got)) {
+          ++stored_samples;
+          for (std::uint32_t i = 0; i < got.count; ++i) named = named || got.robots[i].robot_id == kRobot;
+        }
+        return false;
+      },
+      1500ms);
+  EXPECT_GT(stored_samples, 0u);
+  EXPECT_FALSE(named);
   for (std::uint32_t s = 1; s <= 3; ++s)
     ASSERT_TRUE(b.publish_scan(scan(s, now - (4 - s) * 13'000'000, s == 2 ? 20'000'000 : 1000)).ok());
   ASSERT_TRUE(f.run_until([&] { return f.station->stored(kRobot).contiguous() >= 3; }, 10s))
