@@ -27,7 +27,7 @@ set(TEAMSCAN_ALLOWED_DEPS
   "groundstation/trajectory:common common/dataset"
   "groundstation/posegraph:common common/dataset"
   "groundstation/mapping:common common/dataset onboard/cone groundstation/registration"
-  "groundstation/fusion:common common/dataset idl dds groundstation/mapping groundstation/registration"
+  "groundstation/fusion:common common/dataset idl dds groundstation/mapping groundstation/registration groundstation/posegraph"
   "groundstation/view:common dds/ros2"
   "groundstation/station:common common/dataset idl dds dds/security dds/ros2 groundstation/mapping groundstation/fusion groundstation/registration groundstation/trajectory groundstation/view"
   "tools/render:common common/dataset"

@@ -315,6 +315,7 @@ void FusionCore::release(ScanInput& s, std::int64_t arrival_ns, bool forced) {
   if (on_release_) {
     FusedScan f;
     f.view = &view;
+    f.map_from_odom = correction;
     f.arrival_ns = arrival_ns;
     f.forced = forced;
     f.beams = s.beams;

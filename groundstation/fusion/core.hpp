@@ -109,6 +109,7 @@ struct ScanInput {
 // A released scan, as the core decided it (handed to the release callback).
 struct FusedScan {
   const mapping::ScanView* view = nullptr;    // the released ScanInput's view, with its pose and team
+  Pose2 map_from_odom;                        // the correction its points and origin were moved by (identity: none)
   std::int64_t arrival_ns = 0;
   bool forced = false;                        // released by hold_s, not by the poses
   std::span<const std::uint16_t> beams;

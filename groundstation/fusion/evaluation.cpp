@@ -208,6 +208,11 @@ Result<CoreRun> run_through_core(const Dataset& dataset, const std::string& meth
   out.scan_decided.assign(dataset.scans.size(), 0);
   std::vector<std::uint8_t> bits(dataset.points.size(), 0);
   core.set_release_callback([&](const fusion::FusedScan& f) {
+    // The back end: each scan's returns relative to the pose its points were placed with (the row's).
+    if (run.graph != nullptr) {
+      const auto row = row_of.find({f.view->robot, f.view->scan});
+      run.graph->add(f, row != row_of.end() ? &dataset.scans[row->second].pose : nullptr);
+    }
     if (auto row = row_of.find({f.view->robot, f.view->scan}); row != row_of.end()) {
       out.scan_poses[row->second] = f.view->map_from_robot;
       out.scan_decided[row->second] = 1;
@@ -370,8 +375,12 @@ Result<EvalReport> evaluate(const Dataset& dataset, const EvalOptions& options) 
   g.consistency_before = mapping::revisit_consistency(dataset);
   // The share of the whole evaluation: each method one part, table 1 and the metrics one more.
   const double parts = static_cast<double>(options.methods.size() + 1);
+  // The back end rides on the first method's core; its thread finishes while the other methods run.
+  std::unique_ptr<GraphBackend> graph;
+  if (options.pose_graph) graph = std::make_unique<GraphBackend>(*options.pose_graph);
   for (std::size_t mi = 0; mi < options.methods.size(); ++mi) {
     const MethodSpec& m = options.methods[mi];
+    run.graph = mi == 0 ? graph.get() : nullptr;
     const std::string stage = m.name + (options.registration ? " (fusion core, registration on)" : " (fusion core)");
     if (options.progress) {
       options.progress(stage, static_cast<double>(mi) / parts);
@@ -390,6 +399,7 @@ Result<EvalReport> evaluate(const Dataset& dataset, const EvalOptions& options) 
       report.scan_decided = std::move(r.scan_decided);
     }
     removed_by_method.push_back(std::move(r.removed));
+    if (run.graph != nullptr) run.graph->finish();
   }
   if (report.placed.empty()) {
     report.placed.reserve(dataset.points.size());
@@ -438,6 +448,19 @@ Result<EvalReport> evaluate(const Dataset& dataset, const EvalOptions& options) 
     r.floor_bias_after_m = have_reference ? mapping::floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m, r.removed) : std::numeric_limits<double>::quiet_NaN();
     r.floor_bias_improvement_pct = mapping::floor_bias_improvement_pct(report.floor_bias_before_m, r.floor_bias_after_m);
     report.methods.push_back(std::move(r));
+  }
+  if (graph) {
+    if (options.progress) options.progress("pose graph (the last search and optimisation)", 1.0);
+    std::map<std::pair<std::uint8_t, std::uint32_t>, std::size_t> row_of;
+    for (std::size_t i = 0; i < dataset.scans.size(); ++i) row_of.emplace(std::make_pair(dataset.scans[i].robot, dataset.scans[i].scan), i);
+    report.graph_poses.resize(dataset.scans.size());
+    for (std::size_t i = 0; i < dataset.scans.size(); ++i)
+      report.graph_poses[i] = i < report.scan_decided.size() && report.scan_decided[i] ? report.scan_poses[i] : dataset.scans[i].pose;
+    for (const GraphScanPose& p : graph->poses())
+      if (const auto it = row_of.find({p.robot, p.scan}); it != row_of.end()) report.graph_poses[it->second] = p.graph;
+    report.graph_stats = graph->graph_stats();
+    report.graph_counters = graph->counters();
+    report.graph_seconds = graph->seconds();
   }
   return report;
 }

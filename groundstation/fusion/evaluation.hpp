@@ -11,6 +11,7 @@
 
 #include "common/dataset/dataset.hpp"
 #include "common/result.hpp"
+#include "groundstation/fusion/graph_backend.hpp"
 #include "groundstation/mapping/dataset_registration.hpp"
 #include "groundstation/mapping/filter.hpp"
 #include "groundstation/mapping/metrics.hpp"
@@ -73,6 +74,8 @@ struct CoreRunOptions {
   registration::RegistrationOptions registration_options{};
   // Called with the share of the data set's time line fed so far (0..1), about every 1 %.
   std::function<void(double)> progress;
+  // The back end fed every released scan (nullptr: none).
+  GraphBackend* graph = nullptr;
 };
 
 // What the fusion core made of a data set.
@@ -117,6 +120,9 @@ struct EvalOptions {
   // Scan-to-map registration inside the fusion core (docs/registration.md); off: odometry alone.
   bool registration = false;
   registration::RegistrationOptions registration_options{};
+  // The pose graph as the core's back end (graph_backend.hpp), fed the first method's releases: its
+  // odometry is the core's decided poses (registered, or odometry alone). Unset: no graph.
+  std::optional<GraphBackendOptions> pose_graph{};
 };
 
 struct MethodResult {
@@ -156,6 +162,12 @@ struct EvalReport {
   // when the core decided none.
   std::vector<Pose2> scan_poses;
   std::vector<std::uint8_t> scan_decided;
+  // With EvalOptions::pose_graph: per Dataset::scans row, the graph's pose (the decided one for a scan
+  // the core did not release), what it did, and its thread's time from the first release to the end.
+  std::vector<Pose2> graph_poses;
+  posegraph::SlamStats graph_stats;
+  GraphBackendCounters graph_counters;
+  double graph_seconds = 0.0;
 };
 
 [[nodiscard]] Result<EvalReport> evaluate(const Dataset& dataset, const EvalOptions& options);

@@ -91,8 +91,10 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
     const Pose2 guess = m.local.inverse() * local;
     local = m.local * refine_pose(m.grid, points, guess, options_.local);
   }
-  const bool first_node = graph_.nodes().empty();
-  const std::size_t node = graph_.add_node(r.global_from_local * local, first_node);
+  // The first node is held; with anchor_robot_starts every robot's first one (the robots start in
+  // the common map frame).
+  const bool anchor = graph_.nodes().empty() || (!r.started && options_.anchor_robot_starts);
+  const std::size_t node = graph_.add_node(r.global_from_local * local, anchor);
   node_local_.push_back(local);
   node_robot_.push_back(robot_id);
   if (r.started) graph_.add_link({r.last_node, node, r.last_odometry.inverse() * odometry, r.last_local.inverse() * local});

@@ -62,6 +62,10 @@ struct SlamOptions {
   // Threads for the loop-closure searches and refinements (the caller's among them). Their results
   // join the graph in a fixed order, so the poses are the same to the bit whatever this is.
   int threads = 2;
+  // Every robot's first node held where its odometry put it, as the graph's first node is: the robots
+  // start in the common map frame (as the station's do: their start poses are known). Otherwise only
+  // the first node is held and a teammate's track floats, tied to the others by loop closures alone.
+  bool anchor_robot_starts = true;
   GraphOptions graph;
 };
 

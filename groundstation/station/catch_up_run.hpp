@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <future>
+#include <memory>
 #include <set>
 #include <utility>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "common/pose.hpp"
 #include "common/result.hpp"
 #include "groundstation/fusion/core_rebuild.hpp"
+#include "groundstation/fusion/graph_backend.hpp"
 #include "groundstation/station/fusion.hpp"
 
 namespace teamscan::station {
@@ -26,6 +28,7 @@ struct FusionStage::CatchUpRun {
   std::future<Result<fusion::RebuildSource>> loading;
   std::uint64_t scans_needed = 0;  // the scans the live cores had taken: the session read must hold them
   LiveMap map;                     // the rebuilt primary's model, as the live map will show it
+  std::unique_ptr<fusion::GraphBackend> graph;  // fed the rebuilt primary's releases (with pose_graph)
   std::uint64_t scans = 0, points = 0, live_removed = 0;
   bool behind = false;             // the session is fed: the rebuilt cores take the queued live inputs
   std::uint64_t late_base = 0;     // the rebuilt primary's scans_late + poses_late after the session

@@ -297,6 +297,24 @@ void read_registration(TomlReader& r, fusion::CoreOptions& core) {
   read_priors(r, reg, o);
 }
 
+// [pose_graph]: its presence runs the pose graph as the fusion core's back end (unless `enabled =
+// false`), with the returns it takes (fusion::PlanarReturnOptions).
+void read_pose_graph(TomlReader& r, FusionOptions& f) {
+  const toml::table* graph = r.section("pose_graph", false);
+  r.only(graph, "pose_graph", {"enabled", "min_height_m", "max_height_m", "node_s"});
+  if (graph == nullptr) return;
+  bool enabled = true;
+  r.boolean(graph, "pose_graph", "enabled", enabled);
+  fusion::GraphBackendOptions o = f.pose_graph.value_or(fusion::GraphBackendOptions{});
+  r.number_in(graph, "pose_graph", "min_height_m", o.returns.min_height_m, -10.0, 10.0, true);
+  r.number_in(graph, "pose_graph", "max_height_m", o.returns.max_height_m, -10.0, 10.0, true);
+  r.number_in(graph, "pose_graph", "node_s", o.returns.tilted_node_s, 0.0, 10.0);
+  if (o.returns.max_height_m <= o.returns.min_height_m)
+    r.fail("pose_graph.max_height_m", "must be above pose_graph.min_height_m", r.node(graph, "max_height_m"));
+  if (enabled) f.pose_graph = o;
+  else f.pose_graph.reset();
+}
+
 void read_ros2(TomlReader& r, Ros2Config& ros) {
   double cloud_s = to_seconds(ros.map_interval);
   const toml::table* ros2 = r.section("ros2", false);
@@ -418,13 +436,14 @@ bool parse_groundstation_config(const std::string& toml_text, const std::string&
   TomlReader r(root, error.message);
   GroundStationConfig c = out;
   std::string source = c.team_source == TeamSourceKind::kKalman ? "kalman" : "last_pose";
-  r.top_level({"station", "dds", "team", "fusion", "registration", "ros2", "view", "validation"});
+  r.top_level({"station", "dds", "team", "fusion", "registration", "pose_graph", "ros2", "view", "validation"});
   read_station(r, c);
   read_dds(r, c.station);
   const toml::table* team = read_team(r, c, source);
   read_kalman(r, c.fusion.core.tracker);
   const toml::table* fusion = read_fusion(r, c.fusion);
   read_registration(r, c.fusion.core);
+  read_pose_graph(r, c.fusion);
   read_ros2(r, c.ros2);
   read_view(r, c.view);
   if (r.failed()) return false;

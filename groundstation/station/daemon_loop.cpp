@@ -247,6 +247,11 @@ void stop_daemon(Daemon& d) {
   if (d.fusion) {
     d.fusion->flush();              // every held scan decided with what arrived
     (void)d.fusion->write_model();  // after any write in flight, synchronous: the models are complete at exit
+    if (d.fusion->graph() != nullptr) {
+      const Status graph = d.fusion->write_graph_trajectories();  // the graph's last optimisation, then robot<N>.graph.tum
+      log(graph ? kInfo : kErr, graph ? std::string{"wrote the pose graph's trajectories (robot<N>.graph.tum)"}
+                                        : std::string{"pose graph trajectories: "} + graph.error().what);
+    }
   }
 }
 

@@ -5,6 +5,7 @@
 #include "groundstation/station/catch_up_run.hpp"
 
 #include <algorithm>
+#include <map>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -94,6 +95,7 @@ FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, 
   scratch_.flags.reserve(kMaxBeams);
   scratch_.beams.reserve(kMaxBeams);
   if (!session_dir_.empty()) trajectories_ = std::make_unique<trajectory::TumAppender>(session_dir_);
+  if (options_.pose_graph) graph_ = std::make_unique<fusion::GraphBackend>(*options_.pose_graph);
   core().set_release_callback([this](const fusion::FusedScan& f) { on_release(f); });
   // Each core's model files: the primary's as configured, a compared method's by method_file_name.
   std::vector<fusion::ModelTarget> targets;
@@ -104,6 +106,14 @@ FusionStage::FusionStage(const FusionOptions& options, std::string session_dir, 
   }
   writer_ = std::make_unique<fusion::ModelWriter>(std::move(targets), fusion::ModelWriterOptions{options_.write_slice_ms, options_.writer_cpus},
                                                   [this](const ModelWriteReport& r) { finish_write(r); });
+}
+
+Status FusionStage::write_graph_trajectories() {
+  if (!graph_) return ok_status();
+  if (session_dir_.empty()) return Error{"fusion: no session folder to write the graph's trajectories into"};
+  std::map<std::uint8_t, std::vector<trajectory::StampedPose>> by_robot;
+  for (const fusion::GraphScanPose& p : graph_->poses()) by_robot[p.robot].push_back({(p.stamp_ns + 500) / 1000, p.graph});
+  return trajectory::write_tum_files(session_dir_, by_robot, ".graph");
 }
 
 Status FusionStage::write_model() {
@@ -177,6 +187,7 @@ void FusionStage::on_release(const fusion::FusedScan& f) {
   // The live map is the model: the points the core stored, where it placed them, with their class.
   map_.add_all(points, f.removed, f.stored, f.view->robot, f.release);
   for (std::uint8_t r : f.removed) counters_.live_removed += r != 0 ? 1 : 0;
+  if (graph_) graph_->add(f);
   if (replaying_ || catching_up_) return;
   if (run_) run_->live_released.emplace(f.view->robot, f.view->scan);
   if (!released_before_.empty() && released_before_.erase({f.view->robot, f.view->scan}) > 0) return;
@@ -207,6 +218,7 @@ void FusionStage::on_rebuilt_release(const fusion::FusedScan& f) {
   run.points += points.size();
   run.map.add_all(points, f.removed, f.stored, f.view->robot, f.release);
   for (std::uint8_t r : f.removed) run.live_removed += r != 0 ? 1 : 0;
+  if (run.graph) run.graph->add(f);
   if (run.behind)
     run.rebuilt_released.push_back({f.view->robot, f.view->scan, f.view->stamp_ns, f.arrival_ns, f.view->map_from_robot});
 }

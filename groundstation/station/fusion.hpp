@@ -25,6 +25,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <string>
 #include <thread>
@@ -37,6 +38,7 @@
 #include "groundstation/fusion/core.hpp"
 #include "groundstation/fusion/core_rebuild.hpp"
 #include "groundstation/fusion/core_set.hpp"
+#include "groundstation/fusion/graph_backend.hpp"
 #include "groundstation/fusion/model_writer.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
 #include "groundstation/station/latency_histogram.hpp"
@@ -87,6 +89,10 @@ struct FusionOptions {
   // go on taking, fusing and showing the robots' scans; the rebuilt cores take over once they caught up
   // with the live ones. 0: the whole catch-up in the turn it is due, holding the loop (catch_up()).
   std::uint32_t catch_up_slice_scans = 16;
+  // The pose graph as the primary core's back end (fusion/graph_backend.hpp; [fusion] pose_graph): fed
+  // every scan the core releases, on its own thread; its trajectory is written at the end
+  // (write_graph_trajectories). Unset: none.
+  std::optional<fusion::GraphBackendOptions> pose_graph;
   // The CPUs the model writer thread may run on (empty: the process's affinity). A station whose loop
   // is pinned to one core keeps the writer's file work (page-cache copies, kernel sections that the
   // loop cannot preempt) off that core with this; the snapshot itself stays in the loop.
@@ -198,6 +204,12 @@ class FusionStage {
   // Called with every finished write's report, on the thread that calls write_model / request_write /
   // poll_write (the loop), never on the writer thread.
   void set_write_callback(std::function<void(const ModelWriteReport&)> f) { on_write_ = std::move(f); }
+  // With options().pose_graph, after flush(): the graph's last search and optimisation over every scan
+  // the core released (waits for the back end's thread), then `robot<N>.graph.tum` per robot in the
+  // session folder (one line per scan, its stamp, the graph's pose; docs/slam.md "The back end").
+  [[nodiscard]] Status write_graph_trajectories();
+  // The back end (nullptr without options().pose_graph); after a catch-up, the one fed its releases.
+  [[nodiscard]] fusion::GraphBackend* graph() { return graph_.get(); }
   // Writes the latency histograms (options().latency_csv) into the session folder, atomically.
   [[nodiscard]] Status write_latency() const;
   // Scan stamp (end of sweep, CLOCK_REALTIME) -> the scan decided by the core and in the live map, and
@@ -268,6 +280,9 @@ class FusionStage {
   std::uint64_t late_seen_ = 0;  // ... at the last tick, and when it last grew
   std::int64_t late_at_ns_ = 0;
   std::unique_ptr<CatchUpRun> run_;  // the catch-up in slices under way (catch_up_run.hpp)
+  // The primary core's back end: fed its releases (the session replay's too); a catch-up feeds a new
+  // one the rebuilt primary's releases, which takes over with the cores.
+  std::unique_ptr<fusion::GraphBackend> graph_;
   // Scans the live cores released during the last catch-up that the rebuilt ones still held when they
   // took over: released again later, shown but not counted twice (latency, trajectory).
   std::set<std::pair<std::uint8_t, std::uint32_t>> released_before_;

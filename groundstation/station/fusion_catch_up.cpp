@@ -70,6 +70,7 @@ void FusionStage::start_catch_up(std::int64_t realtime_ns) {
   }
   auto run = std::make_unique<CatchUpRun>(realtime_ns, options_.map_resolution_m);
   run->started = started;
+  if (options_.pose_graph) run->graph = std::make_unique<fusion::GraphBackend>(*options_.pose_graph);
   run->scans_needed = core().counters().scans_released + core().held_scans();
   // The folder as it is now: the store wrote every sample the cores took, each record whole.
   const SessionExtent extent = session_extent_now(session_dir_);
@@ -141,6 +142,7 @@ void FusionStage::finish_catch_up() {
   const Time started = now_monotonic();
   cores_->take_state(run.rebuild.cores());
   map_ = std::move(run.map);
+  if (run.graph) graph_ = std::move(run.graph);
   counters_.scans = run.scans;
   counters_.points = run.points;
   counters_.live_removed = run.live_removed;
@@ -184,6 +186,7 @@ Status FusionStage::catch_up(std::int64_t realtime_ns) {
   writer_->wait();  // a snapshot in progress reads the cores
   map_ = LiveMap{options_.map_resolution_m};
   counters_.scans = counters_.points = counters_.live_removed = 0;
+  if (options_.pose_graph) graph_ = std::make_unique<fusion::GraphBackend>(*options_.pose_graph);  // fed the releases again
   catching_up_ = true;
   const Result<std::size_t> fed = fusion::refeed_in_time_order(session.value(), *cores_);
   catching_up_ = false;

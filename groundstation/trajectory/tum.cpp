@@ -47,20 +47,29 @@ std::string tum_text(const std::vector<StampedPose>& poses) {
 Status write_tum_per_robot(const std::string& dir, const Dataset& dataset, const std::vector<Pose2>& poses,
                            const std::vector<std::uint8_t>& decided) {
   if (poses.size() != dataset.scans.size()) return Error{"trajectory: one pose per scan needed"};
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) return Error{"trajectory: cannot create the output folder", ec.value()};
   std::map<std::uint8_t, std::vector<StampedPose>> by_robot;
   for (const DatasetRobot& r : dataset.robots) by_robot[r.id];
   for (std::size_t i = 0; i < dataset.scans.size(); ++i) {
     if (!decided.empty() && (i >= decided.size() || decided[i] == 0)) continue;
     by_robot[dataset.scans[i].robot].push_back({scan_stamp_us(dataset.scans[i]), poses[i]});
   }
+  return write_tum_files(dir, by_robot);
+}
+
+Status write_tum_files(const std::string& dir, const std::map<std::uint8_t, std::vector<StampedPose>>& by_robot, const std::string& suffix) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return Error{"trajectory: cannot create the output folder", ec.value()};
   for (const auto& [robot, samples] : by_robot) {
-    const std::string path = dir + "/robot" + std::to_string(robot) + ".tum";
-    std::ofstream out(path, std::ios::trunc | std::ios::binary);
-    out << tum_text(samples);
-    if (!out) return Error{"trajectory: cannot write a robot<N>.tum file", errno};
+    const std::string path = dir + "/robot" + std::to_string(robot) + suffix + ".tum";
+    {
+      std::ofstream out(path + ".tmp", std::ios::trunc | std::ios::binary);
+      out << tum_text(samples);
+      out.flush();
+      if (!out) return Error{"trajectory: cannot write a robot<N>.tum file", errno};
+    }
+    std::filesystem::rename(path + ".tmp", path, ec);
+    if (ec) return Error{"trajectory: cannot rename a robot<N>.tum file into place", ec.value()};
   }
   return ok_status();
 }

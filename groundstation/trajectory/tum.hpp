@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <cstdio>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,11 @@ struct StampedPose {
 // (a scan the fusion core never released) are left out when `decided` is not empty.
 [[nodiscard]] Status write_tum_per_robot(const std::string& dir, const Dataset& dataset, const std::vector<Pose2>& poses,
                                          const std::vector<std::uint8_t>& decided = {});
+
+// Per robot, `robot<N><suffix>.tum` in `dir` (created if missing) with its poses in the given order,
+// each file written whole (NAME.tmp, then renamed over the old one).
+[[nodiscard]] Status write_tum_files(const std::string& dir, const std::map<std::uint8_t, std::vector<StampedPose>>& by_robot,
+                                     const std::string& suffix = "");
 
 // The live station's trajectories: `robot<N>.tum` in a session folder, one line appended per decided
 // scan (opened on a robot's first scan, appending to what an earlier run of the session wrote).

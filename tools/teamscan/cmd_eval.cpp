@@ -10,7 +10,6 @@
 #include <optional>
 #include <sstream>
 #include <string>
-#include <thread>
 #include <utility>
 #include <vector>
 
@@ -415,12 +414,8 @@ int run_eval(const EvalArgs& a) {
     options.registration_options.robot_priors = priors.robot_priors;
     if (a.registration_min_correspondences)
       options.registration_options.match.min_correspondences = static_cast<std::size_t>(*a.registration_min_correspondences);
-    // The pose graph reads the data set only: it runs beside the fusion core's evaluation.
-    std::vector<Pose2> graph_poses;
-    std::thread graph;
-    if (a.slam.pose_graph) graph = std::thread([&graph_poses, &slam_args = a.slam, &d = std::as_const(dataset.value())] { graph_poses = pose_graph_poses(d, slam_args); });
+    options.pose_graph = pose_graph_options(a.slam);
     Result<EvalReport> evaluated = fusion::evaluate(dataset.value(), options);
-    if (graph.joinable()) graph.join();
     progress.finish();
     if (!evaluated) {
       std::fprintf(stderr, "teamscan eval: %s: %s\n", dir.c_str(), evaluated.error().what);
@@ -428,8 +423,9 @@ int run_eval(const EvalArgs& a) {
       continue;
     }
     EvalReport& report = evaluated.value();
+    if (a.slam.pose_graph) print_pose_graph_summary(report);
     const SlamEvalOutput slam =
-        a.slam.pose_graph ? slam_eval_outputs(a.slam, dataset.value(), graph_poses, {}, "pose graph")
+        a.slam.pose_graph ? slam_eval_outputs(a.slam, dataset.value(), report.graph_poses, {}, "pose graph")
                           : slam_eval_outputs(a.slam, dataset.value(), report.scan_poses, report.scan_decided,
                                               options.registration ? "registration" : "odometry");
     status = slam.ok ? status : 1;

@@ -1,7 +1,6 @@
 // `teamscan eval --trajectory-out / --relations` (support_slam.hpp).
 #include "tools/teamscan/support_slam.hpp"
 
-#include <chrono>
 #include <cstdio>
 #include <map>
 
@@ -10,7 +9,6 @@
 #include "common/dataset/log_text.hpp"
 #include "groundstation/fusion/planar_returns.hpp"
 #include "groundstation/mapping/dataset_registration.hpp"
-#include "groundstation/posegraph/slam.hpp"
 #include "groundstation/trajectory/relations.hpp"
 #include "groundstation/trajectory/tum.hpp"
 #include "tools/demo/eval_report.hpp"
@@ -58,42 +56,33 @@ std::string stats_cell(const mapping::ErrorStats& e, double scale) {
 
 }  // namespace
 
-std::vector<Pose2> pose_graph_poses(const Dataset& dataset, const SlamEvalArgs& args) {
-  const auto start = std::chrono::steady_clock::now();
-  // Planar returns: a level laser's as they are, a tilted laser's in the wall band; the points the
-  // registration leaves out left out here too (groundstation/fusion/planar_returns.hpp).
-  fusion::PlanarReturnOptions options;
-  if (args.min_height_m) options.min_height_m = *args.min_height_m;
-  if (args.max_height_m) options.max_height_m = *args.max_height_m;
-  if (args.node_span_s) options.tilted_node_s = *args.node_span_s;
-  const fusion::PlanarReturns planar = fusion::planar_returns(dataset, options);
-  // Tilted lasers' nodes: local SLAM held closer to the odometry (posegraph::tilted_laser_options).
-  bool tilted = false;
-  for (const DatasetRobot& r : dataset.robots) tilted = tilted || !fusion::level_laser(r);
-  const posegraph::SlamOptions so = tilted ? posegraph::tilted_laser_options() : posegraph::SlamOptions{};
-  posegraph::PlanarSlam slam(so);
-  std::vector<Pose2> node_poses(planar.nodes.size());
-  std::vector<std::size_t> node(planar.nodes.size());
-  for (std::size_t k = 0; k < planar.nodes.size(); ++k)
-    node[k] = slam.add_scan(planar.nodes[k].robot, dataset.scans[planar.nodes[k].row].pose, planar.nodes[k].returns);
-  slam.finish();
-  for (std::size_t k = 0; k < planar.nodes.size(); ++k) node_poses[k] = slam.pose(node[k]);
-  std::vector<Pose2> poses = fusion::scan_poses(dataset, planar, node_poses);
-  const posegraph::SlamStats st = slam.stats();
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+std::optional<fusion::GraphBackendOptions> pose_graph_options(const SlamEvalArgs& args) {
+  if (!args.pose_graph) return std::nullopt;
+  fusion::GraphBackendOptions options;
+  if (args.min_height_m) options.returns.min_height_m = *args.min_height_m;
+  if (args.max_height_m) options.returns.max_height_m = *args.max_height_m;
+  if (args.node_span_s) options.returns.tilted_node_s = *args.node_span_s;
+  return options;
+}
+
+void print_pose_graph_summary(const fusion::EvalReport& report) {
+  const fusion::GraphBackendCounters& c = report.graph_counters;
+  const posegraph::SlamStats& st = report.graph_stats;
   std::fprintf(stderr,
-               "teamscan eval: pose graph: %llu returns taken (%llu masked, %llu out of the height band), %zu nodes, %zu submaps, "
-               "%zu loop-closure searches, %zu closures, %zu optimisations, %.1f s\n",
-               static_cast<unsigned long long>(planar.kept), static_cast<unsigned long long>(planar.masked),
-               static_cast<unsigned long long>(planar.out_of_band), st.nodes, st.submaps, st.searches, st.closures, st.optimizations,
-               seconds);
-  return poses;
+               "teamscan eval: pose graph: %llu scans (%llu of tilted lasers), %llu returns taken (%llu masked, %llu out of the height "
+               "band), %zu nodes, %zu submaps, %zu loop-closure searches, %zu closures, %zu optimisations, %.1f s from the first "
+               "release to the last optimisation\n",
+               static_cast<unsigned long long>(c.scans), static_cast<unsigned long long>(c.tilted_scans),
+               static_cast<unsigned long long>(c.returns.kept), static_cast<unsigned long long>(c.returns.masked),
+               static_cast<unsigned long long>(c.returns.out_of_band), st.nodes, st.submaps, st.searches, st.closures, st.optimizations,
+               report.graph_seconds);
 }
 
 void add_slam_eval_options(CLI::App& app, SlamEvalArgs& args) {
   app.add_flag("--pose-graph", args.pose_graph,
                "The trajectory of the 2-D pose graph (submaps, loop closure, Ceres; docs/slam.md) for --trajectory-out and "
-               "--relations (offline; the filters still run on the fusion core's poses)");
+               "--relations: the fusion core's back end, its odometry the poses the core decided (with --registration, the "
+               "registered ones); the filters still run on the core's poses");
   const fusion::PlanarReturnOptions d;
   app.add_option("--pose-graph-min-height", args.min_height_m,
                  "--pose-graph: a tilted laser's returns taken from this height above the floor, m (default " +

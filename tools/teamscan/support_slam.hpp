@@ -13,6 +13,7 @@
 
 #include "common/dataset/dataset.hpp"
 #include "common/pose.hpp"
+#include "groundstation/fusion/evaluation.hpp"
 
 namespace teamscan::tool {
 
@@ -42,8 +43,10 @@ struct SlamEvalOutput {
 [[nodiscard]] SlamEvalOutput slam_eval_outputs(const SlamEvalArgs& args, const Dataset& dataset, const std::vector<Pose2>& corrected,
                                                const std::vector<std::uint8_t>& decided, const std::string& method);
 
-// `--pose-graph`: every scan of the data set, in its order, through the team's 2-D SLAM
-// (groundstation/posegraph); one pose per scan. Prints what it did and its time on stderr.
-[[nodiscard]] std::vector<Pose2> pose_graph_poses(const Dataset& dataset, const SlamEvalArgs& args = {});
+// `--pose-graph`: the back end's options for the evaluation (fusion::EvalOptions::pose_graph); unset
+// without it.
+[[nodiscard]] std::optional<fusion::GraphBackendOptions> pose_graph_options(const SlamEvalArgs& args);
+// What the back end did and its time, on stderr.
+void print_pose_graph_summary(const fusion::EvalReport& report);
 
 }  // namespace teamscan::tool

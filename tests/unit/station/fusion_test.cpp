@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <set>
@@ -32,6 +33,7 @@
 #include "groundstation/station/fusion.hpp"
 #include "groundstation/station/pose_history_team_source.hpp"
 #include "groundstation/station/station.hpp"
+#include "groundstation/trajectory/tum.hpp"
 #include "onboard/bridge/bridge.hpp"
 #include "onboard/core/pipeline.hpp"
 #include "onboard/core/team_validation.hpp"
@@ -323,6 +325,79 @@ TEST(FusionRegistration, ModelDecisionsEqualEvalWithRegistrationOn) {
       }
       std::filesystem::remove_all(dir);
     }
+  }
+}
+
+// The pose graph as the core's back end ([pose_graph]): the station feeds it the primary core's
+// releases, whatever order the samples arrive in, and its robot<N>.graph.tum files at the end are those
+// of `teamscan eval --pose-graph` (the back end fed the same core's releases in time order), to the byte.
+TEST(FusionPoseGraph, TheStationsGraphTrajectoriesAreEvals) {
+  const Dataset d = survey(12.0, 2);
+  fusion::CoreRunOptions run;
+  run.registration = true;
+  run.registration_options.window_s = 1.0;
+  run.registration_options.match_every_s = 0.3;
+  run.registration_options.min_map_features = 20;
+  fusion::GraphBackend eval_graph;
+  run.graph = &eval_graph;
+  ASSERT_TRUE(fusion::run_through_core(d, "best", mapping::MethodOptions{}, run).ok());
+  eval_graph.finish();
+  std::map<std::uint8_t, std::vector<trajectory::StampedPose>> expected;
+  for (const fusion::GraphScanPose& p : eval_graph.poses()) expected[p.robot].push_back({(p.stamp_ns + 500) / 1000, p.graph});
+  ASSERT_EQ(expected.size(), 2u);
+  EXPECT_EQ(eval_graph.counters().scans, d.scans.size());
+  EXPECT_GT(eval_graph.graph_stats().nodes, 0u);
+  for (auto [pose_delay, scan_delay] : {std::pair<std::size_t, std::size_t>{0, 0}, {3, 6}}) {
+    const std::string dir = temp_dir();
+    FusionOptions o;
+    o.core.method = "best";
+    o.core.registration = true;
+    o.core.registration_options = run.registration_options;
+    o.pose_graph = fusion::GraphBackendOptions{};
+    auto stage = FusionStage::create(o, dir);
+    ASSERT_TRUE(stage.ok());
+    ASSERT_NE((*stage)->graph(), nullptr);
+    feed(**stage, d, pose_delay, {}, scan_delay);
+    ASSERT_TRUE((*stage)->write_graph_trajectories().ok());
+    for (const auto& [robot, poses] : expected) {
+      std::ifstream in(dir + "/robot" + std::to_string(robot) + ".graph.tum", std::ios::binary);
+      const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      EXPECT_EQ(text, trajectory::tum_text(poses)) << "robot " << int{robot} << " pose_delay " << pose_delay << " scan_delay " << scan_delay;
+    }
+    std::filesystem::remove_all(dir);
+  }
+  // Without [pose_graph]: no back end, nothing written.
+  const std::string dir = temp_dir();
+  auto stage = FusionStage::create(FusionOptions{}, dir);
+  ASSERT_TRUE(stage.ok());
+  EXPECT_EQ((*stage)->graph(), nullptr);
+  EXPECT_TRUE((*stage)->write_graph_trajectories().ok());
+  EXPECT_FALSE(std::filesystem::exists(dir + "/robot1.graph.tum"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(FusionConfig, ThePoseGraphIsOffByDefaultAndOnBySection) {
+  GroundStationConfig c;
+  EXPECT_FALSE(c.fusion.pose_graph);
+  ConfigError e;
+  ASSERT_TRUE(parse_groundstation_config("[pose_graph]\n", "t.toml", c, e)) << e.message;
+  ASSERT_TRUE(c.fusion.pose_graph);
+  EXPECT_DOUBLE_EQ(c.fusion.pose_graph->returns.min_height_m, fusion::PlanarReturnOptions{}.min_height_m);
+  GroundStationConfig s;
+  ASSERT_TRUE(parse_groundstation_config("[pose_graph]\nmin_height_m = 0.3\nmax_height_m = 1.5\nnode_s = 0.5\n", "t.toml", s, e))
+      << e.message;
+  ASSERT_TRUE(s.fusion.pose_graph);
+  EXPECT_DOUBLE_EQ(s.fusion.pose_graph->returns.min_height_m, 0.3);
+  EXPECT_DOUBLE_EQ(s.fusion.pose_graph->returns.max_height_m, 1.5);
+  EXPECT_DOUBLE_EQ(s.fusion.pose_graph->returns.tilted_node_s, 0.5);
+  GroundStationConfig off;
+  ASSERT_TRUE(parse_groundstation_config("[pose_graph]\nenabled = false\nnode_s = 0.5\n", "t.toml", off, e)) << e.message;
+  EXPECT_FALSE(off.fusion.pose_graph);
+  for (const char* bad : {"[pose_graph]\nnode_s = 0\n", "[pose_graph]\nmin_height_m = 1.0\nmax_height_m = 0.5\n",
+                          "[pose_graph]\nmagic = 1\n", "[pose_graph]\nenabled = 1\n"}) {
+    GroundStationConfig b;
+    EXPECT_FALSE(parse_groundstation_config(bad, "t.toml", b, e)) << bad;
+    EXPECT_EQ(e.message.rfind("pose_graph.", 0), 0u) << e.message;
   }
 }
 

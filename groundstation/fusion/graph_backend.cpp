@@ -1,0 +1,136 @@
+// The fusion core's back end, the team's pose graph on its own thread (graph_backend.hpp).
+#include "groundstation/fusion/graph_backend.hpp"
+
+#include <algorithm>
+#include <utility>
+
+namespace teamscan::fusion {
+
+GraphBackend::GraphBackend(GraphBackendOptions options)
+    : options_(std::move(options)), open_(static_cast<std::size_t>(kMaxRobots) + 1), thread_([this] { run(); }) {}
+
+GraphBackend::~GraphBackend() {
+  {
+    const std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  thread_.join();
+}
+
+void GraphBackend::add(const FusedScan& released, const Pose2* odom_from_robot) {
+  if (finishing_ || released.view == nullptr) return;
+  const mapping::ScanView& v = *released.view;
+  if (v.robot > kMaxRobots) return;
+  Open& o = open_[v.robot];
+  if (!o.tilted && v.points.size() >= 2) o.tilted = !level_scan(v);
+  const bool tilted = o.tilted.value_or(false);
+  // A level laser's scan is a node; a tilted laser's node closes when its robot's next scan is
+  // tilted_node_s or more after the node's first.
+  const auto span_ns = static_cast<std::int64_t>(options_.returns.tilted_node_s * 1e9);
+  if (!o.scans.empty() && (!tilted || v.stamp_ns - o.first_stamp_ns >= span_ns)) close(v.robot);
+  if (o.scans.empty()) o.first_stamp_ns = v.stamp_ns;
+  take_planar_returns(v, tilted, options_.returns, taken_, counters_.returns);
+  for (std::size_t j = 0; j < v.points.size(); ++j)
+    if (taken_[j] != 0) o.map_returns.push_back({v.points[j].x, v.points[j].y});
+  const Pose2 placed = odom_from_robot != nullptr ? released.map_from_odom * *odom_from_robot : v.map_from_robot;
+  o.scans.push_back({v.robot, v.scan, v.stamp_ns, placed, placed});
+  if (counters_.scans++ == 0) first_scan_ = std::chrono::steady_clock::now();
+  if (tilted) ++counters_.tilted_scans;
+  if (!tilted) close(v.robot);
+}
+
+void GraphBackend::close(std::uint8_t robot) {
+  Open& o = open_[robot];
+  if (o.scans.empty()) return;
+  Node n;
+  n.robot = robot;
+  n.tilted = o.tilted.value_or(false);
+  n.decided = o.scans.back().decided;
+  // The points were placed in the map frame with their scans' decided poses: into the node's frame.
+  const Pose2 node_from_map = n.decided.inverse();
+  n.returns.reserve(o.map_returns.size());
+  for (const Vec2& p : o.map_returns) n.returns.push_back(node_from_map.apply(p));
+  n.scans = std::move(o.scans);
+  o.scans.clear();
+  o.map_returns.clear();
+  ++counters_.nodes;
+  {
+    const std::lock_guard lock(mutex_);
+    queue_.push_back(std::move(n));
+    counters_.queue_max = std::max(counters_.queue_max, queue_.size());
+  }
+  wake_.notify_one();
+}
+
+void GraphBackend::finish() {
+  if (finishing_) return;
+  finishing_ = true;
+  for (std::size_t r = 0; r < open_.size(); ++r) close(static_cast<std::uint8_t>(r));
+  {
+    const std::lock_guard lock(mutex_);
+    input_done_ = true;
+  }
+  wake_.notify_one();
+}
+
+void GraphBackend::run() {
+  for (;;) {
+    Node n;
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait(lock, [&] { return stop_ || !queue_.empty() || input_done_; });
+      if (stop_) return;
+      if (queue_.empty()) break;  // input_done_ and everything taken
+      n = std::move(queue_.front());
+      queue_.pop_front();
+    }
+    if (!slam_) slam_ = std::make_unique<posegraph::PlanarSlam>(
+                    options_.slam ? *options_.slam : n.tilted ? posegraph::tilted_laser_options() : posegraph::SlamOptions{});
+    graph_node_.push_back(slam_->add_scan(n.robot, n.decided, n.returns));
+    n.returns = {};
+    in_graph_.push_back(std::move(n));
+  }
+  if (slam_) slam_->finish();
+  // Each scan: its node's pose moved by the front end's motion from the node's last scan to it.
+  for (std::size_t k = 0; k < in_graph_.size(); ++k) {
+    const Node& n = in_graph_[k];
+    const Pose2 node = slam_->pose(graph_node_[k]);
+    const Pose2 node_from_map = n.decided.inverse();
+    for (GraphScanPose s : n.scans) {
+      s.graph = node * (node_from_map * s.decided);
+      poses_.push_back(s);
+    }
+  }
+  {
+    const std::lock_guard lock(mutex_);
+    done_at_ = std::chrono::steady_clock::now();
+    done_ = true;
+  }
+  done_cv_.notify_all();
+}
+
+void GraphBackend::wait_done() {
+  std::unique_lock lock(mutex_);
+  done_cv_.wait(lock, [&] { return done_ || stop_; });
+}
+
+const std::vector<GraphScanPose>& GraphBackend::poses() {
+  finish();
+  wait_done();
+  return poses_;
+}
+
+double GraphBackend::seconds() {
+  finish();
+  wait_done();
+  return counters_.scans == 0 ? 0.0 : std::chrono::duration<double>(done_at_ - first_scan_).count();
+}
+
+posegraph::SlamStats GraphBackend::graph_stats() {
+  finish();
+  wait_done();
+  return slam_ ? slam_->stats() : posegraph::SlamStats{};
+}
+
+}  // namespace teamscan::fusion

@@ -1,0 +1,116 @@
+// The fusion core's back end: the team's 2-D pose graph (groundstation/posegraph: submaps, loop
+// closure within and between robots, Ceres), fed every scan the core released with the pose the core
+// decided it with (the registration's, or the odometry's: the graph's odometry is the front end's).
+// Each released scan's returns that pin x, y and yaw (planar_returns.hpp) are copied into the robot
+// frame of its node (a level laser's scan, or a tilted laser's scans over tilted_node_s); the closed
+// nodes go to the graph on the back end's own thread, so the caller's loop only copies returns.
+// Deterministic: the nodes join the graph in the order they closed, so the same releases in the same
+// order give the same poses to the bit, whatever the threads did (`teamscan eval --pose-graph` and a
+// station fed the same releases agree).
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "common/capacities.hpp"
+#include "common/pose.hpp"
+#include "groundstation/fusion/core.hpp"
+#include "groundstation/fusion/planar_returns.hpp"
+#include "groundstation/posegraph/slam.hpp"
+
+namespace teamscan::fusion {
+
+struct GraphBackendOptions {
+  PlanarReturnOptions returns;
+  // The graph's options; unset: posegraph's defaults for level lasers and tilted_laser_options() for
+  // tilted ones, chosen by the first node's laser.
+  std::optional<posegraph::SlamOptions> slam;
+};
+
+// A released scan's pose: as the core decided it, and as the graph put it.
+struct GraphScanPose {
+  std::uint8_t robot = 0;
+  std::uint32_t scan = 0;
+  std::int64_t stamp_ns = 0;
+  Pose2 decided;  // the pose its returns are relative to (map_from_robot as released, or as add() was told)
+  Pose2 graph;    // after the graph's last optimisation
+};
+
+struct GraphBackendCounters {
+  std::uint64_t scans = 0;       // released scans taken
+  std::uint64_t nodes = 0;       // closed nodes handed to the graph
+  std::uint64_t tilted_scans = 0;
+  PlanarReturnCounts returns;
+  std::size_t queue_max = 0;     // the most closed nodes waiting for the graph at once
+};
+
+class GraphBackend {
+ public:
+  explicit GraphBackend(GraphBackendOptions options = {});
+  ~GraphBackend();  // stops the graph's thread (the nodes not yet in the graph are dropped)
+  GraphBackend(const GraphBackend&) = delete;
+  GraphBackend& operator=(const GraphBackend&) = delete;
+
+  // A scan the core released (its release callback), in release order. Not after finish(). Its returns
+  // go into the graph relative to the pose its points were placed with: `odom_from_robot`, when the
+  // caller knows it (a data set's scan row: the pose its source placed them with), moved by the
+  // correction the core applied; else the pose the core decided it with (the station: its points were
+  // placed by the robot's odometry, of which the core's pose history holds the published samples).
+  void add(const FusedScan& released, const Pose2* odom_from_robot = nullptr);
+  // No more scans: the open nodes close, the graph takes the rest, is searched again and optimised a
+  // last time (posegraph::PlanarSlam::finish), all on the back end's thread. Returns at once.
+  void finish();
+  // Waits for finish()'s work; then every taken scan's pose, its node's scans in release order, the
+  // nodes in the order they closed.
+  [[nodiscard]] const std::vector<GraphScanPose>& poses();
+  [[nodiscard]] posegraph::SlamStats graph_stats();
+  [[nodiscard]] GraphBackendCounters counters() const { return counters_; }
+  // Waits for finish()'s work; then the time from the first scan taken to the last optimisation's end.
+  [[nodiscard]] double seconds();
+
+ private:
+  struct Node {
+    std::uint8_t robot = 0;
+    bool tilted = false;
+    Pose2 decided;                         // the node's last scan's
+    std::vector<Vec2> returns;             // in that scan's robot frame
+    std::vector<GraphScanPose> scans;      // the scans it gathers, in order (graph unset)
+  };
+  struct Open {
+    std::int64_t first_stamp_ns = 0;
+    std::optional<bool> tilted;            // the robot's laser, from its first scan with points
+    std::vector<Vec2> map_returns;         // gathered so far, map frame (the decided poses)
+    std::vector<GraphScanPose> scans;
+  };
+  void close(std::uint8_t robot);
+  void run();
+  void wait_done();
+
+  GraphBackendOptions options_;
+  GraphBackendCounters counters_;
+  std::vector<Open> open_;  // per robot id
+  std::vector<std::uint8_t> taken_;
+  bool finishing_ = false;
+  std::chrono::steady_clock::time_point first_scan_, done_at_;
+
+  std::mutex mutex_;
+  std::condition_variable wake_, done_cv_;
+  std::deque<Node> queue_;
+  bool input_done_ = false, done_ = false, stop_ = false;
+
+  // The graph's thread's own (read by poses() once done_).
+  std::unique_ptr<posegraph::PlanarSlam> slam_;
+  std::vector<Node> in_graph_;              // node k = the graph's node k (returns dropped)
+  std::vector<std::size_t> graph_node_;
+  std::vector<GraphScanPose> poses_;
+  std::thread thread_;
+};
+
+}  // namespace teamscan::fusion
