@@ -4,6 +4,10 @@
 #include <algorithm>
 #include <utility>
 
+#include <pthread.h>
+#include <sched.h>
+#include <sys/resource.h>
+
 namespace teamscan::fusion {
 
 GraphBackend::GraphBackend(GraphBackendOptions options)
@@ -75,6 +79,17 @@ void GraphBackend::finish() {
 }
 
 void GraphBackend::run() {
+  {
+    // Below the station's loop: nice 10 on its own thread id, SCHED_BATCH (no preemption on wake-up).
+    const int error = set_current_thread_cpus(options_.cpus);
+    (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(current_thread_id()), 10);
+    sched_param p{};
+    p.sched_priority = 0;
+    (void)::pthread_setschedparam(::pthread_self(), SCHED_BATCH, &p);
+    const std::lock_guard lock(mutex_);
+    thread_id_ = current_thread_id();
+    affinity_error_ = error;
+  }
   for (;;) {
     Node n;
     {
@@ -119,6 +134,25 @@ const std::vector<GraphScanPose>& GraphBackend::poses() {
   finish();
   wait_done();
   return poses_;
+}
+
+std::size_t GraphBackend::queued() {
+  const std::lock_guard lock(mutex_);
+  return queue_.size();
+}
+
+GraphThreadPlacement GraphBackend::placement() {
+  int tid = 0;
+  bool running = false;
+  GraphThreadPlacement out;
+  {
+    const std::lock_guard lock(mutex_);
+    tid = thread_id_;
+    running = !done_ && !stop_;
+    out.affinity_error = affinity_error_;
+  }
+  if (tid != 0 && running) out.scheduling = thread_scheduling(thread_.native_handle(), tid);
+  return out;
 }
 
 double GraphBackend::seconds() {

@@ -21,6 +21,7 @@
 
 #include "common/capacities.hpp"
 #include "common/pose.hpp"
+#include "common/thread_placement.hpp"
 #include "groundstation/fusion/core.hpp"
 #include "groundstation/fusion/planar_returns.hpp"
 #include "groundstation/posegraph/slam.hpp"
@@ -32,6 +33,9 @@ struct GraphBackendOptions {
   // The graph's options; unset: posegraph's defaults for level lasers and tilted_laser_options() for
   // tilted ones, chosen by the first node's laser.
   std::optional<posegraph::SlamOptions> slam;
+  // The CPUs of the graph's thread (empty: the caller's). It runs SCHED_BATCH at nice 10, so a station's
+  // receive loop on the same CPU is not preempted by it; a station pinned to one core names another.
+  std::vector<int> cpus;
 };
 
 // A released scan's pose: as the core decided it, and as the graph put it.
@@ -49,6 +53,12 @@ struct GraphBackendCounters {
   std::uint64_t tilted_scans = 0;
   PlanarReturnCounts returns;
   std::size_t queue_max = 0;     // the most closed nodes waiting for the graph at once
+};
+
+// The graph's thread as placed: its scheduling read back from the kernel and the errno of setting its CPUs.
+struct GraphThreadPlacement {
+  ThreadScheduling scheduling;
+  int affinity_error = 0;
 };
 
 class GraphBackend {
@@ -72,6 +82,10 @@ class GraphBackend {
   [[nodiscard]] const std::vector<GraphScanPose>& poses();
   [[nodiscard]] posegraph::SlamStats graph_stats();
   [[nodiscard]] GraphBackendCounters counters() const { return counters_; }
+  // Closed nodes waiting for the graph now (how far the graph is behind the releases).
+  [[nodiscard]] std::size_t queued();
+  // The graph's thread's CPUs and scheduling, once it started (policy -1 before).
+  [[nodiscard]] GraphThreadPlacement placement();
   // Waits for finish()'s work; then the time from the first scan taken to the last optimisation's end.
   [[nodiscard]] double seconds();
 
@@ -104,6 +118,7 @@ class GraphBackend {
   std::condition_variable wake_, done_cv_;
   std::deque<Node> queue_;
   bool input_done_ = false, done_ = false, stop_ = false;
+  int thread_id_ = 0, affinity_error_ = 0;
 
   // The graph's thread's own (read by poses() once done_).
   std::unique_ptr<posegraph::PlanarSlam> slam_;

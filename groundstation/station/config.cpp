@@ -301,7 +301,7 @@ void read_registration(TomlReader& r, fusion::CoreOptions& core) {
 // false`), with the returns it takes (fusion::PlanarReturnOptions).
 void read_pose_graph(TomlReader& r, FusionOptions& f) {
   const toml::table* graph = r.section("pose_graph", false);
-  r.only(graph, "pose_graph", {"enabled", "min_height_m", "max_height_m", "node_s"});
+  r.only(graph, "pose_graph", {"enabled", "min_height_m", "max_height_m", "node_s", "cpus"});
   if (graph == nullptr) return;
   bool enabled = true;
   r.boolean(graph, "pose_graph", "enabled", enabled);
@@ -309,6 +309,8 @@ void read_pose_graph(TomlReader& r, FusionOptions& f) {
   r.number_in(graph, "pose_graph", "min_height_m", o.returns.min_height_m, -10.0, 10.0, true);
   r.number_in(graph, "pose_graph", "max_height_m", o.returns.max_height_m, -10.0, 10.0, true);
   r.number_in(graph, "pose_graph", "node_s", o.returns.tilted_node_s, 0.0, 10.0);
+  std::vector<std::int64_t> cpus(o.cpus.begin(), o.cpus.end());
+  if (r.integers_in(graph, "pose_graph", "cpus", cpus, 0, CPU_SETSIZE - 1)) o.cpus.assign(cpus.begin(), cpus.end());
   if (o.returns.max_height_m <= o.returns.min_height_m)
     r.fail("pose_graph.max_height_m", "must be above pose_graph.min_height_m", r.node(graph, "max_height_m"));
   if (enabled) f.pose_graph = o;

@@ -247,10 +247,20 @@ void stop_daemon(Daemon& d) {
   if (d.fusion) {
     d.fusion->flush();              // every held scan decided with what arrived
     (void)d.fusion->write_model();  // after any write in flight, synchronous: the models are complete at exit
-    if (d.fusion->graph() != nullptr) {
+    if (fusion::GraphBackend* g = d.fusion->graph()) {
+      const std::size_t behind = g->queued();  // nodes the graph had not taken when the station stopped
       const Status graph = d.fusion->write_graph_trajectories();  // the graph's last optimisation, then robot<N>.graph.tum
-      log(graph ? kInfo : kErr, graph ? std::string{"wrote the pose graph's trajectories (robot<N>.graph.tum)"}
-                                        : std::string{"pose graph trajectories: "} + graph.error().what);
+      const fusion::GraphBackendCounters c = g->counters();
+      const posegraph::SlamStats st = g->graph_stats();
+      char line[320];
+      std::snprintf(line, sizeof line,
+                    "pose graph: %llu scans, %llu nodes (%zu behind at the stop, at most %zu), %zu submaps, %zu closures, "
+                    "%.1f s from the first scan to the last optimisation",
+                    static_cast<unsigned long long>(c.scans), static_cast<unsigned long long>(c.nodes), behind, c.queue_max, st.submaps,
+                    st.closures, g->seconds());
+      d.store->log_event(now_realtime(), line);
+      log(graph ? kInfo : kErr, graph ? std::string{line} + "; wrote robot<N>.graph.tum"
+                                      : std::string{line} + "; robot<N>.graph.tum not written: " + graph.error().what);
     }
   }
 }

@@ -620,6 +620,13 @@ int main(int argc, char** argv) {
                 quantile(during, 0.99), during.size(), quantile(outside, 0.99), outside.size());
   }
   std::printf("station exit: %s\n", exited ? "clean (final model pass done)" : "killed after --stop-timeout (final model pass not waited for)");
+  {
+    // The station's pose graph ([pose_graph]): its line at the stop (scans, nodes, how far it was behind).
+    std::ifstream in(session + "/events.log");
+    std::string line;
+    while (std::getline(in, line))
+      if (const auto at = line.find("pose graph: "); at != std::string::npos) std::printf("%s\n", line.c_str() + at);
+  }
   if (!o.keep_session && o.session_dir.empty()) {
     std::error_code ec;
     std::filesystem::remove_all(work, ec);

@@ -4,6 +4,10 @@
 // poses beat odometry alone by a wide margin, fed the scans directly and through `teamscan eval`'s
 // fusion core; the same releases give the same poses to the bit; a level laser's scan is a node.
 #include <algorithm>
+#include <chrono>
+#include <thread>
+
+#include <sched.h>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -141,6 +145,22 @@ TEST(GraphBackend, ThroughTheEvaluationOnTheRegisteredPoses) {
   EXPECT_LT(graph_m.p99, 0.5 * odo_m.p99) << "graph p99 " << graph_m.p99 << " m, odometry " << odo_m.p99 << " m";
   EXPECT_LT(graph_deg.p99, 0.5 * odo_deg.p99);
   EXPECT_LT(graph_m.max, 0.15);
+}
+
+// The graph's thread stays below a station's loop: SCHED_BATCH, nice 10, on the CPUs it is given.
+TEST(GraphBackend, ItsThreadRunsBatchAtNiceTenOnItsCpus) {
+  fusion::GraphBackendOptions o;
+  o.cpus = {0};
+  fusion::GraphBackend backend(o);
+  fusion::GraphThreadPlacement p;
+  for (int i = 0; i < 200 && p.scheduling.policy == -1; ++i) {
+    p = backend.placement();
+    if (p.scheduling.policy == -1) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(p.affinity_error, 0);
+  EXPECT_EQ(p.scheduling.policy, SCHED_BATCH);
+  EXPECT_EQ(p.scheduling.nice, 10);
+  EXPECT_EQ(p.scheduling.cpus, (std::vector<int>{0}));
 }
 
 // A level laser (an imported 2-D log): every scan its own node, none tilted.
