@@ -33,7 +33,7 @@ set(TEAMSCAN_ALLOWED_DEPS
   "tools/render:common common/dataset"
   "tools/pki:common dds/security"
   "tools/mcap_export:common common/dataset common/mcap idl dds/ros2 onboard/core groundstation/fusion groundstation/station"
-  "tools/demo:common common/dataset sim groundstation/mapping groundstation/fusion groundstation/registration groundstation/station tools/render tools/pki"
+  "tools/demo:common common/dataset sim groundstation/mapping groundstation/fusion groundstation/registration groundstation/station groundstation/trajectory tools/render tools/pki"
 )
 
 # Each module's namespace: a folder's own name under teamscan (the folders groundstation/, drivers/ and

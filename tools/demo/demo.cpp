@@ -185,7 +185,7 @@ int start_processes(const DemoOptions& a, const DemoSetup& s, sim::LiveTeam& liv
                     Progress& progress, RunRecord& r) {
   write_text(s.station_config,
              station_config({s.out, s.domain, a.station_method, station_compare_methods(a), a.write_interval_s,
-                             a.station_ros2, a.view_port, s.registration, s.calibration_toml, s.scenario.robots}));
+                             a.station_ros2, a.view_port, s.registration, a.pose_graph, s.calibration_toml, s.scenario.robots}));
   Child station{"teamscan-groundstation", s.out + "/logs/groundstation.log"};
   auto pid = supervisor.spawn(station_argv(a, s), station.log);
   if (!pid) {

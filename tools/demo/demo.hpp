@@ -62,6 +62,9 @@ struct DemoOptions {
   // `teamscan eval` runs (--registration); unset: on when the scenario's robots drift
   // (scenario_drifts), docs/demo.md "Registration".
   std::optional<bool> registration;
+  // The pose graph as the station's back end (its [pose_graph]; docs/slam.md "The back end"): the report
+  // scores the graph's poses against the truth and checks them against its replay of the session.
+  bool pose_graph = false;
   // Each robot's odometry prior for the registration (`teamscan calibrate`'s output): appended to the
   // station's config and taken by the demo's evaluations; empty: none (docs/registration.md).
   std::string calibration_path;

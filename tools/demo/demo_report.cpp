@@ -341,6 +341,18 @@ void score_registration(const DemoSetup& s, const Collected& c, const SessionRep
     t += strf(" %llu session points moved by the corrections (up to %.1f cm)\n",
               static_cast<unsigned long long>(reg.points_moved), reg.points_moved_max_m * 100);
   }
+  // The pose graph as the station's back end: its poses against the truth, and its files against the
+  // replay's graph (the agreement requires them to be the same to the byte).
+  if (reg.graph) {
+    const posegraph::SlamStats& g = replay.graph_stats;
+    t += "    the station's pose graph:      translation p50 / p99 / max " + stats_text(reg.pose_m_graph, 100, "%.1f") +
+         " cm, rotation " + stats_text(reg.pose_deg_graph, 1, "%.2f") +
+         strf(" deg (%zu nodes, %zu submaps, %zu loop closures); robot<N>.graph.tum %s the replay's graph (%zu files)\n",
+              g.nodes, g.submaps, g.closures,
+              reg.graph_files > 0 && reg.graph_files_differ == 0 ? "identical to" : "DIFFER from", reg.graph_files);
+    if (!reg.graph_error.empty()) t += "    pose graph: " + reg.graph_error + "\n";
+    sc.agree = sc.agree && reg.graph_files > 0 && reg.graph_files_differ == 0;
+  }
   ReportJson robots = ReportJson::array();
   for (const registration::RobotCorrection& rc : replay.robots)
     robots.push_back({{"robot", rc.robot},
@@ -365,6 +377,15 @@ void score_registration(const DemoSetup& s, const Collected& c, const SessionRep
                              {"offline_pose_deg_registered", stats_json(off.pose_deg_after)},
                              {"offline_point_m_registered", stats_json(off.point_m_after)},
                              {"robots", robots}};
+  if (reg.graph)
+    sc.json["pose_graph"] = {{"pose_m", stats_json(reg.pose_m_graph)},
+                             {"pose_deg", stats_json(reg.pose_deg_graph)},
+                             {"nodes", replay.graph_stats.nodes},
+                             {"submaps", replay.graph_stats.submaps},
+                             {"closures", replay.graph_stats.closures},
+                             {"files", reg.graph_files},
+                             {"files_differ", reg.graph_files_differ},
+                             {"error", reg.graph_error}};
 }
 
 // The corrections back on the robots: what each daemon took from teamscan/team and applied to the

@@ -23,6 +23,7 @@
 #include "groundstation/station/model_check.hpp"
 #include "groundstation/station/scan_record_read.hpp"
 #include "groundstation/station/session_replay.hpp"
+#include "groundstation/trajectory/tum.hpp"
 
 namespace teamscan::demo {
 namespace {
@@ -398,9 +399,15 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
     methods.push_back(cores.at(k).options().method);
     per_method.push_back(station::compared_options(options, methods.back()));
   }
-  // With the registration on, where the primary core put every scan and point (off: where the robots did).
-  if (options.core.registration) {
+  // With the registration on, where the primary core put every scan and point (off: where the robots did);
+  // with the pose graph, its back end fed every release, as the station's is.
+  std::unique_ptr<fusion::GraphBackend> graph;
+  out.pose_graph = options.pose_graph.has_value();
+  if (options.pose_graph) graph = std::make_unique<fusion::GraphBackend>(*options.pose_graph);
+  if (options.core.registration || graph) {
     cores.primary().set_release_callback([&](const fusion::FusedScan& f) {
+      if (graph) graph->add(f);
+      if (!options.core.registration) return;
       out.scan_pose[{f.view->robot, f.view->scan}] = f.view->map_from_robot;
       for (std::size_t i = 0; i < f.view->points.size() && i < f.beams.size(); ++i)
         out.placed[station::point_key(f.view->robot, f.view->scan, f.beams[i])] = f.view->points[i];
@@ -430,6 +437,7 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
     }
     out.scan_pose.clear();
     out.placed.clear();
+    if (graph) graph = std::make_unique<fusion::GraphBackend>(*options.pose_graph);  // fed the releases again
     if (Result<std::size_t> fed = fusion::refeed_in_time_order(ds.value(), cores); !fed) {
       out.error = std::string("fusion cores: ") + fed.error().what;
       return out;
@@ -485,6 +493,16 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
   if (const registration::Registration* reg = cores.primary().registration()) {
     for (std::uint8_t id = 1; id <= kMaxRobots; ++id)
       if (const registration::RobotCorrection* c = reg->correction(id)) out.robots.push_back(*c);
+  }
+  if (graph) {
+    // The graph's last search and optimisation, then its poses as the station writes them.
+    std::map<std::uint8_t, std::vector<trajectory::StampedPose>> by_robot;
+    for (const fusion::GraphScanPose& p : graph->poses()) {
+      out.graph_pose[{p.robot, p.scan}] = p.graph;
+      by_robot[p.robot].push_back({(p.stamp_ns + 500) / 1000, p.graph});
+    }
+    for (const auto& [robot, poses] : by_robot) out.graph_tum[robot] = trajectory::tum_text(poses);
+    out.graph_stats = graph->graph_stats();
   }
   return out;
 }
@@ -556,6 +574,31 @@ LiveRegistrationScore score_live_registration(const std::string& session, const 
                           corrected_poses, decided);
   out.scans = out.pose_m_corrected.count;
   out.points = out.point_m_corrected.count;
+  out.graph = replay.pose_graph;
+  if (out.graph) {
+    std::vector<Pose2> graph_poses;
+    std::vector<std::uint8_t> in_graph;
+    for (const ScanRecord& r : measured.scans) {
+      const auto p = replay.graph_pose.find({r.robot, r.scan});
+      graph_poses.push_back(p != replay.graph_pose.end() ? p->second : r.pose);
+      in_graph.push_back(p != replay.graph_pose.end() ? 1 : 0);
+    }
+    mapping::ErrorStats unused;
+    mapping::measure_errors(measured, out.pose_m_graph, out.pose_deg_graph, unused, {}, graph_poses, in_graph);
+    // The station's files against the replay's graph, byte for byte.
+    for (const auto& [robot, text] : replay.graph_tum) {
+      ++out.graph_files;
+      std::ifstream in(session + "/robot" + std::to_string(robot) + ".graph.tum", std::ios::binary);
+      if (!in) {
+        out.graph_error = "robot" + std::to_string(robot) + ".graph.tum missing in the session";
+        ++out.graph_files_differ;
+        continue;
+      }
+      const std::string station_text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      if (station_text != text) ++out.graph_files_differ;
+    }
+    if (replay.graph_tum.empty()) out.graph_error = "the replay's graph took no scan";
+  }
   return out;
 }
 

@@ -12,6 +12,7 @@
 
 #include "common/dataset/dataset.hpp"
 #include "common/odom_correction.hpp"
+#include "groundstation/fusion/graph_backend.hpp"
 #include "groundstation/mapping/dataset_registration.hpp"
 #include "groundstation/mapping/metrics.hpp"
 #include "groundstation/station/scan_record.hpp"
@@ -132,6 +133,12 @@ struct SessionReplay {
   std::map<std::pair<std::uint8_t, std::uint32_t>, Pose2> scan_pose;  // (robot, seq) -> the pose it was decided with
   std::unordered_map<std::uint64_t, mapping::MapPoint> placed;         // point_key -> where the core put it
   std::vector<registration::RobotCorrection> robots;                   // the registration's counters (when on)
+  // With the station's [pose_graph]: the back end fed the replay's releases (fusion/graph_backend.hpp),
+  // (robot, seq) -> its pose after the last optimisation, and what the graph did.
+  bool pose_graph = false;
+  std::map<std::pair<std::uint8_t, std::uint32_t>, Pose2> graph_pose;
+  std::map<std::uint8_t, std::string> graph_tum;  // robot -> robot<N>.graph.tum as the station writes it
+  posegraph::SlamStats graph_stats;
 };
 // `scratch_dir`: where the replayed models are written (created; the caller removes it).
 [[nodiscard]] SessionReplay replay_station_session(const std::string& session, const std::string& station_config,
@@ -150,6 +157,12 @@ struct LiveRegistrationScore {
   mapping::ErrorStats pose_m_corrected, pose_deg_corrected, point_m_corrected;  // = odometry when off
   std::uint64_t points_moved = 0;   // session points the station placed more than 1 mm from the robot's point
   double points_moved_max_m = 0;
+  // With the station's [pose_graph] (replay.pose_graph): the graph's poses against the truth, and whether
+  // the station's robot<N>.graph.tum are the replay's to the byte (graph_files of them compared).
+  bool graph = false;
+  mapping::ErrorStats pose_m_graph, pose_deg_graph;
+  std::size_t graph_files = 0, graph_files_differ = 0;
+  std::string graph_error;  // a file missing or unreadable
 };
 [[nodiscard]] LiveRegistrationScore score_live_registration(const std::string& session, const std::string& station_config,
                                                             const SessionReplay& replay, const LiveDataset& live);

@@ -8,7 +8,8 @@
 // (docs/registration.md "Back on the robots"): each teamscan-onboard daemon takes its correction from
 // teamscan/team (its status counts them, none refused), the scans it publishes say which one they carry,
 // more corrections than matches reach it (the drift rates' extrapolation between matches), and the
-// drifting robot's scans as it placed them are closer to the truth than its odometry.
+// drifting robot's scans as it placed them are closer to the truth than its odometry. The pose graph as the
+// station's back end (--pose-graph): its trajectories are the replay's, its poses better than odometry's.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -21,7 +22,7 @@ namespace {
 TEST(E2eRegistrationDemo, DriftingLap2IsCorrectedLiveAndTheModelIsItsSessionReplayed) {
   const std::string dir =
       std::filesystem::temp_directory_path().string() + "/teamscan-e2e-registration-" + std::to_string(::getpid());
-  const int rc = run_demo(dir, "--scenario lap2-drift --duration 20 --bringup 4 --method best --station-compare position");
+  const int rc = run_demo(dir, "--scenario lap2-drift --duration 20 --bringup 4 --method best --station-compare position --pose-graph");
   const std::string log = demo_log(dir);
   const std::string s = read_file(dir + "/summary.json");
   ASSERT_FALSE(s.empty()) << log;
@@ -109,6 +110,21 @@ TEST(E2eRegistrationDemo, DriftingLap2IsCorrectedLiveAndTheModelIsItsSessionRepl
     EXPECT_GT(json_number(s, "compared", at), 100000) << m;
     EXPECT_EQ(json_number(s, "compared", at), json_number(s, "model_points", at)) << m;
   }
+
+  // The pose graph as the station's back end (--pose-graph): its robot<N>.graph.tum are those of the
+  // back end fed the replay's releases, to the byte (part of `agree` above), and its poses beat the
+  // odometry alone against the truth.
+  EXPECT_NE(read_file(dir + "/config/groundstation.toml").find("[pose_graph]"), std::string::npos);
+  const std::size_t graph = s.find("\"pose_graph\": {");
+  ASSERT_NE(graph, std::string::npos) << s;
+  EXPECT_EQ(json_number(s, "files", graph), 2) << s;
+  EXPECT_EQ(json_number(s, "files_differ", graph), 0) << s;
+  EXPECT_EQ(json_value(s, "error", graph), "\"\"") << s;
+  EXPECT_GT(json_number(s, "nodes", graph), 100) << s;
+  auto graph_stat = [&](const char* what, const char* q) { return json_number(s, q, s.find(std::string("\"") + what + "\":", graph)); };
+  EXPECT_GE(graph_stat("pose_m", "count"), 0.99 * with_truth) << s;
+  EXPECT_LT(graph_stat("pose_m", "p99"), stat("pose_m_odometry", "p99")) << s;
+  EXPECT_LT(graph_stat("pose_deg", "p99"), stat("pose_deg_odometry", "p99")) << s;
   if (!HasFailure()) std::filesystem::remove_all(dir);
 }
 
