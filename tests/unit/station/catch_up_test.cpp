@@ -14,6 +14,7 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <map>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -24,6 +25,7 @@
 #include "groundstation/station/station.hpp"
 #include "groundstation/station/session_replay.hpp"
 #include "groundstation/station/session_store.hpp"
+#include "groundstation/trajectory/tum.hpp"
 #include "teamscan.h"
 #include "tests/bench/mapping/synthetic_survey.hpp"
 
@@ -282,6 +284,50 @@ TEST(CatchUp, InSlicesTheCoresEndAsTheWholeCatchUpsInOneTurn) {
   EXPECT_EQ(catch_ups[1], catch_ups[0]);
   EXPECT_TRUE(models[0] == models[1]) << "the whole catch-up's model " << models[0].size() << " bytes, the sliced one's "
                                       << models[1].size();
+}
+
+// The pose graph follows the catch-up ([pose_graph]): after a back-fill, caught up in one turn or in
+// slices, the station's robot<N>.graph.tum at the end are those of the back end fed `teamscan eval`'s
+// time order of the session, byte for byte.
+TEST(CatchUp, ThePoseGraphsTrajectoriesAreEvalsOfTheSession) {
+  const Dataset d = survey(8.0, 7);
+  const std::int64_t t0 = d.scans.front().stamp_ns;
+  const std::vector<Sample> samples = received(d, Shadow{2, t0 + 2'000'000'000, t0 + 4'500'000'000});
+  for (const std::uint32_t slice : {0u, 3u}) {
+    FusionOptions o = options();
+    o.catch_up_slice_scans = slice;
+    o.pose_graph = fusion::GraphBackendOptions{};
+    const std::string dir = temp_dir();
+    auto store = SessionStore::open(dir);
+    ASSERT_TRUE(store.ok());
+    auto created = FusionStage::create(o, dir);
+    ASSERT_TRUE(created.ok());
+    FusionStage& stage = **created;
+    run_station(samples, *store, stage);
+    EXPECT_GE(stage.counters().catch_ups, 1u) << "slice " << slice;
+    stage.flush();
+    ASSERT_TRUE(stage.write_graph_trajectories().ok());
+    ASSERT_NE(stage.graph(), nullptr);
+    EXPECT_EQ(stage.graph()->counters().scans, d.scans.size()) << "every scan once, in the graph that took over";
+    // `teamscan eval` of the session: its core fed in time order, its releases into a back end.
+    SessionReadStats stats;
+    auto session = read_session_dataset(dir, stats);
+    ASSERT_TRUE(session.ok()) << session.error().what;
+    auto eval_core = fusion::FusionCore::create(o.core);
+    ASSERT_TRUE(eval_core.ok());
+    fusion::GraphBackend eval_graph;
+    (*eval_core)->set_release_callback([&](const fusion::FusedScan& f) { eval_graph.add(f); });
+    fusion::feed_in_time_order(session.value(), **eval_core);
+    std::map<std::uint8_t, std::vector<trajectory::StampedPose>> expected;
+    for (const fusion::GraphScanPose& p : eval_graph.poses()) expected[p.robot].push_back({(p.stamp_ns + 500) / 1000, p.graph});
+    ASSERT_EQ(expected.size(), 3u);
+    for (const auto& [robot, poses] : expected) {
+      const std::string live = file_bytes(dir + "/robot" + std::to_string(robot) + ".graph.tum");
+      EXPECT_GT(live.size(), 1000u) << "robot " << int{robot};
+      EXPECT_TRUE(live == trajectory::tum_text(poses)) << "slice " << slice << " robot " << int{robot};
+    }
+    std::filesystem::remove_all(dir);
+  }
 }
 
 // The loop is not held by a catch-up: with a back-fill's whole session to decide again, each turn feeds
