@@ -15,6 +15,7 @@
 #include <functional>
 #include <iterator>
 #include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -125,6 +126,19 @@ void run_station(const std::vector<Sample>& samples, SessionStore& store, Fusion
   store.sync();
 }
 
+// A station of `o` with its session folder `dir` that took `samples` (run_station); nullptr, with the
+// test's failure added, if the folder or the stage could not be made.
+std::unique_ptr<FusionStage> station_after(const FusionOptions& o, const std::string& dir, const std::vector<Sample>& samples) {
+  auto store = SessionStore::open(dir);
+  auto created = FusionStage::create(o, dir);
+  if (!store.ok() || !created.ok()) {
+    ADD_FAILURE() << "session folder or fusion stage: " << (!store.ok() ? store.error().what : created.error().what);
+    return nullptr;
+  }
+  run_station(samples, *store, **created);
+  return std::move(created.value());
+}
+
 // Three robots surveying a 6 m room for `duration_s`.
 Dataset survey(double duration_s, std::uint64_t seed) {
   bench::SurveyOptions so;
@@ -214,12 +228,9 @@ TEST(CatchUp, ABackFillReleasedAsItCameIsNotEvalsModel) {
   FusionOptions o = options();
   o.catch_up_min_scans = 0;  // never in the loop
   const std::string dir = temp_dir();
-  auto store = SessionStore::open(dir);
-  ASSERT_TRUE(store.ok());
-  auto created = FusionStage::create(o, dir);
-  ASSERT_TRUE(created.ok());
-  FusionStage& stage = **created;
-  run_station(samples, *store, stage);
+  const std::unique_ptr<FusionStage> ran = station_after(o, dir, samples);
+  ASSERT_NE(ran, nullptr);
+  FusionStage& stage = *ran;
   EXPECT_EQ(stage.counters().catch_ups, 0u);
   EXPECT_GT(stage.late_since_catch_up(), 10u);
   stage.core().flush();  // the core as it is, no catch-up
@@ -259,12 +270,9 @@ TEST(CatchUp, InSlicesTheCoresEndAsTheWholeCatchUpsInOneTurn) {
     FusionOptions o = options();
     o.catch_up_slice_scans = k == 0 ? 0 : 3;
     const std::string dir = temp_dir();
-    auto store = SessionStore::open(dir);
-    ASSERT_TRUE(store.ok());
-    auto created = FusionStage::create(o, dir);
-    ASSERT_TRUE(created.ok());
-    FusionStage& stage = **created;
-    run_station(samples, *store, stage);
+    const std::unique_ptr<FusionStage> ran = station_after(o, dir, samples);
+    ASSERT_NE(ran, nullptr);
+    FusionStage& stage = *ran;
     EXPECT_FALSE(stage.catching_up());
     catch_ups[k] = stage.counters().catch_ups;
     if (k == 1) {
@@ -298,12 +306,9 @@ TEST(CatchUp, ThePoseGraphsTrajectoriesAreEvalsOfTheSession) {
     o.catch_up_slice_scans = slice;
     o.pose_graph = fusion::GraphBackendOptions{};
     const std::string dir = temp_dir();
-    auto store = SessionStore::open(dir);
-    ASSERT_TRUE(store.ok());
-    auto created = FusionStage::create(o, dir);
-    ASSERT_TRUE(created.ok());
-    FusionStage& stage = **created;
-    run_station(samples, *store, stage);
+    const std::unique_ptr<FusionStage> ran = station_after(o, dir, samples);
+    ASSERT_NE(ran, nullptr);
+    FusionStage& stage = *ran;
     EXPECT_GE(stage.counters().catch_ups, 1u) << "slice " << slice;
     stage.flush();
     ASSERT_TRUE(stage.write_graph_trajectories().ok());

@@ -47,6 +47,16 @@ namespace {
 
 std::int32_t mm(double m) { return static_cast<std::int32_t>(std::lround(m * 1000.0)); }
 
+// The registration as these tests run it: a short window, frequent matches, a small map to start from.
+fusion::CoreRunOptions registered_run() {
+  fusion::CoreRunOptions run;
+  run.registration = true;
+  run.registration_options.window_s = 1.0;
+  run.registration_options.match_every_s = 0.3;
+  run.registration_options.min_map_features = 20;
+  return run;
+}
+
 // A survey already on the millimetre grid, so the stage sees exactly the data set's values.
 // `drift_robot`: that robot's odometry (poses, scan origins and points) drifts from the truth by a
 // growing (x, y, yaw) per second, about the room's centre, so the registration has something to correct.
@@ -270,11 +280,7 @@ INSTANTIATE_TEST_SUITE_P(AllMethods, FusionMethods,
 // closer to the truth than the odometry.
 TEST(FusionRegistration, ModelDecisionsEqualEvalWithRegistrationOn) {
   const Dataset d = survey(12.0, 2);
-  fusion::CoreRunOptions run;
-  run.registration = true;
-  run.registration_options.window_s = 1.0;
-  run.registration_options.match_every_s = 0.3;
-  run.registration_options.min_map_features = 20;
+  fusion::CoreRunOptions run = registered_run();
   for (const char* method : {"best", "position"}) {
     const fusion::CoreRun eval = fusion::run_through_core(d, method, mapping::MethodOptions{}, run).value();
     ASSERT_EQ(eval.robots.size(), 2u);
@@ -333,11 +339,7 @@ TEST(FusionRegistration, ModelDecisionsEqualEvalWithRegistrationOn) {
 // of `teamscan eval --pose-graph` (the back end fed the same core's releases in time order), to the byte.
 TEST(FusionPoseGraph, TheStationsGraphTrajectoriesAreEvals) {
   const Dataset d = survey(12.0, 2);
-  fusion::CoreRunOptions run;
-  run.registration = true;
-  run.registration_options.window_s = 1.0;
-  run.registration_options.match_every_s = 0.3;
-  run.registration_options.min_map_features = 20;
+  fusion::CoreRunOptions run = registered_run();
   fusion::GraphBackend eval_graph;
   run.graph = &eval_graph;
   ASSERT_TRUE(fusion::run_through_core(d, "best", mapping::MethodOptions{}, run).ok());
