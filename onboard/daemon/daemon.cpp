@@ -380,7 +380,8 @@ void OnboardDaemon::publish_status(Time now) {
   s.lms_resyncs = clamp_u32(lp.resyncs);
   s.scans_published = clamp_u32(scans_published_);
   s.points_direction_filtered = clamp_u32(pc.points_direction_filtered);
-  s.dds_write_errors = publish_errors_;
+  const PublisherHealth health = publisher_.health();
+  s.dds_write_errors = clamp_u32(publish_errors_ + health.write_errors);
   s.uptime_s = static_cast<std::uint32_t>((now - started_).count() / 1'000'000'000);
   s.arcos_reopens = arcos_dev_.opens;
   s.lms_reopens = lms_dev_.opens;
@@ -405,7 +406,7 @@ void OnboardDaemon::publish_status(Time now) {
   }
   if (!publisher_.publish_status(s).ok()) ++publish_errors_;
 
-  char text[768];
+  char text[1024];
   std::snprintf(text, sizeof text,
                 "arcos %s %.1f Hz (opens %u, bad %u); lms %s %.1f Hz (opens %u, bad %u, dropped %u, forced %u); scans %u, "
                 "filtered %u, stale %u, no pose %u; team %s (refused %u, last %s); correction %u (applied %u, refused %u); "
@@ -425,6 +426,13 @@ void OnboardDaemon::publish_status(Time now) {
                   s.ring_unconfirmed, s.ring_confirmed_seq, s.shadow_ms > 0 ? "shadow" : "reachable", s.shadow_ms / 1000.0,
                   s.backfill_total - s.backfill_remaining, s.backfill_total, s.ring_dropped, s.confirmations_refused,
                   static_cast<unsigned long long>(ring_errors_), ring_->take_flush_max_us());
+  }
+  if (health.queued) {
+    // "send queue 3 (max 411, refused 0, longest write 2310 ms)": a link that blocked the writes.
+    const std::size_t used = std::strlen(text);
+    std::snprintf(text + used, sizeof text - used, "; send queue %u (max %u, refused %llu, longest write %lld ms)", health.depth,
+                  health.high_water, static_cast<unsigned long long>(health.refused),
+                  static_cast<long long>(health.longest_write_ns / 1'000'000));
   }
   dds::notify_status(text);
   sips_in_period_ = scans_in_period_ = 0;
@@ -621,8 +629,14 @@ int OnboardDaemon::run() {
       dev->open = false;
     }
   }
-  log_message(LogLevel::notice, "stopped after %lld s; %llu scans published", static_cast<long long>((end - started_).count() / 1'000'000'000),
-              static_cast<unsigned long long>(scans_published_));
+  const long long ran_s = static_cast<long long>((end - started_).count() / 1'000'000'000);
+  const unsigned long long published = scans_published_;
+  if (const PublisherHealth health = publisher_.health(); health.queued)
+    log_message(LogLevel::notice, "stopped after %lld s; %llu scans published; send queue: max %u waiting, %llu refused, longest write %lld ms",
+                ran_s, published, health.high_water, static_cast<unsigned long long>(health.refused),
+                static_cast<long long>(health.longest_write_ns / 1'000'000));
+  else
+    log_message(LogLevel::notice, "stopped after %lld s; %llu scans published", ran_s, published);
   return 0;
 }
 

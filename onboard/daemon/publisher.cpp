@@ -1,7 +1,9 @@
-// make_publisher: the DDS bridge (onboard/bridge/bridge.hpp) behind the daemon's Publisher interface.
+// make_publisher: the DDS bridge (onboard/bridge/bridge.hpp) behind the daemon's Publisher interface,
+// written from a SendQueue's thread.
 #include "onboard/daemon/publisher.hpp"
 
 #include "onboard/bridge/bridge.hpp"
+#include "onboard/daemon/send_queue.hpp"
 
 namespace teamscan::onboard {
 
@@ -36,7 +38,10 @@ Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig& config, c
   if (options.store_and_forward) options.scan_late_joiner_depth = kRingLiveLateJoinerDepth;
   Result<DdsBridge> bridge = DdsBridge::create(options);
   if (!bridge.ok()) return bridge.error();
-  return std::unique_ptr<Publisher>(new DdsPublisher(std::move(bridge.value())));
+  Result<std::unique_ptr<SendQueue>> queue =
+      SendQueue::create(std::unique_ptr<Publisher>(new DdsPublisher(std::move(bridge.value()))));
+  if (!queue.ok()) return queue.error();
+  return std::unique_ptr<Publisher>(std::move(queue.value()));
 }
 
 }  // namespace teamscan::onboard

@@ -2,6 +2,7 @@
 // The daemon's loop only sees this interface.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 
 #include "common/result.hpp"
@@ -9,6 +10,17 @@
 #include "onboard/core/messages.hpp"
 
 namespace teamscan::onboard {
+
+// A publisher that writes from a queue of its own (send_queue.hpp) reports its state here; a direct
+// one has nothing to report.
+struct PublisherHealth {
+  bool queued = false;                 // the writes go through a queue
+  std::uint32_t depth = 0;             // messages waiting now
+  std::uint32_t high_water = 0;        // most messages ever waiting
+  std::uint64_t refused = 0;           // not taken: the queue was full
+  std::uint64_t write_errors = 0;      // taken, then refused by the writer underneath
+  std::int64_t longest_write_ns = 0;   // the longest single write underneath (a link that blocked)
+};
 
 class Publisher {
  public:
@@ -29,6 +41,7 @@ class Publisher {
   // each rematch after a restart or a radio shadow; never decreases.
   [[nodiscard]] virtual std::uint32_t scan_reader_matches() const { return 0; }
   [[nodiscard]] virtual const char* name() const = 0;
+  [[nodiscard]] virtual PublisherHealth health() const { return {}; }
 };
 
 // Counts what it is given and drops it; never has a team state (the filter then flags points stale).
@@ -42,7 +55,8 @@ class NullPublisher final : public Publisher {
   unsigned long poses = 0, scans = 0, statuses = 0;
 };
 
-// The DDS bridge publisher (onboard/bridge). pki_dir: the robot's DDS Security credential bundle, already
+// The DDS bridge publisher (onboard/bridge), written from its own thread through a SendQueue
+// (send_queue.hpp) so that no network write runs on the daemon's loop. pki_dir: the robot's DDS Security credential bundle, already
 // checked (null: unsecured).
 [[nodiscard]] Result<std::unique_ptr<Publisher>> make_publisher(const OnboardConfig& config, const char* pki_dir = nullptr);
 

@@ -2,7 +2,9 @@
 // on pseudo-terminals, with a recording Publisher in place of the DDS bridge (it also plays the ground
 // station: a teammate 3 m ahead, fresh, and in the second test this robot's odometry correction). Checks
 // what reaches the publisher: pose, scan points in the map frame with direction-filter flags, status, the
-// "kept" publish mode, and the correction applied.
+// "kept" publish mode, and the correction applied. In the third, the writes block for 3 s (a radio link
+// going down) behind the daemon's send queue: the loop keeps reading, and every scan the laser sent
+// reaches the writer.
 #include <gtest/gtest.h>
 
 #include <pthread.h>
@@ -10,6 +12,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <condition_variable>
 #include <filesystem>
 #include <mutex>
 #include <string>
@@ -20,6 +23,7 @@
 #include "drivers/lms200/emulator.hpp"
 #include "drivers/serial/pty_runner.hpp"
 #include "onboard/daemon/daemon.hpp"
+#include "onboard/daemon/send_queue.hpp"
 
 namespace teamscan::onboard {
 namespace {
@@ -267,6 +271,128 @@ TEST(OnboardDaemonInProcess, AppliesItsOwnCorrectionFromTheTeamState) {
   EXPECT_EQ(status.corrections_rejected, 0u);
   (*arcos_runner)->stop();
   (*lms_runner)->stop();
+}
+
+
+// What a stalling writer was given; owned by the test, so it outlives the queue that owns the writer.
+struct StallingLink {
+  std::mutex m;
+  std::condition_variable cv;
+  bool stalled = false;
+  long poses = 0, scans = 0, seq_gaps = 0;
+  std::uint32_t last_seq = 0;
+  OnboardStatus status{};
+  void stall(bool on) {
+    {
+      std::lock_guard lock{m};
+      stalled = on;
+    }
+    cv.notify_all();
+  }
+  template <class F>
+  auto with(F&& f) {
+    std::lock_guard lock{m};
+    return f();
+  }
+};
+
+// A writer whose pose writes block while the link is stalled (Cyclone's sendmsg when the link goes
+// down); counts every scan and pose it is given.
+class StallingPublisher final : public Publisher {
+ public:
+  explicit StallingPublisher(StallingLink& link) : link_{link} {}
+  Status publish_pose(const OnboardPose&) override {
+    std::unique_lock lock{link_.m};
+    link_.cv.wait(lock, [&] { return !link_.stalled; });
+    ++link_.poses;
+    return ok_status();
+  }
+  Status publish_scan(const ScanPoints& s) override {
+    std::lock_guard lock{link_.m};
+    if (link_.scans > 0 && s.seq != link_.last_seq + 1) ++link_.seq_gaps;
+    link_.last_seq = s.seq;
+    ++link_.scans;
+    return ok_status();
+  }
+  Status publish_status(const OnboardStatus& s) override {
+    std::lock_guard lock{link_.m};
+    link_.status = s;
+    return ok_status();
+  }
+  bool take_team(TeamSnapshot&) override { return false; }
+  const char* name() const override { return "stalling"; }
+
+ private:
+  StallingLink& link_;
+};
+
+TEST(OnboardDaemonInProcess, AWriteThatBlocksDoesNotStopTheDevices) {
+  TempDir dir;
+  const fs::path arcos_link = dir.path / "ttyArcos", lms_link = dir.path / "ttyLms";
+  arcos::PioneerEmulator pioneer;
+  FlatRanges ranges;
+  lms200::LmsEmulatorOptions lms_options;
+  lms_options.variant = LaserVariant{180, 50};
+  lms200::LmsEmulator scanner{lms_options, &ranges};
+  scanner.power_up(now_monotonic());
+  auto arcos_runner = serial::PtyRunner::create(pioneer, serial::PtyRunnerOptions{.link_path = arcos_link.string()});
+  auto lms_runner = serial::PtyRunner::create(scanner, serial::PtyRunnerOptions{.link_path = lms_link.string()});
+  ASSERT_TRUE(arcos_runner.ok() && lms_runner.ok());
+  ASSERT_TRUE((*arcos_runner)->start().ok());
+  ASSERT_TRUE((*lms_runner)->start().ok());
+  std::string msg;
+  auto config = parse_onboard_config("[robot]\nid = 1\n[arcos]\ndevice = \"" + arcos_link.string() + "\"\n[lms]\ndevice = \"" +
+                                         lms_link.string() + "\"\nbaud = 500000\nfov_deg = 180\nresolution_deg = 0.5\n" +
+                                         "[mount]\nx_m = 0.16\ny_m = 0\nz_m = 0.45\npitch_deg = 0\n" +
+                                         "[filter]\nhalf_angle_deg = 7\nextrapolate_team = false\n[status]\nperiod_s = 0.1\n",
+                                     msg);
+  ASSERT_TRUE(config.ok()) << msg;
+  StallingLink link;
+  auto queue = SendQueue::create(std::make_unique<StallingPublisher>(link));
+  ASSERT_TRUE(queue.ok()) << queue.error().what;
+  auto daemon = OnboardDaemon::create(config.value(), *queue.value());
+  ASSERT_TRUE(daemon.ok()) << daemon.error().what;
+  int rc = -1;
+  std::thread loop{[&] { rc = (*daemon)->run(); }};
+  const bool streamed = wait_until([&] { return link.with([&] { return link.scans >= 20 && link.poses >= 2; }); },
+                                   std::chrono::seconds(30));
+  // The link goes down for 3 s: about 110 scans of this 0.5° variant (37.5 Hz), far more than the serial
+  // ports buffer.
+  link.stall(true);
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  const long scans_during_stall = link.with([&] { return link.scans; });
+  const PublisherHealth during = queue.value()->health();
+  link.stall(false);
+  const bool caught_up = wait_until([&] { return queue.value()->health().depth == 0; }, std::chrono::seconds(20));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const OnboardStatus status = link.with([&] { return link.status; });
+  ::pthread_kill(loop.native_handle(), SIGTERM);
+  loop.join();
+  daemon.value().reset();
+  queue.value().reset();  // writes what is still queued
+  ASSERT_TRUE(streamed);
+  ASSERT_TRUE(caught_up);
+  EXPECT_EQ(rc, 0);
+  const lms200::LmsEmulatorStatistics sent = (*lms_runner)->with_device([&](serial::SerialEndpoint&) { return scanner.statistics(); });
+  (*arcos_runner)->stop();
+  (*lms_runner)->stop();
+
+  // The stall held the writes (the queue filled with poses and scans) but not the loop: the laser never
+  // had to drop a sweep, no telegram was lost or re-synchronised, both devices stayed open.
+  EXPECT_GT(during.depth, 100u);
+  EXPECT_EQ(sent.scans_skipped, 0u);
+  EXPECT_EQ(status.lms_resyncs, 0u);
+  EXPECT_EQ(status.lms_bad_telegrams, 0u);
+  EXPECT_EQ(status.lms_reopens, 1u);
+  EXPECT_EQ(status.arcos_reopens, 1u);
+  EXPECT_EQ(status.dds_write_errors, 0u);
+  // Every scan the laser sent reached the writer, in order (the last may have been cut by the stop).
+  const long scans = link.with([&] { return link.scans; });
+  EXPECT_GE(scans, static_cast<long>(sent.scans_sent) - 1);
+  EXPECT_LE(scans, static_cast<long>(sent.scans_sent));
+  EXPECT_EQ(link.seq_gaps, 0);
+  // The scans of the stall and after it came through.
+  EXPECT_GT(scans, scans_during_stall + 100);
 }
 
 }  // namespace
