@@ -95,12 +95,21 @@ Status SendQueue::write(const Item& item) {
 void SendQueue::run() {
   bool draining = false;
   Time drain_deadline{};
+  Time next_refresh = now_monotonic();
   for (;;) {
+    if (const Time now = now_monotonic(); now >= next_refresh) {
+      scan_reader_matches_.store(inner_->scan_reader_matches(), std::memory_order_relaxed);
+      next_refresh = now + options_.matches_refresh;
+    }
     const std::uint64_t head = head_.load(std::memory_order_relaxed);
     if (head == tail_.load(std::memory_order_acquire)) {
       if (stopping_.load(std::memory_order_acquire)) return;
-      // Every push posts once, so a wait returns at least once per item (extra posts just loop).
-      while (::sem_wait(&ready_) != 0 && errno == EINTR) {
+      // Every push posts once, so a wait returns at least once per item (extra posts just loop); the
+      // time limit keeps the reader-match count fresh on an idle queue.
+      timespec until{};
+      until.tv_sec = static_cast<time_t>(next_refresh.ns() / 1'000'000'000);
+      until.tv_nsec = static_cast<long>(next_refresh.ns() % 1'000'000'000);
+      while (::sem_clockwait(&ready_, CLOCK_MONOTONIC, &until) != 0 && errno == EINTR) {
       }
       continue;
     }

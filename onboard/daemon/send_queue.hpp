@@ -28,13 +28,15 @@ struct SendQueueOptions {
   // At the stop (destructor): at most this long to write what is still queued; the rest is counted as
   // dropped (with [ring] the station back-fills it from the ring after the restart).
   Duration drain_timeout = std::chrono::seconds(1);
+  // How often the sender reads the writer's reader-match count for scan_reader_matches().
+  Duration matches_refresh = std::chrono::milliseconds(100);
 };
 
 class SendQueue final : public Publisher {
  public:
-  // Allocates the queue and starts the sender thread (start-up); `inner` is written from that thread
-  // only, except take_team, take_stored and scan_reader_matches, which never block and are called from
-  // the caller's thread (the DDS bridge's are thread-safe).
+  // Allocates the queue and starts the sender thread (start-up). `inner` is used from that thread only,
+  // except take_team and take_stored, which read the DDS readers and are called from the caller's thread
+  // (the DDS bridge's are thread-safe and never wait for a write).
   [[nodiscard]] static Result<std::unique_ptr<SendQueue>> create(std::unique_ptr<Publisher> inner,
                                                                  const SendQueueOptions& options = {});
   ~SendQueue() override;
@@ -50,7 +52,10 @@ class SendQueue final : public Publisher {
   Status publish_backfill_pose(const OnboardPose& pose) override;
   bool take_team(TeamSnapshot& out) override { return inner_->take_team(out); }
   bool take_stored(StoredSnapshot& out) override { return inner_->take_stored(out); }
-  std::uint32_t scan_reader_matches() const override { return inner_->scan_reader_matches(); }
+  // The sender's latest reading (every matches_refresh). Not read on the caller's thread: Cyclone's
+  // dds_get_publication_matched_status takes the writer's lock, which dds_write holds for as long as
+  // its sendmsg blocks.
+  std::uint32_t scan_reader_matches() const override { return scan_reader_matches_.load(std::memory_order_relaxed); }
   const char* name() const override { return name_; }
   PublisherHealth health() const override;
 
@@ -84,6 +89,7 @@ class SendQueue final : public Publisher {
   std::atomic<std::uint64_t> write_errors_{0};
   std::atomic<std::uint64_t> dropped_at_stop_{0};
   std::atomic<std::int64_t> longest_write_ns_{0};
+  std::atomic<std::uint32_t> scan_reader_matches_{0};
 };
 
 }  // namespace teamscan::onboard

@@ -297,7 +297,8 @@ struct StallingLink {
 };
 
 // A writer whose pose writes block while the link is stalled (Cyclone's sendmsg when the link goes
-// down); counts every scan and pose it is given.
+// down), and whose reader-match count waits as long (Cyclone's dds_get_publication_matched_status takes
+// the writer's lock, which the blocked dds_write holds); counts every scan and pose it is given.
 class StallingPublisher final : public Publisher {
  public:
   explicit StallingPublisher(StallingLink& link) : link_{link} {}
@@ -320,6 +321,11 @@ class StallingPublisher final : public Publisher {
     return ok_status();
   }
   bool take_team(TeamSnapshot&) override { return false; }
+  std::uint32_t scan_reader_matches() const override {
+    std::unique_lock lock{link_.m};
+    link_.cv.wait(lock, [&] { return !link_.stalled; });
+    return 1;
+  }
   const char* name() const override { return "stalling"; }
 
  private:
@@ -344,7 +350,8 @@ TEST(OnboardDaemonInProcess, AWriteThatBlocksDoesNotStopTheDevices) {
   auto config = parse_onboard_config("[robot]\nid = 1\n[arcos]\ndevice = \"" + arcos_link.string() + "\"\n[lms]\ndevice = \"" +
                                          lms_link.string() + "\"\nbaud = 500000\nfov_deg = 180\nresolution_deg = 0.5\n" +
                                          "[mount]\nx_m = 0.16\ny_m = 0\nz_m = 0.45\npitch_deg = 0\n" +
-                                         "[filter]\nhalf_angle_deg = 7\nextrapolate_team = false\n[status]\nperiod_s = 0.1\n",
+                                         "[filter]\nhalf_angle_deg = 7\nextrapolate_team = false\n[status]\nperiod_s = 0.1\n" +
+                                         "[ring]\npath = \"" + (dir.path / "ring.bin").string() + "\"\ncapacity_s = 30\n",
                                      msg);
   ASSERT_TRUE(config.ok()) << msg;
   StallingLink link;

@@ -1,7 +1,8 @@
 // SendQueue (onboard/daemon/send_queue.hpp): the daemon's writes go out from the queue's thread in the
 // order they were handed over, the caller never waits for a writer that blocks, a full queue refuses
-// with an error and counts it, back-fill takes at most half, the writer's refusals are counted, and the
-// stop writes what is queued within its drain time.
+// with an error and counts it, back-fill takes at most half, the writer's refusals are counted, the
+// reader-match count is read on the sender's thread, and the stop writes what is queued within its
+// drain time.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -28,6 +29,7 @@ struct Written {
   std::chrono::milliseconds each{0};
   bool fail = false;
   std::vector<std::string> log;     // "pose 3", "scan 7", "status 1", "backfill 9", "backfill_pose 2"
+  std::uint32_t matches = 0;        // the writer's reader-match count (read waits while closed, too)
   std::size_t size() {
     std::lock_guard lock{m};
     return log.size();
@@ -50,6 +52,11 @@ class GatedPublisher final : public Publisher {
   Status publish_backfill(const ScanPoints& s) override { return record("backfill", s.seq); }
   Status publish_backfill_pose(const OnboardPose& p) override { return record("backfill_pose", p.seq); }
   bool take_team(TeamSnapshot&) override { return false; }
+  std::uint32_t scan_reader_matches() const override {
+    std::unique_lock lock{w_.m};
+    w_.cv.wait(lock, [&] { return w_.open; });
+    return w_.matches;
+  }
   const char* name() const override { return "gated"; }
 
  private:
@@ -194,6 +201,39 @@ TEST(SendQueue, TheStopWritesWhatIsQueuedWithinItsDrainTime) {
     EXPECT_GE(w.size(), 1u);
     EXPECT_LT(w.size(), 50u);
   }
+}
+
+TEST(SendQueue, TheReaderMatchCountIsReadOnTheSenderAndNeverWaits) {
+  Written w;
+  w.matches = 1;
+  SendQueueOptions options;
+  options.matches_refresh = 20ms;
+  auto q = make_queue(w, options);
+  ASSERT_TRUE(wait_for([&] { return q->scan_reader_matches() == 1u; }));  // read as the sender starts
+  {
+    std::lock_guard lock{w.m};
+    w.matches = 2;
+  }
+  ASSERT_TRUE(wait_for([&] { return q->scan_reader_matches() == 2u; }));  // an idle queue refreshes it
+  // The link goes down with a write in flight: the writer's own count would wait for it, the queue's
+  // answer does not.
+  w.set_open(false);
+  ASSERT_TRUE(q->publish_scan(scan_with_seq(1)).ok());
+  std::atomic<bool> answered{false};
+  std::thread reader{[&] {
+    (void)q->scan_reader_matches();
+    answered = true;
+  }};
+  const bool in_time = wait_for([&] { return answered.load(); }, 5s);
+  {
+    std::lock_guard lock{w.m};
+    w.matches = 3;  // a station matched during the shadow
+  }
+  w.set_open(true);
+  reader.join();
+  EXPECT_TRUE(in_time);
+  ASSERT_TRUE(wait_for([&] { return q->scan_reader_matches() == 3u; }));
+  EXPECT_EQ(w.size(), 1u);
 }
 
 TEST(SendQueue, RefusesToStartWithoutAWriter) {
