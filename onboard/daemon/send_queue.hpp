@@ -21,8 +21,9 @@
 
 namespace teamscan::onboard {
 
-// Messages the queue holds: 512 ≈ 6 s of a 75 Hz robot's scans, poses and statuses (6.5 KB each).
-inline constexpr std::size_t kSendQueueItems = 512;
+// Messages the queue holds: 1 024 ≈ 12 s of a robot's traffic (75 scans, 10 poses and a status a
+// second; 6.5 KB a slot), twice the backlog of a link going down (docs/radio.md "A link going down, on the robot").
+inline constexpr std::size_t kSendQueueItems = 1024;
 
 struct SendQueueOptions {
   // At the stop (destructor): at most this long to write what is still queued; the rest is counted as
