@@ -193,6 +193,16 @@ Result<CoreRun> run_through_core(const Dataset& dataset, const std::string& meth
   auto created = fusion::FusionCore::create(co);
   if (!created) return with_context(method, created.error());
   fusion::FusionCore& core = *created.value();
+  if (!run.decide_with.empty()) {
+    if (run.registration) return Error{"the pose graph's poses and the registration cannot both place the scans"};
+    if (run.decide_with.size() != dataset.scans.size()) return Error{"decide_with: one pose per scan row expected"};
+    // The correction that takes each row's pose (the one its points were placed with) to the pose given,
+    // in force from the scan's stamp on: a change of frame, not a measurement for the tracker.
+    for (std::size_t i = 0; i < dataset.scans.size(); ++i) {
+      const ScanRecord& row = dataset.scans[i];
+      core.poses().set_map_from_odom(row.robot, row.stamp_ns, run.decide_with[i] * row.pose.inverse(), 0.0, 0.0, false);
+    }
+  }
 
   // The one time order (fusion/time_line.hpp), the station's catch-up's too.
   const fusion::TimeLine time_line(dataset);
@@ -374,32 +384,66 @@ Result<EvalReport> evaluate(const Dataset& dataset, const EvalOptions& options) 
   mapping::measure_errors(dataset, g.pose_m_before, g.pose_deg_before, g.point_m_before);
   g.consistency_before = mapping::revisit_consistency(dataset);
   // The share of the whole evaluation: each method one part, table 1 and the metrics one more.
-  const double parts = static_cast<double>(options.methods.size() + 1);
-  // The back end rides on the first method's core; its thread finishes while the other methods run.
+  // (With the pose graph, its first run one more.)
+  const double graph_parts = options.pose_graph ? 1.0 : 0.0;
+  const double parts = static_cast<double>(options.methods.size() + 1) + graph_parts;
+  // The back end: fed a first run of the first method's core (registered, or odometry alone); its
+  // poses then decide every method's run, so the cloud and the decisions follow the graph.
   std::unique_ptr<GraphBackend> graph;
-  if (options.pose_graph) graph = std::make_unique<GraphBackend>(*options.pose_graph);
+  if (options.pose_graph) {
+    graph = std::make_unique<GraphBackend>(*options.pose_graph);
+    CoreRunOptions first = run;
+    first.graph = graph.get();
+    const MethodSpec& m = options.methods.front();
+    const std::string stage = m.name + (options.registration ? " (fusion core, registration on, feeding the pose graph)" : " (fusion core, feeding the pose graph)");
+    if (options.progress) {
+      options.progress(stage, 0.0);
+      first.progress = [&](double f) { options.progress(stage, f / parts); };
+    }
+    Result<CoreRun> ran = run_through_core(dataset, m.method, m.options, first);
+    if (!ran) return ran.error();
+    g.robots = std::move(ran.value().robots);
+    g.masked_points = ran.value().masked_points;
+    graph->finish();
+    if (options.progress) options.progress("pose graph (the last search and optimisation)", 1.0 / parts);
+    std::map<std::pair<std::uint8_t, std::uint32_t>, std::size_t> row_of;
+    for (std::size_t i = 0; i < dataset.scans.size(); ++i) row_of.emplace(std::make_pair(dataset.scans[i].robot, dataset.scans[i].scan), i);
+    report.graph_poses.resize(dataset.scans.size());
+    for (std::size_t i = 0; i < dataset.scans.size(); ++i)
+      report.graph_poses[i] = ran.value().scan_decided[i] ? ran.value().scan_poses[i] : dataset.scans[i].pose;
+    for (const GraphScanPose& p : graph->poses())
+      if (const auto it = row_of.find({p.robot, p.scan}); it != row_of.end()) report.graph_poses[it->second] = p.graph;
+    report.graph_stats = graph->graph_stats();
+    report.graph_counters = graph->counters();
+    report.graph_seconds = graph->seconds();
+    run.registration = false;
+    run.decide_with = report.graph_poses;
+    g.by_graph = true;
+  }
   for (std::size_t mi = 0; mi < options.methods.size(); ++mi) {
     const MethodSpec& m = options.methods[mi];
-    run.graph = mi == 0 ? graph.get() : nullptr;
-    const std::string stage = m.name + (options.registration ? " (fusion core, registration on)" : " (fusion core)");
+    const std::string stage = m.name + (graph                  ? " (fusion core, the pose graph's poses)"
+                                        : options.registration ? " (fusion core, registration on)"
+                                                               : " (fusion core)");
     if (options.progress) {
-      options.progress(stage, static_cast<double>(mi) / parts);
-      run.progress = [&](double f) { options.progress(stage, (static_cast<double>(mi) + f) / parts); };
+      options.progress(stage, (graph_parts + static_cast<double>(mi)) / parts);
+      run.progress = [&](double f) { options.progress(stage, (graph_parts + static_cast<double>(mi) + f) / parts); };
     }
     Result<CoreRun> ran = run_through_core(dataset, m.method, m.options, run);
     if (!ran) return ran.error();
     CoreRun& r = ran.value();
     if (removed_by_method.empty()) {
       mapping::measure_errors(dataset, g.pose_m_after, g.pose_deg_after, g.point_m_after, r.placed, r.scan_poses, r.scan_decided);
-      g.robots = std::move(r.robots);
-      g.masked_points = r.masked_points;
-      if (options.registration) g.consistency_after = mapping::revisit_consistency(dataset, r.placed);
+      if (!graph) {
+        g.robots = std::move(r.robots);
+        g.masked_points = r.masked_points;
+      }
+      if (options.registration || graph) g.consistency_after = mapping::revisit_consistency(dataset, r.placed);
       report.placed = std::move(r.placed);
       report.scan_poses = std::move(r.scan_poses);
       report.scan_decided = std::move(r.scan_decided);
     }
     removed_by_method.push_back(std::move(r.removed));
-    if (run.graph != nullptr) run.graph->finish();
   }
   if (report.placed.empty()) {
     report.placed.reserve(dataset.points.size());
@@ -448,19 +492,6 @@ Result<EvalReport> evaluate(const Dataset& dataset, const EvalOptions& options) 
     r.floor_bias_after_m = have_reference ? mapping::floor_bias_m(cloud, report.floor_reference, options.ransac.threshold_m, r.removed) : std::numeric_limits<double>::quiet_NaN();
     r.floor_bias_improvement_pct = mapping::floor_bias_improvement_pct(report.floor_bias_before_m, r.floor_bias_after_m);
     report.methods.push_back(std::move(r));
-  }
-  if (graph) {
-    if (options.progress) options.progress("pose graph (the last search and optimisation)", 1.0);
-    std::map<std::pair<std::uint8_t, std::uint32_t>, std::size_t> row_of;
-    for (std::size_t i = 0; i < dataset.scans.size(); ++i) row_of.emplace(std::make_pair(dataset.scans[i].robot, dataset.scans[i].scan), i);
-    report.graph_poses.resize(dataset.scans.size());
-    for (std::size_t i = 0; i < dataset.scans.size(); ++i)
-      report.graph_poses[i] = i < report.scan_decided.size() && report.scan_decided[i] ? report.scan_poses[i] : dataset.scans[i].pose;
-    for (const GraphScanPose& p : graph->poses())
-      if (const auto it = row_of.find({p.robot, p.scan}); it != row_of.end()) report.graph_poses[it->second] = p.graph;
-    report.graph_stats = graph->graph_stats();
-    report.graph_counters = graph->counters();
-    report.graph_seconds = graph->seconds();
   }
   return report;
 }

@@ -76,6 +76,11 @@ struct CoreRunOptions {
   std::function<void(double)> progress;
   // The back end fed every released scan (nullptr: none).
   GraphBackend* graph = nullptr;
+  // Per Dataset::scans row, the pose to decide that scan with (the pose graph's), or empty: before
+  // anything is fed, each scan's robot is given the correction that takes the row's pose there, from
+  // the scan's stamp on (PoseHistory::set_map_from_odom), so the scans' points, the team state the
+  // filters read and every decision follow those poses. Not with the registration.
+  std::vector<Pose2> decide_with{};
 };
 
 // What the fusion core made of a data set.
@@ -120,8 +125,10 @@ struct EvalOptions {
   // Scan-to-map registration inside the fusion core (docs/registration.md); off: odometry alone.
   bool registration = false;
   registration::RegistrationOptions registration_options{};
-  // The pose graph as the core's back end (graph_backend.hpp), fed the first method's releases: its
-  // odometry is the core's decided poses (registered, or odometry alone). Unset: no graph.
+  // The pose graph as the core's back end (graph_backend.hpp), fed the releases of a first run of the
+  // first method: its odometry is the core's decided poses (registered, or odometry alone). Then every
+  // method runs with the graph's poses (CoreRunOptions::decide_with): the cloud, the decisions and the
+  // metrics follow the graph. Unset: no graph.
   std::optional<GraphBackendOptions> pose_graph{};
 };
 

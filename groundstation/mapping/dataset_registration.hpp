@@ -40,7 +40,8 @@ struct RevisitConsistency {
                                                      double min_age_s = 30.0, double radius_m = 0.5);
 
 struct RegistrationReport {
-  bool enabled = false;
+  bool enabled = false;   // the registration placed the scans (its counters below)
+  bool by_graph = false;  // the pose graph's poses placed them (the "after" figures are the graph's)
   bool have_truth = false;
   ErrorStats pose_m_before, pose_m_after, pose_deg_before, pose_deg_after;  // per scan: pose vs true pose
   ErrorStats point_m_before, point_m_after;                                 // per non-ghost point: vs true hit

@@ -430,15 +430,16 @@ int run_eval(const EvalArgs& a) {
                                               options.registration ? "registration" : "odometry");
     status = slam.ok ? status : 1;
     // The pictures show the cloud the metrics were computed on: where the fusion core put every point.
-    if (options.registration)
+    const bool placed = options.registration || options.pose_graph.has_value();
+    if (placed)
       for (std::size_t i = 0; i < report.placed.size() && i < dataset.value().points.size(); ++i) {
         dataset.value().points[i].x = report.placed[i].x;
         dataset.value().points[i].y = report.placed[i].y;
         dataset.value().points[i].z = report.placed[i].z;
       }
     // … and, without truth (whose track the pictures draw otherwise), the track the core placed the
-    // scans on: one sample per decided scan at its registered pose.
-    if (options.registration && dataset.value().truth.empty() && report.scan_poses.size() == dataset.value().scans.size()) {
+    // scans on: one sample per decided scan at the pose the core decided it with.
+    if (placed && dataset.value().truth.empty() && report.scan_poses.size() == dataset.value().scans.size()) {
       std::vector<TrajectorySample> track;
       for (std::size_t i = 0; i < dataset.value().scans.size(); ++i) {
         if (i < report.scan_decided.size() && !report.scan_decided[i]) continue;

@@ -55,6 +55,24 @@ TEST(EvaluationErrors, CalibrationWithARefusedRegistrationIsAnError) {
   EXPECT_TRUE(mentions(r.error(), "match_delay_s")) << r.error().what;
 }
 
+TEST(EvaluationErrors, PosesToDecideWithAreCheckedAgainstTheScansAndTheRegistration) {
+  Dataset d = one_robot();
+  d.scans.push_back(ScanRecord{});
+  d.scans.back().robot = 1;
+  CoreRunOptions run;
+  run.decide_with.assign(2, Pose2{});  // two poses for one scan row
+  Result<CoreRun> r = run_through_core(d, "visibility", mapping::MethodOptions{}, run);
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(mentions(r.error(), "one pose per scan row")) << r.error().what;
+  run.decide_with.assign(1, Pose2{});
+  run.registration = true;
+  r = run_through_core(d, "visibility", mapping::MethodOptions{}, run);
+  ASSERT_FALSE(r.ok());
+  EXPECT_TRUE(mentions(r.error(), "registration")) << r.error().what;
+  run.registration = false;
+  EXPECT_TRUE(run_through_core(d, "visibility", mapping::MethodOptions{}, run).ok());
+}
+
 TEST(EvaluationErrors, GoodOptionsStillRun) {
   EvalOptions o;
   o.methods = parse_methods("position", std::nullopt, std::nullopt).value();

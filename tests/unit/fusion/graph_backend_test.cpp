@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstring>
+#include <map>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -145,6 +146,58 @@ TEST(GraphBackend, ThroughTheEvaluationOnTheRegisteredPoses) {
   EXPECT_LT(graph_m.p99, 0.5 * odo_m.p99) << "graph p99 " << graph_m.p99 << " m, odometry " << odo_m.p99 << " m";
   EXPECT_LT(graph_deg.p99, 0.5 * odo_deg.p99);
   EXPECT_LT(graph_m.max, 0.15);
+}
+
+// `teamscan eval --pose-graph`: the graph's poses then place every scan of every method's run, so the
+// cloud the metrics read, and the decisions on it, follow the graph.
+TEST(GraphBackend, TheEvaluationsCloudFollowsTheGraph) {
+  const Dataset& d = lap2_drift_start();
+  fusion::EvalOptions o;
+  const auto methods = fusion::parse_methods("frequency", 0.1, std::nullopt);
+  ASSERT_TRUE(methods) << methods.error().what;
+  o.methods = methods.value();
+  o.pose_graph = fusion::GraphBackendOptions{};
+  const Result<fusion::EvalReport> r = fusion::evaluate(d, o);
+  ASSERT_TRUE(r) << r.error().what;
+  const fusion::EvalReport& report = r.value();
+  const mapping::RegistrationReport& g = report.registration;
+  EXPECT_TRUE(g.by_graph);
+  EXPECT_FALSE(g.enabled);
+  ASSERT_EQ(report.graph_poses.size(), d.scans.size());
+  ASSERT_EQ(report.scan_poses.size(), d.scans.size());
+  // Each scan decided with its graph pose (up to the odometry's interpolation between its samples)...
+  std::size_t decided = 0;
+  double worst_m = 0.0, worst_rad = 0.0;
+  for (std::size_t i = 0; i < d.scans.size(); ++i) {
+    if (!report.scan_decided[i]) continue;
+    ++decided;
+    const Pose2 a = report.scan_poses[i], b = report.graph_poses[i];
+    worst_m = std::max(worst_m, std::hypot(a.x_m - b.x_m, a.y_m - b.y_m));
+    worst_rad = std::max(worst_rad, std::abs(normalize_angle(a.theta_rad - b.theta_rad)));
+  }
+  EXPECT_GT(decided, d.scans.size() * 9 / 10);
+  EXPECT_LT(worst_m, 0.01) << "scan pose vs graph pose";
+  EXPECT_LT(worst_rad, 0.002);
+  // ...and its points moved with it: each point where the graph's pose puts it.
+  std::map<std::pair<std::uint8_t, std::uint32_t>, std::size_t> row_of;
+  for (std::size_t i = 0; i < d.scans.size(); ++i) row_of.emplace(std::make_pair(d.scans[i].robot, d.scans[i].scan), i);
+  std::size_t checked = 0;
+  for (std::size_t k = 0; k < d.points.size(); k += 97) {
+    const LabelledPoint& p = d.points[k];
+    const auto it = row_of.find({p.robot, p.scan});
+    if (it == row_of.end() || !report.scan_decided[it->second]) continue;
+    const Pose2 move = report.graph_poses[it->second] * d.scans[it->second].pose.inverse();
+    const Vec2 expected = move.apply(Vec2{p.x, p.y});
+    EXPECT_NEAR(report.placed[k].x, expected.x, 1e-3) << "point " << k;
+    EXPECT_NEAR(report.placed[k].y, expected.y, 1e-3) << "point " << k;
+    EXPECT_FLOAT_EQ(report.placed[k].z, p.z);
+    ++checked;
+  }
+  EXPECT_GT(checked, 1000u);
+  // The cloud the metrics read is the graph's: points and revisits far closer to the truth than
+  // odometry's.
+  EXPECT_LT(g.point_m_after.p99, 0.5 * g.point_m_before.p99) << g.point_m_after.p99 << " m vs " << g.point_m_before.p99;
+  EXPECT_LT(g.consistency_after.median_m, 0.5 * g.consistency_before.median_m);
 }
 
 // The graph's thread stays below a station's loop: SCHED_BATCH, nice 10, on the CPUs it is given.
