@@ -120,6 +120,14 @@ bool wait_until(const std::function<bool()>& pred, std::chrono::seconds timeout)
   return false;
 }
 
+// The in-process tests' robot: both emulated devices on their links, the 0.5° variant at 500 kBd, a
+// level laser 0.16 m ahead, the 7° cone, a status every 0.1 s.
+std::string base_config(const fs::path& arcos_link, const fs::path& lms_link) {
+  return "[robot]\nid = 1\n[arcos]\ndevice = \"" + arcos_link.string() + "\"\n[lms]\ndevice = \"" + lms_link.string() +
+         "\"\nbaud = 500000\nfov_deg = 180\nresolution_deg = 0.5\n[mount]\nx_m = 0.16\ny_m = 0\nz_m = 0.45\npitch_deg = 0\n"
+         "[filter]\nhalf_angle_deg = 7\nextrapolate_team = false\n[status]\nperiod_s = 0.1\n";
+}
+
 TEST(OnboardDaemonInProcess, PublishesFilteredMapFramePoints) {
   TempDir dir;
   const fs::path arcos_link = dir.path / "ttyArcos", lms_link = dir.path / "ttyLms";
@@ -136,10 +144,7 @@ TEST(OnboardDaemonInProcess, PublishesFilteredMapFramePoints) {
   ASSERT_TRUE((*lms_runner)->start().ok());
 
   std::string msg;
-  auto config = parse_onboard_config("[robot]\nid = 1\n[arcos]\ndevice = \"" + arcos_link.string() + "\"\n[lms]\ndevice = \"" +
-                                         lms_link.string() + "\"\nbaud = 500000\nfov_deg = 180\nresolution_deg = 0.5\n" +
-                                         "[mount]\nx_m = 0.16\ny_m = 0\nz_m = 0.45\npitch_deg = 0\n" +
-                                         "[filter]\nhalf_angle_deg = 7\nextrapolate_team = false\n[status]\nperiod_s = 0.1\n",
+  auto config = parse_onboard_config(base_config(arcos_link, lms_link),
                                      msg);
   ASSERT_TRUE(config.ok()) << msg;
 
@@ -226,10 +231,7 @@ TEST(OnboardDaemonInProcess, AppliesItsOwnCorrectionFromTheTeamState) {
   ASSERT_TRUE((*arcos_runner)->start().ok());
   ASSERT_TRUE((*lms_runner)->start().ok());
   std::string msg;
-  auto config = parse_onboard_config("[robot]\nid = 1\n[arcos]\ndevice = \"" + arcos_link.string() + "\"\n[lms]\ndevice = \"" +
-                                         lms_link.string() + "\"\nbaud = 500000\nfov_deg = 180\nresolution_deg = 0.5\n" +
-                                         "[mount]\nx_m = 0.16\ny_m = 0\nz_m = 0.45\npitch_deg = 0\n" +
-                                         "[filter]\nhalf_angle_deg = 7\nextrapolate_team = false\n[status]\nperiod_s = 0.1\n",
+  auto config = parse_onboard_config(base_config(arcos_link, lms_link),
                                      msg);
   ASSERT_TRUE(config.ok()) << msg;
   // map_from_odom = (0.5 m, −0.2 m, 0.1 rad): the robot, at its odometry origin, stands at (0.5, −0.2)
@@ -347,10 +349,7 @@ TEST(OnboardDaemonInProcess, AWriteThatBlocksDoesNotStopTheDevices) {
   ASSERT_TRUE((*arcos_runner)->start().ok());
   ASSERT_TRUE((*lms_runner)->start().ok());
   std::string msg;
-  auto config = parse_onboard_config("[robot]\nid = 1\n[arcos]\ndevice = \"" + arcos_link.string() + "\"\n[lms]\ndevice = \"" +
-                                         lms_link.string() + "\"\nbaud = 500000\nfov_deg = 180\nresolution_deg = 0.5\n" +
-                                         "[mount]\nx_m = 0.16\ny_m = 0\nz_m = 0.45\npitch_deg = 0\n" +
-                                         "[filter]\nhalf_angle_deg = 7\nextrapolate_team = false\n[status]\nperiod_s = 0.1\n" +
+  auto config = parse_onboard_config(base_config(arcos_link, lms_link) +
                                          "[ring]\npath = \"" + (dir.path / "ring.bin").string() + "\"\ncapacity_s = 30\n",
                                      msg);
   ASSERT_TRUE(config.ok()) << msg;
