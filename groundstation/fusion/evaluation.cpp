@@ -13,6 +13,7 @@
 #include "common/error_message.hpp"
 #include "common/units.hpp"
 #include "groundstation/fusion/core.hpp"
+#include "groundstation/fusion/graph_map.hpp"
 #include "groundstation/fusion/planar_returns.hpp"
 #include "groundstation/fusion/time_line.hpp"
 
@@ -195,13 +196,7 @@ Result<CoreRun> run_through_core(const Dataset& dataset, const std::string& meth
   fusion::FusionCore& core = *created.value();
   if (!run.decide_with.empty()) {
     if (run.registration) return Error{"the pose graph's poses and the registration cannot both place the scans"};
-    if (run.decide_with.size() != dataset.scans.size()) return Error{"decide_with: one pose per scan row expected"};
-    // The correction that takes each row's pose (the one its points were placed with) to the pose given,
-    // in force from the scan's stamp on: a change of frame, not a measurement for the tracker.
-    for (std::size_t i = 0; i < dataset.scans.size(); ++i) {
-      const ScanRecord& row = dataset.scans[i];
-      core.poses().set_map_from_odom(row.robot, row.stamp_ns, run.decide_with[i] * row.pose.inverse(), 0.0, 0.0, false);
-    }
+    if (Status st = decide_with(core.poses(), dataset, run.decide_with); !st.ok()) return st.error();
   }
 
   // The one time order (fusion/time_line.hpp), the station's catch-up's too.
@@ -417,7 +412,7 @@ Result<EvalReport> evaluate(const Dataset& dataset, const EvalOptions& options) 
     report.graph_counters = graph->counters();
     report.graph_seconds = graph->seconds();
     run.registration = false;
-    run.decide_with = report.graph_poses;
+    run.decide_with = graph_poses_by_row(dataset, graph->poses());
     g.by_graph = true;
   }
   for (std::size_t mi = 0; mi < options.methods.size(); ++mi) {

@@ -76,11 +76,11 @@ struct CoreRunOptions {
   std::function<void(double)> progress;
   // The back end fed every released scan (nullptr: none).
   GraphBackend* graph = nullptr;
-  // Per Dataset::scans row, the pose to decide that scan with (the pose graph's), or empty: before
-  // anything is fed, each scan's robot is given the correction that takes the row's pose there, from
-  // the scan's stamp on (PoseHistory::set_map_from_odom), so the scans' points, the team state the
+  // Per Dataset::scans row, the pose to decide that scan with (the pose graph's; none: the correction
+  // of the robot's scan before it), or empty: before anything is fed, the core is given the corrections
+  // that place each scan there (graph_map.hpp decide_with), so the scans' points, the team state the
   // filters read and every decision follow those poses. Not with the registration.
-  std::vector<Pose2> decide_with{};
+  std::vector<std::optional<Pose2>> decide_with{};
 };
 
 // What the fusion core made of a data set.

@@ -261,6 +261,17 @@ void stop_daemon(Daemon& d) {
       d.store->log_event(now_realtime(), line);
       log(graph ? kInfo : kErr, graph ? std::string{line} + "; wrote robot<N>.graph.tum"
                                       : std::string{line} + "; robot<N>.graph.tum not written: " + graph.error().what);
+      // The final model on the graph's poses (the one written above stays if this fails).
+      if (const Status rebuilt = d.fusion->rebuild_on_graph(); !rebuilt.ok()) {
+        log(kErr, std::string{"fusion: the final model stays on the front end's poses: "} + rebuilt.error().what);
+      } else if (const Status written = d.fusion->write_model(); !written.ok()) {
+        log(kErr, std::string{"fusion: the final model on the pose graph's poses not written: "} + written.error().what);
+      } else {
+        std::snprintf(line, sizeof line, "fusion: the final model decided again on the pose graph's poses in %.1f s",
+                      d.fusion->counters().last_graph_rebuild_s);
+        d.store->log_event(now_realtime(), line);
+        log(kInfo, line);
+      }
     }
   }
 }

@@ -129,6 +129,8 @@ struct FusionCounters {
   double catch_up_slice_max_s = 0.0;  // ... its longest share of one loop turn (a slice, the start or the take-over)
   std::uint64_t caught_up_live_scans = 0;  // ... live scans fed to the rebuilt cores behind the session
   std::uint64_t catch_up_failures = 0;  // the session folder could not be read back (the cores as they were)
+  std::uint64_t graph_rebuilds = 0;   // the cores rebuilt on the pose graph's poses (rebuild_on_graph)
+  double last_graph_rebuild_s = 0.0;  // ... the last one, the session read to the take-over
   std::uint64_t writes = 0;           // model writes done (every core's files written)
   std::uint64_t write_failures = 0;   // writes with a file not written (the first error: last_write())
   std::uint64_t writes_coalesced = 0; // request_write() while a write was in flight (served by one write after it)
@@ -208,6 +210,12 @@ class FusionStage {
   // the core released (waits for the back end's thread), then `robot<N>.graph.tum` per robot in the
   // session folder (one line per scan, its stamp, the graph's pose; docs/slam.md "The back end").
   [[nodiscard]] Status write_graph_trajectories();
+  // With options().pose_graph, after write_graph_trajectories(): every core reset and fed the session
+  // folder in time order on the graph's poses (fusion/graph_map.hpp), so the model, its decisions and
+  // the live map follow the graph: the model `teamscan eval SESSION --pose-graph` decides. The cores then
+  // run without the registration (the graph placed the scans): the shutdown's last step before the final
+  // write. An error (the session folder unreadable, or not this station's) leaves the cores as they were.
+  [[nodiscard]] Status rebuild_on_graph();
   // The back end (nullptr without options().pose_graph); after a catch-up, the one fed its releases.
   [[nodiscard]] fusion::GraphBackend* graph() { return graph_.get(); }
   // Writes the latency histograms (options().latency_csv) into the session folder, atomically.

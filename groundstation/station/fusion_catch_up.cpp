@@ -1,6 +1,6 @@
 // FusionStage's catch-up after a radio shadow (fusion.hpp): when it starts, the session read on a
 // loader thread, the rebuilt cores fed a slice per loop turn, the take-over; and the whole catch-up in
-// one call (shutdown, catch_up_slice_scans = 0).
+// one call (shutdown, catch_up_slice_scans = 0); and the cores rebuilt on the pose graph's poses.
 #include <algorithm>
 #include <chrono>
 #include <exception>
@@ -11,6 +11,7 @@
 
 #include "common/clock.hpp"
 #include "common/dataset/dataset.hpp"
+#include "groundstation/fusion/graph_map.hpp"
 #include "groundstation/fusion/time_line.hpp"
 #include "groundstation/station/catch_up_run.hpp"
 #include "groundstation/station/fusion.hpp"
@@ -202,6 +203,42 @@ Status FusionStage::catch_up(std::int64_t realtime_ns) {
   counters_.last_catch_up_s = to_seconds(now_monotonic() - started);
   counters_.catch_up_slice_max_s = counters_.last_catch_up_s;
   if (on_catch_up_) on_catch_up_(counters_);
+  return ok_status();
+}
+
+Status FusionStage::rebuild_on_graph() {
+  if (!graph_) return ok_status();
+  if (session_dir_.empty()) return Error{"fusion: no session folder to rebuild the model on the graph's poses from"};
+  drop_catch_up();
+  const Time started = now_monotonic();
+  SessionReadStats stats;
+  Result<Dataset> session = read_session_dataset(session_dir_, stats);
+  if (!session) return session.error();
+  if (session->scans.size() < core().counters().scans_released + core().held_scans())
+    return Error{"fusion: the session folder holds fewer scans than the fusion core took: the model stays on the front end's poses"};
+  fusion::CoreOptions primary = options_.core;
+  primary.registration = false;  // the graph placed the scans
+  Result<std::unique_ptr<fusion::CoreSet>> rebuilt = fusion::CoreSet::create(primary, options_.compare_methods);
+  if (!rebuilt) return rebuilt.error();
+  fusion::CoreSet& cores = *rebuilt.value();
+  LiveMap map{options_.map_resolution_m};
+  std::uint64_t scans = 0, points = 0, removed = 0;
+  cores.primary().set_release_callback([&](const fusion::FusedScan& f) {
+    map.add_all(f.view->points, f.removed, f.stored, f.view->robot, f.release);
+    ++scans;
+    points += f.view->points.size();
+    for (std::uint8_t r : f.removed) removed += r != 0 ? 1 : 0;
+  });
+  const std::vector<std::optional<Pose2>> by_row = fusion::graph_poses_by_row(session.value(), graph_->poses());
+  if (Result<std::size_t> fed = fusion::feed_on_poses(session.value(), by_row, cores); !fed) return fed.error();
+  writer_->wait();  // a snapshot in progress reads the cores
+  cores_->take_state(cores);
+  map_ = std::move(map);
+  counters_.scans = scans;
+  counters_.points = points;
+  counters_.live_removed = removed;
+  ++counters_.graph_rebuilds;
+  counters_.last_graph_rebuild_s = to_seconds(now_monotonic() - started);
   return ok_status();
 }
 

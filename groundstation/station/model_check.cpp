@@ -6,6 +6,7 @@
 #include "common/dataset/pcd.hpp"
 #include "common/error_message.hpp"
 #include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/fusion/graph_map.hpp"
 #include "groundstation/station/session_replay.hpp"
 
 namespace teamscan::station {
@@ -31,6 +32,17 @@ Result<ModelCheck> check_model_against_eval(const std::string& session, const Fu
   run.tracker = options.core.tracker;
   run.registration = options.core.registration;
   run.registration_options = options.core.registration_options;
+  if (options.pose_graph) {
+    // As the station's final model: a graph fed the primary's releases, then the model on its poses.
+    fusion::GraphBackend graph(*options.pose_graph);
+    run.graph = &graph;
+    Result<fusion::CoreRun> first = fusion::run_through_core(ds.value(), options.core.method, options.core.methods, run);
+    if (!first) return first.error();
+    graph.finish();
+    run.graph = nullptr;
+    run.registration = false;
+    run.decide_with = fusion::graph_poses_by_row(ds.value(), graph.poses());
+  }
   Result<fusion::CoreRun> ran = fusion::run_through_core(ds.value(), options.core.method, options.core.methods, run);
   if (!ran) return ran.error();
   const std::vector<std::uint8_t>& eval = ran.value().removed;

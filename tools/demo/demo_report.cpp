@@ -17,6 +17,7 @@
 #include "common/dataset/dataset.hpp"
 #include "common/dataset/pcd.hpp"
 #include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/station/config.hpp"
 #include "sim/simulator.hpp"
 #include "tools/demo/demo_run.hpp"
 #include "tools/demo/eval_report.hpp"
@@ -121,6 +122,17 @@ int collect(const DemoOptions& a, const DemoSetup& s, sim::LiveTeam& live, Progr
   eo.registration = s.registration;
   eo.registration_options.prior = s.priors.prior;
   eo.registration_options.robot_priors = s.priors.robot_priors;
+  // With the station's pose graph, its final model is on the graph's poses: both evaluations place
+  // their clouds with a graph of the station's options (`teamscan eval --pose-graph`).
+  if (a.pose_graph) {
+    station::GroundStationConfig gcfg;
+    station::ConfigError error;
+    if (!station::load_groundstation_config(s.station_config, gcfg, error)) {
+      std::fprintf(stderr, "teamscan demo: %s: %s\n", s.station_config.c_str(), error.message.c_str());
+      return 1;
+    }
+    eo.pose_graph = gcfg.fusion.pose_graph;
+  }
   // The station's own method is always evaluated offline too, so its live model has its comparison.
   if (std::none_of(eo.methods.begin(), eo.methods.end(),
                    [&](const fusion::MethodSpec& m) { return m.method == a.station_method; })) {

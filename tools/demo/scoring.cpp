@@ -19,6 +19,7 @@
 #include "groundstation/fusion/core.hpp"
 #include "groundstation/fusion/core_set.hpp"
 #include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/fusion/graph_map.hpp"
 #include "groundstation/fusion/time_line.hpp"
 #include "groundstation/station/model_check.hpp"
 #include "groundstation/station/scan_record_read.hpp"
@@ -443,17 +444,40 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
       return out;
     }
   }
+  // With the pose graph, the station's final model is decided again on the graph's poses
+  // (FusionStage::rebuild_on_graph): every held scan released into the graph first, then a set of cores
+  // without the registration fed the session on its poses.
+  std::unique_ptr<fusion::CoreSet> on_graph;
+  if (graph) {
+    cores.flush();
+    station::SessionReadStats again;
+    Result<Dataset> ds = station::read_session_dataset(session, again);
+    fusion::CoreOptions primary = options.core;
+    primary.registration = false;
+    auto rebuilt = fusion::CoreSet::create(primary, options.compare_methods);
+    if (!ds || !rebuilt) {
+      out.error = !ds ? std::string("session: ") + ds.error().what : std::string("fusion cores: ") + rebuilt.error().what;
+      return out;
+    }
+    on_graph = std::move(rebuilt.value());
+    const std::vector<std::optional<Pose2>> by_row = fusion::graph_poses_by_row(ds.value(), graph->poses());
+    if (Result<std::size_t> fed = fusion::feed_on_poses(ds.value(), by_row, *on_graph); !fed) {
+      out.error = std::string("fusion cores on the graph's poses: ") + fed.error().what;
+      return out;
+    }
+  }
+  fusion::CoreSet& model_cores = on_graph ? *on_graph : cores;
   std::error_code ec;
   std::filesystem::create_directories(scratch_dir, ec);
   for (std::size_t k = 0; k < cores.size(); ++k) {
-    cores.at(k).flush();
+    model_cores.at(k).flush();
     ReplayModelCheck mc;
     mc.method = methods[k];
     mc.primary = k == 0;
     const std::string all_name = per_method[k].all_points_pcd.empty() ? station::method_file_name("fused_all.pcd", methods[k])
                                                                       : per_method[k].all_points_pcd;
     const std::string replayed_path = scratch_dir + "/" + all_name;
-    auto written = fusion::write_model_files(cores.at(k), scratch_dir + "/" + per_method[k].kept_pcd, replayed_path);
+    auto written = fusion::write_model_files(model_cores.at(k), scratch_dir + "/" + per_method[k].kept_pcd, replayed_path);
     auto station_cloud = read_pcd(session + "/" + all_name);
     auto replay_cloud = read_pcd(replayed_path);
     if (!written || !station_cloud || !replay_cloud) {

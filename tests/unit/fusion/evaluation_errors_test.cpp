@@ -63,7 +63,7 @@ TEST(EvaluationErrors, PosesToDecideWithAreCheckedAgainstTheScansAndTheRegistrat
   run.decide_with.assign(2, Pose2{});  // two poses for one scan row
   Result<CoreRun> r = run_through_core(d, "visibility", mapping::MethodOptions{}, run);
   ASSERT_FALSE(r.ok());
-  EXPECT_TRUE(mentions(r.error(), "one pose per scan row")) << r.error().what;
+  EXPECT_TRUE(mentions(r.error(), "one per row")) << r.error().what;
   run.decide_with.assign(1, Pose2{});
   run.registration = true;
   r = run_through_core(d, "visibility", mapping::MethodOptions{}, run);

@@ -1,0 +1,48 @@
+// The fused map on the pose graph's poses (graph_map.hpp).
+#include "groundstation/fusion/graph_map.hpp"
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <utility>
+
+#include "common/error_message.hpp"
+#include "groundstation/fusion/time_line.hpp"
+
+namespace teamscan::fusion {
+
+std::vector<std::optional<Pose2>> graph_poses_by_row(const Dataset& dataset, const std::vector<GraphScanPose>& graph) {
+  std::map<std::pair<std::uint8_t, std::uint32_t>, Pose2> by_scan;
+  for (const GraphScanPose& p : graph) by_scan[{p.robot, p.scan}] = p.graph;
+  std::vector<std::optional<Pose2>> out(dataset.scans.size());
+  for (std::size_t i = 0; i < dataset.scans.size(); ++i)
+    if (const auto it = by_scan.find({dataset.scans[i].robot, dataset.scans[i].scan}); it != by_scan.end()) out[i] = it->second;
+  return out;
+}
+
+Status decide_with(PoseHistory& poses, const Dataset& dataset, std::span<const std::optional<Pose2>> by_row) {
+  if (by_row.size() != dataset.scans.size())
+    return make_error("the poses to decide with are " + std::to_string(by_row.size()) + " for " +
+                      std::to_string(dataset.scans.size()) + " scan rows: one per row expected");
+  for (std::size_t i = 0; i < dataset.scans.size(); ++i) {
+    if (!by_row[i]) continue;
+    const ScanRecord& row = dataset.scans[i];
+    poses.set_map_from_odom(row.robot, row.stamp_ns, *by_row[i] * row.pose.inverse(), 0.0, 0.0, false);
+  }
+  return ok_status();
+}
+
+Result<std::size_t> feed_on_poses(const Dataset& dataset, std::span<const std::optional<Pose2>> by_row, CoreSet& cores) {
+  for (std::size_t i = 0; i < cores.size(); ++i) {
+    FusionCore& core = cores.at(i);
+    if (core.options().registration) return Error{"the pose graph's poses and the registration cannot both place the scans"};
+    if (Status st = core.reset(); !st.ok()) return st.error();
+    if (Status st = decide_with(core.poses(), dataset, by_row); !st.ok()) return st.error();
+  }
+  const TimeLine time_line(dataset);
+  time_line.feed([&](PoseInput& p) { cores.add_pose(p); }, [&](ScanInput& s) { (void)cores.add_scan(s); });
+  cores.flush();
+  return time_line.records().size();
+}
+
+}  // namespace teamscan::fusion

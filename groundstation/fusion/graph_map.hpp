@@ -1,0 +1,39 @@
+// The fused map on the pose graph's poses: the graph's pose of each scan row of a data set, and a set of
+// fusion cores given those poses and fed the data set in time order, so every scan's points, the team
+// state the filters read and every decision follow the graph (`teamscan eval --pose-graph`, the
+// station's final model with [fusion] pose_graph, the demo's replay of it).
+//
+// How: each scan row's robot is given, from the scan's stamp on, the correction that takes the row's
+// pose (the one its points were placed with) to the graph's (PoseHistory::set_map_from_odom, a change of
+// frame, not a measurement). A row the graph did not take gets none: the correction of the robot's
+// scan before it stays in force (an identity there would move its points back to odometry).
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "common/dataset/dataset.hpp"
+#include "common/pose.hpp"
+#include "common/result.hpp"
+#include "groundstation/fusion/core_set.hpp"
+#include "groundstation/fusion/graph_backend.hpp"
+#include "groundstation/fusion/pose_history.hpp"
+
+namespace teamscan::fusion {
+
+// Per Dataset::scans row, the graph's pose of that (robot, scan), or none (a scan the graph did not take).
+[[nodiscard]] std::vector<std::optional<Pose2>> graph_poses_by_row(const Dataset& dataset, const std::vector<GraphScanPose>& graph);
+
+// Gives `poses` the corrections that place each row's scan at its pose (see the top). An error when the
+// poses are not one per scan row.
+[[nodiscard]] Status decide_with(PoseHistory& poses, const Dataset& dataset, std::span<const std::optional<Pose2>> by_row);
+
+// Every core of `cores` reset, given the poses (decide_with) and fed the data set in time order
+// (time_line.hpp), then flushed: the model, the decisions and the release callbacks' scans are those of
+// the poses given. The cores must not run the registration (it would place the scans again). Returns
+// the scans fed.
+[[nodiscard]] Result<std::size_t> feed_on_poses(const Dataset& dataset, std::span<const std::optional<Pose2>> by_row, CoreSet& cores);
+
+}  // namespace teamscan::fusion
