@@ -15,6 +15,11 @@ void notify_watchdog() { (void)sd_notify(0, "WATCHDOG=1"); }
 
 void notify_stopping() { (void)sd_notify(0, "STOPPING=1"); }
 
+void notify_extend_timeout(Duration more) {
+  const auto usec = std::chrono::duration_cast<std::chrono::microseconds>(more).count();
+  (void)sd_notifyf(0, "EXTEND_TIMEOUT_USEC=%llu", static_cast<unsigned long long>(usec > 0 ? usec : 0));
+}
+
 Duration watchdog_interval() {
   std::uint64_t usec = 0;
   // > 0 only if WATCHDOG_USEC is set and WATCHDOG_PID is unset or this process.

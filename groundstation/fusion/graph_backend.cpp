@@ -130,6 +130,12 @@ void GraphBackend::wait_done() {
   done_cv_.wait(lock, [&] { return done_ || stop_; });
 }
 
+bool GraphBackend::finished_within(std::chrono::milliseconds timeout) {
+  finish();
+  std::unique_lock lock(mutex_);
+  return done_cv_.wait_for(lock, timeout, [&] { return done_ || stop_; });
+}
+
 const std::vector<GraphScanPose>& GraphBackend::poses() {
   finish();
   wait_done();

@@ -77,6 +77,9 @@ class GraphBackend {
   // No more scans: the open nodes close, the graph takes the rest, is searched again and optimised a
   // last time (posegraph::PlanarSlam::finish), all on the back end's thread. Returns at once.
   void finish();
+  // finish(), then waits at most `timeout` for its work: true once done (a caller that must show progress
+  // meanwhile, the station's shutdown, calls it again).
+  [[nodiscard]] bool finished_within(std::chrono::milliseconds timeout);
   // Waits for finish()'s work; then every taken scan's pose, its node's scans in release order, the
   // nodes in the order they closed.
   [[nodiscard]] const std::vector<GraphScanPose>& poses();

@@ -32,7 +32,8 @@ Status decide_with(PoseHistory& poses, const Dataset& dataset, std::span<const s
   return ok_status();
 }
 
-Result<std::size_t> feed_on_poses(const Dataset& dataset, std::span<const std::optional<Pose2>> by_row, CoreSet& cores) {
+Result<std::size_t> feed_on_poses(const Dataset& dataset, std::span<const std::optional<Pose2>> by_row, CoreSet& cores,
+                                  const std::function<void(double)>& progress) {
   for (std::size_t i = 0; i < cores.size(); ++i) {
     FusionCore& core = cores.at(i);
     if (core.options().registration) return Error{"the pose graph's poses and the registration cannot both place the scans"};
@@ -40,7 +41,7 @@ Result<std::size_t> feed_on_poses(const Dataset& dataset, std::span<const std::o
     if (Status st = decide_with(core.poses(), dataset, by_row); !st.ok()) return st.error();
   }
   const TimeLine time_line(dataset);
-  time_line.feed([&](PoseInput& p) { cores.add_pose(p); }, [&](ScanInput& s) { (void)cores.add_scan(s); });
+  time_line.feed([&](PoseInput& p) { cores.add_pose(p); }, [&](ScanInput& s) { (void)cores.add_scan(s); }, progress);
   cores.flush();
   return time_line.records().size();
 }

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <optional>
 #include <span>
 #include <vector>
@@ -33,7 +34,8 @@ namespace teamscan::fusion {
 // Every core of `cores` reset, given the poses (decide_with) and fed the data set in time order
 // (time_line.hpp), then flushed: the model, the decisions and the release callbacks' scans are those of
 // the poses given. The cores must not run the registration (it would place the scans again). Returns
-// the scans fed.
-[[nodiscard]] Result<std::size_t> feed_on_poses(const Dataset& dataset, std::span<const std::optional<Pose2>> by_row, CoreSet& cores);
+// the scans fed. `progress` (optional) as TimeLine::feed's.
+[[nodiscard]] Result<std::size_t> feed_on_poses(const Dataset& dataset, std::span<const std::optional<Pose2>> by_row, CoreSet& cores,
+                                                const std::function<void(double)>& progress = {});
 
 }  // namespace teamscan::fusion

@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <string>
 
 #include "common/clock.hpp"
@@ -228,6 +229,77 @@ std::optional<int> run_until_stopped(const GroundStationConfig& cfg, Daemon& d) 
   return std::nullopt;
 }
 
+namespace {
+
+// systemd's TimeoutStopSec is sized for a station with little left to do. The fusion's shutdown work on
+// a long session (the catch-up, the graph's last optimisation, the final model on its poses, the model
+// writes) asks for more time as it goes: EXTEND_TIMEOUT_USEC at each step and, within one, at most once a
+// second while it progresses, each time kStopGrace more. A step that stops progressing is still killed.
+class StopProgress {
+ public:
+  static constexpr Duration kStopGrace = std::chrono::seconds(30);
+  void step(const char* what) {
+    dds::notify_status(what);
+    extend();
+  }
+  [[nodiscard]] std::function<void(double)> progress() {
+    return [this](double) {
+      if (now_monotonic() - last_ >= std::chrono::seconds(1)) extend();
+    };
+  }
+
+ private:
+  void extend() {
+    dds::notify_extend_timeout(kStopGrace);
+    last_ = now_monotonic();
+  }
+  Time last_ = now_monotonic();
+};
+
+// The fusion stage's end: every held scan decided, the model written; with the pose graph, its last
+// optimisation, robot<N>.graph.tum, the final model decided again on its poses and written.
+void finish_fusion(Daemon& d) {
+  StopProgress stop;
+  stop.step("stopping: deciding the held scans");
+  d.fusion->flush(stop.progress());  // every held scan decided with what arrived
+  stop.step("stopping: writing the model");
+  (void)d.fusion->write_model();  // after any write in flight, synchronous: the models are complete at exit
+  fusion::GraphBackend* g = d.fusion->graph();
+  if (g == nullptr) return;
+  const std::size_t behind = g->queued();  // nodes the graph had not taken when the station stopped
+  stop.step("stopping: the pose graph's last optimisation");
+  while (!g->finished_within(std::chrono::seconds(1))) stop.progress()(0.0);
+  const Status graph = d.fusion->write_graph_trajectories();  // robot<N>.graph.tum
+  const fusion::GraphBackendCounters c = g->counters();
+  const posegraph::SlamStats st = g->graph_stats();
+  char line[320];
+  std::snprintf(line, sizeof line,
+                "pose graph: %llu scans, %llu nodes (%zu behind at the stop, at most %zu), %zu submaps, %zu closures, "
+                "%.1f s from the first scan to the last optimisation",
+                static_cast<unsigned long long>(c.scans), static_cast<unsigned long long>(c.nodes), behind, c.queue_max, st.submaps,
+                st.closures, g->seconds());
+  d.store->log_event(now_realtime(), line);
+  log(graph ? kInfo : kErr, graph ? std::string{line} + "; wrote robot<N>.graph.tum"
+                                  : std::string{line} + "; robot<N>.graph.tum not written: " + graph.error().what);
+  // The final model on the graph's poses (the one written above stays if this fails).
+  stop.step("stopping: the model on the pose graph's poses");
+  if (const Status rebuilt = d.fusion->rebuild_on_graph(stop.progress()); !rebuilt.ok()) {
+    log(kErr, std::string{"fusion: the final model stays on the front end's poses: "} + rebuilt.error().what);
+    return;
+  }
+  stop.step("stopping: writing the model on the pose graph's poses");
+  if (const Status written = d.fusion->write_model(); !written.ok()) {
+    log(kErr, std::string{"fusion: the final model on the pose graph's poses not written: "} + written.error().what);
+    return;
+  }
+  std::snprintf(line, sizeof line, "fusion: the final model decided again on the pose graph's poses in %.1f s",
+                d.fusion->counters().last_graph_rebuild_s);
+  d.store->log_event(now_realtime(), line);
+  log(kInfo, line);
+}
+
+}  // namespace
+
 void stop_daemon(Daemon& d) {
   if (d.ros2) {
     log_ros2_figures(d);
@@ -244,36 +316,7 @@ void stop_daemon(Daemon& d) {
   d.disk_sync->stop();
   log_disk_sync_figures(d);
   d.store->sync();  // the session is complete on disk before the final model write
-  if (d.fusion) {
-    d.fusion->flush();              // every held scan decided with what arrived
-    (void)d.fusion->write_model();  // after any write in flight, synchronous: the models are complete at exit
-    if (fusion::GraphBackend* g = d.fusion->graph()) {
-      const std::size_t behind = g->queued();  // nodes the graph had not taken when the station stopped
-      const Status graph = d.fusion->write_graph_trajectories();  // the graph's last optimisation, then robot<N>.graph.tum
-      const fusion::GraphBackendCounters c = g->counters();
-      const posegraph::SlamStats st = g->graph_stats();
-      char line[320];
-      std::snprintf(line, sizeof line,
-                    "pose graph: %llu scans, %llu nodes (%zu behind at the stop, at most %zu), %zu submaps, %zu closures, "
-                    "%.1f s from the first scan to the last optimisation",
-                    static_cast<unsigned long long>(c.scans), static_cast<unsigned long long>(c.nodes), behind, c.queue_max, st.submaps,
-                    st.closures, g->seconds());
-      d.store->log_event(now_realtime(), line);
-      log(graph ? kInfo : kErr, graph ? std::string{line} + "; wrote robot<N>.graph.tum"
-                                      : std::string{line} + "; robot<N>.graph.tum not written: " + graph.error().what);
-      // The final model on the graph's poses (the one written above stays if this fails).
-      if (const Status rebuilt = d.fusion->rebuild_on_graph(); !rebuilt.ok()) {
-        log(kErr, std::string{"fusion: the final model stays on the front end's poses: "} + rebuilt.error().what);
-      } else if (const Status written = d.fusion->write_model(); !written.ok()) {
-        log(kErr, std::string{"fusion: the final model on the pose graph's poses not written: "} + written.error().what);
-      } else {
-        std::snprintf(line, sizeof line, "fusion: the final model decided again on the pose graph's poses in %.1f s",
-                      d.fusion->counters().last_graph_rebuild_s);
-        d.store->log_event(now_realtime(), line);
-        log(kInfo, line);
-      }
-    }
-  }
+  if (d.fusion) finish_fusion(d);
 }
 
 }  // namespace teamscan::station::daemon

@@ -161,7 +161,8 @@ class FusionStage {
   // choice of points per voxel and the decisions at release are those of `teamscan eval` of the session
   // so far. Holds the loop for a replay of the whole session (counters().last_catch_up_s); a catch-up in
   // slices under way is dropped first. The loop's catch-up (tick()) is the same in slices.
-  [[nodiscard]] Status catch_up(std::int64_t realtime_ns);
+  // `progress` (optional): the share of the session fed so far, about every 1 %.
+  [[nodiscard]] Status catch_up(std::int64_t realtime_ns, const std::function<void(double)>& progress = {});
   // A catch-up in slices is under way (the session being read, or the rebuilt cores being fed).
   [[nodiscard]] bool catching_up() const { return run_ != nullptr; }
   // ... and its rebuilt cores are being fed: the loop should turn again without waiting for data.
@@ -176,8 +177,8 @@ class FusionStage {
   // Releases every scan the cores hold (shutdown), after a catch-up if any scan was released late in
   // this run (since the start or its session replay): the final model is then the one of
   // `teamscan eval`'s time order on the session, byte for byte. Without: the arrival order's (equal to it
-  // when no scan was released late).
-  void flush();
+  // when no scan was released late). `progress` as catch_up()'s.
+  void flush(const std::function<void(double)>& progress = {});
   // The loop's clock (CLOCK_REALTIME, the receive times' clock): held scans that waited long enough go;
   // a catch-up once one is due (FusionOptions::catch_up_min_scans, catch_up_quiet_s), in slices of
   // catch_up_slice_scans, one per call, until the rebuilt cores take over.
@@ -215,7 +216,8 @@ class FusionStage {
   // the live map follow the graph: the model `teamscan eval SESSION --pose-graph` decides. The cores then
   // run without the registration (the graph placed the scans): the shutdown's last step before the final
   // write. An error (the session folder unreadable, or not this station's) leaves the cores as they were.
-  [[nodiscard]] Status rebuild_on_graph();
+  // `progress` (optional): the share of the session fed so far, about every 1 %.
+  [[nodiscard]] Status rebuild_on_graph(const std::function<void(double)>& progress = {});
   // The back end (nullptr without options().pose_graph); after a catch-up, the one fed its releases.
   [[nodiscard]] fusion::GraphBackend* graph() { return graph_.get(); }
   // Writes the latency histograms (options().latency_csv) into the session folder, atomically.

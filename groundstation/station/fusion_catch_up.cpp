@@ -30,10 +30,10 @@ std::uint64_t FusionStage::late_since_catch_up() const {
   return late_inputs(core().counters()) - late_base_;
 }
 
-void FusionStage::flush() {
+void FusionStage::flush(const std::function<void(double)>& progress) {
   // Once a scan was released late in this run, the final model is the time order's, whatever came
   // after the last catch-up (a catch-up in slices under way is replaced by the whole one now).
-  if ((counters_.catch_ups > 0 || late_since_catch_up() > 0 || run_) && !catch_up(now_realtime().ns()).ok())
+  if ((counters_.catch_ups > 0 || late_since_catch_up() > 0 || run_) && !catch_up(now_realtime().ns(), progress).ok())
     ++counters_.catch_up_failures;
   cores_->flush();
 }
@@ -173,7 +173,7 @@ void FusionStage::finish_catch_up() {
   if (on_catch_up_) on_catch_up_(counters_);
 }
 
-Status FusionStage::catch_up(std::int64_t realtime_ns) {
+Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(double)>& progress) {
   if (session_dir_.empty()) return Error{"fusion: no session folder to catch up from"};
   drop_catch_up();
   const Time started = now_monotonic();
@@ -189,7 +189,7 @@ Status FusionStage::catch_up(std::int64_t realtime_ns) {
   counters_.scans = counters_.points = counters_.live_removed = 0;
   if (options_.pose_graph) graph_ = std::make_unique<fusion::GraphBackend>(*options_.pose_graph);  // fed the releases again
   catching_up_ = true;
-  const Result<std::size_t> fed = fusion::refeed_in_time_order(session.value(), *cores_);
+  const Result<std::size_t> fed = fusion::refeed_in_time_order(session.value(), *cores_, progress);
   catching_up_ = false;
   if (!fed) return fed.error();
   cores_->resume_at(realtime_ns);
@@ -206,7 +206,7 @@ Status FusionStage::catch_up(std::int64_t realtime_ns) {
   return ok_status();
 }
 
-Status FusionStage::rebuild_on_graph() {
+Status FusionStage::rebuild_on_graph(const std::function<void(double)>& progress) {
   if (!graph_) return ok_status();
   if (session_dir_.empty()) return Error{"fusion: no session folder to rebuild the model on the graph's poses from"};
   drop_catch_up();
@@ -230,7 +230,7 @@ Status FusionStage::rebuild_on_graph() {
     for (std::uint8_t r : f.removed) removed += r != 0 ? 1 : 0;
   });
   const std::vector<std::optional<Pose2>> by_row = fusion::graph_poses_by_row(session.value(), graph_->poses());
-  if (Result<std::size_t> fed = fusion::feed_on_poses(session.value(), by_row, cores); !fed) return fed.error();
+  if (Result<std::size_t> fed = fusion::feed_on_poses(session.value(), by_row, cores, progress); !fed) return fed.error();
   writer_->wait();  // a snapshot in progress reads the cores
   cores_->take_state(cores);
   map_ = std::move(map);

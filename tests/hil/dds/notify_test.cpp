@@ -8,6 +8,7 @@
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "tests/support/notify_harness.hpp"
@@ -88,6 +89,44 @@ TEST(NotifyHarness, GroundStationSpeaksTheProtocol) {
   EXPECT_GE(pings.size(), 5u);
   EXPECT_LE(max_gap(pings), wd);
   EXPECT_TRUE(std::filesystem::exists(dir + "/session/events.log"));
+  std::filesystem::remove_all(dir);
+}
+
+// With the pose graph, the shutdown's work (the catch-up, the graph's last optimisation, the final model
+// on its poses, the writes) asks systemd for more time at each step (EXTEND_TIMEOUT_USEC), so a long
+// session is not cut short by TimeoutStopSec, and says what it is doing (STATUS).
+TEST(NotifyHarness, GroundStationAsksForTimeAsItFinishesItsModel) {
+  char tmpl[] = "/tmp/teamscan-gs-notify-XXXXXX";
+  const std::string dir = ::mkdtemp(tmpl);
+  {
+    std::ofstream cfg(dir + "/groundstation.toml");
+    cfg << "[pose_graph]\n";
+  }
+  NotifyHarness h;
+  ASSERT_GT(h.spawn({TEAMSCAN_GROUNDSTATION, "--config", dir + "/groundstation.toml", "--session-dir", dir + "/session", "--domain",
+                     test_domain_arg()},
+                    1s),
+            0);
+  ASSERT_TRUE(h.wait_for("READY", 15s).has_value());
+  h.signal(SIGTERM);
+  const auto st = h.wait_exit(20s);
+  ASSERT_TRUE(st.has_value());
+  EXPECT_TRUE(WIFEXITED(*st) && WEXITSTATUS(*st) == 0);
+  h.collect_for(500ms);
+  const auto& m = h.messages();
+  const auto stopping = std::find_if(m.begin(), m.end(), [](const NotifyMessage& x) { return x.key == "STOPPING"; });
+  ASSERT_NE(stopping, m.end());
+  std::size_t extensions = 0;
+  bool graph_step = false;
+  for (auto it = stopping; it != m.end(); ++it) {
+    if (it->key == "EXTEND_TIMEOUT_USEC") {
+      ++extensions;
+      EXPECT_EQ(it->value, "30000000");
+    }
+    if (it->key == "STATUS" && it->value == "stopping: the model on the pose graph's poses") graph_step = true;
+  }
+  EXPECT_GE(extensions, 5u) << "one per step: the held scans, the model, the graph, the model on its poses, its write";
+  EXPECT_TRUE(graph_step);
   std::filesystem::remove_all(dir);
 }
 
