@@ -64,6 +64,12 @@ class CorrelativeMatcher {
   // The best pose within `window` of `guess` whose score exceeds `min_score`.
   [[nodiscard]] SearchResult search(const std::vector<Vec2>& points, const Pose2& guess, const SearchWindow& window,
                                     double min_score) const;
+  // The search levels' bytes.
+  [[nodiscard]] std::size_t memory_bytes() const {
+    std::size_t n = 0;
+    for (const Level& l : levels_) n += l.values.capacity();
+    return n;
+  }
 
  private:
   struct Level {

@@ -40,7 +40,8 @@ struct PlanarSlam::Submap {
   Grid grid;
   int scans = 0;
   std::size_t last_robot_node = 0;  // its robot's count of nodes when the last scan went in
-  std::unique_ptr<CorrelativeMatcher> matcher;  // once finished
+  std::unique_ptr<CorrelativeMatcher> matcher;  // once finished, until retired
+  bool retired = false;
 };
 
 struct PlanarSlam::Robot {
@@ -106,7 +107,7 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
   if (options_.closure_every_n_nodes > 0 && node % static_cast<std::size_t>(options_.closure_every_n_nodes) == 0) close_loops(r, node, points);
   node_points_.emplace_back();
   if (options_.rematch_submaps > 0 && options_.rematch_every_n_nodes > 0 && points.size() >= 20 &&
-      node % static_cast<std::size_t>(options_.rematch_every_n_nodes) == 0)
+      node % static_cast<std::size_t>(options_.rematch_every_n_nodes) == 0 && keep_returns(node))
     node_points_.back() = points;
   insert(r, node, local, points);
   if (options_.optimize_every_n_nodes > 0 && (node + 1) % static_cast<std::size_t>(options_.optimize_every_n_nodes) == 0) {
@@ -134,10 +135,48 @@ void PlanarSlam::insert(Robot& r, std::size_t node, const Pose2& local, const st
     graph_.add_constraint({id, node, submap_from_node, Constraint::Kind::inserted});
   }
   if (r.active.size() > 2) {
-    Submap& done = *submaps_[r.active.front()];
+    const std::size_t finished = r.active.front();
+    Submap& done = *submaps_[finished];
     done.matcher = std::make_unique<CorrelativeMatcher>(done.grid, options_.closure_depth, options_.closure_pool);
     r.active.erase(r.active.begin());
+    retire_covered(finished);
   }
+}
+
+void PlanarSlam::retire_covered(std::size_t finished) {
+  if (options_.retire_after_submaps <= 0) return;
+  const auto live = [&](std::size_t i) { return submaps_[i]->matcher != nullptr; };
+  const auto near = [&](std::size_t a, std::size_t b) {
+    const Pose2 &p = graph_.submaps()[a], &q = graph_.submaps()[b];
+    return std::hypot(p.x_m - q.x_m, p.y_m - q.y_m) <= options_.retire_distance_m;
+  };
+  // Only the submaps near the one just finished have one more newer neighbour; oldest first (a retired
+  // submap no longer counts for the older ones).
+  for (std::size_t i = 0; i < finished; ++i) {
+    if (!live(i) || !near(i, finished)) continue;
+    int newer = 0;
+    for (std::size_t j = i + 1; j < submaps_.size() && newer < options_.retire_after_submaps; ++j)
+      if (live(j) && near(i, j)) ++newer;
+    if (newer < options_.retire_after_submaps) continue;
+    Submap& m = *submaps_[i];
+    m.matcher.reset();
+    m.grid = Grid(options_.resolution_m, options_.hit_sigma_m);
+    m.retired = true;
+    ++retired_;
+  }
+}
+
+bool PlanarSlam::keep_returns(std::size_t node) {
+  if (options_.rematch_nodes_per_cell > 0) {
+    const Pose2& p = graph_.nodes()[node];
+    const std::pair<std::int64_t, std::int64_t> cell{static_cast<std::int64_t>(std::floor(p.x_m / options_.rematch_cell_m)),
+                                                     static_cast<std::int64_t>(std::floor(p.y_m / options_.rematch_cell_m))};
+    int& kept = kept_per_cell_[cell];
+    if (kept >= options_.rematch_nodes_per_cell) return false;
+    ++kept;
+  }
+  ++kept_returns_;
+  return true;
 }
 
 void PlanarSlam::close_loops(Robot& r, std::size_t node, const std::vector<Vec2>& points) {
@@ -270,7 +309,11 @@ void PlanarSlam::finish() {
 }
 
 SlamStats PlanarSlam::stats() const {
-  return {graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_, rematches_};
+  std::size_t bytes = 0;
+  for (const auto& m : submaps_) bytes += m->grid.values().capacity() * sizeof(float) + (m->matcher ? m->matcher->memory_bytes() : 0);
+  for (const auto& p : node_points_) bytes += p.capacity() * sizeof(Vec2);
+  return {graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_, rematches_,
+          retired_, kept_returns_, bytes};
 }
 
 }  // namespace teamscan::posegraph

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -59,6 +60,17 @@ struct SlamOptions {
   int rematch_every_n_nodes = 3;
   int rematch_rounds = 1;
   SearchWindow rematch_window{0.3, 0.05, 0.01};
+  // Memory bounded by the mapped space, not by the time mapped. When a submap is finished, every older
+  // finished submap with at least `retire_after_submaps` newer finished ones (of any robot, not retired)
+  // whose origins lie within `retire_distance_m` of its own (by the graph's estimate) is retired: its
+  // grid and search levels are freed and it is searched no more; its constraints stay in the graph. A
+  // place mapped again and again keeps that many submaps. 0: none retired.
+  int retire_after_submaps = 3;
+  double retire_distance_m = 1.5;
+  // The second search's returns: kept for at most this many nodes per square of `rematch_cell_m` (by the
+  // node's pose in the graph when it was added). 0: no limit.
+  int rematch_nodes_per_cell = 16;
+  double rematch_cell_m = 1.0;
   // Threads for the loop-closure searches and refinements (the caller's among them). Their results
   // join the graph in a fixed order, so the poses are the same to the bit whatever this is.
   int threads = 2;
@@ -73,6 +85,9 @@ struct SlamStats {
   std::size_t nodes = 0, submaps = 0, searches = 0, closures = 0, optimizations = 0;
   std::size_t tracked = 0;  // closures refined from a followed one, without a search
   std::size_t rematches = 0;  // closures added by the second search at the end
+  std::size_t retired = 0;    // submaps retired (SlamOptions::retire_after_submaps)
+  std::size_t kept_returns = 0;  // nodes whose returns are kept for the second search
+  std::size_t memory_bytes = 0;  // the submaps' grids and search levels and the kept returns, now
 };
 
 // The options for tilted lasers' returns (fusion/planar_returns.hpp: a node is a robot's wall returns
@@ -108,6 +123,8 @@ class PlanarSlam {
   Robot& robot(std::uint8_t id);
   void insert(Robot& r, std::size_t node, const Pose2& local, const std::vector<Vec2>& points);
   void close_loops(Robot& r, std::size_t node, const std::vector<Vec2>& points);
+  void retire_covered(std::size_t finished);
+  [[nodiscard]] bool keep_returns(std::size_t node);
   void after_optimization();
   [[nodiscard]] std::optional<Constraint> make_closure(std::size_t submap, std::size_t node, const std::vector<Vec2>& points,
                                                       const Pose2& start) const;
@@ -120,6 +137,8 @@ class PlanarSlam {
   std::vector<Pose2> node_local_;
   std::vector<std::uint8_t> node_robot_;
   std::vector<std::vector<Vec2>> node_points_;  // the searched nodes' returns (empty for the others), for rematch()
+  std::map<std::pair<std::int64_t, std::int64_t>, int> kept_per_cell_;  // rematch_cell_m squares -> nodes kept there
+  std::size_t retired_ = 0, kept_returns_ = 0;
   std::size_t searches_ = 0, tracked_ = 0, rematches_ = 0;
 };
 

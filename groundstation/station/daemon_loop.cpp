@@ -274,10 +274,10 @@ void finish_fusion(Daemon& d) {
   const posegraph::SlamStats st = g->graph_stats();
   char line[320];
   std::snprintf(line, sizeof line,
-                "pose graph: %llu scans, %llu nodes (%zu behind at the stop, at most %zu), %zu submaps, %zu closures, "
-                "%.1f s from the first scan to the last optimisation",
+                "pose graph: %llu scans, %llu nodes (%zu behind at the stop, at most %zu), %zu submaps (%zu retired), %zu closures, "
+                "%.0f MB of submaps and kept returns, %.1f s from the first scan to the last optimisation",
                 static_cast<unsigned long long>(c.scans), static_cast<unsigned long long>(c.nodes), behind, c.queue_max, st.submaps,
-                st.closures, g->seconds());
+                st.retired, st.closures, static_cast<double>(st.memory_bytes) / 1e6, g->seconds());
   d.store->log_event(now_realtime(), line);
   log(graph ? kInfo : kErr, graph ? std::string{line} + "; wrote robot<N>.graph.tum"
                                   : std::string{line} + "; robot<N>.graph.tum not written: " + graph.error().what);

@@ -52,6 +52,8 @@ SlamOptions options_from_env() {
       {"closure_window.angular_rad", &o.closure_window.angular_rad},
       {"rematch_window.linear_m", &o.rematch_window.linear_m},
       {"rematch_window.angular_rad", &o.rematch_window.angular_rad},
+      {"retire_distance_m", &o.retire_distance_m},
+      {"rematch_cell_m", &o.rematch_cell_m},
   };
   std::map<std::string, int*> i = {
       {"scans_per_submap", &o.scans_per_submap},
@@ -69,6 +71,8 @@ SlamOptions options_from_env() {
       {"threads", &o.threads},
       {"graph.max_iterations", &o.graph.max_iterations},
       {"graph.final_max_iterations", &o.graph.final_max_iterations},
+      {"retire_after_submaps", &o.retire_after_submaps},
+      {"rematch_nodes_per_cell", &o.rematch_nodes_per_cell},
   };
   std::stringstream ss(env);
   std::string item;
@@ -141,8 +145,10 @@ void BM_IntelPoseGraph(benchmark::State& state) {
       odometry.push_back({log.stamps_us[k], log.odometry[k]});
     }
     const SlamStats st = slam.stats();
-    std::printf("%zu nodes, %zu submaps, %zu searches, %zu followed, %zu closures (%zu from the second search), %zu optimisations; CPU %.1f s (all threads), wall %.1f s\n",
-                st.nodes, st.submaps, st.searches, st.tracked, st.closures, st.rematches, st.optimizations, cpu, wall);
+    std::printf("%zu nodes, %zu submaps (%zu retired), %zu searches, %zu followed, %zu closures (%zu from the second search), %zu optimisations; "
+                "returns of %zu nodes kept; %.0f MB of grids, search levels and returns at the end; CPU %.1f s (all threads), wall %.1f s\n",
+                st.nodes, st.submaps, st.retired, st.searches, st.tracked, st.closures, st.rematches, st.optimizations, st.kept_returns,
+                static_cast<double>(st.memory_bytes) / 1e6, cpu, wall);
     print("odometry", trajectory::relation_errors(all, odometry));
     print("local SLAM, within 100 s", trajectory::relation_errors(near, local));
     print("pose graph", trajectory::relation_errors(all, corrected));
@@ -154,6 +160,7 @@ void BM_IntelPoseGraph(benchmark::State& state) {
     state.counters["rotation_mdeg"] = 1e3 * e.rotation_mean_deg;
     state.counters["cpu_s"] = cpu;
     state.counters["wall_s"] = wall;
+    state.counters["memory_mb"] = static_cast<double>(st.memory_bytes) / 1e6;
   }
 }
 BENCHMARK(BM_IntelPoseGraph)->Iterations(1)->Unit(benchmark::kSecond);
