@@ -69,7 +69,7 @@ struct SlamOptions {
   double retire_distance_m = 1.5;
   // The second search's returns: kept for at most this many nodes per square of `rematch_cell_m` (by the
   // node's pose in the graph when it was added). 0: no limit.
-  int rematch_nodes_per_cell = 16;
+  int rematch_nodes_per_cell = 64;
   double rematch_cell_m = 1.0;
   // Threads for the loop-closure searches and refinements (the caller's among them). Their results
   // join the graph in a fixed order, so the poses are the same to the bit whatever this is.
