@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "common/clock.hpp"
+#include "common/dataset/dataset.hpp"
 #include "common/result.hpp"
 #include "common/thread_placement.hpp"
 #include "common/time.hpp"
@@ -269,6 +270,9 @@ class FusionStage {
   void continue_catch_up();
   void finish_catch_up();
   void drop_catch_up();
+  // The session folder read back for a rebuild (a catch-up in slices under way dropped first); an error
+  // if it cannot be read or holds fewer scans than the cores took (not this station's folder).
+  [[nodiscard]] Result<Dataset> read_own_session();
   void on_rebuilt_release(const fusion::FusedScan& scan);
   void record_fused(std::uint8_t robot, std::uint32_t scan, std::int64_t stamp_ns, std::int64_t arrival_ns,
                     const Pose2& map_from_robot);

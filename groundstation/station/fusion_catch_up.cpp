@@ -11,6 +11,7 @@
 
 #include "common/clock.hpp"
 #include "common/dataset/dataset.hpp"
+#include "common/error_message.hpp"
 #include "groundstation/fusion/graph_map.hpp"
 #include "groundstation/fusion/time_line.hpp"
 #include "groundstation/station/catch_up_run.hpp"
@@ -173,17 +174,23 @@ void FusionStage::finish_catch_up() {
   if (on_catch_up_) on_catch_up_(counters_);
 }
 
-Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(double)>& progress) {
-  if (session_dir_.empty()) return Error{"fusion: no session folder to catch up from"};
+Result<Dataset> FusionStage::read_own_session() {
+  if (session_dir_.empty()) return Error{"fusion: no session folder to read back"};
   drop_catch_up();
-  const Time started = now_monotonic();
   SessionReadStats stats;
   Result<Dataset> session = read_session_dataset(session_dir_, stats);
   if (!session) return session.error();
   // Storage comes first, so the folder holds every scan the core took; if not (not this station's
   // folder), the cores stay as they are.
   if (session->scans.size() < core().counters().scans_released + core().held_scans())
-    return Error{"fusion: the session folder holds fewer scans than the fusion core took: no catch-up"};
+    return Error{"fusion: the session folder holds fewer scans than the fusion core took"};
+  return session;
+}
+
+Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(double)>& progress) {
+  const Time started = now_monotonic();
+  Result<Dataset> session = read_own_session();
+  if (!session) return with_context("fusion: no catch-up", session.error());
   writer_->wait();  // a snapshot in progress reads the cores
   map_ = LiveMap{options_.map_resolution_m};
   counters_.scans = counters_.points = counters_.live_removed = 0;
@@ -208,14 +215,9 @@ Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(
 
 Status FusionStage::rebuild_on_graph(const std::function<void(double)>& progress) {
   if (!graph_) return ok_status();
-  if (session_dir_.empty()) return Error{"fusion: no session folder to rebuild the model on the graph's poses from"};
-  drop_catch_up();
   const Time started = now_monotonic();
-  SessionReadStats stats;
-  Result<Dataset> session = read_session_dataset(session_dir_, stats);
+  Result<Dataset> session = read_own_session();
   if (!session) return session.error();
-  if (session->scans.size() < core().counters().scans_released + core().held_scans())
-    return Error{"fusion: the session folder holds fewer scans than the fusion core took: the model stays on the front end's poses"};
   fusion::CoreOptions primary = options_.core;
   primary.registration = false;  // the graph placed the scans
   Result<std::unique_ptr<fusion::CoreSet>> rebuilt = fusion::CoreSet::create(primary, options_.compare_methods);

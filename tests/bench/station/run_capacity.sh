@@ -70,7 +70,7 @@ for n in "${counts[@]}"; do
   per_scan=$(awk -v c="$cpu_s" -v n="$stored" 'BEGIN { if (n > 0) printf "%.3f", 1000 * c / n; else print "-" }')
   if [ -z "$line" ]; then echo "N=$n: no result:"; echo "$out" | tail -5; continue; fi
   printf '%4d %8s %8s %6s %8s %8s %8s %10s %7s %8s %8s %15s\n' "$n" "$fed" "$stored" "$lost" "$p50" "$p99" "$max" "$all_p99" "$cpu" "$rss" "$cpu_s" "$per_scan"
-  [ "$pose_graph" = 1 ] && echo "$out" | grep '^pose graph: ' | sed 's/^/     /'
+  [ "$pose_graph" = 1 ] && echo "$out" | grep -E '^(pose graph: |fusion: the final model)' | sed 's/^/     /'
   if [ "$lost" = "0" ] && awk -v p="$p99" 'BEGIN { exit !(p <= 50.0) }'; then best=$n; fi
 done
 echo "largest N with steady p99 <= 50 ms and nothing lost: $best (goal 32 on one core; load after: $(cut -d' ' -f1-3 /proc/loadavg))"
