@@ -46,4 +46,17 @@ Result<std::size_t> feed_on_poses(const Dataset& dataset, std::span<const std::o
   return time_line.records().size();
 }
 
+Result<std::unique_ptr<CoreSet>> cores_on_graph(const Dataset& dataset, const std::vector<GraphScanPose>& graph, CoreOptions primary,
+                                                const std::vector<std::string>& compared,
+                                                std::function<void(const FusedScan&)> on_primary_release,
+                                                const std::function<void(double)>& progress) {
+  primary.registration = false;
+  Result<std::unique_ptr<CoreSet>> cores = CoreSet::create(primary, compared);
+  if (!cores) return cores.error();
+  if (on_primary_release) cores.value()->primary().set_release_callback(std::move(on_primary_release));
+  const std::vector<std::optional<Pose2>> by_row = graph_poses_by_row(dataset, graph);
+  if (Result<std::size_t> fed = feed_on_poses(dataset, by_row, *cores.value(), progress); !fed) return fed.error();
+  return cores;
+}
+
 }  // namespace teamscan::fusion

@@ -11,6 +11,8 @@
 
 #include <cstddef>
 #include <functional>
+#include <memory>
+#include <string>
 #include <optional>
 #include <span>
 #include <vector>
@@ -37,5 +39,13 @@ namespace teamscan::fusion {
 // the scans fed. `progress` (optional) as TimeLine::feed's.
 [[nodiscard]] Result<std::size_t> feed_on_poses(const Dataset& dataset, std::span<const std::optional<Pose2>> by_row, CoreSet& cores,
                                                 const std::function<void(double)>& progress = {});
+
+// A new set of cores (`primary`'s options without the registration: the graph placed the scans, and the
+// compared methods) fed the data set on the graph's poses (feed_on_poses): the station's final model,
+// the demo's replay of it. `on_primary_release` (optional) sees every scan the primary releases.
+[[nodiscard]] Result<std::unique_ptr<CoreSet>> cores_on_graph(const Dataset& dataset, const std::vector<GraphScanPose>& graph,
+                                                              CoreOptions primary, const std::vector<std::string>& compared,
+                                                              std::function<void(const FusedScan&)> on_primary_release = {},
+                                                              const std::function<void(double)>& progress = {});
 
 }  // namespace teamscan::fusion

@@ -218,23 +218,20 @@ Status FusionStage::rebuild_on_graph(const std::function<void(double)>& progress
   const Time started = now_monotonic();
   Result<Dataset> session = read_own_session();
   if (!session) return session.error();
-  fusion::CoreOptions primary = options_.core;
-  primary.registration = false;  // the graph placed the scans
-  Result<std::unique_ptr<fusion::CoreSet>> rebuilt = fusion::CoreSet::create(primary, options_.compare_methods);
-  if (!rebuilt) return rebuilt.error();
-  fusion::CoreSet& cores = *rebuilt.value();
   LiveMap map{options_.map_resolution_m};
   std::uint64_t scans = 0, points = 0, removed = 0;
-  cores.primary().set_release_callback([&](const fusion::FusedScan& f) {
-    map.add_all(f.view->points, f.removed, f.stored, f.view->robot, f.release);
-    ++scans;
-    points += f.view->points.size();
-    for (std::uint8_t r : f.removed) removed += r != 0 ? 1 : 0;
-  });
-  const std::vector<std::optional<Pose2>> by_row = fusion::graph_poses_by_row(session.value(), graph_->poses());
-  if (Result<std::size_t> fed = fusion::feed_on_poses(session.value(), by_row, cores, progress); !fed) return fed.error();
+  Result<std::unique_ptr<fusion::CoreSet>> rebuilt = fusion::cores_on_graph(
+      session.value(), graph_->poses(), options_.core, options_.compare_methods,
+      [&](const fusion::FusedScan& f) {
+        map.add_all(f.view->points, f.removed, f.stored, f.view->robot, f.release);
+        ++scans;
+        points += f.view->points.size();
+        for (std::uint8_t r : f.removed) removed += r != 0 ? 1 : 0;
+      },
+      progress);
+  if (!rebuilt) return rebuilt.error();
   writer_->wait();  // a snapshot in progress reads the cores
-  cores_->take_state(cores);
+  cores_->take_state(*rebuilt.value());
   map_ = std::move(map);
   counters_.scans = scans;
   counters_.points = points;

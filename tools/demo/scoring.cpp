@@ -452,19 +452,16 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
     cores.flush();
     station::SessionReadStats again;
     Result<Dataset> ds = station::read_session_dataset(session, again);
-    fusion::CoreOptions primary = options.core;
-    primary.registration = false;
-    auto rebuilt = fusion::CoreSet::create(primary, options.compare_methods);
-    if (!ds || !rebuilt) {
-      out.error = !ds ? std::string("session: ") + ds.error().what : std::string("fusion cores: ") + rebuilt.error().what;
+    if (!ds) {
+      out.error = std::string("session: ") + ds.error().what;
+      return out;
+    }
+    auto rebuilt = fusion::cores_on_graph(ds.value(), graph->poses(), options.core, options.compare_methods);
+    if (!rebuilt) {
+      out.error = std::string("fusion cores on the graph's poses: ") + rebuilt.error().what;
       return out;
     }
     on_graph = std::move(rebuilt.value());
-    const std::vector<std::optional<Pose2>> by_row = fusion::graph_poses_by_row(ds.value(), graph->poses());
-    if (Result<std::size_t> fed = fusion::feed_on_poses(ds.value(), by_row, *on_graph); !fed) {
-      out.error = std::string("fusion cores on the graph's poses: ") + fed.error().what;
-      return out;
-    }
   }
   fusion::CoreSet& model_cores = on_graph ? *on_graph : cores;
   std::error_code ec;

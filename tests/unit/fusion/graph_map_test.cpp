@@ -57,7 +57,7 @@ TEST(GraphMap, TheCoresDecideEveryScanAtItsGivenPose) {
   o.max_points_per_voxel = 0;
   auto cores = CoreSet::create(o, {"visibility"});
   ASSERT_TRUE(cores.ok()) << cores.error().what;
-  std::size_t released = 0;
+  std::size_t released = 0, points = 0;
   double worst_pose = 0.0, worst_point = 0.0;
   cores.value()->primary().set_release_callback([&](const FusedScan& f) {
     ++released;
@@ -76,6 +76,7 @@ TEST(GraphMap, TheCoresDecideEveryScanAtItsGivenPose) {
         const double y = m.y_m + std::sin(m.theta_rad) * p.x + std::cos(m.theta_rad) * p.y;
         worst_point = std::max({worst_point, std::abs(f.view->points[j].x - x), std::abs(f.view->points[j].y - y)});
         ++j;
+        ++points;
       }
     }
   });
@@ -84,6 +85,7 @@ TEST(GraphMap, TheCoresDecideEveryScanAtItsGivenPose) {
   EXPECT_EQ(fed.value(), d.scans.size());
   EXPECT_EQ(released, d.scans.size()) << "flushed: every scan released";
   EXPECT_LT(worst_pose, 1e-6);
+  EXPECT_GT(points, d.points.size() / 2) << "the points compared with their moved positions";
   EXPECT_LT(worst_point, 1e-4);
   EXPECT_GT(cores.value()->at(1).counters().scans_released, 0u) << "the compared core fed too";
 }
