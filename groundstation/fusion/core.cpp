@@ -186,13 +186,13 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
     watermark = std::min(watermark, poses_.newest_stamp(r));
   }
   // With the registration, the release order is part of the state (each match sees the reference the
-  // scans released before it built), so a scan also waits until no earlier-stamped scan can still
+  // scans released before it built; a pose graph fed the releases: CoreOptions::stamp_order), so a scan also waits until no earlier-stamped scan can still
   // arrive: a robot's scans arrive in order, each stamped at least min_scan_interval_s after the one
   // before (at least 1 ns), so robot r sends nothing stamped before newest_r + interval. A scan stamped
   // before that for every robot still sending is released, and live releases in stamp order as
   // `teamscan eval` does. Costs up to a scan period minus the interval.
   std::int64_t scan_watermark = INT64_MAX;  // release what is stamped before it
-  if (registration_) {
+  if (registration_ || options_.stamp_order) {
     const std::int64_t interval_ns = std::max<std::int64_t>(1, from_seconds(options_.min_scan_interval_s).count());
     for (std::uint8_t r = 1; r <= kMaxRobots; ++r) {
       if (last_scan_arrival_ns_[r] == INT64_MIN || now_ns - last_scan_arrival_ns_[r] >= hold_ns) continue;
@@ -276,7 +276,9 @@ void FusionCore::release(ScanInput& s, std::int64_t arrival_ns, bool forced) {
   // correction in force at the scan's stamp (identity until set): points and origin into the map frame.
   if (registration_) register_scan(s);
   const Pose2 correction = poses_.map_from_odom(s.robot, s.stamp_ns);
-  if (!is_identity(correction)) {
+  const bool corrected = !is_identity(correction);
+  if (corrected && on_release_) odom_points_.assign(s.points.begin(), s.points.end());  // reused: no allocation once grown
+  if (corrected) {
     for (mapping::MapPoint& p : s.points) {
       const Vec2 q = correction.apply(Vec2{p.x, p.y});
       p.x = static_cast<float>(q.x);
@@ -316,6 +318,8 @@ void FusionCore::release(ScanInput& s, std::int64_t arrival_ns, bool forced) {
     FusedScan f;
     f.view = &view;
     f.map_from_odom = correction;
+    f.odom_from_robot = own.found ? own.odom : correction.inverse() * view.map_from_robot;
+    f.odom_points = corrected ? std::span<const mapping::MapPoint>(odom_points_) : view.points;
     f.arrival_ns = arrival_ns;
     f.forced = forced;
     f.beams = s.beams;

@@ -74,7 +74,18 @@ struct CoreOptions {
   // leaves room for the stamps' jitter. 0: wait for a scan stamped at or after it (up to a scan period
   // more). A scan stamped closer to its predecessor is released out of order (counted).
   double min_scan_interval_s = to_seconds(kLmsRevolution) / 2;
+  // Scans released in stamp order (as with the registration, by min_scan_interval_s) without the
+  // registration too: a pose graph fed the releases (graph_backend.hpp) has the release order as its
+  // state. Whoever gives a core a graph sets it (with_graph_order), so a core rebuilt without the
+  // registration on the graph's poses releases in the order the first one did.
+  bool stamp_order = false;
 };
+
+// `o` as a core that feeds a pose graph runs: stamp_order set.
+[[nodiscard]] inline CoreOptions with_graph_order(CoreOptions o) {
+  o.stamp_order = true;
+  return o;
+}
 
 // One scan as the core takes, holds and releases it: who measured it, its sequence number and stamp,
 // its sensor origin and map-frame points before map_from_odom in metres with their onboard flags in the
@@ -110,6 +121,8 @@ struct ScanInput {
 struct FusedScan {
   const mapping::ScanView* view = nullptr;    // the released ScanInput's view, with its pose and team
   Pose2 map_from_odom;                        // the correction its points and origin were moved by (identity: none)
+  Pose2 odom_from_robot;                      // its pose before the correction (the robot's odometry)
+  std::span<const mapping::MapPoint> odom_points;  // its points before the correction, as the robot placed them
   std::int64_t arrival_ns = 0;
   bool forced = false;                        // released by hold_s, not by the poses
   std::span<const std::uint16_t> beams;
@@ -271,6 +284,7 @@ class FusionCore {
   std::unique_ptr<registration::Registration> registration_;
   // Scratch of a release.
   std::vector<std::uint8_t> bits_, removed_, stored_;
+  std::vector<mapping::MapPoint> odom_points_;  // the released scan's points before its correction
   std::vector<ModelPoint> model_points_;  // store()'s scratch
   std::vector<Held> releasing_;
   std::vector<Vec3> registration_points_;

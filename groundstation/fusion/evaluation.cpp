@@ -191,6 +191,7 @@ Result<CoreRun> run_through_core(const Dataset& dataset, const std::string& meth
   co.max_points_per_voxel = 0;  // the decisions are kept here, per point
   co.registration = run.registration;
   co.registration_options = run.registration_options;
+  if (run.graph != nullptr || !run.decide_with.empty()) co = with_graph_order(co);
   auto created = fusion::FusionCore::create(co);
   if (!created) return with_context(method, created.error());
   fusion::FusionCore& core = *created.value();

@@ -26,6 +26,10 @@ void GraphBackend::add(const FusedScan& released, const Pose2* odom_from_robot) 
   if (finishing_ || released.view == nullptr) return;
   const mapping::ScanView& v = *released.view;
   if (v.robot > kMaxRobots) return;
+  if (!seen_.emplace(v.robot, v.scan, v.stamp_ns).second) {
+    ++counters_.repeated_scans;
+    return;
+  }
   Open& o = open_[v.robot];
   if (!o.tilted && v.points.size() >= 2) o.tilted = !level_scan(v);
   const bool tilted = o.tilted.value_or(false);
@@ -34,11 +38,13 @@ void GraphBackend::add(const FusedScan& released, const Pose2* odom_from_robot) 
   const auto span_ns = static_cast<std::int64_t>(options_.returns.tilted_node_s * 1e9);
   if (!o.scans.empty() && (!tilted || v.stamp_ns - o.first_stamp_ns >= span_ns)) close(v.robot);
   if (o.scans.empty()) o.first_stamp_ns = v.stamp_ns;
+  // The points as the robot placed them, before the core's correction.
+  const std::span<const mapping::MapPoint> points = released.odom_points.size() == v.points.size() ? released.odom_points : v.points;
   take_planar_returns(v, tilted, options_.returns, taken_, counters_.returns);
-  for (std::size_t j = 0; j < v.points.size(); ++j)
-    if (taken_[j] != 0) o.map_returns.push_back({v.points[j].x, v.points[j].y});
-  const Pose2 placed = odom_from_robot != nullptr ? released.map_from_odom * *odom_from_robot : v.map_from_robot;
-  o.scans.push_back({v.robot, v.scan, v.stamp_ns, placed, placed});
+  for (std::size_t j = 0; j < points.size(); ++j)
+    if (taken_[j] != 0) o.odom_returns.push_back({points[j].x, points[j].y});
+  const Pose2 odom = odom_from_robot != nullptr ? *odom_from_robot : released.odom_from_robot;
+  o.scans.push_back({v.robot, v.scan, v.stamp_ns, odom, odom});
   if (counters_.scans++ == 0) first_scan_ = std::chrono::steady_clock::now();
   if (tilted) ++counters_.tilted_scans;
   if (!tilted) close(v.robot);
@@ -50,14 +56,14 @@ void GraphBackend::close(std::uint8_t robot) {
   Node n;
   n.robot = robot;
   n.tilted = o.tilted.value_or(false);
-  n.decided = o.scans.back().decided;
-  // The points were placed in the map frame with their scans' decided poses: into the node's frame.
-  const Pose2 node_from_map = n.decided.inverse();
-  n.returns.reserve(o.map_returns.size());
-  for (const Vec2& p : o.map_returns) n.returns.push_back(node_from_map.apply(p));
+  n.odom = o.scans.back().odom;
+  // Into the frame of the node's last scan.
+  const Pose2 node_from_odom = n.odom.inverse();
+  n.returns.reserve(o.odom_returns.size());
+  for (const Vec2& p : o.odom_returns) n.returns.push_back(node_from_odom.apply(p));
   n.scans = std::move(o.scans);
   o.scans.clear();
-  o.map_returns.clear();
+  o.odom_returns.clear();
   ++counters_.nodes;
   {
     const std::lock_guard lock(mutex_);
@@ -102,27 +108,63 @@ void GraphBackend::run() {
     }
     if (!slam_) slam_ = std::make_unique<posegraph::PlanarSlam>(
                     options_.slam ? *options_.slam : n.tilted ? posegraph::tilted_laser_options() : posegraph::SlamOptions{});
-    graph_node_.push_back(slam_->add_scan(n.robot, n.decided, n.returns));
+    graph_node_.push_back(slam_->add_scan(n.robot, n.odom, n.returns));
     n.returns = {};
     in_graph_.push_back(std::move(n));
+    publish_estimate();
   }
   if (slam_) slam_->finish();
-  // Each scan: its node's pose moved by the front end's motion from the node's last scan to it.
-  for (std::size_t k = 0; k < in_graph_.size(); ++k) {
-    const Node& n = in_graph_[k];
-    const Pose2 node = slam_->pose(graph_node_[k]);
-    const Pose2 node_from_map = n.decided.inverse();
-    for (GraphScanPose s : n.scans) {
-      s.graph = node * (node_from_map * s.decided);
-      poses_.push_back(s);
-    }
-  }
+  std::vector<Pose2> nodes;
+  if (slam_)
+    for (std::size_t k = 0; k < in_graph_.size(); ++k) nodes.push_back(slam_->pose(graph_node_[k]));
+  poses_ = scan_poses(nodes);
   {
     const std::lock_guard lock(mutex_);
     done_at_ = std::chrono::steady_clock::now();
     done_ = true;
   }
   done_cv_.notify_all();
+}
+
+std::vector<GraphScanPose> GraphBackend::scan_poses(const std::vector<Pose2>& nodes) const {
+  // Each scan: its node's pose moved by the odometry's motion from the node's last scan to it.
+  std::vector<GraphScanPose> out;
+  for (std::size_t k = 0; k < in_graph_.size() && k < nodes.size(); ++k) {
+    const Node& n = in_graph_[k];
+    const Pose2 node_from_odom = n.odom.inverse();
+    for (GraphScanPose s : n.scans) {
+      s.graph = nodes[k] * (node_from_odom * s.odom);
+      out.push_back(s);
+    }
+  }
+  return out;
+}
+
+void GraphBackend::publish_estimate() {
+  if (!(options_.estimate_every_s > 0.0) || in_graph_.size() == estimated_nodes_) return;
+  const auto now = std::chrono::steady_clock::now();
+  if (in_graph_.size() == 1) estimated_at_ = now;  // the clock starts with the first node
+  if (std::chrono::duration<double>(now - estimated_at_).count() < options_.estimate_every_s) return;
+  auto e = std::make_shared<GraphEstimate>();
+  const std::vector<Pose2> all = slam_->estimate();
+  std::vector<Pose2> nodes;
+  nodes.reserve(in_graph_.size());
+  for (std::size_t k = 0; k < in_graph_.size(); ++k) nodes.push_back(all[graph_node_[k]]);
+  e->poses = scan_poses(nodes);
+  const posegraph::SlamStats stats = slam_->stats();
+  e->nodes = stats.nodes;
+  e->closures = stats.closures;
+  e->solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - now).count();
+  estimated_at_ = now;
+  estimated_nodes_ = in_graph_.size();
+  const std::lock_guard lock(mutex_);
+  e->version = latest_ ? latest_->version + 1 : 1;
+  latest_ = std::move(e);
+}
+
+std::shared_ptr<const GraphEstimate> GraphBackend::latest() {
+  const std::lock_guard lock(mutex_);
+  return latest_;
 }
 
 void GraphBackend::wait_done() {

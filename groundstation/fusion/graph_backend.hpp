@@ -1,12 +1,15 @@
 // The fusion core's back end: the team's 2-D pose graph (groundstation/posegraph: submaps, loop
-// closure within and between robots, Ceres), fed every scan the core released with the pose the core
-// decided it with (the registration's, or the odometry's: the graph's odometry is the front end's).
-// Each released scan's returns that pin x, y and yaw (planar_returns.hpp) are copied into the robot
-// frame of its node (a level laser's scan, or a tilted laser's scans over tilted_node_s); the closed
-// nodes go to the graph on the back end's own thread, so the caller's loop only copies returns.
+// closure within and between robots, Ceres), fed every scan the core released. Its front end is the
+// robots' odometry: each released scan's returns that pin x, y and yaw (planar_returns.hpp) are taken
+// back out of the correction the core applied (registration's or the graph's own) into the frame of
+// the odometry that placed them, and copied into the robot frame of its node (a level laser's scan, or
+// a tilted laser's scans over tilted_node_s). So what the graph is given does not depend on how the
+// map was corrected when the scan was released: a map that follows the graph feeds it no feedback. The
+// closed nodes go to the graph on the back end's own thread, so the caller's loop only copies returns.
 // Deterministic: the nodes join the graph in the order they closed, so the same releases in the same
 // order give the same poses to the bit, whatever the threads did (`teamscan eval --pose-graph` and a
-// station fed the same releases agree).
+// station fed the same releases agree). While it runs it publishes, every estimate_every_s, every
+// scan's pose as the graph would put it now (latest()): what a live map follows.
 #pragma once
 
 #include <chrono>
@@ -16,6 +19,8 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
+#include <tuple>
 #include <thread>
 #include <vector>
 
@@ -36,6 +41,10 @@ struct GraphBackendOptions {
   // The CPUs of the graph's thread (empty: the caller's). It runs SCHED_BATCH at nice 10, so a station's
   // receive loop on the same CPU is not preempted by it; a station pinned to one core names another.
   std::vector<int> cpus;
+  // While scans come in: at most every this many seconds (the graph thread's clock), once nodes were
+  // added since the last one, the graph is solved on a copy (posegraph::PlanarSlam::estimate) and every
+  // scan in it so far published with its pose (latest()). 0: none (the poses only at the end).
+  double estimate_every_s = 0.0;
 };
 
 // A released scan's pose: as the core decided it, and as the graph put it.
@@ -43,14 +52,25 @@ struct GraphScanPose {
   std::uint8_t robot = 0;
   std::uint32_t scan = 0;
   std::int64_t stamp_ns = 0;
-  Pose2 decided;  // the pose its returns are relative to (map_from_robot as released, or as add() was told)
-  Pose2 graph;    // after the graph's last optimisation
+  Pose2 odom;   // the odometry's pose, its returns relative to it (the released pose without its correction)
+  Pose2 graph;  // after the graph's last optimisation
+};
+
+// The graph's poses while it runs: every scan in the graph when it was solved (the scans of nodes still
+// open or queued are not), as GraphBackend::poses() gives them at the end.
+struct GraphEstimate {
+  std::uint64_t version = 0;  // 1, 2, ... in the order they were made
+  std::size_t nodes = 0;      // the graph's nodes and loop closures then
+  std::size_t closures = 0;
+  double solve_s = 0.0;       // the copy's optimisation, wall time
+  std::vector<GraphScanPose> poses;
 };
 
 struct GraphBackendCounters {
   std::uint64_t scans = 0;       // released scans taken
   std::uint64_t nodes = 0;       // closed nodes handed to the graph
   std::uint64_t tilted_scans = 0;
+  std::uint64_t repeated_scans = 0;  // a (robot, scan, stamp) taken before: ignored (a rebuilt core's release of it)
   PlanarReturnCounts returns;
   std::size_t queue_max = 0;     // the most closed nodes waiting for the graph at once
 };
@@ -68,11 +88,12 @@ class GraphBackend {
   GraphBackend(const GraphBackend&) = delete;
   GraphBackend& operator=(const GraphBackend&) = delete;
 
-  // A scan the core released (its release callback), in release order. Not after finish(). Its returns
-  // go into the graph relative to the pose its points were placed with: `odom_from_robot`, when the
-  // caller knows it (a data set's scan row: the pose its source placed them with), moved by the
-  // correction the core applied; else the pose the core decided it with (the station: its points were
-  // placed by the robot's odometry, of which the core's pose history holds the published samples).
+  // A scan the core released (its release callback), in release order. Not after finish(). A scan taken
+  // before (same robot, sequence number and stamp) is ignored. Its returns go into the graph relative to
+  // the odometry pose its points were placed with: `odom_from_robot`, when the caller knows it (a data
+  // set's scan row: the pose its source placed them with); else the pose the core decided it with
+  // without the core's correction (the station: its points were placed by the robot's odometry, of which
+  // the core's pose history holds the published samples).
   void add(const FusedScan& released, const Pose2* odom_from_robot = nullptr);
   // No more scans: the open nodes close, the graph takes the rest, is searched again and optimised a
   // last time (posegraph::PlanarSlam::finish), all on the back end's thread. Returns at once.
@@ -89,6 +110,9 @@ class GraphBackend {
   [[nodiscard]] std::size_t queued();
   // The graph's thread's CPUs and scheduling, once it started (policy -1 before).
   [[nodiscard]] GraphThreadPlacement placement();
+  // The newest estimate the graph's thread published while running (estimate_every_s), nullptr before
+  // the first. Cheap: the caller shares it.
+  [[nodiscard]] std::shared_ptr<const GraphEstimate> latest();
   // Waits for finish()'s work; then the time from the first scan taken to the last optimisation's end.
   [[nodiscard]] double seconds();
 
@@ -96,24 +120,28 @@ class GraphBackend {
   struct Node {
     std::uint8_t robot = 0;
     bool tilted = false;
-    Pose2 decided;                         // the node's last scan's
+    Pose2 odom;                            // the node's last scan's
     std::vector<Vec2> returns;             // in that scan's robot frame
     std::vector<GraphScanPose> scans;      // the scans it gathers, in order (graph unset)
   };
   struct Open {
     std::int64_t first_stamp_ns = 0;
     std::optional<bool> tilted;            // the robot's laser, from its first scan with points
-    std::vector<Vec2> map_returns;         // gathered so far, map frame (the decided poses)
+    std::vector<Vec2> odom_returns;        // gathered so far, in the odometry's frame
     std::vector<GraphScanPose> scans;
   };
   void close(std::uint8_t robot);
   void run();
+  // Every scan in the graph with its node's pose in `nodes` (the graph's node order).
+  [[nodiscard]] std::vector<GraphScanPose> scan_poses(const std::vector<Pose2>& nodes) const;
+  void publish_estimate();
   void wait_done();
 
   GraphBackendOptions options_;
   GraphBackendCounters counters_;
   std::vector<Open> open_;  // per robot id
   std::vector<std::uint8_t> taken_;
+  std::set<std::tuple<std::uint8_t, std::uint32_t, std::int64_t>> seen_;  // the scans taken
   bool finishing_ = false;
   std::chrono::steady_clock::time_point first_scan_, done_at_;
 
@@ -128,6 +156,9 @@ class GraphBackend {
   std::vector<Node> in_graph_;              // node k = the graph's node k (returns dropped)
   std::vector<std::size_t> graph_node_;
   std::vector<GraphScanPose> poses_;
+  std::chrono::steady_clock::time_point estimated_at_;
+  std::size_t estimated_nodes_ = 0;
+  std::shared_ptr<const GraphEstimate> latest_;  // under mutex_
   std::thread thread_;
 };
 

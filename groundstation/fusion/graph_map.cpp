@@ -51,12 +51,23 @@ Result<std::unique_ptr<CoreSet>> cores_on_graph(const Dataset& dataset, const st
                                                 std::function<void(const FusedScan&)> on_primary_release,
                                                 const std::function<void(double)>& progress) {
   primary.registration = false;
-  Result<std::unique_ptr<CoreSet>> cores = CoreSet::create(primary, compared);
+  Result<std::unique_ptr<CoreSet>> cores = CoreSet::create(with_graph_order(primary), compared);
   if (!cores) return cores.error();
   if (on_primary_release) cores.value()->primary().set_release_callback(std::move(on_primary_release));
   const std::vector<std::optional<Pose2>> by_row = graph_poses_by_row(dataset, graph);
   if (Result<std::size_t> fed = feed_on_poses(dataset, by_row, *cores.value(), progress); !fed) return fed.error();
   return cores;
+}
+
+Result<RebuildSource> rebuild_source_on_graph(Dataset dataset, CoreOptions primary, const std::vector<std::string>& compared,
+                                              const std::vector<GraphScanPose>& graph) {
+  primary.registration = false;
+  Result<RebuildSource> source = make_rebuild_source(std::move(dataset), with_graph_order(primary), compared);
+  if (!source) return source.error();
+  const std::vector<std::optional<Pose2>> by_row = graph_poses_by_row(*source->dataset, graph);
+  for (std::size_t i = 0; i < source->cores->size(); ++i)
+    if (Status st = decide_with(source->cores->at(i).poses(), *source->dataset, by_row); !st.ok()) return st.error();
+  return source;
 }
 
 }  // namespace teamscan::fusion

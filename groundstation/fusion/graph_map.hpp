@@ -20,6 +20,7 @@
 #include "common/dataset/dataset.hpp"
 #include "common/pose.hpp"
 #include "common/result.hpp"
+#include "groundstation/fusion/core_rebuild.hpp"
 #include "groundstation/fusion/core_set.hpp"
 #include "groundstation/fusion/graph_backend.hpp"
 #include "groundstation/fusion/pose_history.hpp"
@@ -47,5 +48,10 @@ namespace teamscan::fusion {
                                                               CoreOptions primary, const std::vector<std::string>& compared,
                                                               std::function<void(const FusedScan&)> on_primary_release = {},
                                                               const std::function<void(double)>& progress = {});
+
+// A rebuild in slices (core_rebuild.hpp) on the graph's poses: a new set of cores as cores_on_graph's,
+// given the poses (decide_with) and not yet fed: the station's live map following the graph's estimate.
+[[nodiscard]] Result<RebuildSource> rebuild_source_on_graph(Dataset dataset, CoreOptions primary, const std::vector<std::string>& compared,
+                                                            const std::vector<GraphScanPose>& graph);
 
 }  // namespace teamscan::fusion

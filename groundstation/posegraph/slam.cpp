@@ -308,6 +308,12 @@ void PlanarSlam::finish() {
   after_optimization();
 }
 
+std::vector<Pose2> PlanarSlam::estimate() const {
+  PoseGraph copy = graph_;
+  copy.optimize();
+  return copy.nodes();
+}
+
 SlamStats PlanarSlam::stats() const {
   std::size_t bytes = 0;
   for (const auto& m : submaps_) bytes += m->grid.values().capacity() * sizeof(float) + (m->matcher ? m->matcher->memory_bytes() : 0);

@@ -111,6 +111,10 @@ class PlanarSlam {
   std::size_t add_scan(std::uint8_t robot, const Pose2& odometry, const std::vector<Vec2>& points);
   // The last optimisation, over every node.
   void finish();
+  // Every node's pose as an optimisation now would put it, solved on a copy of the graph: the graph, its
+  // next searches and its poses stay as they were (a live view between the optimisations of the graph
+  // itself, which happen at fixed node counts so that the result does not depend on when this is called).
+  [[nodiscard]] std::vector<Pose2> estimate() const;
 
   [[nodiscard]] Pose2 pose(std::size_t node) const { return graph_.nodes()[node]; }
   // The node's pose in its robot's local SLAM frame (scan-to-submap matching alone, no loop closure).

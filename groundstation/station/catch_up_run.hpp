@@ -28,7 +28,9 @@ struct FusionStage::CatchUpRun {
   std::future<Result<fusion::RebuildSource>> loading;
   std::uint64_t scans_needed = 0;  // the scans the live cores had taken: the session read must hold them
   LiveMap map;                     // the rebuilt primary's model, as the live map will show it
-  std::unique_ptr<fusion::GraphBackend> graph;  // fed the rebuilt primary's releases (with pose_graph)
+  std::unique_ptr<fusion::GraphBackend> graph;  // fed the rebuilt primary's releases (a catch-up with pose_graph)
+  std::shared_ptr<const fusion::GraphEstimate> on_graph;  // the estimate the cores are rebuilt on (none: as configured)
+  bool follow = false;             // a rebuild on the estimate that keeps the live graph
   std::uint64_t scans = 0, points = 0, live_removed = 0;
   bool behind = false;             // the session is fed: the rebuilt cores take the queued live inputs
   std::uint64_t late_base = 0;     // the rebuilt primary's scans_late + poses_late after the session

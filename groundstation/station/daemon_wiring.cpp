@@ -248,11 +248,17 @@ std::optional<int> start_daemon(const GroundStationConfig& cfg, const std::strin
   if (d.fusion) d.fusion->set_write_callback([&cfg, &d](const ModelWriteReport& w) { log_model_write(cfg, d, w); });
   if (d.fusion) {
     d.fusion->set_catch_up_callback([&d](const FusionCounters& c) {  // after a back-fill (fusion.hpp catch_up)
-      char text[320];
+      char text[400];
+      char what[160];
+      if (c.last_rebuild_followed_graph)
+        std::snprintf(what, sizeof what, "the map follows the pose graph's estimate (%llu nodes, %llu loop closures)",
+                      static_cast<unsigned long long>(c.followed_nodes), static_cast<unsigned long long>(c.followed_closures));
+      else
+        std::snprintf(what, sizeof what, "caught up in time order");
       std::snprintf(text, sizeof text,
-                    "fusion: caught up in time order: %llu scans of the session decided again in %.2f s "
+                    "fusion: %s: %llu scans of the session decided again in %.2f s "
                     "(%llu loop turns, at most %.1f ms of one; %llu live scans fed behind them)",
-                    static_cast<unsigned long long>(c.caught_up_scans), c.last_catch_up_s,
+                    what, static_cast<unsigned long long>(c.caught_up_scans), c.last_catch_up_s,
                     static_cast<unsigned long long>(c.catch_up_turns), c.catch_up_slice_max_s * 1e3,
                     static_cast<unsigned long long>(c.caught_up_live_scans));
       d.store->log_event(now_realtime(), text);

@@ -75,8 +75,10 @@ const fusion::ScanInput& scan_input(const ScanPoints& s, const Receipt& receipt,
   return out;
 }
 
-Result<std::unique_ptr<FusionStage>> FusionStage::create(const FusionOptions& options, std::string session_dir) {
-  if (!(options.map_resolution_m > 0.0)) return Error{"fusion: map resolution must be > 0 (fusion.map_resolution_m)"};
+Result<std::unique_ptr<FusionStage>> FusionStage::create(const FusionOptions& given, std::string session_dir) {
+  if (!(given.map_resolution_m > 0.0)) return Error{"fusion: map resolution must be > 0 (fusion.map_resolution_m)"};
+  FusionOptions options = given;
+  if (options.pose_graph) options.core = fusion::with_graph_order(options.core);
   auto cores = fusion::CoreSet::create(options.core, options.compare_methods);
   if (!cores.ok()) return cores.error();
   return std::unique_ptr<FusionStage>(new FusionStage(options, std::move(session_dir), std::move(cores.value())));
@@ -219,6 +221,9 @@ void FusionStage::on_rebuilt_release(const fusion::FusedScan& f) {
   run.map.add_all(points, f.removed, f.stored, f.view->robot, f.release);
   for (std::uint8_t r : f.removed) run.live_removed += r != 0 ? 1 : 0;
   if (run.graph) run.graph->add(f);
+  // Following the graph, it keeps taking the live releases; a queued scan the rebuilt cores release
+  // first goes to it from here (one it took already is ignored).
+  if (run.follow && run.behind && graph_) graph_->add(f);
   if (run.behind)
     run.rebuilt_released.push_back({f.view->robot, f.view->scan, f.view->stamp_ns, f.arrival_ns, f.view->map_from_robot});
 }
@@ -257,16 +262,17 @@ std::uint32_t FusionStage::map_resolution_mm() const {
 }
 
 void CorrectionShare::share(const fusion::FusionCore& core, TeamSource& team, Time at) {
+  // Without the registration (off, or the cores follow the pose graph) a changed correction is a change
+  // of frame, never a measurement.
   const registration::Registration* reg = core.registration();
-  if (reg == nullptr) return;
   for (std::uint8_t id = 1; id <= kMaxRobots; ++id) {
     const fusion::PoseHistory::Correction* c = core.poses().correction_at(id, at.ns());
     if (c == nullptr) continue;
     Shared& s = shared_[id];
     const Pose2& m = c->map_from_odom;
     if (s.any && s.from_stamp_ns == c->from_stamp_ns && s.map_from_odom == m) continue;
-    const registration::RobotCorrection* r = reg->correction(id);
-    const std::uint64_t accepted = r != nullptr ? r->accepted : 0;
+    const registration::RobotCorrection* r = reg != nullptr ? reg->correction(id) : nullptr;
+    const std::uint64_t accepted = r != nullptr ? r->accepted : s.accepted;
     team.set_correction(id, m.x_m, m.y_m, m.theta_rad, c->position_sigma_m, c->heading_sigma_rad, accepted != s.accepted);
     s = Shared{c->from_stamp_ns, m, accepted, true};
   }

@@ -88,11 +88,14 @@ struct FusionOptions {
   // The catch-up in the loop is done in slices: the session folder is read off the loop (a loader
   // thread), then each loop turn feeds the rebuilt cores at most this many scans while the live cores
   // go on taking, fusing and showing the robots' scans; the rebuilt cores take over once they caught up
-  // with the live ones. 0: the whole catch-up in the turn it is due, holding the loop (catch_up()).
+  // with the live ones. 0: the whole catch-up in the turn it is due, holding the loop (catch_up()), and
+  // the live map does not follow the pose graph (only the final model does).
   std::uint32_t catch_up_slice_scans = 16;
-  // The pose graph as the primary core's back end (fusion/graph_backend.hpp; [fusion] pose_graph): fed
-  // every scan the core releases, on its own thread; its trajectory is written at the end
-  // (write_graph_trajectories). Unset: none.
+  // The pose graph as the primary core's back end (fusion/graph_backend.hpp; [pose_graph]): fed every
+  // scan the core releases, on its own thread; its trajectory is written at the end
+  // (write_graph_trajectories). With its estimate_every_s, the live map follows it: each new estimate
+  // rebuilds the cores from the session folder on the graph's poses in slices, as a catch-up does
+  // (tick()), and they take over. Unset: none.
   std::optional<fusion::GraphBackendOptions> pose_graph;
   // The CPUs the model writer thread may run on (empty: the process's affinity). A station whose loop
   // is pinned to one core keeps the writer's file work (page-cache copies, kernel sections that the
@@ -123,13 +126,17 @@ struct FusionCounters {
   std::uint64_t live_removed = 0;     // points removed at release (the map so far)
   std::uint64_t duplicates = 0;       // scans received again (DDS history replay): stored, not fused twice
   std::uint64_t replayed_scans = 0;   // scans of the session folder replayed at start-up
-  std::uint64_t catch_ups = 0;        // cores rebuilt in time order from the session folder (catch_up)
+  std::uint64_t catch_ups = 0;        // cores rebuilt in time order from the session folder after late inputs (catch_up)
   std::uint64_t caught_up_scans = 0;  // scans the last catch-up fed
   double last_catch_up_s = 0.0;       // the last catch-up, from due to done (CLOCK_MONOTONIC): in slices, the span
   std::uint64_t catch_up_turns = 0;   // the last catch-up's loop turns that fed the rebuilt cores (0: in one turn)
   double catch_up_slice_max_s = 0.0;  // ... its longest share of one loop turn (a slice, the start or the take-over)
   std::uint64_t caught_up_live_scans = 0;  // ... live scans fed to the rebuilt cores behind the session
   std::uint64_t catch_up_failures = 0;  // the session folder could not be read back (the cores as they were)
+  std::uint64_t graph_follows = 0;    // the live cores taken over by cores rebuilt on a graph estimate (tick())
+  std::uint64_t followed_nodes = 0;   // ... the last one's graph nodes and loop closures
+  std::uint64_t followed_closures = 0;
+  bool last_rebuild_followed_graph = false;  // the last rebuild (the catch-up counters) was a follow
   std::uint64_t graph_rebuilds = 0;   // the cores rebuilt on the pose graph's poses (rebuild_on_graph)
   double last_graph_rebuild_s = 0.0;  // ... the last one, the session read to the take-over
   std::uint64_t writes = 0;           // model writes done (every core's files written)
@@ -170,7 +177,8 @@ class FusionStage {
   [[nodiscard]] bool catch_up_has_work() const;
   // The catch-up under way: scans of the session fed of those to feed, live inputs queued behind them.
   [[nodiscard]] fusion::RebuildProgress catch_up_progress() const;
-  // Called after every catch-up with the counters (caught_up_scans, last_catch_up_s), on its thread.
+  // Called after every catch-up and every follow of the graph with the counters (caught_up_scans,
+  // last_catch_up_s, last_rebuild_followed_graph), on its thread.
   void set_catch_up_callback(std::function<void(const FusionCounters&)> f) { on_catch_up_ = std::move(f); }
   // Scans released late and poses taken late (CoreCounters::scans_late + poses_late) since the last
   // catch-up (the primary core's count).
@@ -182,7 +190,11 @@ class FusionStage {
   void flush(const std::function<void(double)>& progress = {});
   // The loop's clock (CLOCK_REALTIME, the receive times' clock): held scans that waited long enough go;
   // a catch-up once one is due (FusionOptions::catch_up_min_scans, catch_up_quiet_s), in slices of
-  // catch_up_slice_scans, one per call, until the rebuilt cores take over.
+  // catch_up_slice_scans, one per call, until the rebuilt cores take over. With the pose graph, once it
+  // published an estimate the cores do not follow yet, the same rebuild on the estimate's poses (every
+  // core without the registration, each scan the estimate holds placed at its pose, a later one by its
+  // robot's last correction; the graph keeps its state and is fed on): the live map, the decisions and
+  // the team state follow the graph. A catch-up rebuilds on the newest estimate too.
   void tick(std::int64_t realtime_ns);
 
   // Writes every core's model from memory into the session folder (fused.pcd, and fused_all.pcd when
@@ -221,6 +233,8 @@ class FusionStage {
   [[nodiscard]] Status rebuild_on_graph(const std::function<void(double)>& progress = {});
   // The back end (nullptr without options().pose_graph); after a catch-up, the one fed its releases.
   [[nodiscard]] fusion::GraphBackend* graph() { return graph_.get(); }
+  // The graph's estimate the cores were last rebuilt on (tick()), nullptr before the first.
+  [[nodiscard]] const std::shared_ptr<const fusion::GraphEstimate>& followed_estimate() const { return followed_; }
   // Writes the latency histograms (options().latency_csv) into the session folder, atomically.
   [[nodiscard]] Status write_latency() const;
   // Scan stamp (end of sweep, CLOCK_REALTIME) -> the scan decided by the core and in the live map, and
@@ -266,7 +280,9 @@ class FusionStage {
   void add_scan_to_cores(const fusion::ScanInput& in);
   void finish_write(const ModelWriteReport& report);
   struct CatchUpRun;
-  void start_catch_up(std::int64_t realtime_ns);
+  // `follow`: a rebuild on the graph's newest estimate that keeps the graph (else a catch-up, which
+  // starts a new graph fed the rebuilt primary's releases in time order).
+  void start_catch_up(std::int64_t realtime_ns, bool follow = false);
   void continue_catch_up();
   void finish_catch_up();
   void drop_catch_up();
@@ -297,6 +313,8 @@ class FusionStage {
   // The primary core's back end: fed its releases (the session replay's too); a catch-up feeds a new
   // one the rebuilt primary's releases, which takes over with the cores.
   std::unique_ptr<fusion::GraphBackend> graph_;
+  std::uint64_t followed_version_ = 0;  // graph_'s estimate the cores were rebuilt on (0: none)
+  std::shared_ptr<const fusion::GraphEstimate> followed_;
   // Scans the live cores released during the last catch-up that the rebuilt ones still held when they
   // took over: released again later, shown but not counted twice (latency, trajectory).
   std::set<std::pair<std::uint8_t, std::uint32_t>> released_before_;

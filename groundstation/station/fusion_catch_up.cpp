@@ -60,10 +60,16 @@ void FusionStage::tick(std::int64_t realtime_ns) {
       ++counters_.catch_up_failures;  // not tried again before more scans come late
       late_base_ = late;
     }
+    return;
+  }
+  // The graph has a newer estimate than the cores follow: the same rebuild on its poses.
+  if (graph_ && options_.catch_up_slice_scans > 0) {
+    const std::shared_ptr<const fusion::GraphEstimate> estimate = graph_->latest();
+    if (estimate && estimate->version != followed_version_) start_catch_up(realtime_ns, true);
   }
 }
 
-void FusionStage::start_catch_up(std::int64_t realtime_ns) {
+void FusionStage::start_catch_up(std::int64_t realtime_ns, bool follow) {
   const Time started = now_monotonic();
   if (session_dir_.empty()) {
     ++counters_.catch_up_failures;
@@ -72,16 +78,21 @@ void FusionStage::start_catch_up(std::int64_t realtime_ns) {
   }
   auto run = std::make_unique<CatchUpRun>(realtime_ns, options_.map_resolution_m);
   run->started = started;
-  if (options_.pose_graph) run->graph = std::make_unique<fusion::GraphBackend>(*options_.pose_graph);
+  run->follow = follow;
+  // The cores are rebuilt on the graph's newest estimate once there is one (a catch-up too: the live map
+  // does not go back to the registration's placement); a catch-up starts a new graph fed in time order.
+  if (graph_) run->on_graph = graph_->latest();
+  if (options_.pose_graph && !follow) run->graph = std::make_unique<fusion::GraphBackend>(*options_.pose_graph);
   run->scans_needed = core().counters().scans_released + core().held_scans();
   // The folder as it is now: the store wrote every sample the cores took, each record whole.
   const SessionExtent extent = session_extent_now(session_dir_);
   try {
-    run->loading = std::async(std::launch::async, [dir = session_dir_, extent, core = options_.core,
-                                                   compared = options_.compare_methods]() -> Result<fusion::RebuildSource> {
+    run->loading = std::async(std::launch::async, [dir = session_dir_, extent, core = options_.core, compared = options_.compare_methods,
+                                                   on_graph = run->on_graph]() -> Result<fusion::RebuildSource> {
       SessionReadStats stats;
       Result<Dataset> session = read_session_dataset(dir, stats, extent);
       if (!session) return session.error();
+      if (on_graph) return fusion::rebuild_source_on_graph(std::move(session.value()), core, compared, on_graph->poses);
       return fusion::make_rebuild_source(std::move(session.value()), core, compared);
     });
   } catch (const std::system_error&) {
@@ -118,9 +129,10 @@ void FusionStage::continue_catch_up() {
     }
     if (!source || source->dataset->scans.size() < run.scans_needed) {
       // Not read, or not this station's folder: the cores stay as they are, no new try before more
-      // scans come late.
+      // scans come late (or, following the graph, before its next estimate).
       ++counters_.catch_up_failures;
       late_base_ = late_seen_ = late_inputs(core().counters());
+      if (run.follow && run.on_graph) followed_version_ = run.on_graph->version;
       run_.reset();
       return;
     }
@@ -144,7 +156,18 @@ void FusionStage::finish_catch_up() {
   const Time started = now_monotonic();
   cores_->take_state(run.rebuild.cores());
   map_ = std::move(run.map);
-  if (run.graph) graph_ = std::move(run.graph);
+  if (run.graph) {
+    graph_ = std::move(run.graph);
+    followed_version_ = 0;  // the new graph's estimates are its own
+  } else if (run.on_graph) {
+    followed_version_ = run.on_graph->version;
+  }
+  if (run.on_graph) {
+    followed_ = run.on_graph;
+    ++counters_.graph_follows;
+    counters_.followed_nodes = run.on_graph->nodes;
+    counters_.followed_closures = run.on_graph->closures;
+  }
   counters_.scans = run.scans;
   counters_.points = run.points;
   counters_.live_removed = run.live_removed;
@@ -161,7 +184,8 @@ void FusionStage::finish_catch_up() {
     if (!rebuilt.count(key) && core().holds(key.first, key.second)) released_before_.insert(key);
   resume_ = false;
   late_base_ = late_seen_ = run.late_base;
-  ++counters_.catch_ups;
+  if (!run.follow) ++counters_.catch_ups;
+  counters_.last_rebuild_followed_graph = run.follow;
   counters_.caught_up_scans = run.rebuild.progress().time_line_scans;
   counters_.caught_up_live_scans = run.rebuild.progress().queued_fed_scans;
   counters_.catch_up_turns = run.turns;
@@ -194,7 +218,10 @@ Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(
   writer_->wait();  // a snapshot in progress reads the cores
   map_ = LiveMap{options_.map_resolution_m};
   counters_.scans = counters_.points = counters_.live_removed = 0;
-  if (options_.pose_graph) graph_ = std::make_unique<fusion::GraphBackend>(*options_.pose_graph);  // fed the releases again
+  if (options_.pose_graph) {
+    graph_ = std::make_unique<fusion::GraphBackend>(*options_.pose_graph);  // fed the releases again
+    followed_version_ = 0;
+  }
   catching_up_ = true;
   const Result<std::size_t> fed = fusion::refeed_in_time_order(session.value(), *cores_, progress);
   catching_up_ = false;
@@ -204,6 +231,7 @@ Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(
   released_before_.clear();
   late_base_ = late_seen_ = late_inputs(core().counters());
   ++counters_.catch_ups;
+  counters_.last_rebuild_followed_graph = false;
   counters_.caught_up_scans = fed.value();
   counters_.caught_up_live_scans = 0;
   counters_.catch_up_turns = 0;

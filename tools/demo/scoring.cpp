@@ -388,7 +388,7 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
   if (!read_station_config(station_config, gcfg, out.error)) return out;
   const station::FusionOptions& options = gcfg.fusion;
   // The station's set of cores (fusion/core_set.hpp), fed as the station's restart replay feeds it.
-  auto created = fusion::CoreSet::create(options.core, options.compare_methods);
+  auto created = fusion::CoreSet::create(options.pose_graph ? fusion::with_graph_order(options.core) : options.core, options.compare_methods);
   if (!created) {
     out.error = std::string("fusion cores: ") + created.error().what;
     return out;

@@ -81,8 +81,8 @@ void print_pose_graph_summary(const fusion::EvalReport& report) {
 void add_slam_eval_options(CLI::App& app, SlamEvalArgs& args) {
   app.add_flag("--pose-graph", args.pose_graph,
                "The trajectory of the 2-D pose graph (submaps, loop closure, Ceres; docs/slam.md) for --trajectory-out and "
-               "--relations: the fusion core's back end, its odometry the poses the core decided (with --registration, the "
-               "registered ones); then every method is decided on the graph's poses, so the cloud, the decisions and the figures "
+               "--relations: the fusion core's back end on the robots' odometry (the core's releases: with --registration, the "
+               "registered run's); then every method is decided on the graph's poses, so the cloud, the decisions and the figures "
                "follow the graph");
   const fusion::PlanarReturnOptions d;
   app.add_option("--pose-graph-min-height", args.min_height_m,

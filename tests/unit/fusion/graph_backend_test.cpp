@@ -53,6 +53,7 @@ std::vector<Pose2> graph_over_odometry(const fusion::PreparedDataset& p, const D
     const mapping::ScanView v = p.view(s);
     fusion::FusedScan f;
     f.view = &v;
+    f.odom_from_robot = v.map_from_robot;  // no correction: the released pose is the odometry's
     backend.add(f);
   }
   std::vector<Pose2> poses(d.scans.size());
@@ -239,6 +240,7 @@ TEST(GraphBackend, ALevelLasersScanIsANode) {
     v.points = points;
     fusion::FusedScan f;
     f.view = &v;
+    f.odom_from_robot = v.map_from_robot;  // no correction: the released pose is the odometry's
     backend.add(f);
   }
   const std::vector<fusion::GraphScanPose>& poses = backend.poses();

@@ -320,7 +320,7 @@ TEST(CatchUp, ThePoseGraphsTrajectoriesAreEvalsOfTheSession) {
     SessionReadStats stats;
     auto session = read_session_dataset(dir, stats);
     ASSERT_TRUE(session.ok()) << session.error().what;
-    auto eval_core = fusion::FusionCore::create(o.core);
+    auto eval_core = fusion::FusionCore::create(fusion::with_graph_order(o.core));
     ASSERT_TRUE(eval_core.ok());
     fusion::GraphBackend eval_graph;
     (*eval_core)->set_release_callback([&](const fusion::FusedScan& f) { eval_graph.add(f); });
@@ -415,6 +415,117 @@ TEST(CatchUp, TheFinalModelFollowsThePoseGraph) {
   EXPECT_FALSE(stage.rebuild_on_graph().ok());
   EXPECT_EQ(stage.counters().graph_rebuilds, 1u);
   EXPECT_EQ(stage.counters().scans, scans);
+}
+
+// Where the model file puts each (robot, scan, beam): its row in `c`.
+std::map<std::uint64_t, std::size_t> model_rows(const PcdCloud& c) {
+  const int fr = c.field("robot"), fs = c.field("scan"), fb = c.field("beam");
+  std::map<std::uint64_t, std::size_t> row;
+  if (fr < 0 || fs < 0 || fb < 0) return row;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    row[point_key(static_cast<std::uint32_t>(c.columns[static_cast<std::size_t>(fr)][i]),
+                  static_cast<std::uint32_t>(c.columns[static_cast<std::size_t>(fs)][i]),
+                  static_cast<std::uint32_t>(c.columns[static_cast<std::size_t>(fb)][i]))] = i;
+  return row;
+}
+
+// The live map follows the pose graph ([pose_graph] follow_s: GraphBackendOptions::estimate_every_s):
+// once the graph published an estimate, the station's cores are rebuilt on its poses in slices and take
+// over, without the registration: every point of the model of a scan the estimate holds sits where the
+// estimate put that scan. The graph is fed on, and at the end its trajectories are those of a graph fed
+// `teamscan eval`'s time order of the session, byte for byte: following it fed it nothing of its own.
+TEST(CatchUp, TheLiveMapFollowsThePoseGraph) {
+  const Dataset d = survey(8.0, 7);
+  const std::vector<Sample> samples = received(d, Shadow{2, 0, 0});  // no shadow
+  FusionOptions o = options();
+  o.core.registration = true;
+  o.catch_up_slice_scans = 8;
+  fusion::GraphBackendOptions graph_options;
+  graph_options.estimate_every_s = 1e-3;
+  o.pose_graph = graph_options;
+  const std::string dir = temp_dir();
+  auto store = SessionStore::open(dir);
+  auto created = FusionStage::create(o, dir);
+  ASSERT_TRUE(store.ok() && created.ok());
+  FusionStage& stage = **created;
+  const std::size_t half = samples.size() / 2;
+  run_station({samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(half)}, *store, stage);
+  EXPECT_EQ(stage.counters().catch_ups, 0u);
+  // The graph's thread publishes its estimate; the loop's turns then rebuild the cores on it.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (stage.counters().graph_follows == 0 && std::chrono::steady_clock::now() < deadline) {
+    if (!stage.catch_up_has_work()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    stage.tick(samples[half - 1].recv_ns);
+  }
+  ASSERT_GE(stage.counters().graph_follows, 1u) << "no estimate followed within 60 s";
+  const std::shared_ptr<const fusion::GraphEstimate> estimate = stage.followed_estimate();
+  ASSERT_NE(estimate, nullptr);
+  EXPECT_FALSE(stage.core().options().registration) << "the graph places the scans now";
+  EXPECT_EQ(stage.counters().catch_ups, 0u) << "a follow is not a catch-up";
+  store->sync();
+  ASSERT_TRUE(stage.write_model().ok());
+  {
+    SessionReadStats stats;
+    const Result<Dataset> session = read_session_dataset(dir, stats);
+    ASSERT_TRUE(session.ok()) << session.error().what;
+    std::map<std::pair<std::uint8_t, std::uint32_t>, Pose2> correction;  // (robot, seq) -> graph from robot's map
+    for (const fusion::GraphScanPose& p : estimate->poses)
+      for (const ScanRecord& r : session->scans)
+        if (r.robot == p.robot && r.scan == p.scan) correction[{p.robot, p.scan}] = p.graph * r.pose.inverse();
+    EXPECT_EQ(correction.size(), estimate->poses.size());
+    EXPECT_GT(correction.size(), stage.counters().scans / 4) << "the estimate holds a quarter of the scans fused";
+    const Result<PcdCloud> model = read_pcd(dir + "/" + o.all_points_pcd);
+    ASSERT_TRUE(model.ok()) << model.error().what;
+    const PcdCloud& c = model.value();
+    const std::map<std::uint64_t, std::size_t> row = model_rows(c);
+    double worst_m = 0.0, moved_m = 0.0;
+    std::size_t on_estimate = 0;
+    for (const LabelledPoint& p : session->points) {
+      const auto it = row.find(point_key(p.robot, p.scan, p.beam));
+      const auto m = correction.find({p.robot, p.scan});
+      if (it == row.end() || m == correction.end()) continue;
+      ++on_estimate;
+      const Pose2& k = m->second;
+      const double x = k.x_m + std::cos(k.theta_rad) * p.x - std::sin(k.theta_rad) * p.y;
+      const double y = k.y_m + std::sin(k.theta_rad) * p.x + std::cos(k.theta_rad) * p.y;
+      const std::size_t i = it->second;
+      worst_m = std::max({worst_m, std::abs(c.xyz[3 * i] - x), std::abs(c.xyz[3 * i + 1] - y), std::abs(c.xyz[3 * i + 2] - double{p.z})});
+      moved_m = std::max(moved_m, std::hypot(c.xyz[3 * i] - double{p.x}, c.xyz[3 * i + 1] - double{p.y}));
+    }
+    EXPECT_GT(on_estimate, c.size() / 4);
+    EXPECT_LT(worst_m, 1e-4) << "a live point off the estimate's pose of its scan";
+    EXPECT_GT(moved_m, 5.0 * worst_m) << "the estimate moved no point";
+    std::printf("followed estimate %llu (%zu nodes, %zu closures): %zu live points on its poses (moved up to %.4f m)\n",
+                static_cast<unsigned long long>(estimate->version), estimate->nodes, estimate->closures, on_estimate, moved_m);
+  }
+  // The rest of the survey: the live map follows on; the graph is the one eval's time order feeds.
+  run_station({samples.begin() + static_cast<std::ptrdiff_t>(half), samples.end()}, *store, stage);
+  stage.flush();
+  ASSERT_TRUE(stage.write_graph_trajectories().ok());
+  EXPECT_EQ(stage.counters().catch_ups, 0u);
+  EXPECT_EQ(stage.graph()->counters().scans, d.scans.size()) << "every scan once";
+  SessionReadStats stats;
+  auto session = read_session_dataset(dir, stats);
+  ASSERT_TRUE(session.ok()) << session.error().what;
+  fusion::CoreOptions eval_options = fusion::with_graph_order(o.core);
+  auto eval_core = fusion::FusionCore::create(eval_options);
+  ASSERT_TRUE(eval_core.ok());
+  fusion::GraphBackend eval_graph;
+  (*eval_core)->set_release_callback([&](const fusion::FusedScan& f) { eval_graph.add(f); });
+  fusion::feed_in_time_order(session.value(), **eval_core);
+  std::map<std::uint8_t, std::vector<trajectory::StampedPose>> expected;
+  for (const fusion::GraphScanPose& p : eval_graph.poses()) expected[p.robot].push_back({(p.stamp_ns + 500) / 1000, p.graph});
+  ASSERT_EQ(expected.size(), 3u);
+  for (const auto& [robot, poses] : expected) {
+    const std::string live = file_bytes(dir + "/robot" + std::to_string(robot) + ".graph.tum");
+    EXPECT_GT(live.size(), 1000u) << "robot " << int{robot};
+    EXPECT_TRUE(live == trajectory::tum_text(poses)) << "robot " << int{robot};
+  }
+  std::printf("%llu follows; the graph took %llu scans (%llu again from a rebuilt core, ignored)\n",
+              static_cast<unsigned long long>(stage.counters().graph_follows),
+              static_cast<unsigned long long>(stage.graph()->counters().scans),
+              static_cast<unsigned long long>(stage.graph()->counters().repeated_scans));
+  std::filesystem::remove_all(dir);
 }
 
 // The loop is not held by a catch-up: with a back-fill's whole session to decide again, each turn feeds
