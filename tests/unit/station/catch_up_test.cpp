@@ -296,6 +296,27 @@ TEST(CatchUp, InSlicesTheCoresEndAsTheWholeCatchUpsInOneTurn) {
                                       << models[1].size();
 }
 
+// The station's robot<N>.graph.tum in `dir` (three robots) are byte for byte those of `teamscan eval` of
+// the session: a core of `core` fed it in time order, its releases into a back end.
+void expect_graph_is_evals(const std::string& dir, const fusion::CoreOptions& core, const std::string& what) {
+  SessionReadStats stats;
+  auto session = read_session_dataset(dir, stats);
+  ASSERT_TRUE(session.ok()) << session.error().what;
+  auto eval_core = fusion::FusionCore::create(fusion::with_graph_order(core));
+  ASSERT_TRUE(eval_core.ok());
+  fusion::GraphBackend eval_graph;
+  (*eval_core)->set_release_callback([&](const fusion::FusedScan& f) { eval_graph.add(f); });
+  fusion::feed_in_time_order(session.value(), **eval_core);
+  std::map<std::uint8_t, std::vector<trajectory::StampedPose>> expected;
+  for (const fusion::GraphScanPose& p : eval_graph.poses()) expected[p.robot].push_back({(p.stamp_ns + 500) / 1000, p.graph});
+  ASSERT_EQ(expected.size(), 3u) << what;
+  for (const auto& [robot, poses] : expected) {
+    const std::string live = file_bytes(dir + "/robot" + std::to_string(robot) + ".graph.tum");
+    EXPECT_GT(live.size(), 1000u) << what << " robot " << int{robot};
+    EXPECT_TRUE(live == trajectory::tum_text(poses)) << what << " robot " << int{robot};
+  }
+}
+
 // The pose graph follows the catch-up ([pose_graph]): after a back-fill, caught up in one turn or in
 // slices, the station's robot<N>.graph.tum at the end are those of the back end fed `teamscan eval`'s
 // time order of the session, byte for byte.
@@ -316,23 +337,7 @@ TEST(CatchUp, ThePoseGraphsTrajectoriesAreEvalsOfTheSession) {
     ASSERT_TRUE(stage.write_graph_trajectories().ok());
     ASSERT_NE(stage.graph(), nullptr);
     EXPECT_EQ(stage.graph()->counters().scans, d.scans.size()) << "every scan once, in the graph that took over";
-    // `teamscan eval` of the session: its core fed in time order, its releases into a back end.
-    SessionReadStats stats;
-    auto session = read_session_dataset(dir, stats);
-    ASSERT_TRUE(session.ok()) << session.error().what;
-    auto eval_core = fusion::FusionCore::create(fusion::with_graph_order(o.core));
-    ASSERT_TRUE(eval_core.ok());
-    fusion::GraphBackend eval_graph;
-    (*eval_core)->set_release_callback([&](const fusion::FusedScan& f) { eval_graph.add(f); });
-    fusion::feed_in_time_order(session.value(), **eval_core);
-    std::map<std::uint8_t, std::vector<trajectory::StampedPose>> expected;
-    for (const fusion::GraphScanPose& p : eval_graph.poses()) expected[p.robot].push_back({(p.stamp_ns + 500) / 1000, p.graph});
-    ASSERT_EQ(expected.size(), 3u);
-    for (const auto& [robot, poses] : expected) {
-      const std::string live = file_bytes(dir + "/robot" + std::to_string(robot) + ".graph.tum");
-      EXPECT_GT(live.size(), 1000u) << "robot " << int{robot};
-      EXPECT_TRUE(live == trajectory::tum_text(poses)) << "slice " << slice << " robot " << int{robot};
-    }
+    expect_graph_is_evals(dir, o.core, "slice " + std::to_string(slice));
     std::filesystem::remove_all(dir);
   }
 }
@@ -451,8 +456,11 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraph) {
   const std::size_t half = samples.size() / 2;
   run_station({samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(half)}, *store, stage);
   EXPECT_EQ(stage.counters().catch_ups, 0u);
-  // The graph's thread publishes its estimate; the loop's turns then rebuild the cores on it.
+  // The graph's thread publishes its estimates as it takes the nodes: wait until it took those closed so
+  // far; the loop's turns then rebuild the cores on the newest estimate.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while ((stage.graph()->queued() > 0 || !stage.graph()->latest()) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
   while (stage.counters().graph_follows == 0 && std::chrono::steady_clock::now() < deadline) {
     if (!stage.catch_up_has_work()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
     stage.tick(samples[half - 1].recv_ns);
@@ -473,7 +481,7 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraph) {
       for (const ScanRecord& r : session->scans)
         if (r.robot == p.robot && r.scan == p.scan) correction[{p.robot, p.scan}] = p.graph * r.pose.inverse();
     EXPECT_EQ(correction.size(), estimate->poses.size());
-    EXPECT_GT(correction.size(), stage.counters().scans / 4) << "the estimate holds a quarter of the scans fused";
+    EXPECT_GE(correction.size(), 10u) << "the estimate holds the scans of its nodes";
     const Result<PcdCloud> model = read_pcd(dir + "/" + o.all_points_pcd);
     ASSERT_TRUE(model.ok()) << model.error().what;
     const PcdCloud& c = model.value();
@@ -492,7 +500,7 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraph) {
       worst_m = std::max({worst_m, std::abs(c.xyz[3 * i] - x), std::abs(c.xyz[3 * i + 1] - y), std::abs(c.xyz[3 * i + 2] - double{p.z})});
       moved_m = std::max(moved_m, std::hypot(c.xyz[3 * i] - double{p.x}, c.xyz[3 * i + 1] - double{p.y}));
     }
-    EXPECT_GT(on_estimate, c.size() / 4);
+    EXPECT_GT(on_estimate, 1000u);
     EXPECT_LT(worst_m, 1e-4) << "a live point off the estimate's pose of its scan";
     EXPECT_GT(moved_m, 5.0 * worst_m) << "the estimate moved no point";
     std::printf("followed estimate %llu (%zu nodes, %zu closures): %zu live points on its poses (moved up to %.4f m)\n",
@@ -504,23 +512,7 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraph) {
   ASSERT_TRUE(stage.write_graph_trajectories().ok());
   EXPECT_EQ(stage.counters().catch_ups, 0u);
   EXPECT_EQ(stage.graph()->counters().scans, d.scans.size()) << "every scan once";
-  SessionReadStats stats;
-  auto session = read_session_dataset(dir, stats);
-  ASSERT_TRUE(session.ok()) << session.error().what;
-  fusion::CoreOptions eval_options = fusion::with_graph_order(o.core);
-  auto eval_core = fusion::FusionCore::create(eval_options);
-  ASSERT_TRUE(eval_core.ok());
-  fusion::GraphBackend eval_graph;
-  (*eval_core)->set_release_callback([&](const fusion::FusedScan& f) { eval_graph.add(f); });
-  fusion::feed_in_time_order(session.value(), **eval_core);
-  std::map<std::uint8_t, std::vector<trajectory::StampedPose>> expected;
-  for (const fusion::GraphScanPose& p : eval_graph.poses()) expected[p.robot].push_back({(p.stamp_ns + 500) / 1000, p.graph});
-  ASSERT_EQ(expected.size(), 3u);
-  for (const auto& [robot, poses] : expected) {
-    const std::string live = file_bytes(dir + "/robot" + std::to_string(robot) + ".graph.tum");
-    EXPECT_GT(live.size(), 1000u) << "robot " << int{robot};
-    EXPECT_TRUE(live == trajectory::tum_text(poses)) << "robot " << int{robot};
-  }
+  expect_graph_is_evals(dir, o.core, "following");
   std::printf("%llu follows; the graph took %llu scans (%llu again from a rebuilt core, ignored)\n",
               static_cast<unsigned long long>(stage.counters().graph_follows),
               static_cast<unsigned long long>(stage.graph()->counters().scans),
