@@ -186,11 +186,12 @@ void FusionCore::release_ready(std::int64_t now_ns, bool all) {
     watermark = std::min(watermark, poses_.newest_stamp(r));
   }
   // With the registration, the release order is part of the state (each match sees the reference the
-  // scans released before it built; a pose graph fed the releases: CoreOptions::stamp_order), so a scan also waits until no earlier-stamped scan can still
-  // arrive: a robot's scans arrive in order, each stamped at least min_scan_interval_s after the one
-  // before (at least 1 ns), so robot r sends nothing stamped before newest_r + interval. A scan stamped
-  // before that for every robot still sending is released, and live releases in stamp order as
-  // `teamscan eval` does. Costs up to a scan period minus the interval.
+  // scans released before it built; so is it for a pose graph fed the releases: CoreOptions::stamp_order),
+  // so a scan also waits until no earlier-stamped scan can still arrive: a robot's scans arrive in
+  // order, each stamped at least min_scan_interval_s after the one before (at least 1 ns), so robot r
+  // sends nothing stamped before newest_r + interval. A scan stamped before that for every robot still
+  // sending is released, and live releases in stamp order as `teamscan eval` does. Costs up to a scan
+  // period minus the interval.
   std::int64_t scan_watermark = INT64_MAX;  // release what is stamped before it
   if (registration_ || options_.stamp_order) {
     const std::int64_t interval_ns = std::max<std::int64_t>(1, from_seconds(options_.min_scan_interval_s).count());

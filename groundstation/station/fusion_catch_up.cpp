@@ -32,6 +32,9 @@ std::uint64_t FusionStage::late_since_catch_up() const {
 }
 
 void FusionStage::flush(const std::function<void(double)>& progress) {
+  // A follow of the graph under way with nothing late: dropped (the live cores are final as they are;
+  // the final model follows the graph's last poses: rebuild_on_graph).
+  if (run_ && run_->follow && counters_.catch_ups == 0 && late_since_catch_up() == 0) drop_catch_up();
   // Once a scan was released late in this run, the final model is the time order's, whatever came
   // after the last catch-up (a catch-up in slices under way is replaced by the whole one now).
   if ((counters_.catch_ups > 0 || late_since_catch_up() > 0 || run_) && !catch_up(now_realtime().ns(), progress).ok())
