@@ -49,6 +49,7 @@ FusionCore::FusionCore(const CoreOptions& options, std::unique_ptr<mapping::Filt
     : options_{options},
       filter_{std::move(filter)},
       poses_{PoseHistoryOptions{options.tracker, options.pose_keep_s}},
+      odometry_poses_{PoseHistoryOptions{options.tracker, options.pose_keep_s}},
       seq_windows_(kMaxRobots + 1),
       model_{options.model_resolution_m, options.max_points_per_voxel} {
   if (options_.registration) registration_ = std::make_unique<registration::Registration>(options_.registration_options);
@@ -81,6 +82,7 @@ void FusionCore::add_pose(const PoseInput& pose) {
   if (!poses_.add(pose)) {
     ++counters_.poses_rejected;
   } else {
+    if (options_.odometry_team) (void)odometry_poses_.add(pose);
     if (pose.robot <= kMaxRobots)
       last_pose_arrival_ns_[pose.robot] = std::max(last_pose_arrival_ns_[pose.robot], pose.arrival_ns);
     // A pose the released scans were decided without (a back-fill after a radio shadow).
@@ -278,6 +280,7 @@ void FusionCore::release(ScanInput& s, std::int64_t arrival_ns, bool forced) {
   if (registration_) register_scan(s);
   const Pose2 correction = poses_.map_from_odom(s.robot, s.stamp_ns);
   const bool corrected = !is_identity(correction);
+  const Vec3 odom_origin = s.origin_m;
   if (corrected && on_release_) odom_points_.assign(s.points.begin(), s.points.end());  // reused: no allocation once grown
   if (corrected) {
     for (mapping::MapPoint& p : s.points) {
@@ -321,6 +324,12 @@ void FusionCore::release(ScanInput& s, std::int64_t arrival_ns, bool forced) {
     f.map_from_odom = correction;
     f.odom_from_robot = own.found ? own.odom : correction.inverse() * view.map_from_robot;
     f.odom_points = corrected ? std::span<const mapping::MapPoint>(odom_points_) : view.points;
+    f.odom_origin_m = odom_origin;
+    mapping::TeamState odom_team;
+    if (options_.odometry_team) {
+      odom_team = odometry_poses_.team_at(s.stamp_ns);
+      f.odom_team = &odom_team;
+    }
     f.arrival_ns = arrival_ns;
     f.forced = forced;
     f.beams = s.beams;

@@ -79,11 +79,18 @@ struct CoreOptions {
   // state. Whoever gives a core a graph sets it (with_graph_order), so a core rebuilt without the
   // registration on the graph's poses releases in the order the first one did.
   bool stamp_order = false;
+  // Each released scan also carries the team as the robots' odometry alone places it
+  // (FusedScan::odom_team, from a second pose history the corrections never touch): a pose graph takes
+  // its returns in the odometry's frame and leaves the teammates out with it, so what the graph is given
+  // does not depend on the corrections in force (the registration's, or the graph's own once the map
+  // follows it).
+  bool odometry_team = false;
 };
 
-// `o` as a core that feeds a pose graph runs: stamp_order set.
+// `o` as a core that feeds a pose graph runs: stamp_order and odometry_team set.
 [[nodiscard]] inline CoreOptions with_graph_order(CoreOptions o) {
   o.stamp_order = true;
+  o.odometry_team = true;
   return o;
 }
 
@@ -123,6 +130,10 @@ struct FusedScan {
   Pose2 map_from_odom;                        // the correction its points and origin were moved by (identity: none)
   Pose2 odom_from_robot;                      // its pose before the correction (the robot's odometry)
   std::span<const mapping::MapPoint> odom_points;  // its points before the correction, as the robot placed them
+  Vec3 odom_origin_m;                         // its sensor origin before the correction
+  // The teammates as their odometry alone places them at its stamp (CoreOptions::odometry_team; else
+  // nullptr), in the frame of odom_points.
+  const mapping::TeamState* odom_team = nullptr;
   std::int64_t arrival_ns = 0;
   bool forced = false;                        // released by hold_s, not by the poses
   std::span<const std::uint16_t> beams;
@@ -254,6 +265,7 @@ class FusionCore {
   CoreOptions options_;
   std::unique_ptr<mapping::Filter> filter_;
   PoseHistory poses_;
+  PoseHistory odometry_poses_;  // the same poses, never corrected (CoreOptions::odometry_team; else empty)
   std::vector<Held> held_;  // arrival order
   // The held scans' copies, reused: a released scan's vectors keep their capacity for the next one.
   std::vector<ScanInput> slots_;

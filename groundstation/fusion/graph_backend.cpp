@@ -38,9 +38,16 @@ void GraphBackend::add(const FusedScan& released, const Pose2* odom_from_robot) 
   const auto span_ns = static_cast<std::int64_t>(options_.returns.tilted_node_s * 1e9);
   if (!o.scans.empty() && (!tilted || v.stamp_ns - o.first_stamp_ns >= span_ns)) close(v.robot);
   if (o.scans.empty()) o.first_stamp_ns = v.stamp_ns;
-  // The points as the robot placed them, before the core's correction.
-  const std::span<const mapping::MapPoint> points = released.odom_points.size() == v.points.size() ? released.odom_points : v.points;
-  take_planar_returns(v, tilted, options_.returns, taken_, counters_.returns);
+  // The scan as the robot's odometry placed it, before the core's correction, with the teammates as
+  // theirs place them: nothing the corrections decide (core.hpp CoreOptions::odometry_team).
+  mapping::ScanView odom_view = v;
+  if (released.odom_points.size() == v.points.size()) {
+    odom_view.points = released.odom_points;
+    odom_view.origin_m = released.odom_origin_m;
+  }
+  odom_view.team = released.odom_team;
+  const std::span<const mapping::MapPoint> points = odom_view.points;
+  take_planar_returns(odom_view, tilted, options_.returns, taken_, counters_.returns);
   for (std::size_t j = 0; j < points.size(); ++j)
     if (taken_[j] != 0) o.odom_returns.push_back({points[j].x, points[j].y});
   const Pose2 odom = odom_from_robot != nullptr ? *odom_from_robot : released.odom_from_robot;

@@ -2,7 +2,8 @@
 // closure within and between robots, Ceres), fed every scan the core released. Its front end is the
 // robots' odometry: each released scan's returns that pin x, y and yaw (planar_returns.hpp) are taken
 // back out of the correction the core applied (registration's or the graph's own) into the frame of
-// the odometry that placed them, and copied into the robot frame of its node (a level laser's scan, or
+// the odometry that placed them, the teammates left out where their odometry places them
+// (FusedScan::odom_team), and copied into the robot frame of its node (a level laser's scan, or
 // a tilted laser's scans over tilted_node_s). So what the graph is given does not depend on how the
 // map was corrected when the scan was released: a map that follows the graph feeds it no feedback. The
 // closed nodes go to the graph on the back end's own thread, so the caller's loop only copies returns.

@@ -19,14 +19,13 @@ bool level_scan(const mapping::ScanView& scan) {
 void take_planar_returns(const mapping::ScanView& scan, bool tilted, const PlanarReturnOptions& options, std::vector<std::uint8_t>& taken,
                          PlanarReturnCounts& counts) {
   taken.assign(scan.points.size(), 1);
-  for (std::size_t j = 0; j < scan.points.size(); ++j)
-    taken[j] = match_usable_flags(j < scan.flags.size() ? scan.flags[j] : 0) ? 1 : 0;
-  if (scan.team != nullptr) mask_teammates(*scan.team, scan.robot, scan.origin_m, options.tracked, scan.points, taken);
   for (std::size_t j = 0; j < scan.points.size(); ++j) {
-    if (taken[j] == 0) {
-      ++counts.masked;
-      continue;
-    }
+    taken[j] = match_usable_flags(j < scan.flags.size() ? scan.flags[j] : 0) ? 1 : 0;
+    if (taken[j] == 0) ++counts.flagged;
+  }
+  if (scan.team != nullptr) counts.teammates += mask_teammates(*scan.team, scan.robot, scan.origin_m, options.tracked, scan.points, taken);
+  for (std::size_t j = 0; j < scan.points.size(); ++j) {
+    if (taken[j] == 0) continue;
     const double z = scan.points[j].z;
     if (tilted && (z < options.min_height_m || z > options.max_height_m)) {
       taken[j] = 0;

@@ -25,13 +25,15 @@ struct PlanarReturnOptions {
   // stamp): a tilted scan is one stripe across what it sees, 75 of them a second; a node of them is a
   // cross-section of the walls around the robot, as a level laser's scan is.
   double tilted_node_s = 0.25;
-  // The teammates' body boxes (the team state is the scan's own, from the fusion core's tracker).
+  // The teammates' body boxes (the team state is the one the scan is given: the back end gives the
+  // odometry's, FusedScan::odom_team).
   mapping::TrackedOptions tracked;
 };
 
 struct PlanarReturnCounts {
   std::uint64_t kept = 0;
-  std::uint64_t masked = 0;       // onboard-flagged or inside a teammate's body
+  std::uint64_t flagged = 0;      // flagged by the robot (invalid, its direction filter)
+  std::uint64_t teammates = 0;    // inside a teammate's body
   std::uint64_t out_of_band = 0;  // a tilted laser's, below or above the height band
 };
 

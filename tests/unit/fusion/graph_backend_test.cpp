@@ -10,15 +10,18 @@
 #include <sched.h>
 #include <cmath>
 #include <cstddef>
+#include <cstdio>
 #include <cstring>
 #include <map>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "groundstation/fusion/core.hpp"
 #include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/fusion/graph_backend.hpp"
 #include "groundstation/fusion/planar_returns.hpp"
+#include "groundstation/fusion/time_line.hpp"
 #include "groundstation/mapping/dataset_registration.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulator.hpp"
@@ -83,7 +86,8 @@ TEST(GraphBackendReturns, NoFloorOrCeilingReturnIsTaken) {
     for (std::size_t j = 0; j < taken.size(); ++j) taken_points[p.source_index[p.scans[s].first + j]] = taken[j];
   }
   EXPECT_EQ(level_scans, 0u);  // a tilted laser's stripe is never taken for a level scan
-  std::size_t floor_points = 0, floor_taken = 0, ceiling_taken = 0, wall_points = 0, wall_taken = 0;
+  std::size_t floor_points = 0, floor_taken = 0, ceiling_taken = 0, wall_points = 0, wall_taken = 0, teammate_points = 0,
+              teammate_taken = 0;
   for (std::size_t i = 0; i < d.points.size(); ++i) {
     const LabelledPoint& pt = d.points[i];
     if (pt.label == PointClass::floor) {
@@ -91,6 +95,10 @@ TEST(GraphBackendReturns, NoFloorOrCeilingReturnIsTaken) {
       floor_taken += taken_points[i];
     }
     if (pt.label == PointClass::ceiling) ceiling_taken += taken_points[i];
+    if (pt.label == PointClass::robot) {
+      ++teammate_points;
+      teammate_taken += taken_points[i];
+    }
     if (pt.label == PointClass::wall) {
       ++wall_points;
       wall_taken += taken_points[i];
@@ -101,8 +109,13 @@ TEST(GraphBackendReturns, NoFloorOrCeilingReturnIsTaken) {
   EXPECT_EQ(ceiling_taken, 0u);
   // The walls are what the graph is made of: most of their returns are taken.
   EXPECT_GT(wall_taken, wall_points / 2);
-  EXPECT_EQ(counts.kept + counts.masked + counts.out_of_band, p.points.size());
-  EXPECT_GT(counts.masked, 0u);  // the teammate in view
+  EXPECT_EQ(counts.kept + counts.flagged + counts.teammates + counts.out_of_band, p.points.size());
+  // The teammate in view: its body's returns are left out.
+  EXPECT_GT(counts.teammates, 0u);
+  EXPECT_GT(teammate_points, 100u);
+  EXPECT_LT(teammate_taken, teammate_points / 10);
+  std::printf("teammate returns: %zu, taken %zu; %llu returns left out as inside a teammate's body\n", teammate_points, teammate_taken,
+              static_cast<unsigned long long>(counts.teammates));
 }
 
 TEST(GraphBackend, BeatsOdometryAloneAndIsDeterministic) {
@@ -125,9 +138,10 @@ TEST(GraphBackend, BeatsOdometryAloneAndIsDeterministic) {
   EXPECT_EQ(std::memcmp(again.data(), poses.data(), poses.size() * sizeof(Pose2)), 0);
 }
 
-// `teamscan eval --pose-graph --registration`: the back end rides on the core's releases, its odometry
-// the registered poses.
-TEST(GraphBackend, ThroughTheEvaluationOnTheRegisteredPoses) {
+// `teamscan eval --pose-graph --registration`: the back end rides on the registered run's releases,
+// taken back into the odometry's frame with the teammates where their odometry puts them: the graph is
+// the one an unregistered run gives, to the bit.
+TEST(GraphBackend, ThroughTheEvaluationWhateverCorrectedTheReleases) {
   const Dataset& d = lap2_drift_start();
   fusion::EvalOptions o;
   const auto methods = fusion::parse_methods("direction", std::nullopt, 7.0);
@@ -147,6 +161,57 @@ TEST(GraphBackend, ThroughTheEvaluationOnTheRegisteredPoses) {
   EXPECT_LT(graph_m.p99, 0.5 * odo_m.p99) << "graph p99 " << graph_m.p99 << " m, odometry " << odo_m.p99 << " m";
   EXPECT_LT(graph_deg.p99, 0.5 * odo_deg.p99);
   EXPECT_LT(graph_m.max, 0.15);
+  EXPECT_GT(report.graph_counters.returns.teammates, 0u);
+
+  o.registration = false;
+  const Result<fusion::EvalReport> odometry = fusion::evaluate(d, o);
+  ASSERT_TRUE(odometry) << odometry.error().what;
+  ASSERT_EQ(odometry->graph_poses.size(), report.graph_poses.size());
+  for (std::size_t i = 0; i < report.graph_poses.size(); ++i) {
+    const Pose2& a = report.graph_poses[i];
+    const Pose2& b = odometry->graph_poses[i];
+    ASSERT_TRUE(a.x_m == b.x_m && a.y_m == b.y_m && a.theta_rad == b.theta_rad) << "scan row " << i;
+  }
+  EXPECT_EQ(odometry->graph_counters.returns.teammates, report.graph_counters.returns.teammates);
+}
+
+// What the graph is given does not depend on the corrections the core applies (the registration's, or
+// the graph's own once the map follows it): a core whose robots carry large corrections (each its own,
+// so the teammates move relative to one another in the map) releases the same returns in the
+// odometry's frame, with the same teammates left out, as a core with none; the graphs are the same to
+// the bit.
+TEST(GraphBackend, TheCorrectionsInForceChangeNothingOfWhatItIsGiven) {
+  const Dataset& d = lap2_drift_start();
+  fusion::CoreOptions co;
+  co.method = "direction";
+  co.max_points_per_voxel = 0;
+  co = fusion::with_graph_order(co);
+  std::vector<fusion::GraphScanPose> poses[2];
+  fusion::GraphBackendCounters counters[2];
+  for (int k = 0; k < 2; ++k) {
+    auto core = fusion::FusionCore::create(co);
+    ASSERT_TRUE(core.ok()) << core.error().what;
+    if (k == 1) {
+      for (const DatasetRobot& r : d.robots)
+        (*core)->poses().set_map_from_odom(r.id, d.scans.front().stamp_ns - 1'000'000'000,
+                                           Pose2{0.4 * r.id, -0.3 * r.id, 0.05 * r.id});
+    }
+    fusion::GraphBackend backend;
+    (*core)->set_release_callback([&](const fusion::FusedScan& f) { backend.add(f); });
+    fusion::feed_in_time_order(d, **core);
+    poses[k] = backend.poses();
+    counters[k] = backend.counters();
+  }
+  EXPECT_EQ(counters[0].scans, d.scans.size());
+  EXPECT_GT(counters[0].returns.teammates, 0u);
+  EXPECT_EQ(counters[1].returns.teammates, counters[0].returns.teammates);
+  EXPECT_EQ(counters[1].returns.kept, counters[0].returns.kept);
+  ASSERT_EQ(poses[1].size(), poses[0].size());
+  for (std::size_t i = 0; i < poses[0].size(); ++i) {
+    const Pose2& a = poses[0][i].graph;
+    const Pose2& b = poses[1][i].graph;
+    ASSERT_TRUE(a.x_m == b.x_m && a.y_m == b.y_m && a.theta_rad == b.theta_rad) << "scan " << i;
+  }
 }
 
 // `teamscan eval --pose-graph`: the graph's poses then place every scan of every method's run, so the
