@@ -575,6 +575,33 @@ int main(int argc, char** argv) {
     double snapshot_s = 0, slice_max_ms = 0, span_s = 0, write_s = 0;
     unsigned slices = 0;
   };
+  // The live map following the pose graph (events.log: "fusion: the map follows the pose graph's
+  // estimate (N nodes, M loop closures): S scans of the session decided again in T s (K loop turns, at
+  // most L ms of one; ...)"): how many, the longest, the longest loop turn, the last one's line.
+  {
+    std::ifstream in(session + "/events.log");
+    std::string line, last;
+    unsigned follows = 0;
+    double longest_s = 0.0, turn_max_ms = 0.0;
+    while (std::getline(in, line)) {
+      const auto at = line.find("the map follows the pose graph's estimate");
+      if (at == std::string::npos) continue;
+      ++follows;
+      last = line.substr(at);
+      double t_s = 0.0, turn_ms = 0.0;
+      unsigned long long scans = 0, turns = 0;
+      const auto d = line.find(": ", at);
+      if (d != std::string::npos &&
+          std::sscanf(line.c_str() + d, ": %llu scans of the session decided again in %lf s (%llu loop turns, at most %lf ms",
+                      &scans, &t_s, &turns, &turn_ms) == 4) {
+        longest_s = std::max(longest_s, t_s);
+        turn_max_ms = std::max(turn_max_ms, turn_ms);
+      }
+    }
+    if (follows > 0)
+      std::printf("graph follows: %u, the longest %.2f s, the longest loop turn %.1f ms; the last: %s\n", follows, longest_s,
+                  turn_max_ms, last.c_str());
+  }
   std::vector<WriteEvent> writes;
   unsigned long long coalesced = 0;
   {
