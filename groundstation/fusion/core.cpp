@@ -68,7 +68,9 @@ Status FusionCore::reset() {
 
 void FusionCore::take_state(FusionCore& other) {
   std::function<void(const FusedScan&)> on_release = std::move(on_release_);
+  FusionCore old{std::move(*this)};
   *this = std::move(other);
+  other = std::move(old);
   on_release_ = std::move(on_release);
 }
 

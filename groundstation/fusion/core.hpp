@@ -203,7 +203,9 @@ class FusionCore {
   [[nodiscard]] Status reset();
   // Takes over `other`'s whole state (held scans, poses, map, model store, registration, counters), its
   // release callback excepted: this object keeps its own, and references to it and to its pose history
-  // stay valid (the station's catch-up built `other` from its session while this one ran live).
+  // stay valid (the station's catch-up built `other` from its session while this one ran live). This
+  // core's old state goes to `other` (without a release callback), so its owner decides where the old
+  // state's memory is freed (the station: off its loop).
   void take_state(FusionCore& other);
 
   // Called for every released scan, in release order.
@@ -243,7 +245,8 @@ class FusionCore {
 
  private:
   FusionCore(const CoreOptions& options, std::unique_ptr<mapping::Filter> filter);
-  FusionCore& operator=(FusionCore&&) = default;  // reset()
+  FusionCore(FusionCore&&) = default;             // take_state()
+  FusionCore& operator=(FusionCore&&) = default;  // reset(), take_state()
   // A held scan in the queue: what release_ready() tests, and its slot. Small, so that a pass over a
   // long queue (a station catching up holds thousands) and taking the ready ones out stay cheap.
   struct Held {

@@ -28,7 +28,8 @@ class CoreSet {
   void advance_to(std::int64_t arrival_ns);
   void resume_at(std::int64_t arrival_ns);
   // Every core takes over the state of `other`'s core of the same place (FusionCore::take_state): the
-  // objects, their release callbacks and references to them stay. `other` has the same methods.
+  // objects, their release callbacks and references to them stay; `other` is left with their old
+  // states. `other` has the same methods.
   void take_state(CoreSet& other);
 
   [[nodiscard]] FusionCore& primary() { return *cores_.front(); }

@@ -138,6 +138,7 @@ void FusionStage::finish_write(const ModelWriteReport& r) {
 
 FusionStage::~FusionStage() {
   drop_catch_up();  // a session read under way finishes first
+  if (freeing_.valid()) freeing_.wait();
   writer_.reset();  // a write in flight finishes first
   if (latency_log_ != nullptr) std::fclose(latency_log_);
 }

@@ -23,6 +23,7 @@
 #include <cstdio>
 #include <deque>
 #include <functional>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -286,6 +287,9 @@ class FusionStage {
   void continue_catch_up();
   void finish_catch_up();
   void drop_catch_up();
+  // A finished catch-up's leftovers (the live cores' and live map's old states, the session read): freed
+  // on a thread of their own on writer_cpus, so no loop turn waits for them to be given back.
+  void free_off_loop(std::unique_ptr<CatchUpRun> run);
   // The session folder read back for a rebuild (a catch-up in slices under way dropped first); an error
   // if it cannot be read or holds fewer scans than the cores took (not this station's folder).
   [[nodiscard]] Result<Dataset> read_own_session();
@@ -310,6 +314,7 @@ class FusionStage {
   std::uint64_t late_seen_ = 0;  // ... at the last tick, and when it last grew
   std::int64_t late_at_ns_ = 0;
   std::unique_ptr<CatchUpRun> run_;  // the catch-up in slices under way (catch_up_run.hpp)
+  std::future<void> freeing_;        // the last catch-up's leftovers being freed (free_off_loop)
   // The primary core's back end: fed its releases (the session replay's too); a catch-up feeds a new
   // one the rebuilt primary's releases, which takes over with the cores.
   std::unique_ptr<fusion::GraphBackend> graph_;

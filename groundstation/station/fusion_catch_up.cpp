@@ -12,6 +12,7 @@
 #include "common/clock.hpp"
 #include "common/dataset/dataset.hpp"
 #include "common/error_message.hpp"
+#include "common/thread_placement.hpp"
 #include "groundstation/fusion/graph_map.hpp"
 #include "groundstation/fusion/time_line.hpp"
 #include "groundstation/station/catch_up_run.hpp"
@@ -154,11 +155,23 @@ void FusionStage::continue_catch_up() {
   if (done && run.behind && !writer_->snapshotting()) finish_catch_up();
 }
 
+void FusionStage::free_off_loop(std::unique_ptr<CatchUpRun> run) {
+  if (freeing_.valid()) freeing_.wait();  // the one before (a catch-up takes seconds: long done)
+  try {
+    freeing_ = std::async(std::launch::async, [leftovers = std::move(run), cpus = options_.writer_cpus]() mutable {
+      (void)set_current_thread_cpus(cpus);  // with the model writer, off the loop's CPUs (none: unchanged)
+      leftovers.reset();
+    });
+  } catch (const std::system_error&) {
+    // No thread: the leftovers, still in the callable std::async was given, are freed here.
+  }
+}
+
 void FusionStage::finish_catch_up() {
   CatchUpRun& run = *run_;
   const Time started = now_monotonic();
   cores_->take_state(run.rebuild.cores());
-  map_ = std::move(run.map);
+  std::swap(map_, run.map);  // the old live map goes with the run's leftovers
   if (run.graph) {
     graph_ = std::move(run.graph);
     followed_version_ = 0;  // the new graph's estimates are its own
@@ -194,7 +207,7 @@ void FusionStage::finish_catch_up() {
   counters_.catch_up_turns = run.turns;
   const Duration slice_max = run.slice_max;
   const Time catch_up_started = run.started;
-  run_.reset();  // the session read and the rebuilt cores' husks go with it
+  free_off_loop(std::move(run_));  // the session read and the cores' and map's old states
   const Time done = now_monotonic();
   counters_.catch_up_slice_max_s = to_seconds(std::max(slice_max, done - started));
   counters_.last_catch_up_s = to_seconds(done - catch_up_started);
