@@ -1,6 +1,7 @@
 // Where a thread runs (thread_placement.hpp).
 #include "common/thread_placement.hpp"
 
+#include <pthread.h>
 #include <sched.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -11,6 +12,13 @@
 namespace teamscan {
 
 int current_thread_id() { return static_cast<int>(::syscall(SYS_gettid)); }
+
+void set_current_thread_below_loop() {
+  (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(current_thread_id()), 10);
+  sched_param p{};
+  p.sched_priority = 0;
+  (void)::pthread_setschedparam(::pthread_self(), SCHED_BATCH, &p);
+}
 
 int set_current_thread_cpus(std::span<const int> cpus) {
   if (cpus.empty()) return 0;

@@ -29,6 +29,10 @@ struct ThreadScheduling {
 // of the set is online or allowed; out-of-range numbers are ignored).
 [[nodiscard]] int set_current_thread_cpus(std::span<const int> cpus);
 
+// Puts the calling thread below a station's loop: nice 10 on its own thread id and SCHED_BATCH (no
+// preemption on wake-up). Best effort: what the kernel refuses is left as it was.
+void set_current_thread_below_loop();
+
 // The scheduling of the thread `handle` whose kernel id is `tid` (gettid()); policy -1 if it is gone.
 [[nodiscard]] ThreadScheduling thread_scheduling(pthread_t handle, int tid);
 

@@ -17,6 +17,18 @@ Result<RebuildSource> make_rebuild_source(Dataset dataset, const CoreOptions& pr
   return s;
 }
 
+void feed_time_line(RebuildSource& source) {
+  CoreSet& cores = *source.cores;
+  std::size_t fed = 0;
+  source.events_fed = source.time_line->feed_part(
+      source.events_fed, 0, [&](PoseInput& p) { cores.add_pose(p); },
+      [&](ScanInput& s) {
+        (void)cores.add_scan(s);
+        ++fed;
+      });
+  source.scans_fed += fed;
+}
+
 void CoreRebuild::add_pose(const PoseInput& pose) {
   Input& in = queue_.emplace_back();
   in.kind = Input::Kind::pose;
@@ -40,8 +52,9 @@ void CoreRebuild::advance_to(std::int64_t arrival_ns) {
 
 void CoreRebuild::load(RebuildSource source) {
   source_ = std::move(source);
-  next_event_ = 0;
+  next_event_ = source_.events_fed;
   progress_.time_line_scans = source_.time_line->records().size();
+  progress_.fed_scans = source_.scans_fed;
 }
 
 bool CoreRebuild::step(std::size_t max_scans) {

@@ -5,7 +5,7 @@
 // have left them, however the work was sliced: live = offline stays exact.
 //
 // A pure state machine on the caller's thread (no I/O, no threads): the data set is read elsewhere and
-// handed to load().
+// handed to load(), its time line fed already or not (feed_time_line, on the reader's thread).
 #pragma once
 
 #include <cstddef>
@@ -29,9 +29,15 @@ struct RebuildSource {
   std::unique_ptr<Dataset> dataset;
   std::unique_ptr<TimeLine> time_line;  // over *dataset
   std::unique_ptr<CoreSet> cores;
+  std::size_t events_fed = 0;  // the time line's events the cores were fed already (feed_time_line)
+  std::size_t scans_fed = 0;   // ... of which scans
 };
 [[nodiscard]] Result<RebuildSource> make_rebuild_source(Dataset dataset, const CoreOptions& primary,
                                                         const std::vector<std::string>& compared);
+// Feeds the source's cores its whole time line where it is called (the station: on the thread that read
+// the data set), with the release callbacks set on them, so that CoreRebuild::step() only feeds what
+// came live behind it: the same calls in the same order as step() would have made.
+void feed_time_line(RebuildSource& source);
 
 struct RebuildProgress {
   std::size_t time_line_scans = 0;  // the data set's scans (0 before load())
@@ -51,7 +57,8 @@ class CoreRebuild {
   void add_scan(const ScanInput& scan);
   void advance_to(std::int64_t arrival_ns);
 
-  // The data set to rebuild from; until then step() feeds nothing.
+  // The data set to rebuild from (its time line fed already as far as source.events_fed); until then
+  // step() feeds nothing.
   void load(RebuildSource source);
   [[nodiscard]] bool loaded() const { return source_.cores != nullptr; }
   // Feeds the cores at most `max_scans` scans (0: no limit), the data set's in time order first, then (from

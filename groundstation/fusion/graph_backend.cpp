@@ -93,12 +93,8 @@ void GraphBackend::finish() {
 
 void GraphBackend::run() {
   {
-    // Below the station's loop: nice 10 on its own thread id, SCHED_BATCH (no preemption on wake-up).
     const int error = set_current_thread_cpus(options_.cpus);
-    (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(current_thread_id()), 10);
-    sched_param p{};
-    p.sched_priority = 0;
-    (void)::pthread_setschedparam(::pthread_self(), SCHED_BATCH, &p);
+    set_current_thread_below_loop();
     const std::lock_guard lock(mutex_);
     thread_id_ = current_thread_id();
     affinity_error_ = error;

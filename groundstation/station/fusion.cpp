@@ -212,16 +212,20 @@ void FusionStage::record_fused(std::uint8_t robot, std::uint32_t scan, std::int6
   }
 }
 
-// A scan released by the catch-up's rebuilt primary: into the map it will show; from the queue (a live
-// input), remembered for the take-over.
-void FusionStage::on_rebuilt_release(const fusion::FusedScan& f) {
-  CatchUpRun& run = *run_;
+// A scan released by the catch-up's rebuilt primary: into the map it will show (and the catch-up's new
+// graph); from the queue (a live input), remembered for the take-over.
+void FusionStage::add_rebuilt_release(CatchUpRun& run, const fusion::FusedScan& f) {
   ++run.scans;
   const std::span<const mapping::MapPoint> points = f.view->points;
   run.points += points.size();
   run.map.add_all(points, f.removed, f.stored, f.view->robot, f.release);
   for (std::uint8_t r : f.removed) run.live_removed += r != 0 ? 1 : 0;
   if (run.graph) run.graph->add(f);
+}
+
+void FusionStage::on_rebuilt_release(const fusion::FusedScan& f) {
+  CatchUpRun& run = *run_;
+  add_rebuilt_release(run, f);
   // Following the graph, it keeps taking the live releases; a queued scan the rebuilt cores release
   // first goes to it from here (one it took already is ignored).
   if (run.follow && run.behind && graph_) graph_->add(f);

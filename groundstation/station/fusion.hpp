@@ -86,10 +86,10 @@ struct FusionOptions {
   // clock (the back-fill is over). 0 scans: never in the loop; flush() catches up whenever one is due.
   std::uint32_t catch_up_min_scans = 75;
   double catch_up_quiet_s = 2.0;
-  // The catch-up in the loop is done in slices: the session folder is read off the loop (a loader
-  // thread), then each loop turn feeds the rebuilt cores at most this many scans while the live cores
-  // go on taking, fusing and showing the robots' scans; the rebuilt cores take over once they caught up
-  // with the live ones. 0: the whole catch-up in the turn it is due, holding the loop (catch_up()), and
+  // The catch-up in the loop is done in slices: the session folder is read and fed to the rebuilt cores
+  // off the loop (a loader thread on writer_cpus, below the loop), then each loop turn feeds them at
+  // most this many of the live scans queued meanwhile while the live cores go on taking, fusing and
+  // showing the robots' scans; the rebuilt cores take over once they caught up with the live ones. 0: the whole catch-up in the turn it is due, holding the loop (catch_up()), and
   // the live map does not follow the pose graph (only the final model does).
   std::uint32_t catch_up_slice_scans = 16;
   // The pose graph as the primary core's back end (fusion/graph_backend.hpp; [pose_graph]): fed every
@@ -294,6 +294,9 @@ class FusionStage {
   // if it cannot be read or holds fewer scans than the cores took (not this station's folder).
   [[nodiscard]] Result<Dataset> read_own_session();
   void on_rebuilt_release(const fusion::FusedScan& scan);
+  // Its part that only touches the catch-up's own state: the rebuilt map, its counters, its new graph
+  // (the session's releases, on the loader thread: start_catch_up).
+  static void add_rebuilt_release(CatchUpRun& run, const fusion::FusedScan& scan);
   void record_fused(std::uint8_t robot, std::uint32_t scan, std::int64_t stamp_ns, std::int64_t arrival_ns,
                     const Pose2& map_from_robot);
 

@@ -1,5 +1,5 @@
-// FusionStage's catch-up after a radio shadow (fusion.hpp): when it starts, the session read on a
-// loader thread, the rebuilt cores fed a slice per loop turn, the take-over; and the whole catch-up in
+// FusionStage's catch-up after a radio shadow (fusion.hpp): when it starts, the session read and fed
+// to the rebuilt cores on a loader thread, the live inputs behind it a slice per loop turn, the take-over; and the whole catch-up in
 // one call (shutdown, catch_up_slice_scans = 0); and the cores rebuilt on the pose graph's poses.
 #include <algorithm>
 #include <chrono>
@@ -91,13 +91,25 @@ void FusionStage::start_catch_up(std::int64_t realtime_ns, bool follow) {
   // The folder as it is now: the store wrote every sample the cores took, each record whole.
   const SessionExtent extent = session_extent_now(session_dir_);
   try {
+    // The loader reads the folder and feeds the new cores the whole session in time order, below the
+    // loop (SCHED_BATCH, nice 10, on fusion.writer_cpus): the loop feeds them only the live inputs
+    // queued behind it. It
+    // touches nothing but the run's own state (add_rebuilt_release); the run waits for it before it goes.
     run->loading = std::async(std::launch::async, [dir = session_dir_, extent, core = options_.core, compared = options_.compare_methods,
-                                                   on_graph = run->on_graph]() -> Result<fusion::RebuildSource> {
+                                                   on_graph = run->on_graph, r = run.get(), cpus = options_.writer_cpus]() -> Result<fusion::RebuildSource> {
+      (void)set_current_thread_cpus(cpus);  // with the model writer, off the loop's CPUs (none: unchanged)
+      set_current_thread_below_loop();
       SessionReadStats stats;
       Result<Dataset> session = read_session_dataset(dir, stats, extent);
       if (!session) return session.error();
-      if (on_graph) return fusion::rebuild_source_on_graph(std::move(session.value()), core, compared, on_graph->poses);
-      return fusion::make_rebuild_source(std::move(session.value()), core, compared);
+      Result<fusion::RebuildSource> source =
+          on_graph ? fusion::rebuild_source_on_graph(std::move(session.value()), core, compared, on_graph->poses)
+                   : fusion::make_rebuild_source(std::move(session.value()), core, compared);
+      if (!source) return source;
+      if (source->dataset->scans.size() < r->scans_needed) return source;  // not fed: refused on the loop
+      source->cores->primary().set_release_callback([r](const fusion::FusedScan& f) { add_rebuilt_release(*r, f); });
+      fusion::feed_time_line(source.value());
+      return source;
     });
   } catch (const std::system_error&) {
     ++counters_.catch_up_failures;  // no thread: not tried again before more scans come late

@@ -524,8 +524,9 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraph) {
   std::filesystem::remove_all(dir);
 }
 
-// The loop is not held by a catch-up: with a back-fill's whole session to decide again, each turn feeds
-// the rebuilt cores at most catch_up_slice_scans scans, and every live scan that comes meanwhile is
+// The loop is not held by a catch-up: the back-fill's whole session is decided again on the loader
+// thread, each turn feeds the rebuilt cores at most catch_up_slice_scans of the live scans queued behind
+// it, and every live scan that comes meanwhile is
 // released by the live cores within as many turns as with no catch-up at all (until the rebuilt cores take
 // over, the live ones are the very cores of a run without a catch-up).
 TEST(CatchUp, LiveScansAreFusedTurnByTurnWhileTheCatchUpRuns) {
@@ -537,6 +538,8 @@ TEST(CatchUp, LiveScansAreFusedTurnByTurnWhileTheCatchUpRuns) {
   std::vector<int> turns_to_release[2];
   std::uint64_t catch_up_turns = 0;
   std::int64_t started_ns = 0;
+  std::size_t started_at = 0;  // the sample the catch-up began at
+  constexpr std::size_t kAhead = 200;  // samples received (and queued) before the loader is waited for
   std::set<std::pair<std::uint8_t, std::uint32_t>> during;
   for (int k = 0; k < 2; ++k) {
     FusionOptions o = options();
@@ -555,8 +558,10 @@ TEST(CatchUp, LiveScansAreFusedTurnByTurnWhileTheCatchUpRuns) {
     };
     std::vector<Pending> pending;
     std::size_t fed_before = 0;
+    bool saw_loaded = false, session_fed_on_loader = false;
     std::size_t most_fed_in_a_turn = 0;
-    for (const Sample& x : samples) {
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      const Sample& x = samples[i];
       if (x.is_pose) {
         store->append_pose(x.pose, ReceiveTime{Time::from_ns(x.recv_ns), Time::from_ns(x.recv_ns)});
         stage.add_pose(pose_observation(x.pose, Time::from_ns(x.recv_ns)));
@@ -572,18 +577,26 @@ TEST(CatchUp, LiveScansAreFusedTurnByTurnWhileTheCatchUpRuns) {
       stage.tick(x.recv_ns);  // the loop's turn
       if (k == 0 && started_ns == 0 && stage.catching_up()) {
         started_ns = x.recv_ns;
-        // The session read is on a thread of its own: wait for it here, so that the turns below all
-        // feed the rebuilt cores (the count does not depend on how fast the thread was).
+        started_at = i;
+      }
+      if (k == 0 && started_ns != 0 && i == started_at + kAhead) {
+        // The session is read and decided again on a thread of its own while the live inputs queue
+        // behind it: wait for it here, so that the queue holds kAhead samples' inputs (however fast
+        // the thread was) and the turns below feed them.
         while (!stage.catch_up_has_work() && stage.catching_up()) {
           std::this_thread::sleep_for(std::chrono::milliseconds(1));
           stage.tick(x.recv_ns);  // the clock where it is: it releases nothing more
         }
-        const fusion::RebuildProgress p = stage.catch_up_progress();
-        fed_before = p.fed_scans + p.queued_fed_scans;  // the turns below are counted from here
       }
       if (was_catching_up && stage.catching_up()) {
+        // What the loop fed the rebuilt cores in this turn: live scans from the queue (the session's
+        // are the loader's).
         const fusion::RebuildProgress p = stage.catch_up_progress();
-        const std::size_t fed = p.fed_scans + p.queued_fed_scans;
+        if (!saw_loaded && stage.catch_up_has_work()) {  // the loop's first sight of the rebuilt cores
+          saw_loaded = true;
+          session_fed_on_loader = p.time_line_scans > 0 && p.fed_scans == p.time_line_scans;
+        }
+        const std::size_t fed = p.queued_fed_scans;
         most_fed_in_a_turn = std::max(most_fed_in_a_turn, fed - fed_before);
         fed_before = fed;
         ++catch_up_turns;
@@ -603,7 +616,10 @@ TEST(CatchUp, LiveScansAreFusedTurnByTurnWhileTheCatchUpRuns) {
       EXPECT_FALSE(stage.catching_up()) << "the catch-up did not end before the survey";
       EXPECT_EQ(stage.counters().catch_ups, 1u);
       EXPECT_LE(most_fed_in_a_turn, kSlice) << "a turn fed the rebuilt cores more than the slice";
-      EXPECT_GE(catch_up_turns, stage.counters().caught_up_scans / kSlice);  // it took many turns
+      EXPECT_TRUE(saw_loaded);
+      EXPECT_TRUE(session_fed_on_loader) << "the loop was handed the session's scans to feed";
+      EXPECT_GT(stage.counters().caught_up_live_scans, 50u);  // live scans queued behind the session
+      EXPECT_GE(catch_up_turns, stage.counters().caught_up_live_scans / kSlice);  // fed over many turns
     }
     std::filesystem::remove_all(dir);
   }
