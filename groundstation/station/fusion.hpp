@@ -89,8 +89,9 @@ struct FusionOptions {
   // The catch-up in the loop is done in slices: the session folder is read and fed to the rebuilt cores
   // off the loop (a loader thread on writer_cpus, below the loop), then each loop turn feeds them at
   // most this many of the live scans queued meanwhile while the live cores go on taking, fusing and
-  // showing the robots' scans; the rebuilt cores take over once they caught up with the live ones. 0: the whole catch-up in the turn it is due, holding the loop (catch_up()), and
-  // the live map does not follow the pose graph (only the final model does).
+  // showing the robots' scans; the rebuilt cores take over once they caught up with the live ones.
+  // 0: the whole catch-up in the turn it is due, holding the loop (catch_up()), and the live map does
+  // not follow the pose graph (only the final model does).
   std::uint32_t catch_up_slice_scans = 16;
   // The pose graph as the primary core's back end (fusion/graph_backend.hpp; [pose_graph]): fed every
   // scan the core releases, on its own thread; its trajectory is written at the end

@@ -1,6 +1,7 @@
 // FusionStage's catch-up after a radio shadow (fusion.hpp): when it starts, the session read and fed
-// to the rebuilt cores on a loader thread, the live inputs behind it a slice per loop turn, the take-over; and the whole catch-up in
-// one call (shutdown, catch_up_slice_scans = 0); and the cores rebuilt on the pose graph's poses.
+// to the rebuilt cores on a loader thread, the live inputs behind it a slice per loop turn, the
+// take-over; and the whole catch-up in one call (shutdown, catch_up_slice_scans = 0); and the cores
+// rebuilt on the pose graph's poses.
 #include <algorithm>
 #include <chrono>
 #include <exception>
@@ -93,8 +94,8 @@ void FusionStage::start_catch_up(std::int64_t realtime_ns, bool follow) {
   try {
     // The loader reads the folder and feeds the new cores the whole session in time order, below the
     // loop (SCHED_BATCH, nice 10, on fusion.writer_cpus): the loop feeds them only the live inputs
-    // queued behind it. It
-    // touches nothing but the run's own state (add_rebuilt_release); the run waits for it before it goes.
+    // queued behind it. It touches nothing but the run's own state (add_rebuilt_release); the run waits
+    // for it before it goes.
     run->loading = std::async(std::launch::async, [dir = session_dir_, extent, core = options_.core, compared = options_.compare_methods,
                                                    on_graph = run->on_graph, r = run.get(), cpus = options_.writer_cpus]() -> Result<fusion::RebuildSource> {
       (void)set_current_thread_cpus(cpus);  // with the model writer, off the loop's CPUs (none: unchanged)
