@@ -17,16 +17,17 @@ Result<RebuildSource> make_rebuild_source(Dataset dataset, const CoreOptions& pr
   return s;
 }
 
-void feed_time_line(RebuildSource& source) {
+std::size_t feed_time_line(RebuildSource& source, std::size_t max_scans) {
   CoreSet& cores = *source.cores;
   std::size_t fed = 0;
   source.events_fed = source.time_line->feed_part(
-      source.events_fed, 0, [&](PoseInput& p) { cores.add_pose(p); },
+      source.events_fed, max_scans, [&](PoseInput& p) { cores.add_pose(p); },
       [&](ScanInput& s) {
         (void)cores.add_scan(s);
         ++fed;
       });
   source.scans_fed += fed;
+  return fed;
 }
 
 void CoreRebuild::add_pose(const PoseInput& pose) {
@@ -52,7 +53,6 @@ void CoreRebuild::advance_to(std::int64_t arrival_ns) {
 
 void CoreRebuild::load(RebuildSource source) {
   source_ = std::move(source);
-  next_event_ = source_.events_fed;
   progress_.time_line_scans = source_.time_line->records().size();
   progress_.fed_scans = source_.scans_fed;
 }
@@ -62,14 +62,9 @@ bool CoreRebuild::step(std::size_t max_scans) {
   CoreSet& cores = *source_.cores;
   std::size_t fed = 0, inputs = 0;
   const std::size_t events = source_.time_line->events();
-  if (next_event_ < events) {
-    next_event_ = source_.time_line->feed_part(
-        next_event_, max_scans, [&](PoseInput& p) { cores.add_pose(p); },
-        [&](ScanInput& s) {
-          (void)cores.add_scan(s);
-          ++fed;
-        });
-    progress_.fed_scans += fed;
+  if (source_.events_fed < events) {
+    (void)feed_time_line(source_, max_scans);
+    progress_.fed_scans = source_.scans_fed;
     ++progress_.steps;
     return false;  // the queue from the next call on: the caller sees the session's end in between
   }

@@ -34,10 +34,11 @@ struct RebuildSource {
 };
 [[nodiscard]] Result<RebuildSource> make_rebuild_source(Dataset dataset, const CoreOptions& primary,
                                                         const std::vector<std::string>& compared);
-// Feeds the source's cores its whole time line where it is called (the station: on the thread that read
-// the data set), with the release callbacks set on them, so that CoreRebuild::step() only feeds what
-// came live behind it: the same calls in the same order as step() would have made.
-void feed_time_line(RebuildSource& source);
+// Feeds the source's cores its time line on from source.events_fed until `max_scans` scans were fed (0: to
+// its end) and returns how many. CoreRebuild::step() feeds it a slice at a time; the station's loader
+// feeds it whole on the thread that read the data set, the release callbacks set, so that step() only
+// feeds what came live behind it: the same calls in the same order either way.
+std::size_t feed_time_line(RebuildSource& source, std::size_t max_scans = 0);
 
 struct RebuildProgress {
   std::size_t time_line_scans = 0;  // the data set's scans (0 before load())
@@ -67,7 +68,7 @@ class CoreRebuild {
   // catch-up's followed by the live inputs.
   bool step(std::size_t max_scans);
   // The data set fed (the queue may still hold live inputs).
-  [[nodiscard]] bool time_line_done() const { return loaded() && next_event_ >= source_.time_line->events(); }
+  [[nodiscard]] bool time_line_done() const { return loaded() && source_.events_fed >= source_.time_line->events(); }
 
   [[nodiscard]] CoreSet& cores() { return *source_.cores; }
   [[nodiscard]] const RebuildProgress& progress() const { return progress_; }
@@ -81,7 +82,6 @@ class CoreRebuild {
   };
   std::int64_t resume_at_ns_;
   RebuildSource source_;
-  std::size_t next_event_ = 0;
   bool resumed_ = false;
   std::deque<Input> queue_;
   RebuildProgress progress_;
