@@ -2,6 +2,7 @@
 #include "groundstation/fusion/graph_backend.hpp"
 
 #include <algorithm>
+#include <array>
 #include <utility>
 
 #include <pthread.h>
@@ -129,18 +130,34 @@ void GraphBackend::run() {
   done_cv_.notify_all();
 }
 
-std::vector<GraphScanPose> GraphBackend::scan_poses(const std::vector<Pose2>& nodes) const {
-  // Each scan: its node's pose moved by the odometry's motion from the node's last scan to it.
+std::vector<GraphScanPose> scan_poses_on_nodes(std::span<const NodeScans> nodes) {
   std::vector<GraphScanPose> out;
-  for (std::size_t k = 0; k < in_graph_.size() && k < nodes.size(); ++k) {
-    const Node& n = in_graph_[k];
+  std::array<const NodeScans*, 256> previous{};  // per robot id: its node before
+  for (const NodeScans& n : nodes) {
+    if (n.scans.empty()) continue;
+    const NodeScans* before = std::exchange(previous[n.robot], &n);
     const Pose2 node_from_odom = n.odom.inverse();
     for (GraphScanPose s : n.scans) {
-      s.graph = nodes[k] * (node_from_odom * s.odom);
+      s.graph = n.graph * (node_from_odom * s.odom);
+      if (before != nullptr) {
+        const std::int64_t t0 = before->scans.back().stamp_ns, t1 = n.scans.back().stamp_ns;
+        const double f = t1 > t0 ? std::clamp(static_cast<double>(s.stamp_ns - t0) / static_cast<double>(t1 - t0), 0.0, 1.0) : 1.0;
+        const Pose2 forward = before->graph * (before->odom.inverse() * s.odom);
+        const Pose2 step = forward.inverse() * s.graph;
+        s.graph = forward * Pose2{f * step.x_m, f * step.y_m, f * step.theta_rad};
+      }
       out.push_back(s);
     }
   }
   return out;
+}
+
+std::vector<GraphScanPose> GraphBackend::scan_poses(const std::vector<Pose2>& nodes) const {
+  std::vector<NodeScans> placed;
+  placed.reserve(std::min(in_graph_.size(), nodes.size()));
+  for (std::size_t k = 0; k < in_graph_.size() && k < nodes.size(); ++k)
+    placed.push_back({in_graph_[k].robot, in_graph_[k].odom, nodes[k], in_graph_[k].scans});
+  return scan_poses_on_nodes(placed);
 }
 
 void GraphBackend::publish_estimate() {

@@ -21,6 +21,7 @@
 #include <mutex>
 #include <optional>
 #include <set>
+#include <span>
 #include <tuple>
 #include <thread>
 #include <vector>
@@ -56,6 +57,24 @@ struct GraphScanPose {
   Pose2 odom;   // the odometry's pose, its returns relative to it (the released pose without its correction)
   Pose2 graph;  // after the graph's last optimisation
 };
+
+// A node of the graph as scan_poses_on_nodes reads it: its robot, the odometry's pose of its last scan,
+// where the graph put it, and the scans it gathers (in order, the last one at `odom`).
+struct NodeScans {
+  std::uint8_t robot = 0;
+  Pose2 odom;
+  Pose2 graph;
+  std::span<const GraphScanPose> scans;
+};
+
+// Every scan of `nodes` (the graph's node order) with its pose in the graph. A robot's first node's
+// scans: the node's pose moved by the odometry's motion from its last scan to them. A later node's: the
+// same (B) and the robot's previous node's pose moved forward by the odometry (A), the scan placed from A
+// to B in proportion to its stamp between the two nodes' last scans. So what the graph corrected of the
+// odometry since the previous node (a turn or slip error over the node) is spread over the node's scans
+// instead of being put whole at its last one and carried back by the odometry; a node's last scan is at
+// the node's pose either way.
+[[nodiscard]] std::vector<GraphScanPose> scan_poses_on_nodes(std::span<const NodeScans> nodes);
 
 // The graph's poses while it runs: every scan in the graph when it was solved (the scans of nodes still
 // open or queued are not), as GraphBackend::poses() gives them at the end.

@@ -320,5 +320,51 @@ TEST(GraphBackend, ALevelLasersScanIsANode) {
   }
 }
 
+// The odometry turns 10 % too much and drives 2 % too far; the graph puts each node where the robot
+// was at the node's last scan. Every scan of a robot's later node is then where the robot was to
+// first order, its first scans included; carried back by the odometry from the node's last scan alone,
+// the first scan of a node would be off by the node's whole odometry error. Two robots, interleaved:
+// each spreads over its own previous node.
+TEST(GraphBackendScanPoses, TheCorrectionIsSpreadOverTheNodesScans) {
+  constexpr double kTurnRadps = 1.0, kSpeedMps = 0.5;
+  const auto truth = [](double t, double side) { return Pose2{kSpeedMps * t, side, side * kTurnRadps * t}; };
+  const auto odometry = [](double t, double side) { return Pose2{1.02 * kSpeedMps * t, side, side * 1.1 * kTurnRadps * t}; };
+  constexpr int kScansPerNode = 19, kNodes = 4;
+  constexpr double kScanS = 1.0 / 75.0;
+  std::vector<std::vector<fusion::GraphScanPose>> scans(2 * kNodes);
+  std::vector<fusion::NodeScans> nodes;
+  for (int k = 0; k < kNodes; ++k)
+    for (int robot = 1; robot <= 2; ++robot) {
+      const double side = robot == 1 ? 1.0 : -1.0;
+      std::vector<fusion::GraphScanPose>& mine = scans[static_cast<std::size_t>(2 * k + robot - 1)];
+      for (int i = 0; i < kScansPerNode; ++i) {
+        const int n = k * kScansPerNode + i;
+        const double t = n * kScanS;
+        mine.push_back({static_cast<std::uint8_t>(robot), static_cast<std::uint32_t>(n), static_cast<std::int64_t>(std::llround(t * 1e9)), odometry(t, side), {}});
+      }
+      const double t_last = (k * kScansPerNode + kScansPerNode - 1) * kScanS;
+      nodes.push_back({static_cast<std::uint8_t>(robot), odometry(t_last, side), truth(t_last, side), mine});
+    }
+  const std::vector<fusion::GraphScanPose> placed = fusion::scan_poses_on_nodes(nodes);
+  ASSERT_EQ(placed.size(), static_cast<std::size_t>(2 * kNodes * kScansPerNode));
+  double worst_later_m = 0, worst_later_rad = 0, worst_first_rad = 0;
+  for (const fusion::GraphScanPose& p : placed) {
+    const double side = p.robot == 1 ? 1.0 : -1.0;
+    const Pose2 e = truth(static_cast<double>(p.stamp_ns) * 1e-9, side).inverse() * p.graph;
+    const bool first_node = p.scan < static_cast<std::uint32_t>(kScansPerNode);
+    (first_node ? worst_first_rad : worst_later_rad) = std::max(first_node ? worst_first_rad : worst_later_rad, std::abs(e.theta_rad));
+    if (!first_node) worst_later_m = std::max(worst_later_m, std::hypot(e.x_m, e.y_m));
+    if ((p.scan + 1) % kScansPerNode == 0) {  // a node's last scan: the node's pose
+      const Pose2 node = truth(static_cast<double>(p.stamp_ns) * 1e-9, side);
+      EXPECT_NEAR(p.graph.x_m, node.x_m, 1e-9);
+      EXPECT_NEAR(p.graph.theta_rad, node.theta_rad, 1e-9);
+    }
+  }
+  // A node spans 0.24 s: 0.024 rad of turn error over it, which the first node's first scan keeps.
+  EXPECT_GT(worst_first_rad, 0.02);
+  EXPECT_LT(worst_later_rad, 1e-6);  // the turn error grows with time: spread linearly, it is gone
+  EXPECT_LT(worst_later_m, 1e-3);
+}
+
 }  // namespace
 }  // namespace teamscan
