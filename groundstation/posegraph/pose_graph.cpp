@@ -72,7 +72,10 @@ void PoseGraph::optimize(bool final) {
         closure ? new ceres::HuberLoss(options_.closure_huber_scale) : nullptr, s[c.submap].data(), n[c.node].data());
   }
   for (const NodeLink& l : links_) {
-    problem.AddResidualBlock(RelativePoseCost::create(l.from_to_odometry, options_.odometry_translation_weight, options_.odometry_rotation_weight),
+    const double turned_rad = std::abs(l.from_to_odometry.theta_rad);
+    const double odometry_rotation_weight =
+        1.0 / (1.0 / options_.odometry_rotation_weight + options_.odometry_turn_sigma_rad_per_rad * turned_rad);
+    problem.AddResidualBlock(RelativePoseCost::create(l.from_to_odometry, options_.odometry_translation_weight, odometry_rotation_weight),
                              nullptr, n[l.from].data(), n[l.to].data());
     problem.AddResidualBlock(RelativePoseCost::create(l.from_to_local, options_.local_translation_weight, options_.local_rotation_weight),
                              nullptr, n[l.from].data(), n[l.to].data());

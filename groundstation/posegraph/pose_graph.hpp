@@ -19,6 +19,9 @@ struct GraphOptions {
   double matcher_translation_weight = 5e2, matcher_rotation_weight = 1.6e3;       // inserted scans
   double closure_translation_weight = 1.1e4, closure_rotation_weight = 1e5;      // loop closures
   double odometry_translation_weight = 1e2, odometry_rotation_weight = 1e3;       // consecutive nodes
+  // Wheels slip in a turn: the odometry's rotation between consecutive nodes is held the less stiffly
+  // the more it turned, its σ (1 / weight, rad) growing by this much per radian turned. 0: one weight.
+  double odometry_turn_sigma_rad_per_rad = 0;
   double local_translation_weight = 1e4, local_rotation_weight = 1e4;             // consecutive local SLAM poses
   double closure_huber_scale = 1e1;
   int max_iterations = 20;

@@ -96,7 +96,10 @@ struct SlamStats {
 // returns back onto the known piece and falls behind the robot, in translation and in yaw (on
 // lap2-drift by tens of degrees a minute). Local SLAM's pull towards the odometry's prediction is
 // 100 per metre and 400 per radian here (1 and 1 by default): it follows the odometry over a node and corrects what the walls
-// show clearly; the loop closures take out the drift (docs/slam.md "Tilted lasers").
+// show clearly; the loop closures take out the drift (docs/slam.md "Tilted lasers"). The odometry
+// between such nodes (a few centimetres, a few degrees) is held stiffly, 10⁴ per metre and 10⁵ per
+// radian, its rotation less so the more it turned (σ + 1 % of the turn): a node's few wall returns
+// say less about its motion than the wheels do, but the wheels slip in turns.
 [[nodiscard]] SlamOptions tilted_laser_options(SlamOptions base = {});
 
 class PlanarSlam {

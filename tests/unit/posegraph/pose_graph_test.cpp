@@ -1,6 +1,6 @@
 // The pose graph: a square loop whose odometry drifts is closed by one closure; a false closure under
 // the Huber loss moves the poses far less than it would obeyed; a closure weak along one axis holds
-// little along it.
+// little along it; the odometry's rotation holds less in a turn.
 // (Closures are robust: each pulls with a bounded force, so a drifted loop needs several of them.)
 #include <gtest/gtest.h>
 
@@ -96,6 +96,35 @@ TEST(PoseGraph, WeakAxisOfAClosureHoldsLittle) {
   EXPECT_NEAR(isotropic.y_m, 0.5, 0.01);
   EXPECT_LT(corridor.x_m, 1.1);  // the inserted scan's x wins along the weak axis
   EXPECT_NEAR(corridor.y_m, 0.5, 0.01);
+}
+
+// The odometry's rotation is held less stiffly in a turn: a closure that disagrees with it in yaw
+// moves a node that turned further than one that drove straight.
+TEST(PoseGraph, OdometryInATurnHoldsItsRotationLessStiffly) {
+  auto yaw_moved = [](double turn_rad, double turn_sigma_rad_per_rad) {
+    GraphOptions o;
+    o.closure_huber_scale = 1e9;  // quadratic: the weights alone decide
+    o.local_translation_weight = o.local_rotation_weight = 0;  // the odometry alone links the nodes
+    o.odometry_rotation_weight = o.closure_rotation_weight;
+    o.matcher_translation_weight = o.matcher_rotation_weight = 1e9;  // the submap held where node 0 put it
+    o.odometry_turn_sigma_rad_per_rad = turn_sigma_rad_per_rad;
+    PoseGraph g(o);
+    const std::size_t s = g.add_submap({0, 0, 0});
+    g.add_node({0, 0, 0}, true);
+    g.add_constraint({s, 0, {0, 0, 0}, Constraint::Kind::inserted});
+    const Pose2 moved{1, 0, turn_rad};
+    const std::size_t n = g.add_node(moved, false);
+    g.add_link({0, n, moved, moved});
+    g.add_constraint({s, n, {1, 0, turn_rad + 0.05}, Constraint::Kind::closure});
+    g.optimize();
+    return g.nodes()[n].theta_rad - turn_rad;
+  };
+  // Equal weights: the closure gets half of its 0.05 rad, whichever way the robot turned.
+  EXPECT_NEAR(yaw_moved(0.0, 0.0), 0.025, 1e-3);
+  EXPECT_NEAR(yaw_moved(kPi / 2, 0.0), 0.025, 1e-3);
+  // With the turn's σ: straight as before, a quarter turn (σ 0.016 rad against the closure's 10⁻⁵) all of it.
+  EXPECT_NEAR(yaw_moved(0.0, 0.01), 0.025, 1e-3);
+  EXPECT_NEAR(yaw_moved(kPi / 2, 0.01), 0.05, 1e-3);
 }
 
 TEST(PoseGraph, SameInputSamePoses) {
