@@ -93,8 +93,7 @@ struct SlamStats {
 // The options for tilted lasers' returns (fusion/planar_returns.hpp: a node is a robot's wall returns
 // over a quarter of a second, each scan one stripe across the walls near it). Such a node sees a short new
 // piece of wall past the end of what its submap holds: matched on its own, local SLAM pulls those
-// returns back onto the known piece and falls behind the robot, in translation and in yaw (on
-// lap2-drift by tens of degrees a minute). Local SLAM's pull towards the odometry's prediction is
+// returns back onto the known piece and falls behind the robot, in translation and in yaw. Local SLAM's pull towards the odometry's prediction is
 // 100 per metre and 400 per radian here (1 and 1 by default): it follows the odometry over a node and corrects what the walls
 // show clearly; the loop closures take out the drift (docs/slam.md "Tilted lasers"). The odometry
 // between such nodes (a few centimetres, a few degrees) is held stiffly, 10⁴ per metre and 10⁵ per
