@@ -223,13 +223,14 @@ float CorrelativeMatcher::score(const Level& level, const RotatedScan& scan, int
 }
 
 void CorrelativeMatcher::branch(const std::vector<RotatedScan>& scans, std::vector<Candidate>& candidates, int depth, int max_x, int max_y,
-                                float& best_score, Candidate& best) const {
+                                float min_score, float tolerance, float& best_score, std::vector<Candidate>& leaves) const {
   std::stable_sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
   for (const Candidate& c : candidates) {
-    if (c.score <= best_score) break;  // sorted: no later candidate can beat the best either
+    // Sorted: no later candidate's block holds a leaf at min_score and within the tolerance of the best.
+    if (c.score < std::max(best_score - tolerance, min_score)) break;
     if (depth == 0) {
-      best_score = c.score;
-      best = c;
+      best_score = std::max(best_score, c.score);
+      leaves.push_back(c);
       continue;
     }
     const int h = 1 << (depth - 1);
@@ -241,7 +242,7 @@ void CorrelativeMatcher::branch(const std::vector<RotatedScan>& scans, std::vect
         if (dx > max_x || dy > max_y) continue;
         children.push_back({c.scan, dx, dy, score(levels_[static_cast<std::size_t>(depth - 1)], scans[static_cast<std::size_t>(c.scan)], dx, dy)});
       }
-    branch(scans, children, depth - 1, max_x, max_y, best_score, best);
+    branch(scans, children, depth - 1, max_x, max_y, min_score, tolerance, best_score, leaves);
   }
 }
 
@@ -294,11 +295,28 @@ SearchResult CorrelativeMatcher::search(const std::vector<Vec2>& points, const P
     for (int dx = 0; dx <= max_offset; dx += top_step)
       for (int dy = 0; dy <= max_offset; dy += top_step)
         top.push_back({static_cast<int>(s), dx, dy, score(levels_.back(), scans[s], dx, dy)});
-  float best_score = static_cast<float>(min_score);
+  const auto tolerance = static_cast<float>(window.plateau_score);
+  float best_score = 0.0f;
+  std::vector<Candidate> leaves;
+  branch(scans, top, depth, max_offset, max_offset, static_cast<float>(min_score), tolerance, best_score, leaves);
+  // Of the leaves within the tolerance of the best score (a plateau: along a corridor the score only
+  // ripples), the nearest to the guess, in search cells and angular steps (a step moves the farthest
+  // point by about a cell); then the higher score. Taking the first the search visits would put every
+  // such match at the window's low corner along the plateau, all with the same bias.
   Candidate best;
   best.scan = -1;
-  branch(scans, top, depth, max_offset, max_offset, best_score, best);
+  long best_d2 = 0;
+  for (const Candidate& c : leaves) {
+    if (c.score < best_score - tolerance) continue;
+    const long ex = c.dx - linear, ey = c.dy - linear, ea = c.scan - n_angles;
+    const long d2 = ex * ex + ey * ey + ea * ea;
+    if (best.scan < 0 || d2 < best_d2 || (d2 == best_d2 && c.score > best.score)) {
+      best = c;
+      best_d2 = d2;
+    }
+  }
   if (best.scan < 0) return result;
+  best_score = best.score;
   result.found = true;
   result.score = best_score;
   result.pose = {guess.x_m + (best.dx - linear) * resolution_m_, guess.y_m + (best.dy - linear) * resolution_m_,

@@ -43,6 +43,9 @@ struct SearchWindow {
   double linear_m = 4.0;   // ± around the guess, in x and y
   double angular_rad = 0.35;
   double angular_step_rad = 0.0;  // 0: from the scan's extent (the farthest point moves one cell)
+  // Poses scoring within this of the best are a plateau (a corridor along its length): of them, the
+  // nearest to the guess. 0: exact ties only.
+  double plateau_score = 0.0;
 };
 
 struct SearchResult {
@@ -53,15 +56,16 @@ struct SearchResult {
 
 // Cartographer's fast correlative scan matcher ("Real-time loop closure in 2D LIDAR SLAM", Hess et al.
 // 2016, section V.C): precomputed grids of the maximum over 2^d × 2^d cells bound the score of every
-// pose in a block of the window, and a depth-first branch and bound visits only blocks whose bound beats
-// the best pose found. Built once per finished submap.
+// pose in a block of the window, and a depth-first branch and bound visits only blocks whose bound comes
+// within the plateau (SearchWindow::plateau_score) of the best pose found. Built once per finished submap.
 class CorrelativeMatcher {
  public:
   // `pool`: the search's cells are pool × pool grid cells (their maximum), for speed and memory; the
   // refinement afterwards works on the full grid. Levels are stored as bytes (value · 255).
   CorrelativeMatcher(const Grid& grid, int depth, int pool = 1);
 
-  // The best pose within `window` of `guess` whose score exceeds `min_score`.
+  // The best pose within `window` of `guess` scoring at least `min_score`; of poses scoring within
+  // window.plateau_score of it, the nearest to the guess, whatever the order the search visits them in.
   [[nodiscard]] SearchResult search(const std::vector<Vec2>& points, const Pose2& guess, const SearchWindow& window,
                                     double min_score) const;
   // The search levels' bytes.
@@ -89,7 +93,7 @@ class CorrelativeMatcher {
     int x_min = 0, y_min = 0, x_max = -1, y_max = -1;
   };
   void branch(const std::vector<RotatedScan>& scans, std::vector<Candidate>& candidates, int depth, int max_x, int max_y,
-              float& best_score, Candidate& best) const;
+              float min_score, float tolerance, float& best_score, std::vector<Candidate>& leaves) const;
   [[nodiscard]] float score(const Level& level, const RotatedScan& scan, int dx, int dy) const;
 
   CellBox box_;  // in search cells

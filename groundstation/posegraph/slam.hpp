@@ -34,7 +34,7 @@ struct SlamOptions {
   int closure_every_n_nodes = 6;
   int closure_submaps = 3;
   double closure_max_distance_m = 7.0;
-  SearchWindow closure_window{3.0, 0.35, 0.01};
+  SearchWindow closure_window{3.0, 0.35, 0.01, 0.01};
   double closure_min_score = 0.55;  // of the search (mean grid value at the points)
   double closure_min_refined_score = 0.65;
   int closure_depth = 6;            // branch and bound levels: blocks of up to 2^6 search cells
@@ -59,7 +59,7 @@ struct SlamOptions {
   int rematch_submaps = 10;
   int rematch_every_n_nodes = 3;
   int rematch_rounds = 1;
-  SearchWindow rematch_window{0.3, 0.05, 0.01};
+  SearchWindow rematch_window{0.3, 0.05, 0.01, 0.01};
   // Memory bounded by the mapped space, not by the time mapped. When a submap is finished, every older
   // finished submap with at least `retire_after_submaps` newer finished ones (of any robot, not retired)
   // whose origins lie within `retire_distance_m` of its own (by the graph's estimate) is retired: its

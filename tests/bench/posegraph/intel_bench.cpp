@@ -52,6 +52,8 @@ SlamOptions options_from_env() {
       {"closure_window.angular_rad", &o.closure_window.angular_rad},
       {"rematch_window.linear_m", &o.rematch_window.linear_m},
       {"rematch_window.angular_rad", &o.rematch_window.angular_rad},
+      {"closure_window.plateau_score", &o.closure_window.plateau_score},
+      {"rematch_window.plateau_score", &o.rematch_window.plateau_score},
       {"retire_distance_m", &o.retire_distance_m},
       {"rematch_cell_m", &o.rematch_cell_m},
   };

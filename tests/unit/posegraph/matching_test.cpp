@@ -62,21 +62,57 @@ TEST(Matching, CorrelativeSearchFindsAFarGuess) {
   EXPECT_FALSE(wrong.found);
 }
 
+// A corridor along x (walls at y = 0 and y = 2, 20 m long) and a scan of its walls from (0, 1): the
+// scan pins y down, not x.
+struct Corridor {
+  Grid grid{0.03, 0.03};
+  std::vector<Vec2> seen;
+  Corridor() {
+    std::vector<Vec2> walls;
+    for (int i = 0; i <= 1000; ++i) {
+      walls.push_back({-10.0 + 0.02 * i, 0.0});
+      walls.push_back({-10.0 + 0.02 * i, 2.0});
+    }
+    grid.insert(walls);
+    for (int i = 0; i <= 200; ++i) {
+      seen.push_back({-2.0 + 0.02 * i, -1.0});
+      seen.push_back({-2.0 + 0.02 * i, 1.0});
+    }
+  }
+};
+
+TEST(Matching, CorrelativeSearchOnAPlateauKeepsTheGuess) {
+  // Along the corridor the score only ripples (the wall's samples against the cells): the search must
+  // not slide to the window's corner (the first of the near-ties it happens to visit) but stay at the
+  // guess's x, and find y. Exact ties only: the nearest of the ripple's tops (period 3 cells).
+  const Corridor c;
+  const CorrelativeMatcher m(c.grid, 5);
+  for (const double guess_x : {-0.7, 0.0, 0.4}) {
+    const SearchResult exact = m.search(c.seen, {guess_x, 1.2, 0.0}, {1.0, 0.1, 0.01}, 0.5);
+    ASSERT_TRUE(exact.found);
+    EXPECT_NEAR(exact.pose.x_m, guess_x, 0.061);
+    EXPECT_NEAR(exact.pose.y_m, 1.0, 0.031);
+    EXPECT_NEAR(exact.pose.theta_rad, 0.0, 0.011);
+    // Scores within 0.02 of the best are one plateau: its pose nearest the guess.
+    const SearchResult plateau = m.search(c.seen, {guess_x, 1.2, 0.0}, {1.0, 0.1, 0.01, 0.02}, 0.5);
+    ASSERT_TRUE(plateau.found);
+    EXPECT_NEAR(plateau.pose.x_m, guess_x, 1e-9);
+    EXPECT_NEAR(plateau.pose.y_m, 1.0, 0.031);
+    EXPECT_GE(plateau.score, exact.score - 0.02);
+  }
+  // A true peak still wins over a plateau's pose nearer the guess: the room from afar.
+  const Grid g = room_grid();
+  const Pose2 truth{4.0, 3.5, 0.3};
+  const SearchResult room = CorrelativeMatcher(g, 6).search(test::scan(truth), {4.9, 2.7, 0.47}, {1.5, 0.3, 0.005, 0.02}, 0.5);
+  ASSERT_TRUE(room.found);
+  EXPECT_NEAR(room.pose.x_m, truth.x_m, 0.051);
+  EXPECT_NEAR(room.pose.y_m, truth.y_m, 0.051);
+  EXPECT_NEAR(room.pose.theta_rad, truth.theta_rad, 0.006);
+}
+
 TEST(Matching, TranslationAxesOfACorridorAndOfARoom) {
-  // A corridor along x (walls at y = 0 and y = 2, 20 m long): a scan from its middle pins y down,
-  // not x. The room pins both.
-  Grid corridor(0.03, 0.03);
-  std::vector<Vec2> walls, seen;
-  for (int i = 0; i <= 1000; ++i) {
-    walls.push_back({-10.0 + 0.02 * i, 0.0});
-    walls.push_back({-10.0 + 0.02 * i, 2.0});
-  }
-  corridor.insert(walls);
-  for (int i = 0; i <= 200; ++i) {
-    seen.push_back({-2.0 + 0.02 * i, -1.0});
-    seen.push_back({-2.0 + 0.02 * i, 1.0});
-  }
-  const TranslationAxes c = translation_axes(corridor, seen, {0.0, 1.0, 0.0});
+  const Corridor corridor;
+  const TranslationAxes c = translation_axes(corridor.grid, corridor.seen, {0.0, 1.0, 0.0});
   EXPECT_NEAR(std::abs(std::sin(c.strong_axis_rad)), 1.0, 0.01);  // across the corridor
   EXPECT_LT(c.weak_ratio, 0.05);
   const Grid g = room_grid();
