@@ -101,15 +101,22 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
   const std::size_t node = graph_.add_node(r.global_from_local * local, anchor);
   node_local_.push_back(local);
   node_robot_.push_back(robot_id);
-  if (r.started) graph_.add_link({r.last_node, node, r.last_odometry.inverse() * odometry, r.last_local.inverse() * local});
+  bool still = false;
+  if (r.started) {
+    const Pose2 moved = r.last_odometry.inverse() * odometry;
+    still = std::hypot(moved.x_m, moved.y_m) < options_.still_translation_m && std::abs(moved.theta_rad) < options_.still_rotation_rad;
+    if (still) ++still_;
+    graph_.add_link({r.last_node, node, moved, r.last_local.inverse() * local});
+  }
   r.started = true;
   ++r.nodes;
   r.last_odometry = odometry;
   r.last_local = local;
   r.last_node = node;
-  if (options_.closure_every_n_nodes > 0 && node % static_cast<std::size_t>(options_.closure_every_n_nodes) == 0) close_loops(r, node, points);
+  if (!still && options_.closure_every_n_nodes > 0 && node % static_cast<std::size_t>(options_.closure_every_n_nodes) == 0)
+    close_loops(r, node, points);
   node_points_.emplace_back();
-  if (options_.rematch_submaps > 0 && options_.rematch_every_n_nodes > 0 && points.size() >= 20 &&
+  if (!still && options_.rematch_submaps > 0 && options_.rematch_every_n_nodes > 0 && points.size() >= 20 &&
       node % static_cast<std::size_t>(options_.rematch_every_n_nodes) == 0 && keep_returns(node))
     node_points_.back() = points;
   insert(r, node, local, points);
@@ -322,7 +329,7 @@ SlamStats PlanarSlam::stats() const {
   for (const auto& m : submaps_) bytes += m->grid.values().capacity() * sizeof(float) + (m->matcher ? m->matcher->memory_bytes() : 0);
   for (const auto& p : node_points_) bytes += p.capacity() * sizeof(Vec2);
   return {graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_, rematches_,
-          retired_, kept_returns_, bytes};
+          retired_, kept_returns_, still_, bytes};
 }
 
 }  // namespace teamscan::posegraph

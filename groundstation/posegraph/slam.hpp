@@ -46,6 +46,13 @@ struct SlamOptions {
   int closure_track_nodes = 10;
   // A robot's own submaps that took a scan within this many of its nodes are not searched.
   int closure_skip_recent_nodes = 0;
+  // A node whose odometry moved less than both of these since the robot's previous node (the robot
+  // stands still) is neither searched for loop closures nor kept for the second search: it sees what
+  // the nodes before it saw, and a parked robot's hundreds of such closures, all sharing one match's
+  // error, would outvote its odometry. It is still inserted into its submaps (its views hold the
+  // headings of robots that stop). 0: every node searched.
+  double still_translation_m = 0.01;
+  double still_rotation_rad = 0.0087;
   // A closure's translation weight along its match's weak axis: √(weak_ratio) (TranslationAxes), at
   // least this floor; 1 = isotropic weights.
   double closure_weak_axis_floor = 0.1;
@@ -87,6 +94,7 @@ struct SlamStats {
   std::size_t rematches = 0;  // closures added by the second search at the end
   std::size_t retired = 0;    // submaps retired (SlamOptions::retire_after_submaps)
   std::size_t kept_returns = 0;  // nodes whose returns are kept for the second search
+  std::size_t still = 0;         // nodes not searched: their robot stood still (SlamOptions::still_translation_m)
   std::size_t memory_bytes = 0;  // the submaps' grids and search levels and the kept returns, now
 };
 
@@ -145,7 +153,7 @@ class PlanarSlam {
   std::vector<std::vector<Vec2>> node_points_;  // the searched nodes' returns (empty for the others), for rematch()
   std::map<std::pair<std::int64_t, std::int64_t>, int> kept_per_cell_;  // rematch_cell_m squares -> nodes kept there
   std::size_t retired_ = 0, kept_returns_ = 0;
-  std::size_t searches_ = 0, tracked_ = 0, rematches_ = 0;
+  std::size_t searches_ = 0, tracked_ = 0, rematches_ = 0, still_ = 0;
 };
 
 }  // namespace teamscan::posegraph

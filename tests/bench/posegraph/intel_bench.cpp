@@ -39,6 +39,8 @@ SlamOptions options_from_env() {
       {"closure_min_score", &o.closure_min_score},
       {"closure_min_refined_score", &o.closure_min_refined_score},
       {"closure_weak_axis_floor", &o.closure_weak_axis_floor},
+      {"still_translation_m", &o.still_translation_m},
+      {"still_rotation_rad", &o.still_rotation_rad},
       {"graph.matcher_translation_weight", &o.graph.matcher_translation_weight},
       {"graph.matcher_rotation_weight", &o.graph.matcher_rotation_weight},
       {"graph.closure_translation_weight", &o.graph.closure_translation_weight},
@@ -147,9 +149,9 @@ void BM_IntelPoseGraph(benchmark::State& state) {
       odometry.push_back({log.stamps_us[k], log.odometry[k]});
     }
     const SlamStats st = slam.stats();
-    std::printf("%zu nodes, %zu submaps (%zu retired), %zu searches, %zu followed, %zu closures (%zu from the second search), %zu optimisations; "
+    std::printf("%zu nodes (%zu standing still), %zu submaps (%zu retired), %zu searches, %zu followed, %zu closures (%zu from the second search), %zu optimisations; "
                 "returns of %zu nodes kept; %.0f MB of grids, search levels and returns at the end; CPU %.1f s (all threads), wall %.1f s\n",
-                st.nodes, st.submaps, st.retired, st.searches, st.tracked, st.closures, st.rematches, st.optimizations, st.kept_returns,
+                st.nodes, st.still, st.submaps, st.retired, st.searches, st.tracked, st.closures, st.rematches, st.optimizations, st.kept_returns,
                 static_cast<double>(st.memory_bytes) / 1e6, cpu, wall);
     print("odometry", trajectory::relation_errors(all, odometry));
     print("local SLAM, within 100 s", trajectory::relation_errors(near, local));
