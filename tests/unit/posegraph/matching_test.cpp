@@ -1,5 +1,6 @@
 // Both matchers on a synthetic room: the refinement from a close guess, the correlative search with
-// branch and bound from a guess a metre and ten degrees off (and its refusal of a scan of elsewhere).
+// branch and bound from a guess a metre and ten degrees off (and its refusal of a scan of elsewhere);
+// on a corridor, the search keeping the guess along it (its plateau) and the translation's weak axis.
 #include <gtest/gtest.h>
 
 #include <cmath>
