@@ -54,8 +54,9 @@ StopDrive drive(const SlamOptions& options, int stop_nodes) {
 }
 
 TEST(SlamStill, AStandingRobotsNodesAreNotSearched) {
-  const SlamOptions on;  // the defaults
-  SlamOptions off;
+  SlamOptions on;  // the defaults, but every searched node's returns kept (no cap per square metre)
+  on.rematch_nodes_per_cell = 0;
+  SlamOptions off = on;
   off.still_translation_m = 0.0;
   const StopDrive still = drive(on, 300), searched = drive(off, 300), moving = drive(on, 0);
   for (const StopDrive* d : {&still, &searched, &moving})
@@ -66,12 +67,15 @@ TEST(SlamStill, AStandingRobotsNodesAreNotSearched) {
   EXPECT_EQ(still.stats.still, 300u);
   EXPECT_EQ(moving.stats.still, 0u);
   EXPECT_EQ(searched.stats.still, 0u);
-  // Without the rule every sixth of them is searched against the nearest finished submaps (or
-  // refined from the closure before): about 50 more.
+  // Without the rule every sixth of them is searched (50 nodes), each against up to three finished
+  // submaps, or refined from the closure before; and every third is kept for the second search.
   const auto tried = [](const StopDrive& d) { return d.stats.searches + d.stats.tracked; };
-  EXPECT_GE(tried(searched), tried(still) + 40);
-  // With it the drive tries as many closures as one that never stopped (give or take the numbering).
+  EXPECT_GE(tried(searched), tried(still) + 50);
+  EXPECT_GE(searched.stats.kept_returns, still.stats.kept_returns + 99);
+  // With it the drive tries as many closures, and keeps as many nodes' returns, as one that never
+  // stopped (give or take the numbering).
   EXPECT_NEAR(static_cast<double>(tried(still)), static_cast<double>(tried(moving)), 3.0);
+  EXPECT_NEAR(static_cast<double>(still.stats.kept_returns), static_cast<double>(moving.stats.kept_returns), 2.0);
   // And the standing robot is where it stands: its odometry holds its nodes to the first of them.
   EXPECT_LT(still.worst_stop_m, 0.03);
   EXPECT_LT(searched.worst_stop_m, 0.03);
