@@ -54,6 +54,7 @@ struct PlanarSlam::Robot {
   std::vector<std::size_t> active;  // its submaps being built, oldest first (at most two)
   struct Followed {
     std::size_t submap = 0, node = 0;
+    std::size_t robot_node = 0;  // the node's index among its robot's nodes
     Pose2 submap_from_node;
   };
   std::vector<Followed> followed;  // its last closure with each submap, while recent
@@ -109,15 +110,17 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
     graph_.add_link({r.last_node, node, moved, r.last_local.inverse() * local});
   }
   r.started = true;
-  ++r.nodes;
+  // The cadences below count the robot's own nodes: the team's nodes interleave, and counted by the
+  // graph's index a teammate's nodes would never fall on the searched ones.
+  const std::size_t robot_node = r.nodes++;
   r.last_odometry = odometry;
   r.last_local = local;
   r.last_node = node;
-  if (!still && options_.closure_every_n_nodes > 0 && node % static_cast<std::size_t>(options_.closure_every_n_nodes) == 0)
+  if (!still && options_.closure_every_n_nodes > 0 && robot_node % static_cast<std::size_t>(options_.closure_every_n_nodes) == 0)
     close_loops(r, node, points);
   node_points_.emplace_back();
   if (!still && options_.rematch_submaps > 0 && options_.rematch_every_n_nodes > 0 && points.size() >= 20 &&
-      node % static_cast<std::size_t>(options_.rematch_every_n_nodes) == 0 && keep_returns(node))
+      robot_node % static_cast<std::size_t>(options_.rematch_every_n_nodes) == 0 && keep_returns(node))
     node_points_.back() = points;
   insert(r, node, local, points);
   if (options_.optimize_every_n_nodes > 0 && (node + 1) % static_cast<std::size_t>(options_.optimize_every_n_nodes) == 0) {
@@ -208,7 +211,8 @@ void PlanarSlam::close_loops(Robot& r, std::size_t node, const std::vector<Vec2>
   std::sort(near.begin(), near.end());
   if (near.size() > static_cast<std::size_t>(options_.closure_submaps)) near.resize(static_cast<std::size_t>(options_.closure_submaps));
   const auto recent = static_cast<std::size_t>(std::max(0, options_.closure_track_nodes));
-  std::erase_if(r.followed, [&](const Robot::Followed& f) { return node - f.node > recent; });
+  const std::size_t robot_node = r.nodes - 1;
+  std::erase_if(r.followed, [&](const Robot::Followed& f) { return robot_node - f.robot_node > recent; });
   // Which submaps are followed (a start without a search) is decided first; the searches and
   // refinements then run in parallel, and their closures join the graph in the order of `near`.
   struct Job {
@@ -245,8 +249,8 @@ void PlanarSlam::close_loops(Robot& r, std::size_t node, const std::vector<Vec2>
     if (!job.closure) continue;
     graph_.add_constraint(*job.closure);
     const Pose2 refined = job.closure->submap_from_node;
-    if (job.followed < followed) r.followed[job.followed] = {job.submap, node, refined};
-    else if (recent > 0) r.followed.push_back({job.submap, node, refined});
+    if (job.followed < followed) r.followed[job.followed] = {job.submap, node, robot_node, refined};
+    else if (recent > 0) r.followed.push_back({job.submap, node, robot_node, refined});
   }
 }
 

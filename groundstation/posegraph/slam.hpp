@@ -29,7 +29,7 @@ struct SlamOptions {
   double max_range_m = 12.0;        // returns beyond are not inserted (and not matched): bounds a submap's grid
   int scans_per_submap = 35;        // a submap is finished after 2× this many scans
   RefineOptions local{1.0, 1.0, 1.0, 20};  // scan to submap, a weak pull to the odometry's prediction
-  // Loop closure: every `closure_every_n_nodes`-th node is searched against the `closure_submaps`
+  // Loop closure: every `closure_every_n_nodes`-th node of each robot is searched against the `closure_submaps`
   // nearest finished submaps within `closure_max_distance_m` (submap origin to node).
   int closure_every_n_nodes = 6;
   int closure_submaps = 3;
@@ -42,7 +42,7 @@ struct SlamOptions {
   RefineOptions closure_refine{1.0, 0.5, 1.0, 30};
   // A closure found for a robot's node is followed: its later nodes' closures with the same submap
   // start from that closure moved by local SLAM's motion and are refined only (no search), while the
-  // last one is at most this many nodes back. 0: every closure searched.
+  // last one is at most this many of the robot's nodes back. 0: every closure searched.
   int closure_track_nodes = 10;
   // A robot's own submaps that took a scan within this many of its nodes are not searched.
   int closure_skip_recent_nodes = 0;
@@ -61,7 +61,7 @@ struct SlamOptions {
   // keeps doing): every searched node against its `rematch_submaps` nearest finished submaps (by the
   // corrected poses, any time, within closure_max_distance_m) it has no constraint with yet, in a
   // window the optimisation has made small; then the last optimisation. 0: no second search.
-  // `rematch_every_n_nodes`: which nodes (their returns are kept until the end); `rematch_rounds`:
+  // `rematch_every_n_nodes`: which of each robot's nodes (their returns are kept until the end); `rematch_rounds`:
   // optimisation and search repeated, each from the last one's estimate.
   int rematch_submaps = 10;
   int rematch_every_n_nodes = 3;
@@ -130,6 +130,8 @@ class PlanarSlam {
   // The node's pose in its robot's local SLAM frame (scan-to-submap matching alone, no loop closure).
   [[nodiscard]] Pose2 local_pose(std::size_t node) const { return node_local_[node]; }
   [[nodiscard]] SlamStats stats() const;
+  // The graph itself: its nodes, submaps and constraints (loop closures among them), as optimised last.
+  [[nodiscard]] const PoseGraph& graph() const { return graph_; }
 
  private:
   struct Submap;
