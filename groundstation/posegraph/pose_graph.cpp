@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cmath>
+#include <map>
 
 namespace teamscan::posegraph {
 namespace {
@@ -38,7 +39,52 @@ struct RelativePoseCost {
   double tw_, rw_, axis_c_, axis_s_, weak_factor_;
 };
 
+// The motion between consecutive nodes corrected by its robot's calibration k (OdometryCalibration:
+// distance scale, turn scale, heading drift per metre), against a⁻¹·b. The measured translation turns
+// with half the correction of the turn: over a short link it points along the mean heading.
+struct CalibratedOdometryCost {
+  CalibratedOdometryCost(const Pose2& measured, double tw, double rw)
+      : m_(measured), tw_(tw), rw_(rw), distance_m_(std::hypot(measured.x_m, measured.y_m)) {}
+  template <typename T>
+  bool operator()(const T* const a, const T* const b, const T* const k, T* r) const {
+    const T turn = k[1] * (T(m_.theta_rad) - k[2] * T(distance_m_));
+    const T half = T(0.5) * (turn - T(m_.theta_rad));
+    const T mx = k[0] * (ceres::cos(half) * T(m_.x_m) - ceres::sin(half) * T(m_.y_m));
+    const T my = k[0] * (ceres::sin(half) * T(m_.x_m) + ceres::cos(half) * T(m_.y_m));
+    const T c = ceres::cos(a[2]), s = ceres::sin(a[2]);
+    const T dx = b[0] - a[0], dy = b[1] - a[1];
+    r[0] = tw_ * (c * dx + s * dy - mx);
+    r[1] = tw_ * (-s * dx + c * dy - my);
+    r[2] = rw_ * wrap(b[2] - a[2] - turn);
+    return true;
+  }
+  static ceres::CostFunction* create(const Pose2& m, double tw, double rw) {
+    return new ceres::AutoDiffCostFunction<CalibratedOdometryCost, 3, 3, 3, 3>(new CalibratedOdometryCost(m, tw, rw));
+  }
+  Pose2 m_;
+  double tw_, rw_, distance_m_;
+};
+
+// The calibration's prior: no error, σ per parameter.
+struct CalibrationPriorCost {
+  CalibrationPriorCost(double scale_sigma, double drift_sigma) : scale_w_(1.0 / scale_sigma), drift_w_(1.0 / drift_sigma) {}
+  template <typename T>
+  bool operator()(const T* const k, T* r) const {
+    r[0] = scale_w_ * (k[0] - T(1.0));
+    r[1] = scale_w_ * (k[1] - T(1.0));
+    r[2] = drift_w_ * k[2];
+    return true;
+  }
+  double scale_w_, drift_w_;
+};
+
 }  // namespace
+
+OdometryCalibration PoseGraph::calibration(std::uint8_t robot) const {
+  const auto it = calibration_.find(robot);
+  if (it == calibration_.end()) return {};
+  return {it->second[0], it->second[1], it->second[2]};
+}
 
 std::size_t PoseGraph::add_node(const Pose2& global, bool anchor) {
   nodes_.push_back(global);
@@ -62,7 +108,16 @@ void PoseGraph::optimize(bool final) {
   std::vector<std::array<double, 3>> n(nodes_.size()), s(submaps_.size());
   for (std::size_t i = 0; i < nodes_.size(); ++i) n[i] = {nodes_[i].x_m, nodes_[i].y_m, nodes_[i].theta_rad};
   for (std::size_t i = 0; i < submaps_.size(); ++i) s[i] = {submaps_[i].x_m, submaps_[i].y_m, submaps_[i].theta_rad};
+  // Each robot's calibration starts from the last optimisation's (std::map: its blocks stay put).
+  std::map<std::uint8_t, std::array<double, 3>> calibration = calibration_;
   ceres::Problem problem;
+  if (options_.calibrate_odometry || options_.calibrate_local_links) {
+    for (const NodeLink& l : links_) calibration.try_emplace(l.robot, std::array<double, 3>{1.0, 1.0, 0.0});
+    for (auto& [robot, k] : calibration)
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CalibrationPriorCost, 3, 3>(new CalibrationPriorCost(
+                                   options_.calibration_scale_prior_sigma, options_.calibration_drift_prior_sigma_rad_per_m)),
+                               nullptr, k.data());
+  }
   for (const Constraint& c : constraints_) {
     const bool closure = c.kind == Constraint::Kind::closure;
     problem.AddResidualBlock(
@@ -71,14 +126,20 @@ void PoseGraph::optimize(bool final) {
                                  c.weak_axis_factor),
         closure ? new ceres::HuberLoss(options_.closure_huber_scale) : nullptr, s[c.submap].data(), n[c.node].data());
   }
+  // A link's measured motion, corrected by its robot's calibration or as measured.
+  const auto add_motion = [&](const NodeLink& l, const Pose2& measured, double tw, double rw, bool calibrated) {
+    if (calibrated)
+      problem.AddResidualBlock(CalibratedOdometryCost::create(measured, tw, rw), nullptr, n[l.from].data(), n[l.to].data(),
+                               calibration.at(l.robot).data());
+    else
+      problem.AddResidualBlock(RelativePoseCost::create(measured, tw, rw), nullptr, n[l.from].data(), n[l.to].data());
+  };
   for (const NodeLink& l : links_) {
     const double turned_rad = std::abs(l.from_to_odometry.theta_rad);
     const double odometry_rotation_weight =
         1.0 / (1.0 / options_.odometry_rotation_weight + options_.odometry_turn_sigma_rad_per_rad * turned_rad);
-    problem.AddResidualBlock(RelativePoseCost::create(l.from_to_odometry, options_.odometry_translation_weight, odometry_rotation_weight),
-                             nullptr, n[l.from].data(), n[l.to].data());
-    problem.AddResidualBlock(RelativePoseCost::create(l.from_to_local, options_.local_translation_weight, options_.local_rotation_weight),
-                             nullptr, n[l.from].data(), n[l.to].data());
+    add_motion(l, l.from_to_odometry, options_.odometry_translation_weight, odometry_rotation_weight, options_.calibrate_odometry);
+    add_motion(l, l.from_to_local, options_.local_translation_weight, options_.local_rotation_weight, options_.calibrate_local_links);
   }
   for (std::size_t i = 0; i < nodes_.size(); ++i)
     if (anchored_[i] && problem.HasParameterBlock(n[i].data())) problem.SetParameterBlockConstant(n[i].data());
@@ -91,6 +152,7 @@ void PoseGraph::optimize(bool final) {
   ceres::Solve(o, &problem, &summary);
   for (std::size_t i = 0; i < nodes_.size(); ++i) nodes_[i] = {n[i][0], n[i][1], normalize_angle(n[i][2])};
   for (std::size_t i = 0; i < submaps_.size(); ++i) submaps_[i] = {s[i][0], s[i][1], normalize_angle(s[i][2])};
+  calibration_ = calibration;
   ++optimizations_;
 }
 

@@ -5,7 +5,9 @@
 // problem; loop closures under a Huber loss, so a false closure is outvoted rather than obeyed.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <map>
 #include <vector>
 
 #include "common/pose.hpp"
@@ -24,6 +26,17 @@ struct GraphOptions {
   double odometry_turn_sigma_rad_per_rad = 0;
   double local_translation_weight = 1e4, local_rotation_weight = 1e4;             // consecutive local SLAM poses
   double closure_huber_scale = 1e1;
+  // Each robot's odometry calibrated in the graph (Kümmerle et al. 2011, "Simultaneous calibration,
+  // localization, and mapping"): three parameters per robot (OdometryCalibration) correct the measured
+  // motion of its odometry links, found with the poses and held near "no error" by a weak prior (σ of
+  // the two scales and of the drift per metre below). A skid-steered robot's systematic errors (its
+  // wheels slip, they skid in turns, unequal tyres turn it on every metre) then cost the graph three
+  // numbers rather than a bend at every node, and the loop closures need only find them.
+  // `calibrate_local_links`: local SLAM's links corrected as well, for a local SLAM held to the
+  // odometry (tilted lasers'), whose motion carries the odometry's errors.
+  bool calibrate_odometry = false;
+  bool calibrate_local_links = false;
+  double calibration_scale_prior_sigma = 0.05, calibration_drift_prior_sigma_rad_per_m = 0.01;
   int max_iterations = 20;
   int final_max_iterations = 20;  // the last optimisation, over the whole log
 };
@@ -40,8 +53,16 @@ struct Constraint {
 
 struct NodeLink {  // between consecutive nodes of one robot
   std::size_t from = 0, to = 0;
+  std::uint8_t robot = 0;
   Pose2 from_to_odometry;  // odometry's motion
   Pose2 from_to_local;     // local SLAM's motion
+};
+
+// How a robot's odometry departs from its true motion, as the graph estimates it (GraphOptions::
+// calibrate_odometry): true distance = distance_scale · reported; true turn = turn_scale · (reported
+// turn − heading_drift_rad_per_m · reported distance). No error: 1, 1, 0.
+struct OdometryCalibration {
+  double distance_scale = 1.0, turn_scale = 1.0, heading_drift_rad_per_m = 0.0;
 };
 
 class PoseGraph {
@@ -63,6 +84,9 @@ class PoseGraph {
   [[nodiscard]] const Constraint& last_constraint() const { return constraints_.back(); }
   [[nodiscard]] std::size_t closures() const;
   [[nodiscard]] std::size_t optimizations() const { return optimizations_; }
+  // The robot's odometry calibration as the last optimisation found it (no error before one, or
+  // without GraphOptions::calibrate_odometry or calibrate_local_links).
+  [[nodiscard]] OdometryCalibration calibration(std::uint8_t robot) const;
 
  private:
   GraphOptions options_;
@@ -70,6 +94,7 @@ class PoseGraph {
   std::vector<std::uint8_t> anchored_;
   std::vector<Constraint> constraints_;
   std::vector<NodeLink> links_;
+  std::map<std::uint8_t, std::array<double, 3>> calibration_;  // robot -> OdometryCalibration's three
   std::size_t optimizations_ = 0;
 };
 

@@ -66,6 +66,8 @@ SlamOptions tilted_laser_options(SlamOptions base) {
   base.graph.odometry_translation_weight = 1e4;
   base.graph.odometry_rotation_weight = 1e5;
   base.graph.odometry_turn_sigma_rad_per_rad = 0.01;
+  base.graph.calibrate_odometry = true;
+  base.graph.calibrate_local_links = true;
   return base;
 }
 
@@ -107,7 +109,7 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
     const Pose2 moved = r.last_odometry.inverse() * odometry;
     still = std::hypot(moved.x_m, moved.y_m) < options_.still_translation_m && std::abs(moved.theta_rad) < options_.still_rotation_rad;
     if (still) ++still_;
-    graph_.add_link({r.last_node, node, moved, r.last_local.inverse() * local});
+    graph_.add_link({r.last_node, node, robot_id, moved, r.last_local.inverse() * local});
   }
   r.started = true;
   // The cadences below count the robot's own nodes: the team's nodes interleave, and counted by the
@@ -332,8 +334,14 @@ SlamStats PlanarSlam::stats() const {
   std::size_t bytes = 0;
   for (const auto& m : submaps_) bytes += m->grid.values().capacity() * sizeof(float) + (m->matcher ? m->matcher->memory_bytes() : 0);
   for (const auto& p : node_points_) bytes += p.capacity() * sizeof(Vec2);
-  return {graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_, rematches_,
-          retired_, kept_returns_, still_, bytes};
+  SlamStats stats{graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_, rematches_,
+                  retired_, kept_returns_, still_, bytes, {}};
+  if (options_.graph.calibrate_odometry || options_.graph.calibrate_local_links) {
+    for (const auto& r : robots_) stats.calibrations.push_back({r->id, graph_.calibration(r->id)});
+    std::sort(stats.calibrations.begin(), stats.calibrations.end(),
+              [](const SlamStats::Calibration& a, const SlamStats::Calibration& b) { return a.robot < b.robot; });
+  }
+  return stats;
 }
 
 }  // namespace teamscan::posegraph

@@ -96,6 +96,13 @@ struct SlamStats {
   std::size_t kept_returns = 0;  // nodes whose returns are kept for the second search
   std::size_t still = 0;         // nodes not searched: their robot stood still (SlamOptions::still_translation_m)
   std::size_t memory_bytes = 0;  // the submaps' grids and search levels and the kept returns, now
+  struct Calibration {
+    std::uint8_t robot = 0;
+    OdometryCalibration odometry;
+  };
+  // Each robot's odometry as the graph calibrated it (GraphOptions::calibrate_odometry), by robot id;
+  // empty when not calibrated.
+  std::vector<Calibration> calibrations;
 };
 
 // The options for tilted lasers' returns (fusion/planar_returns.hpp: a node is a robot's wall returns
@@ -106,7 +113,9 @@ struct SlamStats {
 // show clearly; the loop closures take out the drift (docs/slam.md "Tilted lasers"). The odometry
 // between such nodes (a few centimetres, a few degrees) is held stiffly, 10⁴ per metre and 10⁵ per
 // radian, its rotation less so the more it turned (σ + 1 % of the turn): a node's few wall returns
-// say less about its motion than the wheels do, but the wheels slip in turns.
+// say less about its motion than the wheels do, but the wheels slip in turns. Each robot's odometry is
+// calibrated in the graph (GraphOptions::calibrate_odometry, calibrate_local_links): held that stiffly,
+// a wheel slip of 2 % would otherwise swell every loop the robot drives by 2 %.
 [[nodiscard]] SlamOptions tilted_laser_options(SlamOptions base = {});
 
 class PlanarSlam {

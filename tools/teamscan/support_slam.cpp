@@ -77,6 +77,9 @@ void print_pose_graph_summary(const fusion::EvalReport& report) {
                static_cast<unsigned long long>(c.returns.teammates),
                static_cast<unsigned long long>(c.returns.out_of_band), st.nodes, st.still, st.submaps, st.retired, st.searches, st.closures,
                st.optimizations, static_cast<double>(st.memory_bytes) / 1e6, report.graph_seconds);
+  for (const posegraph::SlamStats::Calibration& k : st.calibrations)
+    std::fprintf(stderr, "teamscan eval: pose graph: robot %u's odometry calibrated: distance × %.4f, turn × %.4f, heading drift %+.3f°/m\n",
+                 static_cast<unsigned>(k.robot), k.odometry.distance_scale, k.odometry.turn_scale, k.odometry.heading_drift_rad_per_m * 180.0 / kPi);
 }
 
 void add_slam_eval_options(CLI::App& app, SlamEvalArgs& args) {

@@ -1,10 +1,14 @@
 // The pose graph: a square loop whose odometry drifts is closed by one closure; a false closure under
 // the Huber loss moves the poses far less than it would obeyed; a closure weak along one axis holds
-// little along it; the odometry's rotation holds less in a turn.
+// little along it; the odometry's rotation holds less in a turn; a robot's odometry slip and drift
+// found by the calibration in the graph.
 // (Closures are robust: each pulls with a bounded force, so a drifted loop needs several of them.)
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <vector>
 
 #include "groundstation/posegraph/pose_graph.hpp"
 
@@ -39,7 +43,7 @@ Loop drifted_loop(bool closure, bool false_closure, const GraphOptions& options 
       truth = truth * step;
       odo = odo * drifted;
       l.graph.add_node(odo, false);
-      l.graph.add_link({static_cast<std::size_t>(i - 1), static_cast<std::size_t>(i), prev_odo.inverse() * odo, prev_odo.inverse() * odo});
+      l.graph.add_link({static_cast<std::size_t>(i - 1), static_cast<std::size_t>(i), 0, prev_odo.inverse() * odo, prev_odo.inverse() * odo});
     } else {
       l.graph.add_node(odo, true);
       l.graph.add_constraint({s, 0, {0, 0, 0}, Constraint::Kind::inserted});
@@ -114,7 +118,7 @@ TEST(PoseGraph, OdometryInATurnHoldsItsRotationLessStiffly) {
     g.add_constraint({s, 0, {0, 0, 0}, Constraint::Kind::inserted});
     const Pose2 moved{1, 0, turn_rad};
     const std::size_t n = g.add_node(moved, false);
-    g.add_link({0, n, moved, moved});
+    g.add_link({0, n, 0, moved, moved});
     g.add_constraint({s, n, {1, 0, turn_rad + 0.05}, Constraint::Kind::closure});
     g.optimize();
     return g.nodes()[n].theta_rad - turn_rad;
@@ -125,6 +129,63 @@ TEST(PoseGraph, OdometryInATurnHoldsItsRotationLessStiffly) {
   // With the turn's σ: straight as before, a quarter turn (σ 0.016 rad against the closure's 10⁻⁵) all of it.
   EXPECT_NEAR(yaw_moved(0.0, 0.01), 0.025, 1e-3);
   EXPECT_NEAR(yaw_moved(kPi / 2, 0.01), 0.05, 1e-3);
+}
+
+// A robot lapping a circle whose odometry reports 2 % too far and turns 0.2° a metre too many: two laps, the
+// second tied to where it truly is by closures. Both links held as stiffly as a tilted laser's; the
+// calibration in the graph finds the slip and the drift and the poses follow the truth, where without
+// it the closures' bounded pulls leave the chain bent.
+struct CalibratedLap {
+  double worst_m = 0;
+  OdometryCalibration found;
+};
+
+CalibratedLap lap_with_slip(bool calibrate) {
+  GraphOptions o;
+  o.odometry_translation_weight = 1e4;
+  o.odometry_rotation_weight = 1e5;
+  o.calibrate_odometry = o.calibrate_local_links = calibrate;
+  PoseGraph g(o);
+  constexpr double kRadius = 1.5, kStep = 0.1, kScale = 1.02, kDriftRadPerM = 0.2 * kPi / 180.0;
+  const int per_lap = static_cast<int>(2.0 * kPi * kRadius / kStep);
+  const std::size_t s = g.add_submap({0, 0, 0});
+  std::vector<Pose2> truth{{0, 0, 0}};
+  g.add_node({0, 0, 0}, true);
+  g.add_constraint({s, 0, {0, 0, 0}, Constraint::Kind::inserted});
+  Pose2 odo{0, 0, 0};
+  for (int i = 1; i <= 2 * per_lap; ++i) {
+    const double turn = kStep / kRadius;
+    const Pose2 step{kRadius * std::sin(turn), kRadius * (1.0 - std::cos(turn)), turn};
+    const Pose2 reported{kScale * step.x_m, kScale * step.y_m, turn + kDriftRadPerM * kScale * kStep};
+    const Pose2 prev = odo;
+    odo = odo * reported;
+    truth.push_back(truth.back() * step);
+    const std::size_t n = g.add_node(odo, false);
+    g.add_link({n - 1, n, 1, prev.inverse() * odo, prev.inverse() * odo});
+    if (i > per_lap && i % 5 == 0) g.add_constraint({s, n, truth.back(), Constraint::Kind::closure});
+  }
+  g.optimize(true);
+  CalibratedLap out;
+  for (std::size_t i = 0; i < truth.size(); ++i)
+    out.worst_m = std::max(out.worst_m, std::hypot(g.nodes()[i].x_m - truth[i].x_m, g.nodes()[i].y_m - truth[i].y_m));
+  out.found = g.calibration(1);
+  return out;
+}
+
+TEST(PoseGraph, CalibrationFindsTheOdometrysSlipAndTurn) {
+  const CalibratedLap plain = lap_with_slip(false), calibrated = lap_with_slip(true);
+  std::printf("worst %.3f m without, %.3f m with the calibration; found distance × %.4f, turn × %.4f, drift %.3f°/m\n", plain.worst_m,
+              calibrated.worst_m, calibrated.found.distance_scale, calibrated.found.turn_scale,
+              calibrated.found.heading_drift_rad_per_m * 180.0 / kPi);
+  EXPECT_DOUBLE_EQ(plain.found.distance_scale, 1.0);  // not calibrated: no error
+  EXPECT_NEAR(calibrated.found.distance_scale, 1.0 / 1.02, 0.003);
+  // On a circle the turn is in proportion to the distance, so the turn scale and the drift per metre
+  // trade against each other: what the laps fix is the turn per metre they give together, the truth's.
+  const OdometryCalibration& k = calibrated.found;
+  const double reported_turn_per_m = 1.0 / (1.5 * 1.02) + 0.2 * kPi / 180.0;  // per reported metre
+  EXPECT_NEAR(k.turn_scale * (reported_turn_per_m - k.heading_drift_rad_per_m) / k.distance_scale, 1.0 / 1.5, 2e-4);
+  EXPECT_GT(plain.worst_m, 0.05);
+  EXPECT_LT(calibrated.worst_m, 0.02);
 }
 
 TEST(PoseGraph, SameInputSamePoses) {
