@@ -68,6 +68,7 @@ SlamOptions tilted_laser_options(SlamOptions base) {
   base.graph.odometry_turn_sigma_rad_per_rad = 0.01;
   base.graph.calibrate_odometry = true;
   base.graph.calibrate_local_links = true;
+  base.graph.closure_huber_scale = 5.0;
   return base;
 }
 

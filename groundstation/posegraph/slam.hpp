@@ -115,7 +115,9 @@ struct SlamStats {
 // radian, its rotation less so the more it turned (σ + 1 % of the turn): a node's few wall returns
 // say less about its motion than the wheels do, but the wheels slip in turns. Each robot's odometry is
 // calibrated in the graph (GraphOptions::calibrate_odometry, calibrate_local_links): held that stiffly,
-// a wheel slip of 2 % would otherwise swell every loop the robot drives by 2 %.
+// a wheel slip of 2 % would otherwise swell every loop the robot drives by 2 %. With the odometry's
+// systematic errors taken out that way, the loop closures need not pull as hard: their Huber scale is
+// 5 (10 by default), which keeps good odometry from being dragged by the closures' own small biases.
 [[nodiscard]] SlamOptions tilted_laser_options(SlamOptions base = {});
 
 class PlanarSlam {
