@@ -335,14 +335,14 @@ SlamStats PlanarSlam::stats() const {
   std::size_t bytes = 0;
   for (const auto& m : submaps_) bytes += m->grid.values().capacity() * sizeof(float) + (m->matcher ? m->matcher->memory_bytes() : 0);
   for (const auto& p : node_points_) bytes += p.capacity() * sizeof(Vec2);
-  SlamStats stats{graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_, rematches_,
+  SlamStats out{graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_, rematches_,
                   retired_, kept_returns_, still_, bytes, {}};
   if (options_.graph.calibrate_odometry || options_.graph.calibrate_local_links) {
-    for (const auto& r : robots_) stats.calibrations.push_back({r->id, graph_.calibration(r->id)});
-    std::sort(stats.calibrations.begin(), stats.calibrations.end(),
+    for (const auto& r : robots_) out.calibrations.push_back({r->id, graph_.calibration(r->id)});
+    std::sort(out.calibrations.begin(), out.calibrations.end(),
               [](const SlamStats::Calibration& a, const SlamStats::Calibration& b) { return a.robot < b.robot; });
   }
-  return stats;
+  return out;
 }
 
 }  // namespace teamscan::posegraph
