@@ -65,7 +65,7 @@ SlamOptions tilted_laser_options(SlamOptions base) {
   base.local.rotation_weight = 400.0;
   base.graph.odometry_translation_weight = 1e4;
   base.graph.odometry_rotation_weight = 1e5;
-  base.graph.odometry_turn_sigma_rad_per_rad = 0.01;
+  base.graph.odometry_turn_sigma_rad_per_rad = 0.003;
   base.graph.calibrate_odometry = true;
   base.graph.calibrate_local_links = true;
   base.graph.closure_huber_scale = 5.0;

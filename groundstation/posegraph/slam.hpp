@@ -112,7 +112,7 @@ struct SlamStats {
 // 100 per metre and 400 per radian here (1 and 1 by default): it follows the odometry over a node and corrects what the walls
 // show clearly; the loop closures take out the drift (docs/slam.md "Tilted lasers"). The odometry
 // between such nodes (a few centimetres, a few degrees) is held stiffly, 10⁴ per metre and 10⁵ per
-// radian, its rotation less so the more it turned (σ + 1 % of the turn): a node's few wall returns
+// radian, its rotation less so the more it turned (σ + 0.3 % of the turn): a node's few wall returns
 // say less about its motion than the wheels do, but the wheels slip in turns. Each robot's odometry is
 // calibrated in the graph (GraphOptions::calibrate_odometry, calibrate_local_links): held that stiffly,
 // a wheel slip of 2 % would otherwise swell every loop the robot drives by 2 %. With the odometry's
