@@ -30,6 +30,27 @@ struct OdometrySample {
   Pose2 pose;             // planar robot pose (odometry frame; the map frame when the registration is identity)
 };
 
+// The pose at t from consecutive samples b and c (b.stamp < c.stamp; t outside [b, c] extrapolates at
+// their constant velocity): the position on the chord from b to c, the heading along the shorter arc,
+// on the parabola in time through `before` (the sample before b), b and c when it is given. That is
+// the heading of a robot whose turn rate changes steadily over the two SIP cycles: linear between b
+// and c, a robot swinging through a sharp corner (a few radians a second, the rate reversing within a
+// cycle) is placed up to degrees off its heading, while the chord between two SIPs is off the arc by
+// millimetres. Linear when `before` lies much further back than c lies ahead (the odometry stream
+// paused): the parabola would not describe one steady turn.
+[[nodiscard]] inline Pose2 pose_between(const OdometrySample* before, const OdometrySample& b, const OdometrySample& c, Time t) {
+  const double bc = static_cast<double>((c.stamp - b.stamp).count()), tt = static_cast<double>((t - b.stamp).count());
+  Pose2 pose = interpolate(b.pose, c.pose, tt / bc);
+  if (before == nullptr) return pose;
+  const double ab = static_cast<double>((b.stamp - before->stamp).count());
+  if (ab > 2.0 * bc || bc > 2.0 * ab) return pose;
+  // Time from b; the headings relative to b's along the shorter arcs (Lagrange's parabola through them).
+  const double ya = -normalize_angle(b.pose.theta_rad - before->pose.theta_rad), yc = normalize_angle(c.pose.theta_rad - b.pose.theta_rad);
+  const double turned = ya * tt * (tt - bc) / (-ab * (-ab - bc)) + yc * tt * (tt + ab) / (bc * (bc + ab));
+  pose.theta_rad = normalize_angle(b.pose.theta_rad + turned);
+  return pose;
+}
+
 template <std::size_t Capacity = kOdometryHistoryDepth>
 class OdometryHistory {
   static_assert(Capacity >= 2, "interpolation needs two samples");
@@ -58,7 +79,8 @@ class OdometryHistory {
 
   // The pose at time t:
   //  - inside [oldest, newest]: linear interpolation between the two samples around t (heading along
-  //    the shorter arc, common/laser_geometry.hpp interpolate);
+  //    the shorter arc, common/laser_geometry.hpp interpolate), the heading on the parabola through
+  //    them and the sample before when there is one (pose_between);
   //  - within max_extrapolation outside that span: constant-velocity extrapolation from the two
   //    samples at that end (a single sample is held constant);
   //  - further out, or an empty history: an Error ("odometry: time before history",
@@ -71,13 +93,13 @@ class OdometryHistory {
       const Duration gap = first.stamp - t;
       if (gap > max_extrapolation) return Error{"odometry: time before history", 0, static_cast<long>(gap.count() / 1000)};
       if (size_ == 1) return first.pose;
-      return between(first, at(1), t);
+      return pose_between(nullptr, first, at(1), t);
     }
     if (t > last.stamp) {
       const Duration gap = t - last.stamp;
       if (gap > max_extrapolation) return Error{"odometry: time after history", 0, static_cast<long>(gap.count() / 1000)};
       if (size_ == 1) return last.pose;
-      return between(at(size_ - 2), last, t);
+      return pose_between(nullptr, at(size_ - 2), last, t);
     }
     // Binary search for the first sample at or after t; the ring is sorted by push().
     std::size_t lo = 0, hi = size_ - 1;
@@ -86,7 +108,7 @@ class OdometryHistory {
       if (at(mid).stamp < t) lo = mid + 1; else hi = mid;
     }
     if (at(lo).stamp == t || lo == 0) return at(lo).pose;
-    return between(at(lo - 1), at(lo), t);
+    return pose_between(lo >= 2 ? &at(lo - 2) : nullptr, at(lo - 1), at(lo), t);
   }
 
   [[nodiscard]] std::size_t size() const { return size_; }
@@ -102,11 +124,6 @@ class OdometryHistory {
   [[nodiscard]] std::uint64_t overwritten() const { return overwritten_; }
 
  private:
-  // Linear in time through a and b (a.stamp < b.stamp); s outside [0, 1] extrapolates.
-  static Pose2 between(const OdometrySample& a, const OdometrySample& b, Time t) {
-    const double s = static_cast<double>((t - a.stamp).count()) / static_cast<double>((b.stamp - a.stamp).count());
-    return teamscan::interpolate(a.pose, b.pose, s);
-  }
 
   std::array<OdometrySample, Capacity> samples_{};
   std::size_t head_ = 0;

@@ -84,14 +84,12 @@ Ray TeamWorld::beam_ray(std::size_t index, const Pose2& map_from_robot, const Ve
 
 Pose2 PoseHistory::at(std::int64_t stamp_ns) const {
   if (samples_.empty()) return {};
-  if (stamp_ns <= samples_.front().stamp_ns) return samples_.front().pose;
-  if (stamp_ns >= samples_.back().stamp_ns) return samples_.back().pose;
-  const auto it = std::upper_bound(samples_.begin(), samples_.end(), stamp_ns,
-                                   [](std::int64_t t, const Sample& s) { return t < s.stamp_ns; });
-  const Sample& b = *it;
-  const Sample& a = *(it - 1);
-  const double s = static_cast<double>(stamp_ns - a.stamp_ns) / static_cast<double>(b.stamp_ns - a.stamp_ns);
-  return interpolate(a.pose, b.pose, s);
+  const Time t = Time::from_ns(stamp_ns);
+  if (t <= samples_.front().stamp) return samples_.front().pose;
+  if (t >= samples_.back().stamp) return samples_.back().pose;
+  const auto it = std::upper_bound(samples_.begin(), samples_.end(), t, [](Time at, const OdometrySample& s) { return at < s.stamp; });
+  const auto b = static_cast<std::size_t>(it - samples_.begin());  // the first sample after t (b >= 1)
+  return pose_between(b >= 2 ? &samples_[b - 2] : nullptr, samples_[b - 1], samples_[b], t);
 }
 
 Vec3 beam_point_in_map(const Pose2& map_from_odom, const Pose2& odom_pose, const Pose3& robot_from_laser, double angle_rad,

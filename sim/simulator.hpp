@@ -21,6 +21,7 @@
 #include "common/capture.hpp"
 #include "common/dataset/dataset.hpp"
 #include "common/laser_geometry.hpp"
+#include "common/odometry_history.hpp"
 #include "sim/devices.hpp"
 #include "sim/scenario.hpp"
 #include "sim/track.hpp"
@@ -99,20 +100,17 @@ struct SimOutput {
 
 [[nodiscard]] SimOutput simulate(const Scenario& scenario, const SimOptions& options);
 
-// Odometry history of one robot: decoded SIP poses at their times, linear interpolation between them
-// (laser_geometry.hpp `interpolate`), clamped at the ends.
+// Odometry history of one robot: decoded SIP poses at their times, interpolated between them as the
+// robot's own odometry history does (odometry_history.hpp `pose_between`), clamped at the ends. Unlike
+// that ring it keeps every sample: the direct simulation places a robot's scans after all its SIPs.
 class PoseHistory {
  public:
-  void push(std::int64_t stamp_ns, const Pose2& pose) { samples_.push_back({stamp_ns, pose}); }
+  void push(std::int64_t stamp_ns, const Pose2& pose) { samples_.push_back({Time::from_ns(stamp_ns), pose}); }
   [[nodiscard]] Pose2 at(std::int64_t stamp_ns) const;
   [[nodiscard]] bool empty() const { return samples_.empty(); }
 
  private:
-  struct Sample {
-    std::int64_t stamp_ns;
-    Pose2 pose;
-  };
-  std::vector<Sample> samples_;
+  std::vector<OdometrySample> samples_;
 };
 
 // The 3-D point of a beam in the map frame: map_from_odom · odom pose at the beam's time · mount.

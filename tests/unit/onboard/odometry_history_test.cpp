@@ -1,4 +1,4 @@
-// Tests of common/odometry_history.hpp: ring behaviour, interpolation, bounded extrapolation.
+// Tests of common/odometry_history.hpp: ring behaviour, interpolation (the heading through a turn), bounded extrapolation.
 #include "common/odometry_history.hpp"
 
 #include <gtest/gtest.h>
@@ -46,6 +46,47 @@ TEST(OdometryHistory, InterpolatesLinearlyInside) {
   r = h.interpolate(ms(100));  // exactly on a sample
   ASSERT_TRUE(r.ok());
   EXPECT_DOUBLE_EQ(r->y_m, -2.0);
+}
+
+// A robot swinging through a corner: its turn rate grows steadily (heading = α t² / 2). Between two
+// SIPs the heading follows the parabola through them and the SIP before, not their chord.
+TEST(OdometryHistory, HeadingFollowsASteadilyChangingTurn) {
+  const double alpha = 40.0;  // rad/s²: 0 to 4 rad/s within 100 ms
+  const auto heading = [&](double t_s) { return 0.5 * alpha * t_s * t_s; };
+  OdometryHistory<8> h;
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(h.push(ms(i * 100), {0.1 * i, 0.0, normalize_angle(heading(0.1 * i))}));
+  for (int at_ms = 105; at_ms < 300; at_ms += 10) {
+    const auto r = h.interpolate(ms(at_ms));
+    ASSERT_TRUE(r.ok());
+    EXPECT_NEAR(r->theta_rad, normalize_angle(heading(at_ms * 1e-3)), 1e-9) << at_ms << " ms";
+    EXPECT_NEAR(r->x_m, at_ms * 1e-3, 1e-12);  // the position stays on the chord
+  }
+  // The chord alone would be off by up to α Δt² / 8 = 2.9° mid-cycle; the first cycle, with no SIP before it, is.
+  const auto first = h.interpolate(ms(50));
+  ASSERT_TRUE(first.ok());
+  EXPECT_NEAR(first->theta_rad, 0.5 * heading(0.1), 1e-12);
+}
+
+TEST(OdometryHistory, TurnAcrossPlusMinusPi) {
+  OdometryHistory<4> h;
+  const auto heading = [](double t_s) { return normalize_angle(kPi - 0.35 + 10.0 * t_s * t_s); };  // through ±π at 0.19 s
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(h.push(ms(i * 100), {0, 0, heading(0.1 * i)}));
+  for (int at_ms = 110; at_ms < 200; at_ms += 10) {
+    const auto r = h.interpolate(ms(at_ms));
+    ASSERT_TRUE(r.ok());
+    EXPECT_NEAR(r->theta_rad, heading(at_ms * 1e-3), 1e-9) << at_ms << " ms";
+  }
+}
+
+// After a pause in the odometry stream the SIP before says nothing about the turn now: linear.
+TEST(OdometryHistory, AfterAPauseTheHeadingIsLinear) {
+  OdometryHistory<4> h;
+  ASSERT_TRUE(h.push(ms(0), {0, 0, 1.0}));
+  ASSERT_TRUE(h.push(ms(1000), {0, 0, 0.0}));
+  ASSERT_TRUE(h.push(ms(1100), {0, 0, 0.2}));
+  const auto r = h.interpolate(ms(1050));
+  ASSERT_TRUE(r.ok());
+  EXPECT_NEAR(r->theta_rad, 0.1, 1e-12);
 }
 
 TEST(OdometryHistory, HeadingTakesTheShorterArc) {

@@ -50,6 +50,25 @@ TEST(OdometryHistoryTest, InterpolatesAndClamps) {
   EXPECT_NEAR(h.at(1000).y_m, 2.0, 1e-12);
 }
 
+// The direct simulation places beams with the robot's own interpolation: through a turn whose rate
+// changes, its heading is the odometry history's, not the chord's.
+TEST(OdometryHistoryTest, PlacesLikeTheRobotsOwnHistoryThroughATurn) {
+  PoseHistory h;
+  OdometryHistory<> robot;
+  for (int i = 0; i < 4; ++i) {
+    const Pose2 pose{0.03 * i, 0.0, 20.0 * 0.01 * i * i};  // heading 20 t² rad: the rate grows 4 rad/s a cycle
+    h.push(i * 100'000'000LL, pose);
+    ASSERT_TRUE(robot.push(Time::from_ns(i * 100'000'000LL), pose));
+  }
+  for (std::int64_t t_ns = 105'000'000; t_ns < 300'000'000; t_ns += 10'000'000) {
+    const Result<Pose2> expected = robot.interpolate(Time::from_ns(t_ns));
+    ASSERT_TRUE(expected.ok());
+    EXPECT_DOUBLE_EQ(h.at(t_ns).theta_rad, expected->theta_rad) << t_ns;
+    EXPECT_DOUBLE_EQ(h.at(t_ns).x_m, expected->x_m) << t_ns;
+  }
+  EXPECT_NEAR(h.at(150'000'000).theta_rad, 20.0 * 0.15 * 0.15, 1e-9);  // on the parabola; the chord says 0.5
+}
+
 // A short Lap2 run shared by the label tests.
 const SimOutput& short_lap2() {
   static const SimOutput out = [] {
