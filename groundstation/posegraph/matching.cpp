@@ -126,34 +126,44 @@ Pose2 refine_pose(const Grid& grid, const std::vector<Vec2>& points, const Pose2
   return {pose[0], pose[1], normalize_angle(pose[2])};
 }
 
-TranslationAxes translation_axes(const Grid& grid, const std::vector<Vec2>& points, const Pose2& pose) {
-  TranslationAxes axes;
-  if (grid.empty() || points.empty()) return axes;
+MatchInformation match_information(const Grid& grid, const std::vector<Vec2>& points, const Pose2& pose) {
+  MatchInformation info;
+  if (grid.empty() || points.empty()) return info;
   const Interpolator interpolator(grid);
   const double inv = 1.0 / grid.resolution_m();
   // At the match the points sit on the grid's ridges, where its gradient vanishes: the information is
   // taken from the gradients a small displacement (one cell, either way in x and in y) would meet,
-  // so a wall gives information across it and none along it.
+  // so a wall gives information across it and none along it. A rotation about the node moves a point
+  // at q by (−(q.y − y), q.x − x) per radian: the gradient along that is the rotation's row.
   const double h = grid.resolution_m();
-  double xx = 0, xy = 0, yy = 0;
+  double xx = 0, xy = 0, yy = 0, xt = 0, yt = 0, tt = 0;
   for (const Vec2& p : points) {
     const Vec2 q = pose.apply(p);
+    const double turn_x = -(q.y - pose.y_m), turn_y = q.x - pose.x_m;
     for (const Vec2 d : {Vec2{h, 0}, Vec2{-h, 0}, Vec2{0, h}, Vec2{0, -h}}) {
       double v = 0, dv_drow = 0, dv_dcol = 0;
       interpolator.Evaluate((q.y + d.y) * inv, (q.x + d.x) * inv, &v, &dv_drow, &dv_dcol);
-      const double gx = dv_dcol * inv, gy = dv_drow * inv;
+      const double gx = dv_dcol * inv, gy = dv_drow * inv, gt = gx * turn_x + gy * turn_y;
       xx += gx * gx;
       xy += gx * gy;
       yy += gy * gy;
+      xt += gx * gt;
+      yt += gy * gt;
+      tt += gt * gt;
     }
   }
   // Eigen decomposition of the symmetric 2 × 2 [[xx, xy], [xy, yy]].
   const double mean = 0.5 * (xx + yy), half_diff = 0.5 * (xx - yy);
   const double radius = std::hypot(half_diff, xy);
   const double strong = mean + radius, weak = std::max(0.0, mean - radius);
-  axes.strong_axis_rad = 0.5 * std::atan2(2.0 * xy, xx - yy);
-  axes.weak_ratio = strong > 0.0 ? weak / strong : 1.0;
-  return axes;
+  info.strong_axis_rad = 0.5 * std::atan2(2.0 * xy, xx - yy);
+  info.weak_ratio = strong > 0.0 ? weak / strong : 1.0;
+  // The rotation's information with the translation free (the Schur complement; the translation's
+  // block regularised so that a single wall, with none along it, still inverts).
+  const double reg = 1e-6 * (xx + yy), a = xx + reg, c = yy + reg, det = a * c - xy * xy;
+  const double rotation = det > 0.0 ? tt - (xt * (c * xt - xy * yt) + yt * (a * yt - xy * xt)) / det : tt;
+  info.rotation_lever_m = strong > 0.0 ? std::sqrt(std::max(0.0, rotation) / strong) : 0.0;
+  return info;
 }
 
 double pose_score(const Grid& grid, const std::vector<Vec2>& points, const Pose2& pose) {

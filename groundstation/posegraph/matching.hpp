@@ -26,15 +26,19 @@ struct RefineOptions {
 // `guess`. Deterministic (one thread).
 [[nodiscard]] Pose2 refine_pose(const Grid& grid, const std::vector<Vec2>& points, const Pose2& guess, const RefineOptions& options);
 
-// How well a match pins the translation down: the principal axes of the translation information of
-// the grid residuals around `pose` (the outer products of the grid's gradients at the points, each
-// displaced by one cell). Along a corridor the
-// weak axis (the corridor's) has little information; in a room both axes have much.
-struct TranslationAxes {
-  double strong_axis_rad = 0;  // direction (submap frame) of the most information
-  double weak_ratio = 1;       // information along the weak axis over along the strong one (0..1)
+// How well a match pins the pose down, from the information of the grid residuals around `pose` (the
+// outer products of the grid's gradients at the points, each displaced by one cell). The translation's
+// principal axes: along a corridor the weak axis (the corridor's) has little information; in a room
+// both axes have much. The rotation's, with the translation free to follow it, as a lever arm: the
+// distance from the node at which the strongest translation information would tell as much about the
+// heading. Returns on a single short piece of wall (a tilted laser's node beside a long wall) pin the
+// node across the wall and hardly its heading, a lever of centimetres; a room's walls around it, metres.
+struct MatchInformation {
+  double strong_axis_rad = 0;   // direction (submap frame) of the most translation information
+  double weak_ratio = 1;        // translation information along the weak axis over along the strong one (0..1)
+  double rotation_lever_m = 0;  // √(rotation information, translation marginalised / strongest translation information)
 };
-[[nodiscard]] TranslationAxes translation_axes(const Grid& grid, const std::vector<Vec2>& points, const Pose2& pose);
+[[nodiscard]] MatchInformation match_information(const Grid& grid, const std::vector<Vec2>& points, const Pose2& pose);
 
 // The grid's score of a pose: the mean grid value at the points' nearest cells (0..1).
 [[nodiscard]] double pose_score(const Grid& grid, const std::vector<Vec2>& points, const Pose2& pose);

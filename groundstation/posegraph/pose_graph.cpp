@@ -122,7 +122,8 @@ void PoseGraph::optimize(bool final) {
     const bool closure = c.kind == Constraint::Kind::closure;
     problem.AddResidualBlock(
         RelativePoseCost::create(c.submap_from_node, closure ? options_.closure_translation_weight : options_.matcher_translation_weight,
-                                 closure ? options_.closure_rotation_weight : options_.matcher_rotation_weight, c.strong_axis_rad,
+                                 (closure ? options_.closure_rotation_weight : options_.matcher_rotation_weight) * c.rotation_factor,
+                                 c.strong_axis_rad,
                                  c.weak_axis_factor),
         closure ? new ceres::HuberLoss(options_.closure_huber_scale) : nullptr, s[c.submap].data(), n[c.node].data());
   }

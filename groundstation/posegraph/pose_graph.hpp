@@ -49,6 +49,9 @@ struct Constraint {
   // The translation weight along the axis at `strong_axis_rad` + 90° (submap frame) is scaled by
   // `weak_axis_factor` (1: isotropic): a match along a corridor says little about where along it.
   double strong_axis_rad = 0, weak_axis_factor = 1;
+  // The rotation weight is scaled by `rotation_factor` (1: as configured): a match on a short piece of
+  // wall says little about the heading.
+  double rotation_factor = 1;
 };
 
 struct NodeLink {  // between consecutive nodes of one robot

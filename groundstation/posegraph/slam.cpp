@@ -264,10 +264,14 @@ std::optional<Constraint> PlanarSlam::make_closure(std::size_t submap, std::size
   const Pose2 refined = refine_pose(m.grid, points, start, options_.closure_refine);
   if (pose_score(m.grid, points, refined) < options_.closure_min_refined_score) return std::nullopt;
   Constraint closure{submap, node, refined, Constraint::Kind::closure};
-  if (options_.closure_weak_axis_floor < 1.0) {
-    const TranslationAxes axes = translation_axes(m.grid, points, refined);
-    closure.strong_axis_rad = axes.strong_axis_rad;
-    closure.weak_axis_factor = std::max(options_.closure_weak_axis_floor, std::sqrt(axes.weak_ratio));
+  if (options_.closure_weak_axis_floor < 1.0 || options_.closure_rotation_lever_m > 0.0) {
+    const MatchInformation info = match_information(m.grid, points, refined);
+    if (options_.closure_weak_axis_floor < 1.0) {
+      closure.strong_axis_rad = info.strong_axis_rad;
+      closure.weak_axis_factor = std::max(options_.closure_weak_axis_floor, std::sqrt(info.weak_ratio));
+    }
+    if (options_.closure_rotation_lever_m > 0.0)
+      closure.rotation_factor = std::clamp(info.rotation_lever_m / options_.closure_rotation_lever_m, options_.closure_rotation_floor, 1.0);
   }
   return closure;
 }

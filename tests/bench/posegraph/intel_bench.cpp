@@ -39,6 +39,8 @@ SlamOptions options_from_env() {
       {"closure_min_score", &o.closure_min_score},
       {"closure_min_refined_score", &o.closure_min_refined_score},
       {"closure_weak_axis_floor", &o.closure_weak_axis_floor},
+      {"closure_rotation_lever_m", &o.closure_rotation_lever_m},
+      {"closure_rotation_floor", &o.closure_rotation_floor},
       {"still_translation_m", &o.still_translation_m},
       {"still_rotation_rad", &o.still_rotation_rad},
       {"graph.matcher_translation_weight", &o.graph.matcher_translation_weight},

@@ -131,6 +131,32 @@ TEST(PoseGraph, OdometryInATurnHoldsItsRotationLessStiffly) {
   EXPECT_NEAR(yaw_moved(kPi / 2, 0.01), 0.05, 1e-3);
 }
 
+// A closure whose match says little about the heading (rotation_factor 0.1: a hundredth of the
+// information) turns its node little: the odometry's heading stands.
+TEST(PoseGraph, AClosureWithoutALeverHoldsTheHeadingLittle) {
+  auto yaw_moved = [](double rotation_factor) {
+    GraphOptions o;
+    o.closure_huber_scale = 1e9;  // quadratic: the weights alone decide
+    o.local_translation_weight = o.local_rotation_weight = 0;  // the odometry alone links the nodes
+    o.odometry_rotation_weight = o.closure_rotation_weight;
+    o.matcher_translation_weight = o.matcher_rotation_weight = 1e9;  // the submap held where node 0 put it
+    PoseGraph g(o);
+    const std::size_t s = g.add_submap({0, 0, 0});
+    g.add_node({0, 0, 0}, true);
+    g.add_constraint({s, 0, {0, 0, 0}, Constraint::Kind::inserted});
+    const Pose2 moved{1, 0, 0};
+    const std::size_t n = g.add_node(moved, false);
+    g.add_link({0, n, 0, moved, moved});
+    Constraint closure{s, n, {1, 0, 0.05}, Constraint::Kind::closure};
+    closure.rotation_factor = rotation_factor;
+    g.add_constraint(closure);
+    g.optimize();
+    return g.nodes()[n].theta_rad;
+  };
+  EXPECT_NEAR(yaw_moved(1.0), 0.025, 1e-3);           // equal weights: half of the closure's 0.05 rad
+  EXPECT_NEAR(yaw_moved(0.1), 0.05 / 101.0, 1e-4);    // information 1 : 100
+}
+
 // A robot lapping a circle whose odometry reports 2 % too far and turns 0.2° a metre too many: two laps, the
 // second tied to where it truly is by closures. Both links held as stiffly as a tilted laser's; the
 // calibration in the graph finds the slip and the drift and the poses follow the truth, where without
