@@ -124,7 +124,6 @@ class OdometryHistory {
   [[nodiscard]] std::uint64_t overwritten() const { return overwritten_; }
 
  private:
-
   std::array<OdometrySample, Capacity> samples_{};
   std::size_t head_ = 0;
   std::size_t size_ = 0;
