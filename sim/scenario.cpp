@@ -352,6 +352,12 @@ ScenarioLoad parse_scenario(const std::string& toml_text, const std::string& sou
 }
 
 ScenarioLoad load_scenario_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    ScenarioLoad out;
+    out.error = path + ": a directory, not a scenario file";
+    return out;
+  }
   std::ifstream in{path, std::ios::binary};
   if (!in) {
     ScenarioLoad out;
@@ -368,7 +374,9 @@ std::vector<std::string> builtin_scenario_names() { return {"lap2", "fig8", "tea
 ScenarioLoad resolve_scenario(const std::string& name_or_path) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (name_or_path.find('/') != std::string::npos || name_or_path.ends_with(".toml") || fs::exists(name_or_path, ec))
+  // A bare name is a scenario's unless a file of that name is here: a directory of that name (a data
+  // set written where the simulator runs, `--out lap2`) does not hide the scenario.
+  if (name_or_path.find('/') != std::string::npos || name_or_path.ends_with(".toml") || fs::is_regular_file(name_or_path, ec))
     return load_scenario_file(name_or_path);
   const std::string file = name_or_path + ".toml";
   const DataFile found = find_data_file("scenarios/" + file, "sim/scenarios/" + file);

@@ -1,7 +1,10 @@
 // Scenario TOML: the shipped files load, defaults apply, and malformed input names the key.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -120,6 +123,24 @@ TEST(Scenario, ResolveByNameAndUnknownName) {
   const ScenarioLoad unknown = resolve_scenario("nosuchscenario");
   EXPECT_FALSE(unknown.scenario);
   EXPECT_NE(unknown.error.find("nosuchscenario"), std::string::npos);
+}
+
+// A data set written where the simulator runs (`teamscan sim lap2 --out lap2`) is a directory named
+// like the scenario: the name still means the scenario, and a directory given as a path is refused.
+TEST(Scenario, ADirectoryOfTheSameNameDoesNotHideTheScenario) {
+  namespace fs = std::filesystem;
+  const fs::path here = fs::temp_directory_path() / ("scenario_test_" + std::to_string(::getpid()));
+  fs::create_directories(here / "lap2");
+  const fs::path before = fs::current_path();
+  fs::current_path(here);
+  const ScenarioLoad byname = resolve_scenario("lap2");
+  const ScenarioLoad bypath = resolve_scenario("./lap2");
+  fs::current_path(before);
+  fs::remove_all(here);
+  ASSERT_TRUE(byname.scenario) << byname.error;
+  EXPECT_EQ(byname.scenario->name, "lap2");
+  EXPECT_FALSE(bypath.scenario);
+  EXPECT_NE(bypath.error.find("a directory, not a scenario file"), std::string::npos) << bypath.error;
 }
 
 }  // namespace
