@@ -59,8 +59,8 @@ struct SlamOptions {
   // A closure's rotation weight scaled by its match's rotation lever (MatchInformation::rotation_lever_m)
   // over this, at most 1 and at least `closure_rotation_floor`: a match whose returns hardly tell its
   // heading (a tilted laser's node beside one long wall sees a few centimetres of it) holds the heading
-  // little, where at full weight hundreds of such closures bent a robot's heading by most of a degree
-  // for seconds. 0: the configured weight for every closure.
+  // little: at full weight hundreds of such closures bend the heading of a robot whose odometry was
+  // right (docs/slam.md "Rotation lever"). 0: the configured weight for every closure.
   double closure_rotation_lever_m = 3.0;
   double closure_rotation_floor = 0.1;
   int optimize_every_n_nodes = 1000;
