@@ -87,7 +87,7 @@ Pose2 PoseHistory::at(std::int64_t stamp_ns) const {
   const Time t = Time::from_ns(stamp_ns);
   if (t <= samples_.front().stamp) return samples_.front().pose;
   if (t >= samples_.back().stamp) return samples_.back().pose;
-  const auto it = std::upper_bound(samples_.begin(), samples_.end(), t, [](Time at, const OdometrySample& s) { return at < s.stamp; });
+  const auto it = std::upper_bound(samples_.begin(), samples_.end(), t, [](Time when, const OdometrySample& s) { return when < s.stamp; });
   const auto b = static_cast<std::size_t>(it - samples_.begin());  // the first sample after t (b >= 1)
   return pose_between(b >= 2 ? &samples_[b - 2] : nullptr, samples_[b - 1], samples_[b], t);
 }
