@@ -61,10 +61,15 @@ TEST(OdometryHistory, HeadingFollowsASteadilyChangingTurn) {
     EXPECT_NEAR(r->theta_rad, normalize_angle(heading(at_ms * 1e-3)), 1e-9) << at_ms << " ms";
     EXPECT_NEAR(r->x_m, at_ms * 1e-3, 1e-12);  // the position stays on the chord
   }
-  // The chord alone would be off by up to α Δt² / 8 = 2.9° mid-cycle; the first cycle, with no SIP before it, is.
+  // The chord alone would be off by up to α Δt² / 8 = 2.9° mid-cycle. The first cycle, with no SIP
+  // before it, stays on the chord, and past the newest SIP the heading is extrapolated at the last
+  // cycle's constant rate, not along the parabola.
   const auto first = h.interpolate(ms(50));
   ASSERT_TRUE(first.ok());
   EXPECT_NEAR(first->theta_rad, 0.5 * heading(0.1), 1e-12);
+  const auto ahead = h.interpolate(ms(350));
+  ASSERT_TRUE(ahead.ok());
+  EXPECT_NEAR(ahead->theta_rad, normalize_angle(heading(0.3) + 0.5 * (heading(0.3) - heading(0.2))), 1e-9);
 }
 
 TEST(OdometryHistory, TurnAcrossPlusMinusPi) {
