@@ -137,9 +137,12 @@ void PoseGraph::optimize(bool final) {
   };
   for (const NodeLink& l : links_) {
     const double turned_rad = std::abs(l.from_to_odometry.theta_rad);
+    const bool rest = std::hypot(l.from_to_odometry.x_m, l.from_to_odometry.y_m) < options_.rest_translation_m &&
+                      turned_rad < options_.rest_rotation_rad;
+    const double factor = rest ? options_.rest_weight_factor : 1.0;
     const double odometry_rotation_weight =
-        1.0 / (1.0 / options_.odometry_rotation_weight + options_.odometry_turn_sigma_rad_per_rad * turned_rad);
-    add_motion(l, l.from_to_odometry, options_.odometry_translation_weight, odometry_rotation_weight, options_.calibrate_odometry);
+        factor / (1.0 / options_.odometry_rotation_weight + options_.odometry_turn_sigma_rad_per_rad * turned_rad);
+    add_motion(l, l.from_to_odometry, factor * options_.odometry_translation_weight, odometry_rotation_weight, options_.calibrate_odometry);
     add_motion(l, l.from_to_local, options_.local_translation_weight, options_.local_rotation_weight, options_.calibrate_local_links);
   }
   for (std::size_t i = 0; i < nodes_.size(); ++i)

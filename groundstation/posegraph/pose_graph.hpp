@@ -25,6 +25,13 @@ struct GraphOptions {
   // the more it turned, its σ (1 / weight, rad) growing by this much per radian turned. 0: one weight.
   double odometry_turn_sigma_rad_per_rad = 0;
   double local_translation_weight = 1e4, local_rotation_weight = 1e4;             // consecutive local SLAM poses
+  // Wheels that did not turn between two nodes (the odometry moved less than `rest_translation_m` and
+  // `rest_rotation_rad`) mean a robot at rest, whatever they slip in motion: that link's odometry
+  // weights are multiplied by `rest_weight_factor`, so a parked robot's nodes move together as one,
+  // rather than each giving a little to the pull of its closures and inserted scans until the robot
+  // has turned while it stood. 1: as any link.
+  double rest_translation_m = 0.001, rest_rotation_rad = 0.001;
+  double rest_weight_factor = 10;
   double closure_huber_scale = 1e1;
   // Each robot's odometry calibrated in the graph (Kümmerle et al. 2011, "Simultaneous calibration,
   // localization, and mapping"): three parameters per robot (OdometryCalibration) correct the measured

@@ -157,6 +157,34 @@ TEST(PoseGraph, AClosureWithoutALeverHoldsTheHeadingLittle) {
   EXPECT_NEAR(yaw_moved(0.1), 0.05 / 101.0, 1e-4);    // information 1 : 100
 }
 
+// Wheels that did not turn between two nodes hold them together rest_weight_factor times as stiffly
+// (a hundred times the information): a closure that disagrees in yaw hardly turns a robot at rest,
+// where it turns one that drove a centimetre half way.
+TEST(PoseGraph, WheelsAtRestHoldTheRobotWhereItStood) {
+  auto yaw_moved = [](const Pose2& moved, double rest_weight_factor) {
+    GraphOptions o;
+    o.closure_huber_scale = 1e9;  // quadratic: the weights alone decide
+    o.local_translation_weight = o.local_rotation_weight = 0;  // the odometry alone links the nodes
+    o.odometry_translation_weight = o.closure_translation_weight;
+    o.odometry_rotation_weight = o.closure_rotation_weight;
+    o.matcher_translation_weight = o.matcher_rotation_weight = 1e9;  // the submap held where node 0 put it
+    o.rest_weight_factor = rest_weight_factor;
+    PoseGraph g(o);
+    const std::size_t s = g.add_submap({0, 0, 0});
+    g.add_node({0, 0, 0}, true);
+    g.add_constraint({s, 0, {0, 0, 0}, Constraint::Kind::inserted});
+    const std::size_t n = g.add_node(moved, false);
+    g.add_link({0, n, 0, moved, moved});
+    g.add_constraint({s, n, {moved.x_m, moved.y_m, moved.theta_rad + 0.05}, Constraint::Kind::closure});
+    g.optimize();
+    return g.nodes()[n].theta_rad - moved.theta_rad;
+  };
+  const Pose2 at_rest{0.0002, 0, 0.0003}, drove{0.01, 0, 0};
+  EXPECT_NEAR(yaw_moved(at_rest, 1.0), 0.025, 1e-3);          // as any link: half of the closure's 0.05 rad
+  EXPECT_NEAR(yaw_moved(at_rest, 10.0), 0.05 / 101.0, 1e-4);  // information 100 : 1
+  EXPECT_NEAR(yaw_moved(drove, 10.0), 0.025, 1e-3);           // it moved: as any link
+}
+
 // A robot lapping a circle whose odometry reports 2 % too far and turns 0.2° a metre too many: two laps, the
 // second tied to where it truly is by closures. Both links held as stiffly as a tilted laser's; the
 // calibration in the graph finds the slip and the drift and the poses follow the truth, where without
