@@ -63,6 +63,8 @@ struct PlanarSlam::Robot {
 SlamOptions tilted_laser_options(SlamOptions base) {
   base.local.translation_weight = 100.0;
   base.local.rotation_weight = 400.0;
+  base.graph.local_translation_weight = 1e5;
+  base.graph.local_rotation_weight = 1e5;
   base.graph.odometry_translation_weight = 1e4;
   base.graph.odometry_rotation_weight = 1e5;
   base.graph.odometry_turn_sigma_rad_per_rad = 0.003;

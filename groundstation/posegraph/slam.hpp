@@ -117,10 +117,14 @@ struct SlamStats {
 // piece of wall past the end of what its submap holds: matched on its own, local SLAM pulls those
 // returns back onto the known piece and falls behind the robot, in translation and in yaw. Local SLAM's pull towards the odometry's prediction is
 // 100 per metre and 400 per radian here (1 and 1 by default): it follows the odometry over a node and corrects what the walls
-// show clearly; the loop closures take out the drift (docs/slam.md "Tilted lasers"). The odometry
-// between such nodes (a few centimetres, a few degrees) is held stiffly, 10⁴ per metre and 10⁵ per
-// radian, its rotation less so the more it turned (σ + 0.3 % of the turn): a node's few wall returns
-// say less about its motion than the wheels do, but the wheels slip in turns. Each robot's odometry is
+// show clearly; the loop closures take out the drift (docs/slam.md "Tilted lasers"). Between such
+// nodes (a few centimetres, a few degrees) local SLAM's motion, the odometry's with what the walls
+// showed clearly corrected, is held at 10⁵ per metre and per radian (10⁴ by default), and the
+// odometry's at 10⁴ per metre and 10⁵ per radian, its rotation less so the more it turned (σ + 0.3 %
+// of the turn; the wheels slip in turns): a node's few wall returns say little about its motion on
+// their own, and held less stiffly, its closures' shared bias along a wall they cannot place (a
+// centimetre or two) bent the chain there. So the closures take out the drift, slowly, and local SLAM
+// gives the motion from node to node. Each robot's odometry is
 // calibrated in the graph (GraphOptions::calibrate_odometry, calibrate_local_links): held that stiffly,
 // a wheel slip of 2 % would otherwise swell every loop the robot drives by 2 %. With the odometry's
 // systematic errors taken out that way, the loop closures need not pull as hard: their Huber scale is
