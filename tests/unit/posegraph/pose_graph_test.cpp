@@ -102,26 +102,34 @@ TEST(PoseGraph, WeakAxisOfAClosureHoldsLittle) {
   EXPECT_NEAR(corridor.y_m, 0.5, 0.01);
 }
 
+// Two nodes, the first held, linked by the odometry alone (`moved`); a submap held where the first put
+// it, and a closure of the second that disagrees with the odometry in yaw by 0.05 rad. Returns how far
+// the closure turned the second node; the weights in `o` alone decide (quadratic loss).
+double yaw_a_closure_turns(GraphOptions o, const Pose2& moved, double closure_rotation_factor = 1.0) {
+  o.closure_huber_scale = 1e9;
+  o.local_translation_weight = o.local_rotation_weight = 0;
+  o.matcher_translation_weight = o.matcher_rotation_weight = 1e9;
+  PoseGraph g(o);
+  const std::size_t s = g.add_submap({0, 0, 0});
+  g.add_node({0, 0, 0}, true);
+  g.add_constraint({s, 0, {0, 0, 0}, Constraint::Kind::inserted});
+  const std::size_t n = g.add_node(moved, false);
+  g.add_link({0, n, 0, moved, moved});
+  Constraint closure{s, n, {moved.x_m, moved.y_m, moved.theta_rad + 0.05}, Constraint::Kind::closure};
+  closure.rotation_factor = closure_rotation_factor;
+  g.add_constraint(closure);
+  g.optimize();
+  return g.nodes()[n].theta_rad - moved.theta_rad;
+}
+
 // The odometry's rotation is held less stiffly in a turn: a closure that disagrees with it in yaw
 // moves a node that turned further than one that drove straight.
 TEST(PoseGraph, OdometryInATurnHoldsItsRotationLessStiffly) {
   auto yaw_moved = [](double turn_rad, double turn_sigma_rad_per_rad) {
     GraphOptions o;
-    o.closure_huber_scale = 1e9;  // quadratic: the weights alone decide
-    o.local_translation_weight = o.local_rotation_weight = 0;  // the odometry alone links the nodes
     o.odometry_rotation_weight = o.closure_rotation_weight;
-    o.matcher_translation_weight = o.matcher_rotation_weight = 1e9;  // the submap held where node 0 put it
     o.odometry_turn_sigma_rad_per_rad = turn_sigma_rad_per_rad;
-    PoseGraph g(o);
-    const std::size_t s = g.add_submap({0, 0, 0});
-    g.add_node({0, 0, 0}, true);
-    g.add_constraint({s, 0, {0, 0, 0}, Constraint::Kind::inserted});
-    const Pose2 moved{1, 0, turn_rad};
-    const std::size_t n = g.add_node(moved, false);
-    g.add_link({0, n, 0, moved, moved});
-    g.add_constraint({s, n, {1, 0, turn_rad + 0.05}, Constraint::Kind::closure});
-    g.optimize();
-    return g.nodes()[n].theta_rad - turn_rad;
+    return yaw_a_closure_turns(o, {1, 0, turn_rad});
   };
   // Equal weights: the closure gets half of its 0.05 rad, whichever way the robot turned.
   EXPECT_NEAR(yaw_moved(0.0, 0.0), 0.025, 1e-3);
@@ -134,27 +142,10 @@ TEST(PoseGraph, OdometryInATurnHoldsItsRotationLessStiffly) {
 // A closure whose match says little about the heading (rotation_factor 0.1: a hundredth of the
 // information) turns its node little: the odometry's heading stands.
 TEST(PoseGraph, AClosureWithoutALeverHoldsTheHeadingLittle) {
-  auto yaw_moved = [](double rotation_factor) {
-    GraphOptions o;
-    o.closure_huber_scale = 1e9;  // quadratic: the weights alone decide
-    o.local_translation_weight = o.local_rotation_weight = 0;  // the odometry alone links the nodes
-    o.odometry_rotation_weight = o.closure_rotation_weight;
-    o.matcher_translation_weight = o.matcher_rotation_weight = 1e9;  // the submap held where node 0 put it
-    PoseGraph g(o);
-    const std::size_t s = g.add_submap({0, 0, 0});
-    g.add_node({0, 0, 0}, true);
-    g.add_constraint({s, 0, {0, 0, 0}, Constraint::Kind::inserted});
-    const Pose2 moved{1, 0, 0};
-    const std::size_t n = g.add_node(moved, false);
-    g.add_link({0, n, 0, moved, moved});
-    Constraint closure{s, n, {1, 0, 0.05}, Constraint::Kind::closure};
-    closure.rotation_factor = rotation_factor;
-    g.add_constraint(closure);
-    g.optimize();
-    return g.nodes()[n].theta_rad;
-  };
-  EXPECT_NEAR(yaw_moved(1.0), 0.025, 1e-3);           // equal weights: half of the closure's 0.05 rad
-  EXPECT_NEAR(yaw_moved(0.1), 0.05 / 101.0, 1e-4);    // information 1 : 100
+  GraphOptions o;
+  o.odometry_rotation_weight = o.closure_rotation_weight;
+  EXPECT_NEAR(yaw_a_closure_turns(o, {1, 0, 0}, 1.0), 0.025, 1e-3);         // equal weights: half of the closure's 0.05 rad
+  EXPECT_NEAR(yaw_a_closure_turns(o, {1, 0, 0}, 0.1), 0.05 / 101.0, 1e-4);  // information 1 : 100
 }
 
 // Wheels that did not turn between two nodes hold them together rest_weight_factor times as stiffly
@@ -163,21 +154,10 @@ TEST(PoseGraph, AClosureWithoutALeverHoldsTheHeadingLittle) {
 TEST(PoseGraph, WheelsAtRestHoldTheRobotWhereItStood) {
   auto yaw_moved = [](const Pose2& moved, double rest_weight_factor) {
     GraphOptions o;
-    o.closure_huber_scale = 1e9;  // quadratic: the weights alone decide
-    o.local_translation_weight = o.local_rotation_weight = 0;  // the odometry alone links the nodes
     o.odometry_translation_weight = o.closure_translation_weight;
     o.odometry_rotation_weight = o.closure_rotation_weight;
-    o.matcher_translation_weight = o.matcher_rotation_weight = 1e9;  // the submap held where node 0 put it
     o.rest_weight_factor = rest_weight_factor;
-    PoseGraph g(o);
-    const std::size_t s = g.add_submap({0, 0, 0});
-    g.add_node({0, 0, 0}, true);
-    g.add_constraint({s, 0, {0, 0, 0}, Constraint::Kind::inserted});
-    const std::size_t n = g.add_node(moved, false);
-    g.add_link({0, n, 0, moved, moved});
-    g.add_constraint({s, n, {moved.x_m, moved.y_m, moved.theta_rad + 0.05}, Constraint::Kind::closure});
-    g.optimize();
-    return g.nodes()[n].theta_rad - moved.theta_rad;
+    return yaw_a_closure_turns(o, moved);
   };
   const Pose2 at_rest{0.0002, 0, 0.0003}, drove{0.01, 0, 0};
   EXPECT_NEAR(yaw_moved(at_rest, 1.0), 0.025, 1e-3);          // as any link: half of the closure's 0.05 rad
