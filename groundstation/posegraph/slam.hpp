@@ -122,11 +122,11 @@ struct SlamStats {
 // showed clearly corrected, is held at 10⁵ per metre and per radian (10⁴ by default), and the
 // odometry's at 10⁴ per metre and 10⁵ per radian, its rotation less so the more it turned (σ + 0.3 %
 // of the turn; the wheels slip in turns): a node's few wall returns say little about its motion on
-// their own, and held less stiffly, its closures' shared bias along a wall they cannot place (a
-// centimetre or two) bent the chain there. So the closures take out the drift, slowly, and local SLAM
-// gives the motion from node to node. Each robot's odometry is
-// calibrated in the graph (GraphOptions::calibrate_odometry, calibrate_local_links): held that stiffly,
-// a wheel slip of 2 % would otherwise swell every loop the robot drives by 2 %. With the odometry's
+// their own, and held less stiffly, the chain gives to its closures' shared bias along a wall they
+// cannot place. So the closures take out the drift, slowly, and local SLAM gives the motion from node
+// to node. Each robot's odometry is calibrated in the graph (GraphOptions::calibrate_odometry,
+// calibrate_local_links): held that stiffly, a wheel slip of 2 % would otherwise swell every loop the
+// robot drives by 2 %. With the odometry's
 // systematic errors taken out that way, the loop closures need not pull as hard: their Huber scale is
 // 5 (10 by default), which keeps good odometry from being dragged by the closures' own small biases.
 [[nodiscard]] SlamOptions tilted_laser_options(SlamOptions base = {});
