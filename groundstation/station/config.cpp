@@ -297,8 +297,8 @@ void read_registration(TomlReader& r, fusion::CoreOptions& core) {
   read_priors(r, reg, o);
 }
 
-// [pose_graph]: its presence runs the pose graph as the fusion core's back end (unless `enabled =
-// false`), with the returns it takes (fusion::PlanarReturnOptions) and how often the live map follows
+// [pose_graph]: the pose graph as the fusion core's back end (on unless `enabled = false`; absent: the
+// defaults), with the returns it takes (fusion::PlanarReturnOptions) and how often the live map follows
 // it (follow_s: GraphBackendOptions::estimate_every_s; 0, the default: only the final model).
 void read_pose_graph(TomlReader& r, FusionOptions& f) {
   const toml::table* graph = r.section("pose_graph", false);

@@ -97,8 +97,9 @@ struct FusionOptions {
   // scan the core releases, on its own thread; its trajectory is written at the end
   // (write_graph_trajectories). With its estimate_every_s, the live map follows it: each new estimate
   // rebuilds the cores from the session folder on the graph's poses in slices, as a catch-up does
-  // (tick()), and they take over. Unset: none.
-  std::optional<fusion::GraphBackendOptions> pose_graph;
+  // (tick()), and they take over. On by default ([pose_graph] enabled = false: none, odometry alone or
+  // the registration's corrections).
+  std::optional<fusion::GraphBackendOptions> pose_graph = fusion::GraphBackendOptions{};
   // The CPUs the model writer thread may run on (empty: the process's affinity). A station whose loop
   // is pinned to one core keeps the writer's file work (page-cache copies, kernel sections that the
   // loop cannot preempt) off that core with this; the snapshot itself stays in the loop.

@@ -72,8 +72,9 @@ std::string station_config(const StationConfigInput& in) {
   // Scan-to-map registration in the fusion core (docs/registration.md): the section turns it on, with the
   // station's defaults; `teamscan eval SESSION` reads the same section (the demo's identity check).
   if (in.registration) o << "\n[registration]\nenabled = true\n";
-  // The pose graph as the core's back end (docs/slam.md "The back end"): robot<N>.graph.tum at shutdown.
-  if (in.pose_graph) o << "\n[pose_graph]\nenabled = true\n";
+  // The pose graph as the core's back end (docs/slam.md "The back end"; the station's default): robot<N>.graph.tum
+  // and the final model on the graph's poses at shutdown.
+  o << "\n[pose_graph]\nenabled = " << (in.pose_graph ? "true" : "false") << "\n";
   // ROS 2 wire names, for RViz2 / Foxglove watching the demo (docs/ros2.md; --station-ros2 false: off).
   o << "\n[ros2]\nenabled = " << (in.ros2 ? "true" : "false") << "\n";
   for (const sim::RobotSpec& r : in.robots) {  // robotN/base_link -> robotN/laser on /tf_static

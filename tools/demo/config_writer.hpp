@@ -31,7 +31,7 @@ struct StationConfigInput {
   bool ros2 = true;                        // [ros2] enabled (docs/ros2.md)
   std::optional<int> view_port;            // [view] listen on 127.0.0.1:PORT (unset: no view)
   bool registration = false;               // a [registration] section: scan-to-map registration, its defaults
-  bool pose_graph = false;                 // a [pose_graph] section: the pose graph as the fusion core's back end
+  bool pose_graph = true;                  // [pose_graph] enabled: the pose graph as the fusion core's back end
   // A calibration (`teamscan calibrate`'s [[registration.robot]] tables), appended as it is (checked by the
   // caller: station::load_registration_priors); empty: none.
   std::string calibration_toml;

@@ -95,6 +95,7 @@ int load_scenario(const DemoOptions& a, DemoSetup& s) {
 // "Registration"); a calibration (--calibration) turns it on too: its priors are the registration's.
 int resolve_registration(const DemoOptions& a, DemoSetup& s) {
   s.registration = a.registration.value_or(!a.calibration_path.empty() || scenario_drifts(s.scenario));
+  s.pose_graph = a.pose_graph.value_or(a.registration != std::optional<bool>(false));
   s.registration_why = a.registration ? (s.registration ? "on (--registration)" : "off (--no-registration)")
                        : !a.calibration_path.empty() ? "on (--calibration)"
                        : s.registration              ? "on: the scenario's robots drift"
@@ -185,7 +186,7 @@ int start_processes(const DemoOptions& a, const DemoSetup& s, sim::LiveTeam& liv
                     Progress& progress, RunRecord& r) {
   write_text(s.station_config,
              station_config({s.out, s.domain, a.station_method, station_compare_methods(a), a.write_interval_s,
-                             a.station_ros2, a.view_port, s.registration, a.pose_graph, s.calibration_toml, s.scenario.robots}));
+                             a.station_ros2, a.view_port, s.registration, s.pose_graph, s.calibration_toml, s.scenario.robots}));
   Child station{"teamscan-groundstation", s.out + "/logs/groundstation.log"};
   auto pid = supervisor.spawn(station_argv(a, s), station.log);
   if (!pid) {
@@ -452,7 +453,7 @@ int run_live(const DemoOptions& a, const DemoSetup& s, sim::LiveTeam& live, Prog
   progress.stage("teamscan demo: " + s.scenario.name + ", " + std::to_string(live.robot_count()) + " robots, " +
                  seconds_text(s.duration_s) + " s of robot time, DDS domain " + std::to_string(s.domain) +
                  (s.links ? " in network namespaces" : " on loopback") + " (" + s.dds + "), registration " + s.registration_why +
-                 (a.secure ? ", DDS Security on" : "") + "; output in " + s.out);
+                 (s.pose_graph ? ", pose graph on" : ", pose graph off") + (a.secure ? ", DDS Security on" : "") + "; output in " + s.out);
   Supervisor supervisor;
   const double feeder_cpu_start_s = self_cpu_s();
   const auto run_start = std::chrono::steady_clock::now();

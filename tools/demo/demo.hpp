@@ -63,8 +63,9 @@ struct DemoOptions {
   // (scenario_drifts), docs/demo.md "Registration".
   std::optional<bool> registration;
   // The pose graph as the station's back end (its [pose_graph]; docs/slam.md "The back end"): the report
-  // scores the graph's poses against the truth and checks them against its replay of the session.
-  bool pose_graph = false;
+  // scores the graph's poses against the truth and checks them against its replay of the session. Unset:
+  // on (the station's default) but with --no-registration (odometry alone).
+  std::optional<bool> pose_graph;
   // Each robot's odometry prior for the registration (`teamscan calibrate`'s output): appended to the
   // station's config and taken by the demo's evaluations; empty: none (docs/registration.md).
   std::string calibration_path;

@@ -122,9 +122,9 @@ int collect(const DemoOptions& a, const DemoSetup& s, sim::LiveTeam& live, Progr
   eo.registration = s.registration;
   eo.registration_options.prior = s.priors.prior;
   eo.registration_options.robot_priors = s.priors.robot_priors;
-  // With the station's pose graph, its final model is on the graph's poses: both evaluations place
-  // their clouds with a graph of the station's options (`teamscan eval --pose-graph`).
-  if (a.pose_graph) {
+  // With the station's pose graph (its config decides), its final model is on the graph's poses: both
+  // evaluations place their clouds with a graph of the station's options (`teamscan eval`'s default).
+  {
     station::GroundStationConfig gcfg;
     station::ConfigError error;
     if (!station::load_groundstation_config(s.station_config, gcfg, error)) {

@@ -26,6 +26,7 @@ struct DemoSetup {
   double duration_s = 0;
   bool registration = false;
   std::string registration_why;  // "on: the scenario's robots drift", ...
+  bool pose_graph = true;        // the station's [pose_graph] enabled (DemoOptions::pose_graph resolved)
   registration::RegistrationOptions priors;
   std::string calibration_toml;  // appended to the station's config
   std::string dds;               // the Cyclone DDS config file

@@ -89,9 +89,14 @@ const SubcommandRegistration kDemo{
            "--no-registration", [a] { a->registration = false; },
            "Odometry alone, also for a scenario whose robots drift");
        reg_on->excludes(reg_off);
-       app.add_flag("--pose-graph", a->pose_graph,
-                    "The pose graph as the station's back end ([pose_graph]): the report gives its poses' error against "
-                    "the truth beside odometry's and the registration's (docs/slam.md \"The back end\")");
+       auto* graph_on = app.add_flag_callback(
+           "--pose-graph", [a] { a->pose_graph = true; },
+           "The pose graph as the station's back end ([pose_graph], the default; with --no-registration the graph over "
+           "odometry alone): the report gives its poses' error against the truth beside odometry's and the "
+           "registration's (docs/slam.md \"The back end\")");
+       auto* graph_off = app.add_flag_callback("--no-pose-graph", [a] { a->pose_graph = false; },
+                                               "No pose graph at the station ([pose_graph] enabled = false)");
+       graph_on->excludes(graph_off);
        app.add_option("--calibration", a->calibration_path,
                       "Each robot's odometry prior for the registration (`teamscan calibrate`'s output): appended to "
                       "the station's config, taken by the demo's evaluations (docs/registration.md)")

@@ -42,7 +42,7 @@ struct EvalArgs {
   std::optional<double> half_angle_deg;
   std::uint64_t seed = 1;
   bool registration = false;     // scan-to-map registration in the fusion core (docs/registration.md)
-  bool no_registration = false;  // odometry alone (the default, as the station's [fusion] registration)
+  bool no_registration = false;  // odometry alone: no registration and, without --pose-graph, no graph
   // Unset: the registration's defaults for the data set's lasers (registration::planar_scan_options
   // for an imported 2-D log, RegistrationOptions{} else).
   std::optional<double> registration_window_s;
@@ -170,7 +170,9 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.tracked_low_outline_margin_m != d.tracked_low_outline_margin_m)
     o << " --tracked-low-outline-margin " << number(a.tracked_low_outline_margin_m);
   for (double h : a.top_heights_m) o << " --top-height " << number(h);
-  if (a.slam.pose_graph) o << " --pose-graph";
+  if (a.no_registration) o << " --no-registration";
+  if (a.no_registration && a.slam.pose_graph) o << " --pose-graph";
+  if (!a.no_registration && !a.slam.pose_graph) o << " --no-pose-graph";
   if (a.slam.min_height_m) o << " --pose-graph-min-height " << number(*a.slam.min_height_m);
   if (a.slam.max_height_m) o << " --pose-graph-max-height " << number(*a.slam.max_height_m);
   if (a.slam.node_span_s) o << " --pose-graph-node-span " << number(*a.slam.node_span_s);
@@ -373,7 +375,8 @@ std::string joined_json(const std::vector<std::string>& jsons) {
   return json;
 }
 
-int run_eval(const EvalArgs& a) {
+int run_eval(EvalArgs& a) {
+  resolve_pose_graph(a.slam, a.no_registration);
   registration::RegistrationOptions priors;  // only its prior and robot_priors are used
   if (!odometry_priors(a, priors)) return 2;
   const MethodOptions base = method_options(a);
@@ -510,10 +513,13 @@ const SubcommandRegistration kEval{{"eval", "Evaluate the ghost-point filters on
       ->check(CLI::PositiveNumber);
   app.add_option("--half-angle", a->half_angle_deg, "Direction-filter cone half-angle ha in degrees (paper: 5, 7)")
       ->check(CLI::Range(0.0, 60.0));
-  app.add_flag("--registration", a->registration,
+  auto* reg_on = app.add_flag("--registration", a->registration,
                "Correct each robot's odometry drift by scan-to-map registration in the fusion core (as the station with "
-               "[fusion] registration = true); reports pose and point error with odometry alone and registered (docs/registration.md)");
-  app.add_flag("--no-registration", a->no_registration, "Odometry alone (the default)");
+               "[fusion] registration = true); with --no-pose-graph the cloud is the registration's, and the report gives "
+               "pose and point error with odometry alone and registered (docs/registration.md)");
+  auto* reg_off = app.add_flag("--no-registration", a->no_registration,
+                               "Odometry alone: no registration and no pose graph (with --pose-graph: the graph over odometry)");
+  reg_on->excludes(reg_off);
   app.add_option("--registration-window", a->registration_window_s,
                  "Registration: a robot's recent points matched as one rigid piece, seconds ([registration] window_s; "
                  "default 2.5; an imported 2-D log: the last scan, by path, docs/registration.md)")

@@ -82,12 +82,19 @@ void print_pose_graph_summary(const fusion::EvalReport& report) {
                  static_cast<unsigned>(k.robot), k.odometry.distance_scale, k.odometry.turn_scale, k.odometry.heading_drift_rad_per_m * 180.0 / kPi);
 }
 
+void resolve_pose_graph(SlamEvalArgs& args, bool odometry_alone) {
+  args.pose_graph = args.pose_graph_flag || (!args.no_pose_graph_flag && !odometry_alone);
+}
+
 void add_slam_eval_options(CLI::App& app, SlamEvalArgs& args) {
-  app.add_flag("--pose-graph", args.pose_graph,
-               "The trajectory of the 2-D pose graph (submaps, loop closure, Ceres; docs/slam.md) for --trajectory-out and "
-               "--relations: the fusion core's back end on the robots' odometry (the core's releases: with --registration, the "
-               "registered run's); then every method is decided on the graph's poses, so the cloud, the decisions and the figures "
-               "follow the graph");
+  auto* on = app.add_flag("--pose-graph", args.pose_graph_flag,
+                          "The 2-D pose graph (submaps, loop closure, Ceres; docs/slam.md), the default; with --no-registration "
+                          "the graph over odometry alone. The fusion core's back end on the robots' odometry (the same graph "
+                          "with or without --registration); every method is decided on the graph's poses, so the cloud, the "
+                          "decisions, the figures, --trajectory-out and --relations follow the graph");
+  auto* off = app.add_flag("--no-pose-graph", args.no_pose_graph_flag,
+                           "No pose graph: the cloud on odometry, or with --registration on the registration's corrections");
+  on->excludes(off);
   const fusion::PlanarReturnOptions d;
   app.add_option("--pose-graph-min-height", args.min_height_m,
                  "--pose-graph: a tilted laser's returns taken from this height above the floor, m (default " +

@@ -20,13 +20,19 @@ namespace teamscan::tool {
 struct SlamEvalArgs {
   std::string trajectory_dir;  // empty: none written
   std::string relations_path;  // empty: no relations figures
-  bool pose_graph = false;     // --pose-graph: the trajectory of the pose graph (groundstation/posegraph)
+  // The pose graph (groundstation/posegraph) as the fusion core's back end: on by default; --no-pose-graph
+  // or --no-registration (odometry alone) turn it off, --pose-graph keeps it on with --no-registration
+  // (the graph over odometry alone). resolve_pose_graph() sets pose_graph from the flags.
+  bool pose_graph = true;
+  bool pose_graph_flag = false, no_pose_graph_flag = false;
   // A tilted laser's returns in the graph: the height band and the span of scans one node gathers
   // (fusion::PlanarReturnOptions; unset: its defaults).
   std::optional<double> min_height_m, max_height_m, node_span_s;
 };
 
 void add_slam_eval_options(CLI::App& app, SlamEvalArgs& args);
+// After parsing: whether the graph runs, from its flags and --no-registration (`odometry_alone`).
+void resolve_pose_graph(SlamEvalArgs& args, bool odometry_alone);
 
 struct SlamEvalOutput {
   std::string markdown;     // the relations table (empty without --relations)
@@ -43,8 +49,8 @@ struct SlamEvalOutput {
 [[nodiscard]] SlamEvalOutput slam_eval_outputs(const SlamEvalArgs& args, const Dataset& dataset, const std::vector<Pose2>& corrected,
                                                const std::vector<std::uint8_t>& decided, const std::string& method);
 
-// `--pose-graph`: the back end's options for the evaluation (fusion::EvalOptions::pose_graph); unset
-// without it.
+// The back end's options for the evaluation (fusion::EvalOptions::pose_graph); unset when the graph is
+// off.
 [[nodiscard]] std::optional<fusion::GraphBackendOptions> pose_graph_options(const SlamEvalArgs& args);
 // What the back end did and its time, on stderr.
 void print_pose_graph_summary(const fusion::EvalReport& report);

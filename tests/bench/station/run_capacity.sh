@@ -10,9 +10,10 @@
 # team, whose wait alone exceeds 50 ms). p50/p99 are the steady state (scans stamped after the feed's
 # first 2 s: the core releases nothing in its first hold_s); the all-scans p99 is printed beside them.
 #
-# POSE_GRAPH=1 runs the pose graph as the fusion core's back end ([pose_graph], docs/slam.md "The back
-# end"), its thread on MATCH_CPUS as the registration's match thread; the station's shutdown line of the
-# graph (scans, nodes, how many it was behind) is printed after each N. FOLLOW_S=S (with POSE_GRAPH=1)
+# The pose graph runs as the fusion core's back end, as in a station at its defaults ([pose_graph],
+# docs/slam.md "The back end"), its thread on MATCH_CPUS as the registration's match thread; the station's
+# shutdown line of the graph (scans, nodes, how many it was behind) is printed after each N. POSE_GRAPH=0
+# turns it off ([pose_graph] enabled = false). FOLLOW_S=S (with the graph)
 # lets the live map follow the graph's estimate at most every S s ([pose_graph] follow_s; docs/slam.md
 # "The live map follows the graph"); the station's follow lines from its event log are printed too.
 #
@@ -22,7 +23,7 @@
 # lap2-drift) instead of the synthetic survey. cpu_ms_per_scan = the station's CPU seconds over the feed
 # and the drain / the scans it stored: on a shared machine a steadier figure than the latency.
 #
-# usage: [METHOD=best] [TEAM_LAG=0.15] [REGISTRATION=0] [POSE_GRAPH=0] [FOLLOW_S=0] [MATCH_CPUS=0] [DATASET=dir] [DOMAIN=id] [STATION_CPU=1] [FEEDER_CPU=0] [DDS_CONFIG=file] \
+# usage: [METHOD=best] [TEAM_LAG=0.15] [REGISTRATION=0] [POSE_GRAPH=1] [FOLLOW_S=0] [MATCH_CPUS=0] [DATASET=dir] [DOMAIN=id] [STATION_CPU=1] [FEEDER_CPU=0] [DDS_CONFIG=file] \
 #          tests/bench/station/run_capacity.sh [BUILD_DIR] [DURATION_S] [N ...]   default: build/dev, 20 s, N = 8 16 24 32
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -46,12 +47,16 @@ printf 'team_lag_s = %s\n[view]\nlisten = ""\n' "$lag" > "$extra"
 registration="${REGISTRATION:-0}"
 match_cpus="${MATCH_CPUS-$fcpu}"
 [ "$registration" = 1 ] && printf '[registration]\nenabled = true\ncpus = [%s]\n' "$match_cpus" >> "$extra"
-pose_graph="${POSE_GRAPH:-0}"
-[ "$pose_graph" = 1 ] && printf '[pose_graph]\ncpus = [%s]\nfollow_s = %s\n' "$match_cpus" "${FOLLOW_S:-0}" >> "$extra"
+pose_graph="${POSE_GRAPH:-1}"
+if [ "$pose_graph" = 1 ]; then
+  printf '[pose_graph]\ncpus = [%s]\nfollow_s = %s\n' "$match_cpus" "${FOLLOW_S:-0}" >> "$extra"
+else
+  printf '[pose_graph]\nenabled = false\n' >> "$extra"
+fi
 dataset_args=()
 [ -n "${DATASET:-}" ] && dataset_args=(--dataset "$DATASET")
 [ -n "${DOMAIN:-}" ] && dataset_args+=(--domain "$DOMAIN")  # a fixed DDS domain (default: from the feeder's pid)
-echo "# $(date -u +%FT%TZ) station capacity: ${duration} s robot time per N, method $method, team_lag_s $lag, registration $registration, pose graph ${POSE_GRAPH:-0} (follow_s ${FOLLOW_S:-0})${match_cpus:+ (matches and graph on CPU $match_cpus)}, template ${DATASET:-synthetic survey}, station on CPU $scpu, feeder on CPU $fcpu, $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "# $(date -u +%FT%TZ) station capacity: ${duration} s robot time per N, method $method, team_lag_s $lag, registration $registration, pose graph $pose_graph (follow_s ${FOLLOW_S:-0})${match_cpus:+ (matches and graph on CPU $match_cpus)}, template ${DATASET:-synthetic survey}, station on CPU $scpu, feeder on CPU $fcpu, $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
 printf '%4s %8s %8s %6s %8s %8s %8s %10s %7s %8s %8s %15s\n' N published stored lost p50_ms p99_ms max_ms all_p99_ms cpu_% rss_MiB cpu_s cpu_ms_per_scan
 best=0
 for n in "${counts[@]}"; do

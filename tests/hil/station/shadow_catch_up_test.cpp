@@ -23,6 +23,8 @@
 
 #include "common/clock.hpp"
 #include "common/scan_points.hpp"
+#include "groundstation/fusion/graph_backend.hpp"
+#include "groundstation/fusion/graph_map.hpp"
 #include "groundstation/fusion/model_writer.hpp"
 #include "groundstation/fusion/time_line.hpp"
 #include "groundstation/station/config.hpp"
@@ -243,10 +245,18 @@ TEST(ShadowCatchUp, NoScanLostTeammatesNotHeldAndTheModelIsEvalsOfTheSession) {
   station::SessionReadStats read_stats;
   auto ds = station::read_session_dataset(session, read_stats);
   ASSERT_TRUE(ds.ok()) << ds.error().what;
-  auto core = fusion::FusionCore::create(options.core);
+  // Eval's model of the session at the station's defaults: the core fed in time order feeds the pose
+  // graph, and the model is decided again on the graph's poses (`teamscan eval SESSION`).
+  ASSERT_TRUE(options.pose_graph.has_value());
+  fusion::GraphBackend graph(*options.pose_graph);
+  auto core = fusion::FusionCore::create(fusion::with_graph_order(options.core));
   ASSERT_TRUE(core.ok());
+  (*core)->set_release_callback([&](const fusion::FusedScan& f) { graph.add(f); });
   fusion::feed_in_time_order(ds.value(), **core);
-  ASSERT_TRUE(fusion::write_model_files(**core, root + "/eval.pcd", root + "/eval_all.pcd").ok());
+  graph.finish();
+  auto on_graph = fusion::cores_on_graph(ds.value(), graph.poses(), options.core, {});
+  ASSERT_TRUE(on_graph.ok()) << on_graph.error().what;
+  ASSERT_TRUE(fusion::write_model_files((*on_graph)->primary(), root + "/eval.pcd", root + "/eval_all.pcd").ok());
   const std::string live_all = file_bytes(session + "/fused_all.pcd"), eval_all = file_bytes(root + "/eval_all.pcd");
   EXPECT_GT(live_all.size(), 10'000u);
   EXPECT_TRUE(live_all == eval_all) << "fused_all.pcd: the station's " << live_all.size() << " bytes, eval's "

@@ -237,7 +237,7 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
   write_corridor_session(session);
   const std::string cfg = dir.path() + "/groundstation.toml";
   write_file(cfg, "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"position\"\nwrite_all_points = true\n"
-                  "compare_methods = [\"direction\"]\n[view]\nlisten = \"\"\n");
+                  "compare_methods = [\"direction\"]\n[pose_graph]\nenabled = false\n[view]\nlisten = \"\"\n");
   {  // The station's model: its fusion stage rebuilt from the session (its restart path) and written.
     station::GroundStationConfig g;
     station::ConfigError e;
@@ -290,7 +290,7 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
   // the primary core's placement of every scan and point is kept, with the registration's counters.
   const std::string reg_cfg = dir.path() + "/groundstation-registration.toml";
   write_file(reg_cfg, "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"position\"\nwrite_all_points = true\n"
-                      "[registration]\nenabled = true\n[view]\nlisten = \"\"\n");
+                      "[registration]\nenabled = true\n[pose_graph]\nenabled = false\n[view]\nlisten = \"\"\n");
   {
     station::GroundStationConfig g;
     station::ConfigError e;
@@ -315,6 +315,33 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
   EXPECT_TRUE(score.enabled);
   EXPECT_EQ(score.scans, 0u);
   EXPECT_EQ(score.points, 0u);
+
+  // At the station's defaults (the pose graph on, no [pose_graph] section): the station's shutdown (the
+  // graph's last optimisation, its trajectories, the cores fed the session again on its poses) writes the
+  // model the replay decides on the graph, row for row.
+  const std::string graph_cfg = dir.path() + "/groundstation-graph.toml";
+  write_file(graph_cfg, "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"position\"\nwrite_all_points = true\n"
+                        "[view]\nlisten = \"\"\n");
+  {
+    station::GroundStationConfig g;
+    station::ConfigError e;
+    ASSERT_TRUE(station::load_groundstation_config(graph_cfg, g, e)) << e.message;
+    ASSERT_TRUE(g.fusion.pose_graph.has_value());
+    auto stage = station::FusionStage::create(g.fusion, session);
+    ASSERT_TRUE(stage.ok());
+    ASSERT_TRUE(stage.value()->replay_session(session).ok());
+    stage.value()->flush();
+    ASSERT_TRUE(stage.value()->write_graph_trajectories().ok());
+    ASSERT_TRUE(stage.value()->rebuild_on_graph().ok());
+    ASSERT_TRUE(stage.value()->write_model().ok());
+  }
+  const SessionReplay on_graph = replay_station_session(session, graph_cfg, dir.path() + "/replay-graph");
+  ASSERT_TRUE(on_graph.error.empty()) << on_graph.error;
+  EXPECT_TRUE(on_graph.pose_graph);
+  ASSERT_EQ(on_graph.models.size(), 1u);
+  EXPECT_EQ(on_graph.models[0].compared, on_graph.models[0].model_points);
+  EXPECT_GT(on_graph.models[0].compared, 1000u);
+  EXPECT_TRUE(on_graph.models[0].identical);
 
   // A config that cannot be read: an error, nothing compared.
   const SessionReplay none = replay_station_session(session, dir.path() + "/none.toml", dir.path() + "/replay3");

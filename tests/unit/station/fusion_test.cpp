@@ -231,6 +231,7 @@ TEST_P(FusionMethods, DecisionLagDecidesOnArrivalAndStillEqualsEval) {
     for (std::size_t pose_delay : {std::size_t{0}, std::size_t{1}}) {  // on time; a pose period late
       const std::string dir = temp_dir();
       FusionOptions o;
+      o.pose_graph.reset();  // the lag decides a scan on arrival; a graph's core releases in stamp order
       o.core.method = GetParam();
       o.core.max_points_per_voxel = 100000;
       o.core.tracker.team_lag_s = lag_s;
@@ -368,9 +369,11 @@ TEST(FusionPoseGraph, TheStationsGraphTrajectoriesAreEvals) {
     }
     std::filesystem::remove_all(dir);
   }
-  // Without [pose_graph]: no back end, nothing written.
+  // With the graph turned off ([pose_graph] enabled = false): no back end, nothing written.
   const std::string dir = temp_dir();
-  auto stage = FusionStage::create(FusionOptions{}, dir);
+  FusionOptions off;
+  off.pose_graph.reset();
+  auto stage = FusionStage::create(off, dir);
   ASSERT_TRUE(stage.ok());
   EXPECT_EQ((*stage)->graph(), nullptr);
   EXPECT_TRUE((*stage)->write_graph_trajectories().ok());
@@ -378,10 +381,14 @@ TEST(FusionPoseGraph, TheStationsGraphTrajectoriesAreEvals) {
   std::filesystem::remove_all(dir);
 }
 
-TEST(FusionConfig, ThePoseGraphIsOffByDefaultAndOnBySection) {
-  GroundStationConfig c;
-  EXPECT_FALSE(c.fusion.pose_graph);
+TEST(FusionConfig, ThePoseGraphIsOnByDefaultAndOffByEnabledFalse) {
   ConfigError e;
+  GroundStationConfig absent;
+  ASSERT_TRUE(parse_groundstation_config("[fusion]\nmethod = \"best\"\n", "t.toml", absent, e)) << e.message;
+  ASSERT_TRUE(absent.fusion.pose_graph) << "on without a [pose_graph] section";
+  EXPECT_EQ(absent.fusion.pose_graph->estimate_every_s, 0.0);
+  EXPECT_TRUE(absent.fusion.pose_graph->cpus.empty());
+  GroundStationConfig c;
   ASSERT_TRUE(parse_groundstation_config("[pose_graph]\n", "t.toml", c, e)) << e.message;
   ASSERT_TRUE(c.fusion.pose_graph);
   EXPECT_DOUBLE_EQ(c.fusion.pose_graph->returns.min_height_m, fusion::PlanarReturnOptions{}.min_height_m);

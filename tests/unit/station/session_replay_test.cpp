@@ -110,11 +110,14 @@ Decisions model_decisions(const std::string& path) {
   return out;
 }
 
+// The restart's replay in arrival order, the model on the robots' poses (the pose graph's final model
+// after a restart and a catch-up: catch_up_test).
 FusionOptions options() {
   FusionOptions o;
   o.core.method = "best";
   o.core.max_points_per_voxel = 100000;
   o.all_points_pcd = "fused_all.pcd";
+  o.pose_graph.reset();
   return o;
 }
 
