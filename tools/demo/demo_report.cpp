@@ -81,6 +81,7 @@ struct DemoScore {
   std::vector<ShadowReport> shadows;  // --shadow (link_faults.hpp)
   std::vector<double> fused_latency_ms;  // scan -> fused map in the run window, sorted
   LiveRegistrationScore registration;
+  std::size_t graph_closures = 0;  // the replay's pose graph (the station's, to the byte)
 };
 
 // Every beam the ray caster put on a teammate: for checking the labels of the live map.
@@ -337,8 +338,10 @@ void score_registration(const DemoSetup& s, const Collected& c, const SessionRep
          stats_text(reg.pose_m_corrected, 100, "%.1f") + " cm, rotation " +
          stats_text(reg.pose_deg_corrected, 1, "%.2f") + " deg, point error " +
          stats_text(reg.point_m_corrected, 100, "%.1f") + " cm\n";
+    // The offline evaluation's "after" poses: the pose graph's when it placed the scans (the default).
     if (off.enabled && off.have_truth)
-      t += "    offline `teamscan eval --registration` of the same scenario: translation " +
+      t += std::string(off.by_graph ? "    offline `teamscan eval --registration` of the same scenario, placed by the pose graph: translation "
+                                    : "    offline `teamscan eval --registration --no-pose-graph` of the same scenario: translation ") +
            stats_text(off.pose_m_after, 100, "%.1f") + " cm, rotation " + stats_text(off.pose_deg_after, 1, "%.2f") +
            " deg, point error " + stats_text(off.point_m_after, 100, "%.1f") + " cm (odometry alone: translation p99 " +
            strf("%.1f", off.pose_m_before.p99 * 100) + " cm, rotation p99 " + strf("%.2f", off.pose_deg_before.p99) +
@@ -357,6 +360,7 @@ void score_registration(const DemoSetup& s, const Collected& c, const SessionRep
   // replay's graph (the agreement requires them to be the same to the byte).
   if (reg.graph) {
     const posegraph::SlamStats& g = replay.graph_stats;
+    sc.graph_closures = g.closures;
     t += "    the station's pose graph:      translation p50 / p99 / max " + stats_text(reg.pose_m_graph, 100, "%.1f") +
          " cm, rotation " + stats_text(reg.pose_deg_graph, 1, "%.2f") +
          strf(" deg (%zu nodes, %zu submaps, %zu loop closures); robot<N>.graph.tum %s the replay's graph (%zu files)\n",
@@ -765,6 +769,13 @@ DemoSummary summary_of(const DemoOptions& a, const DemoSetup& s, sim::LiveTeam& 
   if (sc.registration.enabled && sc.registration.error.empty()) {
     d.pose_p99_odometry_m = sc.registration.pose_m_odometry.p99;
     d.pose_p99_corrected_m = sc.registration.pose_m_corrected.p99;
+  }
+  d.pose_graph = s.pose_graph;
+  if (sc.registration.graph && sc.registration.error.empty() && sc.registration.graph_error.empty() &&
+      sc.registration.pose_m_graph.count > 0) {
+    d.pose_p99_graph_m = sc.registration.pose_m_graph.p99;
+    d.pose_p99_graph_deg = sc.registration.pose_deg_graph.p99;
+    d.graph_closures = sc.graph_closures;
   }
   d.fused_latency_p50_ms = sorted_pct(sc.fused_latency_ms, 0.5);
   d.fused_latency_p99_ms = sorted_pct(sc.fused_latency_ms, 0.99);

@@ -19,8 +19,8 @@ std::string summary_text(const DemoSummary& s) {
   std::string t;
   char speed[48] = "";
   if (s.speed != 1.0) std::snprintf(speed, sizeof speed, " at %.2gx real time", s.speed);
-  t += line("teamscan demo: %s, %zu robots, %.0f s of robot time%s, DDS %s; registration %s", s.scenario.c_str(),
-            s.robots, s.duration_s, speed, s.network.c_str(), s.registration_why.c_str());
+  t += line("teamscan demo: %s, %zu robots, %.0f s of robot time%s, DDS %s; registration %s; pose graph %s", s.scenario.c_str(),
+            s.robots, s.duration_s, speed, s.network.c_str(), s.registration_why.c_str(), s.pose_graph ? "on" : "off");
   t += line("  delivery: %llu scans stored from %zu robots, %llu missing from their sequence numbers, %llu poses "
             "missing: %s",
             static_cast<unsigned long long>(s.scans_stored), s.robots, static_cast<unsigned long long>(s.scans_missing),
@@ -43,6 +43,9 @@ std::string summary_text(const DemoSummary& s) {
   if (s.pose_p99_odometry_m && s.pose_p99_corrected_m)
     t += line("  registration: pose error p99 %.1f cm with odometry alone, %.1f cm corrected",
               *s.pose_p99_odometry_m * 100, *s.pose_p99_corrected_m * 100);
+  if (s.pose_p99_graph_m && s.pose_p99_graph_deg)
+    t += line("  pose graph: pose error p99 %.1f cm / %.2f deg, %zu loop closures; the final model is on its poses",
+              *s.pose_p99_graph_m * 100, *s.pose_p99_graph_deg, s.graph_closures);
   t += line("  latency scan -> fused map: p50 %.0f ms, p99 %.0f ms", s.fused_latency_p50_ms, s.fused_latency_p99_ms);
   t += line("  files: %s/", s.out.c_str());
   t += "    fused.pcd (the station's model), live-fused-top.png, report.md (every figure), summary.json, session/, "

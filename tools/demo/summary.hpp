@@ -27,6 +27,10 @@ struct DemoSummary {
   std::string identity_what;                     // "`teamscan eval` of its session", ...
   bool identity = false;
   std::optional<double> pose_p99_odometry_m, pose_p99_corrected_m;  // registration on and measured
+  bool pose_graph = false;                                         // the station's back end on
+  // The station's pose graph against the truth (measured), and its loop closures.
+  std::optional<double> pose_p99_graph_m, pose_p99_graph_deg;
+  std::size_t graph_closures = 0;
   double fused_latency_p50_ms = 0, fused_latency_p99_ms = 0;
   std::string out;  // the output folder
   bool agree = false, clean = false;

@@ -45,6 +45,10 @@ DemoSummary full() {
   s.identity = true;
   s.pose_p99_odometry_m = 0.412;
   s.pose_p99_corrected_m = 0.051;
+  s.pose_graph = true;
+  s.pose_p99_graph_m = 0.009;
+  s.pose_p99_graph_deg = 0.21;
+  s.graph_closures = 1336;
   s.fused_latency_p50_ms = 70;
   s.fused_latency_p99_ms = 112;
   s.out = "/tmp/demo-out";
@@ -60,7 +64,8 @@ TEST(DemoSummary, AtMostFifteenLinesWithEveryHeadlineFigure) {
        {"lap2-drift, 2 robots, 60 s", "registration on: the scenario's robots drift", "9000 scans stored",
         "nothing lost", "removed 97.2 % of the ghost", "kept 99.88 % of the scene", "DA 97.2 % vs 97.5 %",
         "direction filter removed 88.0 %", "yes, point by point", "p99 41.2 cm with odometry alone, 5.1 cm corrected",
-        "p50 70 ms, p99 112 ms", "/tmp/demo-out/", "report.md", "verdict: PASS",
+        "p50 70 ms, p99 112 ms", "/tmp/demo-out/", "report.md", "verdict: PASS", "pose graph on",
+        "pose graph: pose error p99 0.9 cm / 0.21 deg, 1336 loop closures",
         "DDS on loopback (/usr/share/teamscan/cyclonedds-lo.xml)"})
     EXPECT_NE(t.find(part), std::string::npos) << part << "\n" << t;
 }
