@@ -113,10 +113,12 @@ void PoseGraph::optimize(bool final) {
   ceres::Problem problem;
   if (options_.calibrate_odometry || options_.calibrate_local_links) {
     for (const NodeLink& l : links_) calibration.try_emplace(l.robot, std::array<double, 3>{1.0, 1.0, 0.0});
-    for (auto& [robot, k] : calibration)
+    for (auto& [robot, k] : calibration) {
       problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CalibrationPriorCost, 3, 3>(new CalibrationPriorCost(
                                    options_.calibration_scale_prior_sigma, options_.calibration_drift_prior_sigma_rad_per_m)),
                                nullptr, k.data());
+      if (options_.calibrate_after_loop && calibration_free_.count(robot) == 0) problem.SetParameterBlockConstant(k.data());
+    }
   }
   for (const Constraint& c : constraints_) {
     const bool closure = c.kind == Constraint::Kind::closure;

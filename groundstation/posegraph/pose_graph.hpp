@@ -8,6 +8,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <set>
 #include <vector>
 
 #include "common/pose.hpp"
@@ -43,6 +44,9 @@ struct GraphOptions {
   // odometry (tilted lasers'), whose motion carries the odometry's errors.
   bool calibrate_odometry = false;
   bool calibrate_local_links = false;
+  // A robot's calibration held at none (its parameters constant) until free_calibration(robot): before
+  // a loop closure measures it, a calibration only lets the graph follow local SLAM's own drift.
+  bool calibrate_after_loop = false;
   double calibration_scale_prior_sigma = 0.05, calibration_drift_prior_sigma_rad_per_m = 0.01;
   int max_iterations = 20;
   int final_max_iterations = 20;  // the last optimisation, over the whole log
@@ -83,6 +87,9 @@ class PoseGraph {
   std::size_t add_submap(const Pose2& global);
   void add_constraint(const Constraint& c) { constraints_.push_back(c); }
   void add_link(const NodeLink& l) { links_.push_back(l); }
+  // With GraphOptions::calibrate_after_loop: the robot's calibration is found from the next
+  // optimisation on.
+  void free_calibration(std::uint8_t robot) { calibration_free_.insert(robot); }
 
   // Least squares over every pose (the anchors held). Deterministic: one thread, a fixed order.
   // `final`: the last one, with final_max_iterations.
@@ -100,6 +107,7 @@ class PoseGraph {
 
  private:
   GraphOptions options_;
+  std::set<std::uint8_t> calibration_free_;
   std::vector<Pose2> nodes_, submaps_;
   std::vector<std::uint8_t> anchored_;
   std::vector<Constraint> constraints_;

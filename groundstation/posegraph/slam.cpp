@@ -40,6 +40,7 @@ struct PlanarSlam::Submap {
   Grid grid;
   int scans = 0;
   std::size_t last_robot_node = 0;  // its robot's count of nodes when the last scan went in
+  double driven_m = 0;              // how far its robot had driven (odometry) when it was started
   std::unique_ptr<CorrelativeMatcher> matcher;  // once finished, until retired
   bool retired = false;
 };
@@ -50,6 +51,7 @@ struct PlanarSlam::Robot {
   Pose2 last_odometry, last_local;
   std::size_t last_node = 0;
   std::size_t nodes = 0;            // its nodes so far
+  double driven_m = 0;              // the distance its odometry moved, node to node
   Pose2 global_from_local;          // from the last optimisation
   std::vector<std::size_t> active;  // its submaps being built, oldest first (at most two)
   struct Followed {
@@ -71,10 +73,19 @@ SlamOptions tilted_laser_options(SlamOptions base) {
   base.graph.calibrate_odometry = true;
   base.graph.calibrate_local_links = true;
   base.graph.closure_huber_scale = 5.0;
+  base.calibration_loop_m = 10.0;
   return base;
 }
 
-PlanarSlam::PlanarSlam(SlamOptions options) : options_(options), graph_(options.graph) {}
+namespace {
+GraphOptions graph_options(const SlamOptions& o) {
+  GraphOptions g = o.graph;
+  g.calibrate_after_loop = o.calibration_loop_m > 0.0;
+  return g;
+}
+}  // namespace
+
+PlanarSlam::PlanarSlam(SlamOptions options) : options_(options), graph_(graph_options(options)) {}
 PlanarSlam::~PlanarSlam() = default;
 
 PlanarSlam::Robot& PlanarSlam::robot(std::uint8_t id) {
@@ -112,9 +123,11 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
     const Pose2 moved = r.last_odometry.inverse() * odometry;
     still = std::hypot(moved.x_m, moved.y_m) < options_.still_translation_m && std::abs(moved.theta_rad) < options_.still_rotation_rad;
     if (still) ++still_;
+    r.driven_m += std::hypot(moved.x_m, moved.y_m);
     graph_.add_link({r.last_node, node, robot_id, moved, r.last_local.inverse() * local});
   }
   r.started = true;
+  node_driven_m_.push_back(r.driven_m);
   // The cadences below count the robot's own nodes: the team's nodes interleave, and counted by the
   // graph's index a teammate's nodes would never fall on the searched ones.
   const std::size_t robot_node = r.nodes++;
@@ -140,6 +153,7 @@ void PlanarSlam::insert(Robot& r, std::size_t node, const Pose2& local, const st
     const Pose2 origin{local.x_m, local.y_m, 0.0};
     const std::size_t id = graph_.add_submap(r.global_from_local * origin);
     submaps_.push_back(std::make_unique<Submap>(r.id, origin, options_));
+    submaps_.back()->driven_m = r.driven_m;
     r.active.push_back(id);
   }
   std::vector<Vec2> moved(points.size());
@@ -253,6 +267,7 @@ void PlanarSlam::close_loops(Robot& r, std::size_t node, const std::vector<Vec2>
   for (const Job& job : jobs) {
     if (!job.closure) continue;
     graph_.add_constraint(*job.closure);
+    note_loop(*job.closure);
     const Pose2 refined = job.closure->submap_from_node;
     if (job.followed < followed) r.followed[job.followed] = {job.submap, node, robot_node, refined};
     else if (recent > 0) r.followed.push_back({job.submap, node, robot_node, refined});
@@ -276,6 +291,13 @@ std::optional<Constraint> PlanarSlam::make_closure(std::size_t submap, std::size
       closure.rotation_factor = std::clamp(info.rotation_lever_m / options_.closure_rotation_lever_m, options_.closure_rotation_floor, 1.0);
   }
   return closure;
+}
+
+void PlanarSlam::note_loop(const Constraint& closure) {
+  if (options_.calibration_loop_m <= 0.0) return;
+  const Submap& m = *submaps_[closure.submap];
+  const std::uint8_t robot = node_robot_[closure.node];
+  if (m.robot == robot && node_driven_m_[closure.node] - m.driven_m >= options_.calibration_loop_m) graph_.free_calibration(robot);
 }
 
 void PlanarSlam::rematch() {
@@ -313,6 +335,7 @@ void PlanarSlam::rematch() {
   for (const std::vector<Constraint>& closures : found)
     for (const Constraint& c : closures) {
       graph_.add_constraint(c);
+      note_loop(c);
       ++rematches_;
     }
 }

@@ -81,6 +81,10 @@ struct SlamOptions {
   // place mapped again and again keeps that many submaps. 0: none retired.
   int retire_after_submaps = 3;
   double retire_distance_m = 1.5;
+  // With calibration in the graph (GraphOptions::calibrate_odometry, calibrate_local_links): a robot's
+  // calibration stays at none until one of its nodes closes on a submap it started at least this far
+  // back (its odometry's distance driven). 0: calibrated from the start.
+  double calibration_loop_m = 0.0;
   // The second search's returns: kept for at most this many nodes per square of `rematch_cell_m` (by the
   // node's pose in the graph when it was added). 0: no limit.
   int rematch_nodes_per_cell = 64;
@@ -126,8 +130,9 @@ struct SlamStats {
 // cannot place. So the closures take out the drift, slowly, and local SLAM gives the motion from node
 // to node. Each robot's odometry is calibrated in the graph (GraphOptions::calibrate_odometry,
 // calibrate_local_links): held that stiffly, a wheel slip of 2 % would otherwise swell every loop the
-// robot drives by 2 %. With the odometry's
-// systematic errors taken out that way, the loop closures need not pull as hard: their Huber scale is
+// robot drives by 2 %. The calibration waits for the robot's first loop (calibration_loop_m 10 m): before
+// one, nothing measures it, and a free calibration only lets the graph follow local SLAM's own drift.
+// With the odometry's systematic errors taken out that way, the loop closures need not pull as hard: their Huber scale is
 // 5 (10 by default), which keeps good odometry from being dragged by the closures' own small biases.
 [[nodiscard]] SlamOptions tilted_laser_options(SlamOptions base = {});
 
@@ -167,6 +172,9 @@ class PlanarSlam {
   [[nodiscard]] std::optional<Constraint> make_closure(std::size_t submap, std::size_t node, const std::vector<Vec2>& points,
                                                       const Pose2& start) const;
   void rematch();
+  // A closure of a robot's node with a submap it started at least calibration_loop_m of driving before:
+  // its calibration is free from then on.
+  void note_loop(const Constraint& closure);
 
   SlamOptions options_;
   PoseGraph graph_;
@@ -174,6 +182,7 @@ class PlanarSlam {
   std::vector<std::unique_ptr<Robot>> robots_;
   std::vector<Pose2> node_local_;
   std::vector<std::uint8_t> node_robot_;
+  std::vector<double> node_driven_m_;  // each node's robot's driven distance at it
   std::vector<std::vector<Vec2>> node_points_;  // the searched nodes' returns (empty for the others), for rematch()
   std::map<std::pair<std::int64_t, std::int64_t>, int> kept_per_cell_;  // rematch_cell_m squares -> nodes kept there
   std::size_t retired_ = 0, kept_returns_ = 0;

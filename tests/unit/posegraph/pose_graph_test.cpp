@@ -214,12 +214,17 @@ struct CalibratedLap {
   OdometryCalibration found;
 };
 
-CalibratedLap lap_with_slip(bool calibrate) {
+// `gate`: GraphOptions::calibrate_after_loop, with the robot's calibration freed (free_calibration) or not.
+enum class Gate { none, held, freed };
+
+CalibratedLap lap_with_slip(bool calibrate, Gate gate = Gate::none) {
   GraphOptions o;
   o.odometry_translation_weight = 1e4;
   o.odometry_rotation_weight = 1e5;
   o.calibrate_odometry = o.calibrate_local_links = calibrate;
+  o.calibrate_after_loop = gate != Gate::none;
   PoseGraph g(o);
+  if (gate == Gate::freed) g.free_calibration(1);
   constexpr double kRadius = 1.5, kStep = 0.1, kScale = 1.02, kDriftRadPerM = 0.2 * kPi / 180.0;
   const int per_lap = static_cast<int>(2.0 * kPi * kRadius / kStep);
   const std::size_t s = g.add_submap({0, 0, 0});
@@ -260,6 +265,19 @@ TEST(PoseGraph, CalibrationFindsTheOdometrysSlipAndTurn) {
   EXPECT_NEAR(k.turn_scale * (reported_turn_per_m - k.heading_drift_rad_per_m) / k.distance_scale, 1.0 / 1.5, 2e-4);
   EXPECT_GT(plain.worst_m, 0.05);
   EXPECT_LT(calibrated.worst_m, 0.02);
+}
+
+// Held until a loop measures it: the calibration stays at none and the chain as without it; freed, it
+// is found as when always on, to the bit.
+TEST(PoseGraph, CalibrationHeldUntilFreedByALoop) {
+  const CalibratedLap always = lap_with_slip(true), held = lap_with_slip(true, Gate::held), freed = lap_with_slip(true, Gate::freed);
+  EXPECT_DOUBLE_EQ(held.found.distance_scale, 1.0);
+  EXPECT_DOUBLE_EQ(held.found.turn_scale, 1.0);
+  EXPECT_DOUBLE_EQ(held.found.heading_drift_rad_per_m, 0.0);
+  EXPECT_GT(held.worst_m, 0.05);
+  EXPECT_EQ(freed.found.distance_scale, always.found.distance_scale);
+  EXPECT_EQ(freed.worst_m, always.worst_m);
+  EXPECT_LT(freed.worst_m, 0.02);
 }
 
 TEST(PoseGraph, SameInputSamePoses) {

@@ -95,5 +95,27 @@ TEST(SlamBounded, APlaceMappedAgainAndAgainKeepsItsMemory) {
   EXPECT_LT(b12.worst_m, 0.05);
 }
 
+// A robot's calibration (SlamOptions::calibration_loop_m) stays at none until one of its nodes closes on
+// a submap it started that far back: one lap of the circle (9.4 m) does not free it at 20 m, four laps
+// do, and at 0 it is found from the first lap on.
+TEST(SlamCalibration, HeldAtNoneUntilARobotClosesOnAPlaceItLeftLongBefore) {
+  SlamOptions o;
+  o.graph.calibrate_odometry = o.graph.calibrate_local_links = true;
+  o.calibration_loop_m = 20.0;
+  const auto calibration = [](const Drive& d) {
+    EXPECT_EQ(d.stats.calibrations.size(), 1u);
+    return d.stats.calibrations.empty() ? OdometryCalibration{} : d.stats.calibrations.front().odometry;
+  };
+  const OdometryCalibration one_lap = calibration(drive(1, o));
+  EXPECT_EQ(one_lap.distance_scale, 1.0);
+  EXPECT_EQ(one_lap.turn_scale, 1.0);
+  EXPECT_EQ(one_lap.heading_drift_rad_per_m, 0.0);
+  const OdometryCalibration four_laps = calibration(drive(4, o));
+  EXPECT_NE(four_laps.heading_drift_rad_per_m, 0.0);
+  o.calibration_loop_m = 0.0;
+  const OdometryCalibration from_the_start = calibration(drive(1, o));
+  EXPECT_NE(from_the_start.heading_drift_rad_per_m, 0.0);
+}
+
 }  // namespace
 }  // namespace teamscan::posegraph
