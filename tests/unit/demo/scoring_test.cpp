@@ -228,6 +228,24 @@ void write_corridor_session(const std::string& session) {
   store->sync();
 }
 
+// The station's model of `session` under the config `cfg` (read into `g`), as its shutdown writes it:
+// its fusion stage rebuilt from the session (its restart path) and flushed; with the pose graph, the
+// graph's trajectories and every core fed the session again on its poses; then written.
+void write_station_model(const std::string& cfg, const std::string& session, station::GroundStationConfig& g) {
+  station::ConfigError e;
+  g = station::GroundStationConfig{};
+  ASSERT_TRUE(station::load_groundstation_config(cfg, g, e)) << e.message;
+  auto stage = station::FusionStage::create(g.fusion, session);
+  ASSERT_TRUE(stage.ok());
+  ASSERT_TRUE(stage.value()->replay_session(session).ok());
+  stage.value()->flush();
+  if (g.fusion.pose_graph) {
+    ASSERT_TRUE(stage.value()->write_graph_trajectories().ok());
+    ASSERT_TRUE(stage.value()->rebuild_on_graph().ok());
+  }
+  ASSERT_TRUE(stage.value()->write_model().ok());
+}
+
 // The station's models against its own core replaying the session in arrival order: the model the
 // station's FusionStage wrote is identical, row by row (decision and position), for its method and a
 // compared one; a flipped decision and a moved point are found and counted.
@@ -238,16 +256,9 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
   const std::string cfg = dir.path() + "/groundstation.toml";
   write_file(cfg, "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"position\"\nwrite_all_points = true\n"
                   "compare_methods = [\"direction\"]\n[pose_graph]\nenabled = false\n[view]\nlisten = \"\"\n");
-  {  // The station's model: its fusion stage rebuilt from the session (its restart path) and written.
-    station::GroundStationConfig g;
-    station::ConfigError e;
-    ASSERT_TRUE(station::load_groundstation_config(cfg, g, e)) << e.message;
-    auto stage = station::FusionStage::create(g.fusion, session);
-    ASSERT_TRUE(stage.ok());
-    ASSERT_TRUE(stage.value()->replay_session(session).ok());
-    stage.value()->flush();
-    ASSERT_TRUE(stage.value()->write_model().ok());
-  }
+  station::GroundStationConfig g;
+  write_station_model(cfg, session, g);  // the station's model
+  ASSERT_FALSE(g.fusion.pose_graph.has_value());
   const SessionReplay same = replay_station_session(session, cfg, dir.path() + "/replay");
   ASSERT_TRUE(same.error.empty()) << same.error;
   ASSERT_EQ(same.models.size(), 2u);
@@ -291,17 +302,8 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
   const std::string reg_cfg = dir.path() + "/groundstation-registration.toml";
   write_file(reg_cfg, "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"position\"\nwrite_all_points = true\n"
                       "[registration]\nenabled = true\n[pose_graph]\nenabled = false\n[view]\nlisten = \"\"\n");
-  {
-    station::GroundStationConfig g;
-    station::ConfigError e;
-    ASSERT_TRUE(station::load_groundstation_config(reg_cfg, g, e)) << e.message;
-    ASSERT_TRUE(g.fusion.core.registration);
-    auto stage = station::FusionStage::create(g.fusion, session);
-    ASSERT_TRUE(stage.ok());
-    ASSERT_TRUE(stage.value()->replay_session(session).ok());
-    stage.value()->flush();
-    ASSERT_TRUE(stage.value()->write_model().ok());
-  }
+  write_station_model(reg_cfg, session, g);
+  ASSERT_TRUE(g.fusion.core.registration);
   const SessionReplay registered = replay_station_session(session, reg_cfg, dir.path() + "/replay-registered");
   ASSERT_TRUE(registered.error.empty()) << registered.error;
   ASSERT_EQ(registered.models.size(), 1u);
@@ -322,19 +324,8 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
   const std::string graph_cfg = dir.path() + "/groundstation-graph.toml";
   write_file(graph_cfg, "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"position\"\nwrite_all_points = true\n"
                         "[view]\nlisten = \"\"\n");
-  {
-    station::GroundStationConfig g;
-    station::ConfigError e;
-    ASSERT_TRUE(station::load_groundstation_config(graph_cfg, g, e)) << e.message;
-    ASSERT_TRUE(g.fusion.pose_graph.has_value());
-    auto stage = station::FusionStage::create(g.fusion, session);
-    ASSERT_TRUE(stage.ok());
-    ASSERT_TRUE(stage.value()->replay_session(session).ok());
-    stage.value()->flush();
-    ASSERT_TRUE(stage.value()->write_graph_trajectories().ok());
-    ASSERT_TRUE(stage.value()->rebuild_on_graph().ok());
-    ASSERT_TRUE(stage.value()->write_model().ok());
-  }
+  write_station_model(graph_cfg, session, g);
+  ASSERT_TRUE(g.fusion.pose_graph.has_value());
   const SessionReplay on_graph = replay_station_session(session, graph_cfg, dir.path() + "/replay-graph");
   ASSERT_TRUE(on_graph.error.empty()) << on_graph.error;
   EXPECT_TRUE(on_graph.pose_graph);
