@@ -10,7 +10,7 @@
 # more core and model store each). A guard stops the feed if the station's RSS passes RSS_GUARD_MIB (a shared
 # host must not run out of memory), MAX_WALL_S bounds each run. Figures, not a test.
 #
-# usage: [WARP=3] [ROBOTS=8] [TEAM_LAG=0.15] [METHOD=best] [COMPARE=] [RSS_GUARD_MIB=4096] [MAX_WALL_S=1500] [STATION_CPU=1] [FEEDER_CPU=0] [WRITER_CPUS=FEEDER_CPU]
+# usage: [WARP=3] [ROBOTS=8] [POSE_GRAPH=1] [TEAM_LAG=0.15] [METHOD=best] [COMPARE=] [RSS_GUARD_MIB=4096] [MAX_WALL_S=1500] [STOP_TIMEOUT_S=30] [STATION_CPU=1] [FEEDER_CPU=0] [WRITER_CPUS=FEEDER_CPU]
 #        [DDS_CONFIG=file] tests/bench/station/run_memory.sh [BUILD_DIR] [ROBOT_SECONDS]     default 3600
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -32,16 +32,20 @@ printf 'team_lag_s = %s\n' "${TEAM_LAG:-0.15}" > "$lag_toml"
 # WRITER_CPUS= (empty) leaves the writer on the station's CPU.
 writer_cpus="${WRITER_CPUS-${FEEDER_CPU:-0}}"
 [ -n "$writer_cpus" ] && printf 'writer_cpus = [%s]\n' "$writer_cpus" >> "$lag_toml"
+# The pose graph runs as at the station's defaults; POSE_GRAPH=0 turns it off ([pose_graph] enabled = false).
+[ "${POSE_GRAPH:-1}" = 1 ] || printf '[pose_graph]\nenabled = false\n' >> "$lag_toml"
 common=(-n "$robots" --duration "$seconds" --warp "$warp" --dds-config "${DDS_CONFIG:-$root/deploy/cyclonedds-lo.xml}"
         --station "$station" --station-cpu "${STATION_CPU:-1}" --method "${METHOD:-best}"
-        --rss-guard-mib "${RSS_GUARD_MIB:-4096}" --max-wall "${MAX_WALL_S:-1500}" --stop-timeout 30
+        --rss-guard-mib "${RSS_GUARD_MIB:-4096}" --max-wall "${MAX_WALL_S:-1500}" --stop-timeout "${STOP_TIMEOUT_S:-30}"
         --compare-methods "${COMPARE:-}" --station-config "$lag_toml")
 out="$(mktemp -d /tmp/teamscan-run-memory-XXXXXX)"
 # The "station: ..." line's scan -> fused map p99 (ms) of a run's output.
 p99_of() { sed -n 's/^station: .* p99 \([0-9.]*\) ms,.*/\1/p' "$1" | head -n 1; }
-echo "# $(date -u +%FT%TZ) station memory: $robots robots, $seconds s robot time at ${warp}x, a model write every 60 s of robot time ($write_s s wall), station on CPU ${STATION_CPU:-1}, writer thread on CPUs ${writer_cpus:-of the station}, $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "# $(date -u +%FT%TZ) station memory: $robots robots, pose graph ${POSE_GRAPH:-1}, $seconds s robot time at ${warp}x, a model write every 60 s of robot time ($write_s s wall), station on CPU ${STATION_CPU:-1}, writer thread on CPUs ${writer_cpus:-of the station}, $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "## with model writes"
 taskset -c "${FEEDER_CPU:-0}" "$feeder" "${common[@]}" --write-interval "$write_s" | tee "$out/with.txt"
+# The station's shutdown lines of the pose graph (nodes, how many it was behind) and of the final model.
+grep -E '^(pose graph: |fusion: the final model)' "$out/with.txt" | sed 's/^/   /'
 if [ "${SKIP_NO_WRITES:-0}" != 1 ]; then
   echo "## without model writes"
   taskset -c "${FEEDER_CPU:-0}" "$feeder" "${common[@]}" --write-interval 0 | tee "$out/without.txt"
