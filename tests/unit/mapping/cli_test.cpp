@@ -1,5 +1,6 @@
 // `teamscan eval` and `teamscan export` end to end through the data set files (common/dataset): the
-// JSON is byte-identical for a seed, and the export's ground truth reads back with the labels.
+// JSON is byte-identical for a seed, the pose graph's flags place the scans as they say, and the
+// export's ground truth reads back with the labels.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -69,6 +70,36 @@ TEST_F(Cli, EvalJsonIsIdenticalForASeedAndTheReportFolderIsWritten) {
   }
   // The table goes to stdout too.
   EXPECT_NE(slurp(dir_ + "/stdout.txt").find("| position |"), std::string::npos);
+}
+
+// The value of the report's first "placed_by" (what placed the scans the metrics read), "" if none.
+std::string placed_by(const std::string& json) {
+  const std::size_t key = json.find("\"placed_by\"");
+  if (key == std::string::npos) return "";
+  const std::size_t open = json.find('"', json.find(':', key) + 1);
+  const std::size_t close = json.find('"', open + 1);
+  return open == std::string::npos || close == std::string::npos ? "" : json.substr(open + 1, close - open - 1);
+}
+
+// The pose graph is on by default; --no-registration is odometry alone, --no-pose-graph the registration's
+// or odometry's placement, --no-registration --pose-graph the graph over odometry; contradictions refused.
+TEST_F(Cli, EvalRunsThePoseGraphByDefaultAndOdometryAloneWithNoRegistration) {
+  const std::string json = dir_ + "/r.json";
+  const auto placed = [&](const std::string& flags) {
+    const int rc = run("eval " + dir_ + "/ds --method position -q --json " + json + " " + flags);
+    EXPECT_EQ(rc, 0) << flags << ": " << slurp(dir_ + "/stderr.txt");
+    return placed_by(slurp(json));
+  };
+  EXPECT_EQ(placed(""), "pose_graph");
+  EXPECT_NE(slurp(dir_ + "/stderr.txt").find("pose graph: "), std::string::npos);
+  EXPECT_EQ(placed("--no-registration"), "odometry");
+  EXPECT_EQ(slurp(dir_ + "/stderr.txt").find("pose graph: "), std::string::npos);
+  EXPECT_EQ(placed("--no-registration --pose-graph"), "pose_graph");
+  EXPECT_EQ(placed("--no-pose-graph"), "odometry");
+  EXPECT_EQ(placed("--registration --no-pose-graph"), "registration");
+  EXPECT_EQ(placed("--registration"), "pose_graph");
+  EXPECT_NE(run("eval " + dir_ + "/ds --pose-graph --no-pose-graph"), 0);
+  EXPECT_NE(run("eval " + dir_ + "/ds --registration --no-registration"), 0);
 }
 
 TEST_F(Cli, EvalRejectsBadArgumentsAndBadFolders) {
