@@ -135,6 +135,22 @@ TEST(DemoConfig, StationRegistrationSectionTurnsItOn) {
   EXPECT_EQ(o.core.registration_options.min_map_features, registration::RegistrationOptions{}.min_map_features);
 }
 
+// The pose graph: on in the written config by default (as the station's own default), off as the demo's
+// --no-pose-graph or --no-registration asks; the station's parser reads either as written.
+TEST(DemoConfig, StationPoseGraphOnByDefaultAndOffWhenAsked) {
+  StationConfigInput in;
+  in.session_root = "/tmp/demo-out";
+  for (const bool on : {true, false}) {
+    in.pose_graph = on;
+    const std::string text = station_config(in);
+    station::GroundStationConfig c;
+    station::ConfigError e;
+    ASSERT_TRUE(station::parse_groundstation_config(text, "groundstation.toml", c, e)) << e.message << "\n" << text;
+    EXPECT_EQ(c.fusion.pose_graph.has_value(), on) << text;
+  }
+  EXPECT_TRUE(StationConfigInput{}.pose_graph);
+}
+
 // --calibration: the calibration's [[registration.robot]] tables follow the station config's sections
 // and reach the registration's options, as the station reads them.
 TEST(DemoConfig, StationConfigCarriesTheCalibration) {

@@ -257,7 +257,7 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
   write_file(cfg, "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"position\"\nwrite_all_points = true\n"
                   "compare_methods = [\"direction\"]\n[pose_graph]\nenabled = false\n[view]\nlisten = \"\"\n");
   station::GroundStationConfig g;
-  write_station_model(cfg, session, g);  // the station's model
+  ASSERT_NO_FATAL_FAILURE(write_station_model(cfg, session, g));  // the station's model
   ASSERT_FALSE(g.fusion.pose_graph.has_value());
   const SessionReplay same = replay_station_session(session, cfg, dir.path() + "/replay");
   ASSERT_TRUE(same.error.empty()) << same.error;
@@ -302,7 +302,7 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
   const std::string reg_cfg = dir.path() + "/groundstation-registration.toml";
   write_file(reg_cfg, "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"position\"\nwrite_all_points = true\n"
                       "[registration]\nenabled = true\n[pose_graph]\nenabled = false\n[view]\nlisten = \"\"\n");
-  write_station_model(reg_cfg, session, g);
+  ASSERT_NO_FATAL_FAILURE(write_station_model(reg_cfg, session, g));
   ASSERT_TRUE(g.fusion.core.registration);
   const SessionReplay registered = replay_station_session(session, reg_cfg, dir.path() + "/replay-registered");
   ASSERT_TRUE(registered.error.empty()) << registered.error;
@@ -324,7 +324,7 @@ TEST(DemoScoring, StationModelsAgainstTheReplayInArrivalOrder) {
   const std::string graph_cfg = dir.path() + "/groundstation-graph.toml";
   write_file(graph_cfg, "[station]\nsession_root = \"/tmp\"\n[fusion]\nenabled = true\nmethod = \"position\"\nwrite_all_points = true\n"
                         "[view]\nlisten = \"\"\n");
-  write_station_model(graph_cfg, session, g);
+  ASSERT_NO_FATAL_FAILURE(write_station_model(graph_cfg, session, g));
   ASSERT_TRUE(g.fusion.pose_graph.has_value());
   const SessionReplay on_graph = replay_station_session(session, graph_cfg, dir.path() + "/replay-graph");
   ASSERT_TRUE(on_graph.error.empty()) << on_graph.error;
