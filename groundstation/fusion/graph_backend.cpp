@@ -27,11 +27,18 @@ void GraphBackend::add(const FusedScan& released, const Pose2* odom_from_robot) 
   if (finishing_ || released.view == nullptr) return;
   const mapping::ScanView& v = *released.view;
   if (v.robot > kMaxRobots) return;
-  if (!seen_.emplace(v.robot, v.scan, v.stamp_ns).second) {
-    ++counters_.repeated_scans;
-    return;
-  }
   Open& o = open_[v.robot];
+  const std::pair<std::int64_t, std::uint32_t> key{v.stamp_ns, v.scan};
+  if (o.taken.empty() || o.taken.back() < key) {
+    o.taken.push_back(key);
+  } else {
+    const auto at = std::lower_bound(o.taken.begin(), o.taken.end(), key);
+    if (at != o.taken.end() && *at == key) {
+      ++counters_.repeated_scans;
+      return;
+    }
+    o.taken.insert(at, key);
+  }
   if (!o.tilted && v.points.size() >= 2) o.tilted = !level_scan(v);
   const bool tilted = o.tilted.value_or(false);
   // A level laser's scan is a node; a tilted laser's node closes when its robot's next scan is
@@ -52,7 +59,7 @@ void GraphBackend::add(const FusedScan& released, const Pose2* odom_from_robot) 
   for (std::size_t j = 0; j < points.size(); ++j)
     if (taken_[j] != 0) o.odom_returns.push_back({points[j].x, points[j].y});
   const Pose2 odom = odom_from_robot != nullptr ? *odom_from_robot : released.odom_from_robot;
-  o.scans.push_back({v.robot, v.scan, v.stamp_ns, odom, odom});
+  o.scans.push_back({v.scan, v.stamp_ns, odom});
   if (counters_.scans++ == 0) first_scan_ = std::chrono::steady_clock::now();
   if (tilted) ++counters_.tilted_scans;
   if (!tilted) close(v.robot);
@@ -69,7 +76,7 @@ void GraphBackend::close(std::uint8_t robot) {
   const Pose2 node_from_odom = n.odom.inverse();
   n.returns.reserve(o.odom_returns.size());
   for (const Vec2& p : o.odom_returns) n.returns.push_back(node_from_odom.apply(p));
-  n.scans = std::move(o.scans);
+  n.scans.assign(o.scans.begin(), o.scans.end());  // exact: kept for the whole run
   o.scans.clear();
   o.odom_returns.clear();
   ++counters_.nodes;
@@ -112,8 +119,10 @@ void GraphBackend::run() {
     }
     if (!slam_) slam_ = std::make_unique<posegraph::PlanarSlam>(
                     options_.slam ? *options_.slam : n.tilted ? posegraph::tilted_laser_options() : posegraph::SlamOptions{});
-    graph_node_.push_back(slam_->add_scan(n.robot, n.odom, n.returns));
-    n.returns = {};
+    {
+      const std::vector<Vec2> returns = std::move(n.returns);  // the graph keeps its own copy: freed here
+      graph_node_.push_back(slam_->add_scan(n.robot, n.odom, returns));
+    }
     in_graph_.push_back(std::move(n));
     publish_estimate();
   }
@@ -137,7 +146,8 @@ std::vector<GraphScanPose> scan_poses_on_nodes(std::span<const NodeScans> nodes)
     if (n.scans.empty()) continue;
     const NodeScans* before = std::exchange(previous[n.robot], &n);
     const Pose2 node_from_odom = n.odom.inverse();
-    for (GraphScanPose s : n.scans) {
+    for (const NodeScan& scan : n.scans) {
+      GraphScanPose s{n.robot, scan.scan, scan.stamp_ns, scan.odom, scan.odom};
       s.graph = n.graph * (node_from_odom * s.odom);
       if (before != nullptr) {
         const std::int64_t t0 = before->scans.back().stamp_ns, t1 = n.scans.back().stamp_ns;

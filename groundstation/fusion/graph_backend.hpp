@@ -20,9 +20,8 @@
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <set>
 #include <span>
-#include <tuple>
+#include <utility>
 #include <thread>
 #include <vector>
 
@@ -58,13 +57,22 @@ struct GraphScanPose {
   Pose2 graph;  // after the graph's last optimisation
 };
 
+// A scan of a node as the back end keeps it until the end: what places it (scan_poses_on_nodes). One per
+// scan the graph took, for the whole run: the only part of the back end that grows with the time mapped
+// rather than with the place (besides the graph's own nodes and constraints).
+struct NodeScan {
+  std::uint32_t scan = 0;
+  std::int64_t stamp_ns = 0;
+  Pose2 odom;  // as GraphScanPose::odom
+};
+
 // A node of the graph as scan_poses_on_nodes reads it: its robot, the odometry's pose of its last scan,
 // where the graph put it, and the scans it gathers (in order, the last one at `odom`).
 struct NodeScans {
   std::uint8_t robot = 0;
   Pose2 odom;
   Pose2 graph;
-  std::span<const GraphScanPose> scans;
+  std::span<const NodeScan> scans;
 };
 
 // Every scan of `nodes` (the graph's node order) with its pose in the graph. A robot's first node's
@@ -141,14 +149,17 @@ class GraphBackend {
     std::uint8_t robot = 0;
     bool tilted = false;
     Pose2 odom;                            // the node's last scan's
-    std::vector<Vec2> returns;             // in that scan's robot frame
-    std::vector<GraphScanPose> scans;      // the scans it gathers, in order (graph unset)
+    std::vector<Vec2> returns;             // in that scan's robot frame; freed once in the graph
+    std::vector<NodeScan> scans;           // the scans it gathers, in order, at their exact count
   };
   struct Open {
     std::int64_t first_stamp_ns = 0;
     std::optional<bool> tilted;            // the robot's laser, from its first scan with points
     std::vector<Vec2> odom_returns;        // gathered so far, in the odometry's frame
-    std::vector<GraphScanPose> scans;
+    std::vector<NodeScan> scans;
+    // The (stamp, scan number) of every scan of this robot taken, ascending: a scan released again
+    // (a rebuilt core's) is found here. Releases come in stamp order, so it grows at its end.
+    std::vector<std::pair<std::int64_t, std::uint32_t>> taken;
   };
   void close(std::uint8_t robot);
   void run();
@@ -161,7 +172,6 @@ class GraphBackend {
   GraphBackendCounters counters_;
   std::vector<Open> open_;  // per robot id
   std::vector<std::uint8_t> taken_;
-  std::set<std::tuple<std::uint8_t, std::uint32_t, std::int64_t>> seen_;  // the scans taken
   bool finishing_ = false;
   std::chrono::steady_clock::time_point first_scan_, done_at_;
 

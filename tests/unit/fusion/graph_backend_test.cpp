@@ -331,16 +331,16 @@ TEST(GraphBackendScanPoses, TheCorrectionIsSpreadOverTheNodesScans) {
   const auto odometry = [](double t, double side) { return Pose2{1.02 * kSpeedMps * t, side, side * 1.1 * kTurnRadps * t}; };
   constexpr int kScansPerNode = 19, kNodes = 4;
   constexpr double kScanS = 1.0 / 75.0;
-  std::vector<std::vector<fusion::GraphScanPose>> scans(2 * kNodes);
+  std::vector<std::vector<fusion::NodeScan>> scans(2 * kNodes);
   std::vector<fusion::NodeScans> nodes;
   for (int k = 0; k < kNodes; ++k)
     for (int robot = 1; robot <= 2; ++robot) {
       const double side = robot == 1 ? 1.0 : -1.0;
-      std::vector<fusion::GraphScanPose>& mine = scans[static_cast<std::size_t>(2 * k + robot - 1)];
+      std::vector<fusion::NodeScan>& mine = scans[static_cast<std::size_t>(2 * k + robot - 1)];
       for (int i = 0; i < kScansPerNode; ++i) {
         const int n = k * kScansPerNode + i;
         const double t = n * kScanS;
-        mine.push_back({static_cast<std::uint8_t>(robot), static_cast<std::uint32_t>(n), static_cast<std::int64_t>(std::llround(t * 1e9)), odometry(t, side), {}});
+        mine.push_back({static_cast<std::uint32_t>(n), static_cast<std::int64_t>(std::llround(t * 1e9)), odometry(t, side)});
       }
       const double t_last = (k * kScansPerNode + kScansPerNode - 1) * kScanS;
       nodes.push_back({static_cast<std::uint8_t>(robot), odometry(t_last, side), truth(t_last, side), mine});
