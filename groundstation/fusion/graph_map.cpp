@@ -33,14 +33,14 @@ Status decide_with(PoseHistory& poses, const Dataset& dataset, std::span<const s
 }
 
 Result<std::size_t> feed_on_poses(const Dataset& dataset, std::span<const std::optional<Pose2>> by_row, CoreSet& cores,
-                                  const std::function<void(double)>& progress) {
+                                  const std::function<void(double)>& progress, ScanPointsSource* points) {
   for (std::size_t i = 0; i < cores.size(); ++i) {
     FusionCore& core = cores.at(i);
     if (core.options().registration) return Error{"the pose graph's poses and the registration cannot both place the scans"};
     if (Status st = core.reset(); !st.ok()) return st.error();
     if (Status st = decide_with(core.poses(), dataset, by_row); !st.ok()) return st.error();
   }
-  const TimeLine time_line(dataset);
+  const TimeLine time_line(dataset, points);
   time_line.feed([&](PoseInput& p) { cores.add_pose(p); }, [&](ScanInput& s) { (void)cores.add_scan(s); }, progress);
   cores.flush();
   return time_line.records().size();
@@ -49,13 +49,13 @@ Result<std::size_t> feed_on_poses(const Dataset& dataset, std::span<const std::o
 Result<std::unique_ptr<CoreSet>> cores_on_graph(const Dataset& dataset, const std::vector<GraphScanPose>& graph, CoreOptions primary,
                                                 const std::vector<std::string>& compared,
                                                 std::function<void(const FusedScan&)> on_primary_release,
-                                                const std::function<void(double)>& progress) {
+                                                const std::function<void(double)>& progress, ScanPointsSource* points) {
   primary.registration = false;
   Result<std::unique_ptr<CoreSet>> cores = CoreSet::create(with_graph_order(primary), compared);
   if (!cores) return cores.error();
   if (on_primary_release) cores.value()->primary().set_release_callback(std::move(on_primary_release));
   const std::vector<std::optional<Pose2>> by_row = graph_poses_by_row(dataset, graph);
-  if (Result<std::size_t> fed = feed_on_poses(dataset, by_row, *cores.value(), progress); !fed) return fed.error();
+  if (Result<std::size_t> fed = feed_on_poses(dataset, by_row, *cores.value(), progress, points); !fed) return fed.error();
   return cores;
 }
 

@@ -37,17 +37,21 @@ namespace teamscan::fusion {
 // Every core of `cores` reset, given the poses (decide_with) and fed the data set in time order
 // (time_line.hpp), then flushed: the model, the decisions and the release callbacks' scans are those of
 // the poses given. The cores must not run the registration (it would place the scans again). Returns
-// the scans fed. `progress` (optional) as TimeLine::feed's.
+// the scans fed. `progress` (optional) as TimeLine::feed's; `points` (optional) as TimeLine's: the
+// scans' points read on demand instead of dataset.points.
 [[nodiscard]] Result<std::size_t> feed_on_poses(const Dataset& dataset, std::span<const std::optional<Pose2>> by_row, CoreSet& cores,
-                                                const std::function<void(double)>& progress = {});
+                                                const std::function<void(double)>& progress = {},
+                                                ScanPointsSource* points = nullptr);
 
 // A new set of cores (`primary`'s options without the registration: the graph placed the scans, and the
 // compared methods) fed the data set on the graph's poses (feed_on_poses): the station's final model,
-// the demo's replay of it. `on_primary_release` (optional) sees every scan the primary releases.
+// the demo's replay of it. `on_primary_release` (optional) sees every scan the primary releases;
+// `points` as feed_on_poses'.
 [[nodiscard]] Result<std::unique_ptr<CoreSet>> cores_on_graph(const Dataset& dataset, const std::vector<GraphScanPose>& graph,
                                                               CoreOptions primary, const std::vector<std::string>& compared,
                                                               std::function<void(const FusedScan&)> on_primary_release = {},
-                                                              const std::function<void(double)>& progress = {});
+                                                              const std::function<void(double)>& progress = {},
+                                                              ScanPointsSource* points = nullptr);
 
 // A rebuild in slices (core_rebuild.hpp) on the graph's poses: a new set of cores as cores_on_graph's,
 // given the poses (decide_with) and not yet fed: the station's live map following the graph's estimate.

@@ -7,13 +7,18 @@
 
 namespace teamscan::fusion {
 
-TimeLine::TimeLine(const Dataset& dataset) : dataset_{dataset} {
-  // Points grouped by (robot, scan), in data set order within a scan.
-  for (std::size_t i = 0; i < dataset.points.size(); ++i)
-    by_scan_[{dataset.points[i].robot, dataset.points[i].scan}].push_back(i);
+TimeLine::TimeLine(const Dataset& dataset, ScanPointsSource* points) : dataset_{dataset}, points_{points} {
+  // Points grouped by (robot, scan), in data set order within a scan (read on demand: none here).
+  if (points_ == nullptr)
+    for (std::size_t i = 0; i < dataset.points.size(); ++i)
+      by_scan_[{dataset.points[i].robot, dataset.points[i].scan}].push_back(i);
   std::map<std::pair<std::uint8_t, std::uint32_t>, bool> known;
-  for (const ScanRecord& r : dataset.scans)
-    if (known.emplace(std::make_pair(r.robot, r.scan), true).second) records_.push_back(r);
+  for (std::size_t row = 0; row < dataset.scans.size(); ++row) {
+    const ScanRecord& r = dataset.scans[row];
+    if (!known.emplace(std::make_pair(r.robot, r.scan), true).second) continue;
+    records_.push_back(r);
+    if (points_ != nullptr) rows_.push_back(row);
+  }
   for (const auto& [key, indices] : by_scan_) {
     if (known.count(key)) continue;
     ScanRecord r;  // a scan with points but no row in scans.csv: at time 0 (no team state)
@@ -58,7 +63,9 @@ std::size_t TimeLine::feed_part(std::size_t from, std::size_t max_scans, const s
     in.points.clear();
     in.flags.clear();
     in.beams.clear();
-    if (auto it = by_scan_.find({r.robot, r.scan}); it != by_scan_.end()) {
+    if (points_ != nullptr) {
+      (void)points_->read(rows_[e.index], in);  // a scan it cannot read goes on without points (counted there)
+    } else if (auto it = by_scan_.find({r.robot, r.scan}); it != by_scan_.end()) {
       for (std::size_t i : it->second) {
         const LabelledPoint& lp = dataset_.points[i];
         in.points.push_back({lp.x, lp.y, lp.z});

@@ -21,9 +21,22 @@
 
 namespace teamscan::fusion {
 
+// A data set's points read on demand, for a data set that holds its scan rows but not their points
+// (Dataset::points empty): the station's session folder read back for its final model, whose points
+// would not all fit in memory after a long mission.
+class ScanPointsSource {
+ public:
+  virtual ~ScanPointsSource() = default;
+  // The points of scan row `row` (Dataset::scans) into in.points, in.flags and in.beams, which come
+  // cleared. false: they could not be read (the source counts it); the scan goes on without points.
+  virtual bool read(std::size_t row, ScanInput& in) = 0;
+};
+
 class TimeLine {
  public:
-  explicit TimeLine(const Dataset& dataset);
+  // `points` (optional, outliving the time line): where the scans' points are read from instead of
+  // dataset.points, one scan at a time as it is fed.
+  explicit TimeLine(const Dataset& dataset, ScanPointsSource* points = nullptr);
 
   // Calls on_pose / on_scan for every pose and scan in time order, with the input as the core takes it
   // (the callee may change it, e.g. add pose noise, before handing it to a core). A scan's input views
@@ -54,8 +67,10 @@ class TimeLine {
     std::size_t index;  // in Dataset::odom or records_
   };
   const Dataset& dataset_;
+  ScanPointsSource* points_;
   std::map<std::pair<std::uint8_t, std::uint32_t>, std::vector<std::size_t>> by_scan_;
   std::vector<ScanRecord> records_;
+  std::vector<std::size_t> rows_;  // with points_: each record's row in dataset.scans
   std::vector<Event> events_;
   mutable ScanInput scratch_;  // a fed scan's input: its vectors keep their capacity
 };

@@ -295,6 +295,8 @@ class FusionStage {
   // The session folder read back for a rebuild (a catch-up in slices under way dropped first); an error
   // if it cannot be read or holds fewer scans than the cores took (not this station's folder).
   [[nodiscard]] Result<Dataset> read_own_session();
+  // An error if the session read back holds fewer scans than the cores took.
+  [[nodiscard]] Status holds_every_scan_taken(const Dataset& session) const;
   void on_rebuilt_release(const fusion::FusedScan& scan);
   // Its part that only touches the catch-up's own state: the rebuilt map, its counters, its new graph
   // (the session's releases, on the loader thread: start_catch_up).

@@ -233,11 +233,16 @@ Result<Dataset> FusionStage::read_own_session() {
   SessionReadStats stats;
   Result<Dataset> session = read_session_dataset(session_dir_, stats);
   if (!session) return session.error();
-  // Storage comes first, so the folder holds every scan the core took; if not (not this station's
-  // folder), the cores stay as they are.
-  if (session->scans.size() < core().counters().scans_released + core().held_scans())
-    return Error{"fusion: the session folder holds fewer scans than the fusion core took"};
+  if (Status st = holds_every_scan_taken(*session); !st.ok()) return st.error();
   return session;
+}
+
+// Storage comes first, so the folder holds every scan the core took; if not (not this station's
+// folder), the cores stay as they are.
+Status FusionStage::holds_every_scan_taken(const Dataset& session) const {
+  if (session.scans.size() < core().counters().scans_released + core().held_scans())
+    return Error{"fusion: the session folder holds fewer scans than the fusion core took"};
+  return ok_status();
 }
 
 Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(double)>& progress) {
@@ -273,20 +278,28 @@ Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(
 Status FusionStage::rebuild_on_graph(const std::function<void(double)>& progress) {
   if (!graph_) return ok_status();
   const Time started = now_monotonic();
-  Result<Dataset> session = read_own_session();
+  if (session_dir_.empty()) return Error{"fusion: no session folder to read back"};
+  drop_catch_up();
+  // The session's rows alone; each scan's points read back from scans.bin as it is fed, so a long
+  // mission's shutdown holds its rows, not every point it stored.
+  SessionReadStats stats;
+  Result<SessionIndex> session = read_session_index(session_dir_, stats);
   if (!session) return session.error();
+  if (Status st = holds_every_scan_taken(session->dataset); !st.ok()) return st;
   LiveMap map{options_.map_resolution_m};
   std::uint64_t scans = 0, points = 0, removed = 0;
   Result<std::unique_ptr<fusion::CoreSet>> rebuilt = fusion::cores_on_graph(
-      session.value(), graph_->poses(), options_.core, options_.compare_methods,
+      session->dataset, graph_->poses(), options_.core, options_.compare_methods,
       [&](const fusion::FusedScan& f) {
         map.add_all(f.view->points, f.removed, f.stored, f.view->robot, f.release);
         ++scans;
         points += f.view->points.size();
         for (std::uint8_t r : f.removed) removed += r != 0 ? 1 : 0;
       },
-      progress);
+      progress, session->points.get());
   if (!rebuilt) return rebuilt.error();
+  if (const std::uint64_t unread = session->points->failures(); unread > 0)
+    return make_error("fusion: " + std::to_string(unread) + " scans of the session folder no longer read back; the model stays as it was");
   writer_->wait();  // a snapshot in progress reads the cores
   cores_->take_state(*rebuilt.value());
   map_ = std::move(map);

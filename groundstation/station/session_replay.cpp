@@ -81,6 +81,7 @@ class ScanFileStream {
             decode_scan_record(std::span<const std::uint8_t>(buf_.data() + pos_, have_ - pos_), out, receipt, decode_,
                                version_);
         if (r > 0) {
+          offset_ = consumed_ + pos_;
           pos_ += static_cast<std::size_t>(r);
           return true;
         }
@@ -97,6 +98,7 @@ class ScanFileStream {
       }
       std::memmove(buf_.data(), buf_.data() + pos_, have_ - pos_);
       have_ -= pos_;
+      consumed_ += pos_;
       pos_ = 0;
       if (Status st = fill(); !st.ok()) {
         error_ = st;
@@ -105,6 +107,9 @@ class ScanFileStream {
     }
   }
   [[nodiscard]] const Status& error() const { return error_; }
+  // The file offset of the record next() returned last, and the file's version.
+  [[nodiscard]] std::uint64_t offset() const { return offset_; }
+  [[nodiscard]] std::uint32_t version() const { return version_; }
 
  private:
   static constexpr std::size_t kChunk = 4u << 20;
@@ -131,6 +136,8 @@ class ScanFileStream {
   int fd_ = -1;
   std::vector<std::uint8_t> buf_;
   std::size_t have_ = 0, pos_ = 0;
+  std::uint64_t consumed_ = 0;  // the file's bytes before buf_[0]
+  std::uint64_t offset_ = 0;
   std::uint64_t left_;  // bytes of the file still to read (SessionExtent)
   bool eof_ = false;
   std::uint32_t version_ = kScanFileVersion;
@@ -191,9 +198,12 @@ SessionExtent session_extent_now(const std::string& dir) {
   return e;
 }
 
-Status replay_session_files(const std::string& dir, const std::function<void(const PoseObservation&)>& on_pose,
-                            const std::function<void(const ScanPoints&, const Receipt&)>& on_scan,
-                            SessionReadStats& stats, const SessionExtent& extent) {
+namespace {
+
+// replay_session_files, each scan with its record's offset in scans.bin and the file's version.
+using OnScanAt = std::function<void(const ScanPoints&, const Receipt&, std::uint64_t offset, std::uint32_t version)>;
+Status replay_files(const std::string& dir, const std::function<void(const PoseObservation&)>& on_pose, const OnScanAt& on_scan,
+                    SessionReadStats& stats, const SessionExtent& extent) {
   PoseFileStream poses(stats, extent.poses_bytes);
   poses.open(dir + "/poses.csv");
   ScanFileStream scans(stats, extent.scans_bytes);
@@ -216,7 +226,7 @@ Status replay_session_files(const std::string& dir, const std::function<void(con
         ++stats.refused_scans;  // refused at the edge: stored raw, never fused (live or replayed)
       } else if (valid_robot(scan->robot_id, stats)) {
         ++stats.scans;
-        on_scan(*scan, receipt);
+        on_scan(*scan, receipt, scans.offset(), scans.version());
       }
       have_scan = scans.next(*scan, receipt);
     }
@@ -224,20 +234,34 @@ Status replay_session_files(const std::string& dir, const std::function<void(con
   return scans.error();
 }
 
-Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& stats, const SessionExtent& extent) {
+}  // namespace
+
+Status replay_session_files(const std::string& dir, const std::function<void(const PoseObservation&)>& on_pose,
+                            const std::function<void(const ScanPoints&, const Receipt&)>& on_scan,
+                            SessionReadStats& stats, const SessionExtent& extent) {
+  return replay_files(dir, on_pose, [&](const ScanPoints& s, const Receipt& r, std::uint64_t, std::uint32_t) { on_scan(s, r); },
+                      stats, extent);
+}
+
+namespace {
+
+// The session as a data set; with `offsets`, its points left out and each scan row's record offset
+// there instead (and the file's version in `version`).
+Result<Dataset> read_session(const std::string& dir, SessionReadStats& stats, const SessionExtent& extent,
+                             std::vector<std::uint64_t>* offsets, std::uint32_t* version) {
   Dataset ds;
   ds.scenario = "session";
   std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
   std::set<std::uint8_t> robots;
   fusion::ScanInput input;
-  Status st = replay_session_files(
+  Status st = replay_files(
       dir,
       [&](const PoseObservation& p) {
         const fusion::PoseInput in = pose_input(p);
         ds.odom.push_back({in.robot, in.stamp_ns, in.odom, in.v_mps, in.w_radps});
         robots.insert(in.robot);
       },
-      [&](const ScanPoints& s, const Receipt& receipt) {
+      [&](const ScanPoints& s, const Receipt& receipt, std::uint64_t offset, std::uint32_t file_version) {
         if (!seen.emplace(s.robot_id, s.seq).second) return;  // a DDS history replay: stored twice
         const fusion::ScanInput& in = scan_input(s, receipt, input);
         ScanRecord r;
@@ -248,6 +272,12 @@ Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& s
         r.points = static_cast<std::uint16_t>(in.points.size());
         r.origin = in.origin_m;
         ds.scans.push_back(r);
+        robots.insert(in.robot);
+        if (offsets != nullptr) {
+          offsets->push_back(offset);
+          *version = file_version;
+          return;
+        }
         for (std::size_t i = 0; i < in.points.size(); ++i) {
           LabelledPoint lp;
           lp.x = in.points[i].x;
@@ -262,7 +292,6 @@ Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& s
           lp.flags = in.flags[i];
           ds.points.push_back(lp);
         }
-        robots.insert(in.robot);
       },
       stats, extent);
   if (!st.ok()) return st.error();
@@ -285,6 +314,51 @@ Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& s
     ds.robots.push_back(r);
   }
   return ds;
+}
+
+}  // namespace
+
+Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& stats, const SessionExtent& extent) {
+  return read_session(dir, stats, extent, nullptr, nullptr);
+}
+
+SessionScanPoints::SessionScanPoints(int fd, std::uint32_t version, std::vector<std::uint64_t> offsets)
+    : fd_{fd}, version_{version}, offsets_{std::move(offsets)}, buf_(kScanRecordMaxBytes), scan_{std::make_unique<ScanPoints>()} {}
+
+SessionScanPoints::~SessionScanPoints() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+bool SessionScanPoints::read(std::size_t row, fusion::ScanInput& in) {
+  if (row < offsets_.size()) {
+    ssize_t n = -1;
+    do n = ::pread(fd_, buf_.data(), buf_.size(), static_cast<off_t>(offsets_[row]));
+    while (n < 0 && errno == EINTR);
+    Receipt receipt;
+    if (n > 0 && decode_scan_record(std::span<const std::uint8_t>(buf_.data(), static_cast<std::size_t>(n)), *scan_, receipt,
+                                    decode_, version_) > 0) {
+      (void)scan_input(*scan_, receipt, in);
+      return true;
+    }
+  }
+  ++failures_;
+  in.points.clear();
+  in.flags.clear();
+  in.beams.clear();
+  return false;
+}
+
+Result<SessionIndex> read_session_index(const std::string& dir, SessionReadStats& stats, const SessionExtent& extent) {
+  std::vector<std::uint64_t> offsets;
+  std::uint32_t version = kScanFileVersion;
+  Result<Dataset> ds = read_session(dir, stats, extent, &offsets, &version);
+  if (!ds) return ds.error();
+  int fd = -1;
+  if (!offsets.empty()) {
+    fd = ::open((dir + "/scans.bin").c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return Error{"session: cannot open scans.bin again to read its points", errno};
+  }
+  return SessionIndex{std::move(ds.value()), std::make_unique<SessionScanPoints>(fd, version, std::move(offsets))};
 }
 
 }  // namespace teamscan::station

@@ -6,10 +6,13 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "common/dataset/dataset.hpp"
 #include "common/result.hpp"
+#include "groundstation/fusion/time_line.hpp"
 #include "groundstation/station/scan_record.hpp"
 #include "groundstation/station/team_source.hpp"
 
@@ -53,5 +56,38 @@ struct SessionExtent {
 // scan's pose the fusion core's scan pose. `teamscan eval SESSION` runs on this.
 [[nodiscard]] Result<Dataset> read_session_dataset(const std::string& dir, SessionReadStats& stats,
                                                    const SessionExtent& extent = {});
+
+// A session's scans' points read back from scans.bin one scan at a time, by the offsets of their
+// records (read_session_index): a time line over a long session holds its rows, not its points.
+class SessionScanPoints final : public fusion::ScanPointsSource {
+ public:
+  // `fd` (owned, -1 with no offsets): scans.bin; offsets[row]: scan row `row`'s record.
+  SessionScanPoints(int fd, std::uint32_t version, std::vector<std::uint64_t> offsets);
+  ~SessionScanPoints() override;
+  SessionScanPoints(const SessionScanPoints&) = delete;
+  SessionScanPoints& operator=(const SessionScanPoints&) = delete;
+  // The scan's points as read_session_dataset gives them; false (counted) if its record no longer reads.
+  bool read(std::size_t row, fusion::ScanInput& in) override;
+  [[nodiscard]] std::uint64_t failures() const { return failures_; }
+
+ private:
+  int fd_;
+  std::uint32_t version_;
+  std::vector<std::uint64_t> offsets_;
+  std::vector<std::uint8_t> buf_;
+  std::unique_ptr<ScanPoints> scan_;
+  ScanDecodeStats decode_;
+  std::uint64_t failures_ = 0;
+};
+
+// The session as read_session_dataset's data set without its points (Dataset::points empty), and where
+// to read each scan row's points when they are fed (TimeLine's ScanPointsSource): the station's final
+// model on the graph's poses reads a session of any length in memory for its rows alone.
+struct SessionIndex {
+  Dataset dataset;
+  std::unique_ptr<SessionScanPoints> points;
+};
+[[nodiscard]] Result<SessionIndex> read_session_index(const std::string& dir, SessionReadStats& stats,
+                                                      const SessionExtent& extent = {});
 
 }  // namespace teamscan::station

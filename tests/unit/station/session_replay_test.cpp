@@ -4,7 +4,9 @@
 // keeps its teammates' hits on it removed; every compared method's model equals eval with that method.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
@@ -13,6 +15,7 @@
 
 #include "common/dataset/pcd.hpp"
 #include "groundstation/fusion/evaluation.hpp"
+#include "groundstation/fusion/time_line.hpp"
 #include "groundstation/station/fusion.hpp"
 #include "groundstation/station/station.hpp"
 #include "groundstation/station/model_check.hpp"
@@ -336,6 +339,90 @@ TEST(SessionReplay, ARobotIdOutOfRangeIsSkippedAndCountedByTheReader) {
   EXPECT_EQ(stats.poses, 1u);
   EXPECT_EQ(stats.scans, 1u);
   EXPECT_EQ(stats.bad_robot_ids, 4u);
+  std::filesystem::remove_all(dir);
+}
+
+// The station's final model reads its session as rows, each scan's points read back from scans.bin as it
+// is fed (read_session_index): the same rows, and in time order the same points, flags and beams as the
+// whole read, past a stretch of bad bytes and a scan stored twice; a record that no longer reads (the
+// file cut short since) is counted and fed without points.
+TEST(SessionReplay, TheIndexFeedsEachScansPointsAsTheWholeRead) {
+  const Dataset d = survey();
+  const Feed f = make_feed(d);
+  const std::string dir = temp_dir();
+  const auto store_part = [&](std::size_t from, std::size_t to) {
+    auto store = SessionStore::open(dir);
+    ASSERT_TRUE(store.ok());
+    for (std::size_t i = from; i < to; ++i) {
+      const Sample& x = f.samples[i];
+      if (x.is_pose) store->append_pose(x.pose, ReceiveTime{Time::from_ns(x.recv_ns), Time::from_ns(x.recv_ns)});
+      else store->append_scan(f.scans[x.scan], x.receipt);
+    }
+    if (to == f.samples.size()) {  // a DDS history replay: the last scan stored again
+      const auto last = std::find_if(f.samples.rbegin(), f.samples.rend(), [](const Sample& x) { return !x.is_pose; });
+      store->append_scan(f.scans[last->scan], last->receipt);
+    }
+  };
+  const std::size_t half = f.samples.size() / 2;
+  ASSERT_NO_FATAL_FAILURE(store_part(0, half));
+  {
+    // A record whose bytes went bad (its CRC fails), then bytes that are no record.
+    std::vector<std::uint8_t> record(kScanRecordMaxBytes);
+    record.resize(encode_scan_record(f.scans.front(), Receipt{}, record));
+    record[record.size() / 2] ^= 0xff;
+    std::FILE* bin = std::fopen((dir + "/scans.bin").c_str(), "ab");
+    ASSERT_NE(bin, nullptr);
+    std::fwrite(record.data(), 1, record.size(), bin);
+    for (int i = 0; i < 37; ++i) std::fputc(0x5a, bin);
+    std::fclose(bin);
+  }
+  ASSERT_NO_FATAL_FAILURE(store_part(half, f.samples.size()));
+
+  SessionReadStats whole_stats, index_stats;
+  const Result<Dataset> whole = read_session_dataset(dir, whole_stats);
+  Result<SessionIndex> index = read_session_index(dir, index_stats);
+  ASSERT_TRUE(whole.ok()) << whole.error().what;
+  ASSERT_TRUE(index.ok()) << index.error().what;
+  EXPECT_GT(index_stats.bad_scan_records, 0u);
+  EXPECT_EQ(index_stats.scans, whole_stats.scans);
+  EXPECT_TRUE(index->dataset.points.empty());
+  EXPECT_FALSE(whole->points.empty());
+  ASSERT_EQ(index->dataset.scans.size(), d.scans.size());
+  ASSERT_EQ(index->dataset.scans.size(), whole->scans.size());
+  EXPECT_EQ(index->dataset.odom.size(), whole->odom.size());
+  for (std::size_t i = 0; i < whole->scans.size(); ++i) {
+    const ScanRecord &a = whole->scans[i], &b = index->dataset.scans[i];
+    EXPECT_EQ(std::tie(a.robot, a.scan, a.stamp_ns, a.points, a.beams), std::tie(b.robot, b.scan, b.stamp_ns, b.points, b.beams));
+    EXPECT_EQ(a.pose.x_m, b.pose.x_m);
+    EXPECT_EQ(a.origin.z, b.origin.z);
+  }
+  using Fed = std::vector<std::tuple<int, std::uint32_t, std::vector<float>, std::vector<std::uint16_t>, std::vector<std::uint16_t>>>;
+  const auto feed = [](const fusion::TimeLine& t) {
+    Fed out;
+    t.feed([](fusion::PoseInput&) {},
+           [&](fusion::ScanInput& in) {
+             std::vector<float> xyz;
+             for (const mapping::MapPoint& p : in.points) xyz.insert(xyz.end(), {p.x, p.y, p.z});
+             out.emplace_back(in.robot, in.scan, xyz, std::vector<std::uint16_t>(in.flags.begin(), in.flags.end()),
+                              std::vector<std::uint16_t>(in.beams.begin(), in.beams.end()));
+           });
+    return out;
+  };
+  const Fed from_whole = feed(fusion::TimeLine(whole.value()));
+  const Fed from_index = feed(fusion::TimeLine(index->dataset, index->points.get()));
+  ASSERT_EQ(from_index.size(), d.scans.size());
+  EXPECT_TRUE(from_index == from_whole);
+  EXPECT_EQ(index->points->failures(), 0u);
+
+  // The file cut short after the index was read: the scans past the cut no longer read.
+  std::filesystem::resize_file(dir + "/scans.bin", std::filesystem::file_size(dir + "/scans.bin") / 2);
+  const Fed cut = feed(fusion::TimeLine(index->dataset, index->points.get()));
+  ASSERT_EQ(cut.size(), from_whole.size());
+  EXPECT_GT(index->points->failures(), 0u);
+  EXPECT_LT(index->points->failures(), d.scans.size());
+  std::size_t emptied = 0;  // scans with points in the whole read, none after the cut
+  for (std::size_t i = 0; i < cut.size(); ++i) emptied += std::get<2>(cut[i]).empty() && !std::get<2>(from_whole[i]).empty() ? 1 : 0;
+  EXPECT_EQ(emptied, index->points->failures());
   std::filesystem::remove_all(dir);
 }
 
