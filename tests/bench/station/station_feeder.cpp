@@ -483,16 +483,22 @@ int main(int argc, char** argv) {
   const double measured_wall_s = to_seconds(now_monotonic() - wall0);
   if (auto kib = read_rss_kib(station_pid)) rss.push_back({robot_s_done, *kib});
   ::kill(station_pid, SIGTERM);
+  // The stop: the station's last work (the final model on the graph's poses, its writes) and its RSS
+  // meanwhile, sampled as it runs.
   bool exited = false;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<long>(o.stop_timeout_s * 1000));
+  int exit_status = 0;
+  long stop_max_kib = 0;
+  const auto stop_started = std::chrono::steady_clock::now();
+  const auto deadline = stop_started + std::chrono::milliseconds(static_cast<long>(o.stop_timeout_s * 1000));
   while (std::chrono::steady_clock::now() < deadline) {
-    int st = 0;
-    if (::waitpid(station_pid, &st, WNOHANG) == station_pid) {
+    if (auto kib = read_rss_kib(station_pid)) stop_max_kib = std::max(stop_max_kib, *kib);
+    if (::waitpid(station_pid, &exit_status, WNOHANG) == station_pid) {
       exited = true;
       break;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
+  const double stop_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - stop_started).count();
   if (!exited) {
     ::kill(station_pid, SIGKILL);
     int st = 0;
@@ -646,7 +652,16 @@ int main(int argc, char** argv) {
     std::printf("scan -> fused map p99 during writes %.1f ms (%zu scans), outside writes %.1f ms (%zu scans)\n",
                 quantile(during, 0.99), during.size(), quantile(outside, 0.99), outside.size());
   }
-  std::printf("station exit: %s\n", exited ? "clean (final model pass done)" : "killed after --stop-timeout (final model pass not waited for)");
+  if (!exited) {
+    std::printf("station exit: killed after --stop-timeout (final model pass not waited for)");
+  } else if (WIFEXITED(exit_status) && WEXITSTATUS(exit_status) == 0) {
+    std::printf("station exit: clean (final model pass done)");
+  } else if (WIFSIGNALED(exit_status)) {
+    std::printf("station exit: died of signal %d", WTERMSIG(exit_status));
+  } else {
+    std::printf("station exit: exit code %d", WIFEXITED(exit_status) ? WEXITSTATUS(exit_status) : -1);
+  }
+  std::printf(" after %.1f s; RSS at most %.1f MiB during the stop\n", stop_s, static_cast<double>(stop_max_kib) / 1024.0);
   {
     // The station's pose graph ([pose_graph]): its line at the stop (scans, nodes, how far it was behind).
     std::ifstream in(session + "/events.log");
