@@ -7,13 +7,14 @@
 namespace teamscan::fusion {
 
 Result<RebuildSource> make_rebuild_source(Dataset dataset, const CoreOptions& primary,
-                                          const std::vector<std::string>& compared) {
+                                          const std::vector<std::string>& compared, std::unique_ptr<ScanPointsSource> points) {
   RebuildSource s;
   auto cores = CoreSet::create(primary, compared);
   if (!cores) return cores.error();
   s.cores = std::move(cores.value());
   s.dataset = std::make_unique<Dataset>(std::move(dataset));
-  s.time_line = std::make_unique<TimeLine>(*s.dataset);
+  s.points = std::move(points);
+  s.time_line = std::make_unique<TimeLine>(*s.dataset, s.points.get());
   return s;
 }
 

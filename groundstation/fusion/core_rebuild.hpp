@@ -4,8 +4,9 @@
 // the rebuilt cores end as the instant catch-up (refeed_in_time_order, then the same live inputs) would
 // have left them, however the work was sliced: live = offline stays exact.
 //
-// A pure state machine on the caller's thread (no I/O, no threads): the data set is read elsewhere and
-// handed to load(), its time line fed already or not (feed_time_line, on the reader's thread).
+// A state machine on the caller's thread (no threads): the data set is read elsewhere and handed to
+// load(), its time line fed already or not (feed_time_line, on the reader's thread). No I/O once the time
+// line is fed; before, a data set whose points are read on demand (RebuildSource::points) reads them.
 #pragma once
 
 #include <cstddef>
@@ -27,13 +28,17 @@ namespace teamscan::fusion {
 // data set, its time line and a fresh set of cores.
 struct RebuildSource {
   std::unique_ptr<Dataset> dataset;
+  // Where the time line reads the scans' points when the data set holds only its rows (null: from
+  // dataset->points). Feeding the time line then reads them: the station's loader feeds it whole.
+  std::unique_ptr<ScanPointsSource> points;
   std::unique_ptr<TimeLine> time_line;  // over *dataset
   std::unique_ptr<CoreSet> cores;
   std::size_t events_fed = 0;  // the time line's events the cores were fed already (feed_time_line)
   std::size_t scans_fed = 0;   // ... of which scans
 };
 [[nodiscard]] Result<RebuildSource> make_rebuild_source(Dataset dataset, const CoreOptions& primary,
-                                                        const std::vector<std::string>& compared);
+                                                        const std::vector<std::string>& compared,
+                                                        std::unique_ptr<ScanPointsSource> points = nullptr);
 // Feeds the source's cores its time line on from source.events_fed until `max_scans` scans were fed (0: to
 // its end) and returns how many. CoreRebuild::step() feeds it a slice at a time; the station's loader
 // feeds it whole on the thread that read the data set, the release callbacks set, so that step() only

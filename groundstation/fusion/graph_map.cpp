@@ -60,9 +60,9 @@ Result<std::unique_ptr<CoreSet>> cores_on_graph(const Dataset& dataset, const st
 }
 
 Result<RebuildSource> rebuild_source_on_graph(Dataset dataset, CoreOptions primary, const std::vector<std::string>& compared,
-                                              const std::vector<GraphScanPose>& graph) {
+                                              const std::vector<GraphScanPose>& graph, std::unique_ptr<ScanPointsSource> points) {
   primary.registration = false;
-  Result<RebuildSource> source = make_rebuild_source(std::move(dataset), with_graph_order(primary), compared);
+  Result<RebuildSource> source = make_rebuild_source(std::move(dataset), with_graph_order(primary), compared, std::move(points));
   if (!source) return source.error();
   const std::vector<std::optional<Pose2>> by_row = graph_poses_by_row(*source->dataset, graph);
   for (std::size_t i = 0; i < source->cores->size(); ++i)

@@ -56,6 +56,7 @@ namespace teamscan::fusion {
 // A rebuild in slices (core_rebuild.hpp) on the graph's poses: a new set of cores as cores_on_graph's,
 // given the poses (decide_with) and not yet fed: the station's live map following the graph's estimate.
 [[nodiscard]] Result<RebuildSource> rebuild_source_on_graph(Dataset dataset, CoreOptions primary, const std::vector<std::string>& compared,
-                                                            const std::vector<GraphScanPose>& graph);
+                                                            const std::vector<GraphScanPose>& graph,
+                                                            std::unique_ptr<ScanPointsSource> points = nullptr);
 
 }  // namespace teamscan::fusion

@@ -89,10 +89,11 @@ void feed_in_time_order(const Dataset& dataset, FusionCore& core, bool flush) {
   if (flush) core.flush();
 }
 
-Result<std::size_t> refeed_in_time_order(const Dataset& dataset, CoreSet& cores, const std::function<void(double)>& progress) {
+Result<std::size_t> refeed_in_time_order(const Dataset& dataset, CoreSet& cores, const std::function<void(double)>& progress,
+                                         ScanPointsSource* points) {
   for (std::size_t i = 0; i < cores.size(); ++i)
     if (Status st = cores.at(i).reset(); !st.ok()) return st.error();
-  const TimeLine time_line(dataset);
+  const TimeLine time_line(dataset, points);
   time_line.feed([&](PoseInput& p) { cores.add_pose(p); }, [&](ScanInput& s) { (void)cores.add_scan(s); }, progress);
   return time_line.records().size();
 }

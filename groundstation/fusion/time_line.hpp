@@ -83,7 +83,9 @@ void feed_in_time_order(const Dataset& dataset, FusionCore& core, bool flush = t
 // Every core of `cores` reset (FusionCore::reset) and fed the data set in time order, the newest scans
 // left held: the station's catch-up after a back-fill (station/fusion.hpp FusionStage::catch_up) and the
 // demo's replay of it. Returns the scans fed. `progress` (optional) as TimeLine::feed's.
+// `points` as TimeLine's.
 [[nodiscard]] Result<std::size_t> refeed_in_time_order(const Dataset& dataset, CoreSet& cores,
-                                                       const std::function<void(double)>& progress = {});
+                                                       const std::function<void(double)>& progress = {},
+                                                       ScanPointsSource* points = nullptr);
 
 }  // namespace teamscan::fusion

@@ -46,6 +46,7 @@
 #include "groundstation/station/latency_histogram.hpp"
 #include "groundstation/station/live_map.hpp"
 #include "groundstation/station/scan_record.hpp"
+#include "groundstation/station/session_replay.hpp"
 #include "groundstation/station/team_source.hpp"
 #include "groundstation/trajectory/tum.hpp"
 
@@ -292,11 +293,10 @@ class FusionStage {
   // A finished catch-up's leftovers (the live cores' and live map's old states, the session read): freed
   // on a thread of their own on writer_cpus, so no loop turn waits for them to be given back.
   void free_off_loop(std::unique_ptr<CatchUpRun> run);
-  // The session folder read back for a rebuild (a catch-up in slices under way dropped first); an error
-  // if it cannot be read or holds fewer scans than the cores took (not this station's folder).
-  [[nodiscard]] Result<Dataset> read_own_session();
-  // An error if the session read back holds fewer scans than the cores took.
-  [[nodiscard]] Status holds_every_scan_taken(const Dataset& session) const;
+  // The session folder read back for a rebuild (a catch-up in slices under way dropped first), its rows
+  // and where to read each scan's points as it is fed; an error if it cannot be read or holds fewer
+  // scans than the cores took (not this station's folder).
+  [[nodiscard]] Result<SessionIndex> read_own_session();
   void on_rebuilt_release(const fusion::FusedScan& scan);
   // Its part that only touches the catch-up's own state: the rebuilt map, its counters, its new graph
   // (the session's releases, on the loader thread: start_catch_up).

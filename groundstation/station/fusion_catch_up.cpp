@@ -101,15 +101,18 @@ void FusionStage::start_catch_up(std::int64_t realtime_ns, bool follow) {
       (void)set_current_thread_cpus(cpus);  // with the model writer, off the loop's CPUs (none: unchanged)
       set_current_thread_below_loop();
       SessionReadStats stats;
-      Result<Dataset> session = read_session_dataset(dir, stats, extent);
+      Result<SessionIndex> session = read_session_index(dir, stats, extent);
       if (!session) return session.error();
+      const SessionScanPoints& points = *session->points;
       Result<fusion::RebuildSource> source =
-          on_graph ? fusion::rebuild_source_on_graph(std::move(session.value()), core, compared, on_graph->poses)
-                   : fusion::make_rebuild_source(std::move(session.value()), core, compared);
+          on_graph ? fusion::rebuild_source_on_graph(std::move(session->dataset), core, compared, on_graph->poses, std::move(session->points))
+                   : fusion::make_rebuild_source(std::move(session->dataset), core, compared, std::move(session->points));
       if (!source) return source;
       if (source->dataset->scans.size() < r->scans_needed) return source;  // not fed: refused on the loop
       source->cores->primary().set_release_callback([r](const fusion::FusedScan& f) { add_rebuilt_release(*r, f); });
       fusion::feed_time_line(source.value());
+      if (points.failures() > 0)
+        return make_error("fusion: " + std::to_string(points.failures()) + " scans of the session folder no longer read back in the catch-up");
       return source;
     });
   } catch (const std::system_error&) {
@@ -227,27 +230,22 @@ void FusionStage::finish_catch_up() {
   if (on_catch_up_) on_catch_up_(counters_);
 }
 
-Result<Dataset> FusionStage::read_own_session() {
+Result<SessionIndex> FusionStage::read_own_session() {
   if (session_dir_.empty()) return Error{"fusion: no session folder to read back"};
   drop_catch_up();
   SessionReadStats stats;
-  Result<Dataset> session = read_session_dataset(session_dir_, stats);
+  Result<SessionIndex> session = read_session_index(session_dir_, stats);
   if (!session) return session.error();
-  if (Status st = holds_every_scan_taken(*session); !st.ok()) return st.error();
-  return session;
-}
-
-// Storage comes first, so the folder holds every scan the core took; if not (not this station's
-// folder), the cores stay as they are.
-Status FusionStage::holds_every_scan_taken(const Dataset& session) const {
-  if (session.scans.size() < core().counters().scans_released + core().held_scans())
+  // Storage comes first, so the folder holds every scan the core took; if not (not this station's
+  // folder), the cores stay as they are.
+  if (session->dataset.scans.size() < core().counters().scans_released + core().held_scans())
     return Error{"fusion: the session folder holds fewer scans than the fusion core took"};
-  return ok_status();
+  return session;
 }
 
 Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(double)>& progress) {
   const Time started = now_monotonic();
-  Result<Dataset> session = read_own_session();
+  Result<SessionIndex> session = read_own_session();
   if (!session) return with_context("fusion: no catch-up", session.error());
   writer_->wait();  // a snapshot in progress reads the cores
   map_ = LiveMap{options_.map_resolution_m};
@@ -257,9 +255,11 @@ Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(
     followed_version_ = 0;
   }
   catching_up_ = true;
-  const Result<std::size_t> fed = fusion::refeed_in_time_order(session.value(), *cores_, progress);
+  const Result<std::size_t> fed = fusion::refeed_in_time_order(session->dataset, *cores_, progress, session->points.get());
   catching_up_ = false;
   if (!fed) return fed.error();
+  if (const std::uint64_t unread = session->points->failures(); unread > 0)
+    return make_error("fusion: " + std::to_string(unread) + " scans of the session folder no longer read back in the catch-up");
   cores_->resume_at(realtime_ns);
   resume_ = false;
   released_before_.clear();
@@ -278,14 +278,8 @@ Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(
 Status FusionStage::rebuild_on_graph(const std::function<void(double)>& progress) {
   if (!graph_) return ok_status();
   const Time started = now_monotonic();
-  if (session_dir_.empty()) return Error{"fusion: no session folder to read back"};
-  drop_catch_up();
-  // The session's rows alone; each scan's points read back from scans.bin as it is fed, so a long
-  // mission's shutdown holds its rows, not every point it stored.
-  SessionReadStats stats;
-  Result<SessionIndex> session = read_session_index(session_dir_, stats);
+  Result<SessionIndex> session = read_own_session();
   if (!session) return session.error();
-  if (Status st = holds_every_scan_taken(session->dataset); !st.ok()) return st;
   LiveMap map{options_.map_resolution_m};
   std::uint64_t scans = 0, points = 0, removed = 0;
   Result<std::unique_ptr<fusion::CoreSet>> rebuilt = fusion::cores_on_graph(
