@@ -30,6 +30,25 @@ void parallel_for(std::size_t n, int threads, const F& f) {
   for (std::thread& t : pool) t.join();
 }
 
+// A node's returns as kept for the second search: in single precision, and with `thin_m` > 0 the first
+// of them in each square of that size, in their order.
+std::vector<std::array<float, 2>> kept_returns(const std::vector<Vec2>& points, double thin_m) {
+  std::vector<std::size_t> keep(points.size());
+  for (std::size_t i = 0; i < keep.size(); ++i) keep[i] = i;
+  if (thin_m > 0.0) {
+    const auto square = [&](std::size_t i) {
+      return std::pair{static_cast<std::int64_t>(std::floor(points[i].x / thin_m)), static_cast<std::int64_t>(std::floor(points[i].y / thin_m))};
+    };
+    std::stable_sort(keep.begin(), keep.end(), [&](std::size_t a, std::size_t b) { return square(a) < square(b); });
+    keep.erase(std::unique(keep.begin(), keep.end(), [&](std::size_t a, std::size_t b) { return square(a) == square(b); }), keep.end());
+    std::sort(keep.begin(), keep.end());
+  }
+  std::vector<std::array<float, 2>> out;
+  out.reserve(keep.size());
+  for (std::size_t i : keep) out.push_back({static_cast<float>(points[i].x), static_cast<float>(points[i].y)});
+  return out;
+}
+
 }  // namespace
 
 struct PlanarSlam::Submap {
@@ -139,7 +158,7 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
   node_points_.emplace_back();
   if (!still && options_.rematch_submaps > 0 && options_.rematch_every_n_nodes > 0 && points.size() >= 20 &&
       robot_node % static_cast<std::size_t>(options_.rematch_every_n_nodes) == 0 && keep_returns(node))
-    node_points_.back() = points;
+    node_points_.back() = kept_returns(points, options_.rematch_thin_m);
   insert(r, node, local, points);
   if (options_.optimize_every_n_nodes > 0 && (node + 1) % static_cast<std::size_t>(options_.optimize_every_n_nodes) == 0) {
     graph_.optimize();
@@ -314,7 +333,9 @@ void PlanarSlam::rematch() {
   std::vector<std::vector<Constraint>> found(kept.size());
   parallel_for(kept.size(), options_.threads, [&](std::size_t k) {
     const std::size_t node = kept[k];
-    const std::vector<Vec2>& points = node_points_[node];
+    std::vector<Vec2> points;
+    points.reserve(node_points_[node].size());
+    for (const auto& [x, y] : node_points_[node]) points.push_back({x, y});
     const Pose2& global = graph_.nodes()[node];
     std::vector<std::pair<double, std::size_t>> near;
     for (std::size_t i = 0; i < submaps_.size(); ++i) {
@@ -363,7 +384,7 @@ std::vector<Pose2> PlanarSlam::estimate() const {
 SlamStats PlanarSlam::stats() const {
   std::size_t bytes = 0;
   for (const auto& m : submaps_) bytes += m->grid.values().capacity() * sizeof(float) + (m->matcher ? m->matcher->memory_bytes() : 0);
-  for (const auto& p : node_points_) bytes += p.capacity() * sizeof(Vec2);
+  for (const auto& p : node_points_) bytes += p.capacity() * sizeof(p[0]);
   SlamStats out{graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_, rematches_,
                   retired_, kept_returns_, still_, bytes, {}};
   if (options_.graph.calibrate_odometry || options_.graph.calibrate_local_links) {

@@ -9,6 +9,7 @@
 // fixed order, so the scans in the order given give the same poses to the bit, whatever the threads did.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -89,6 +90,10 @@ struct SlamOptions {
   // node's pose in the graph when it was added). 0: no limit.
   int rematch_nodes_per_cell = 64;
   double rematch_cell_m = 1.0;
+  // The kept returns thinned to the first one in each square of this size in the node's frame (0: all
+  // kept): a tilted laser's node holds thousands of wall returns, many in one grid cell, and a search
+  // scores a cell once as well as many times.
+  double rematch_thin_m = 0.03;
   // Threads for the loop-closure searches and refinements (the caller's among them). Their results
   // join the graph in a fixed order, so the poses are the same to the bit whatever this is.
   int threads = 2;
@@ -183,7 +188,9 @@ class PlanarSlam {
   std::vector<Pose2> node_local_;
   std::vector<std::uint8_t> node_robot_;
   std::vector<double> node_driven_m_;  // each node's robot's driven distance at it
-  std::vector<std::vector<Vec2>> node_points_;  // the searched nodes' returns (empty for the others), for rematch()
+  // The kept nodes' returns (empty for the others), for rematch(): single precision, thinned to one a
+  // rematch_thin_m square (kept_returns()).
+  std::vector<std::vector<std::array<float, 2>>> node_points_;
   std::map<std::pair<std::int64_t, std::int64_t>, int> kept_per_cell_;  // rematch_cell_m squares -> nodes kept there
   std::size_t retired_ = 0, kept_returns_ = 0;
   std::size_t searches_ = 0, tracked_ = 0, rematches_ = 0, still_ = 0;

@@ -18,12 +18,13 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// A level laser's returns (181 beams over 180°, robot frame) in an 8 m × 6 m room, from `pose`.
-std::vector<Vec2> scan_of_room(const Pose2& pose) {
+// A level laser's returns (`per_degree` beams a degree over 180°, robot frame) in an 8 m × 6 m room,
+// from `pose`.
+std::vector<Vec2> scan_of_room(const Pose2& pose, int per_degree = 1) {
   constexpr double kWidth = 8.0, kHeight = 6.0;
   std::vector<Vec2> out;
-  for (int b = 0; b <= 180; ++b) {
-    const double local = (b - 90) * kPi / 180.0, a = pose.theta_rad + local;
+  for (int b = 0; b <= 180 * per_degree; ++b) {
+    const double local = (b - 90.0 * per_degree) * kPi / (180.0 * per_degree), a = pose.theta_rad + local;
     const double dx = std::cos(a), dy = std::sin(a);
     double t = 1e9;
     if (dx > 1e-9) t = std::min(t, (kWidth - pose.x_m) / dx);
@@ -42,7 +43,7 @@ struct Drive {
 };
 
 // `laps` of a 1.5 m circle about the room's centre, 5 cm a scan, odometry drifting 0.2° per metre.
-Drive drive(int laps, const SlamOptions& options) {
+Drive drive(int laps, const SlamOptions& options, int beams_per_degree = 1) {
   PlanarSlam slam(options);
   constexpr double kRadius = 1.5, kStep = 0.05;
   const int per_lap = static_cast<int>(2.0 * kPi * kRadius / kStep);
@@ -55,7 +56,7 @@ Drive drive(int laps, const SlamOptions& options) {
     const double drift = 0.2 * kPi / 180.0 * travelled;
     const Pose2 odometry = Pose2{0.0, 0.0, drift} * t;  // the odometry's frame turns slowly away
     truth.push_back(t);
-    nodes.push_back(slam.add_scan(1, odometry, scan_of_room(t)));
+    nodes.push_back(slam.add_scan(1, odometry, scan_of_room(t, beams_per_degree)));
   }
   slam.finish();
   Drive r;
@@ -93,6 +94,25 @@ TEST(SlamBounded, APlaceMappedAgainAndAgainKeepsItsMemory) {
   // The map is as good: every pose within 5 cm of the truth, as without the bound.
   EXPECT_LT(u12.worst_m, 0.05);
   EXPECT_LT(b12.worst_m, 0.05);
+}
+
+// The second search's returns are kept thinned to one a grid cell (SlamOptions::rematch_thin_m): a laser
+// ten times as dense (a beam every 0.1°, as a tilted laser's node gathers thousands of wall returns)
+// keeps a fraction of the bytes it would, and its poses are as good.
+TEST(SlamBounded, DenseReturnsAreKeptThinnedToOneACell) {
+  SlamOptions all;
+  all.rematch_thin_m = 0.0;
+  const SlamOptions thinned;  // the defaults
+  const Drive a = drive(3, all, 10), t = drive(3, thinned, 10);
+  ASSERT_EQ(a.stats.kept_returns, t.stats.kept_returns);
+  ASSERT_GT(a.stats.kept_returns, 0u);
+  EXPECT_EQ(a.stats.submaps, t.stats.submaps);
+  // All of them take 1 801 returns × 8 bytes a kept node; thinned, less than half of that is left.
+  const std::size_t all_returns_bytes = a.stats.kept_returns * 1801 * 2 * sizeof(float);
+  ASSERT_LT(t.stats.memory_bytes, a.stats.memory_bytes);
+  EXPECT_GT(a.stats.memory_bytes - t.stats.memory_bytes, all_returns_bytes / 2);
+  EXPECT_LT(t.worst_m, 0.05);
+  EXPECT_LT(a.worst_m, 0.05);
 }
 
 // A robot's calibration (SlamOptions::calibration_loop_m) stays at none until one of its nodes closes on
