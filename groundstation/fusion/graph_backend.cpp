@@ -12,7 +12,10 @@
 namespace teamscan::fusion {
 
 GraphBackend::GraphBackend(GraphBackendOptions options)
-    : options_(std::move(options)), open_(static_cast<std::size_t>(kMaxRobots) + 1), thread_([this] { run(); }) {}
+    : options_(std::move(options)),
+      open_(static_cast<std::size_t>(kMaxRobots) + 1),
+      scans_taken_(static_cast<std::size_t>(kMaxRobots) + 1),
+      thread_([this] { run(); }) {}
 
 GraphBackend::~GraphBackend() {
   {
@@ -27,18 +30,19 @@ void GraphBackend::add(const FusedScan& released, const Pose2* odom_from_robot) 
   if (finishing_ || released.view == nullptr) return;
   const mapping::ScanView& v = *released.view;
   if (v.robot > kMaxRobots) return;
-  Open& o = open_[v.robot];
+  auto& taken = scans_taken_[v.robot];
   const std::pair<std::int64_t, std::uint32_t> key{v.stamp_ns, v.scan};
-  if (o.taken.empty() || o.taken.back() < key) {
-    o.taken.push_back(key);
+  if (taken.empty() || taken.back() < key) {
+    taken.push_back(key);
   } else {
-    const auto at = std::lower_bound(o.taken.begin(), o.taken.end(), key);
-    if (at != o.taken.end() && *at == key) {
+    const auto at = std::lower_bound(taken.begin(), taken.end(), key);
+    if (at != taken.end() && *at == key) {
       ++counters_.repeated_scans;
       return;
     }
-    o.taken.insert(at, key);
+    taken.insert(at, key);
   }
+  Open& o = open_[v.robot];
   if (!o.tilted && v.points.size() >= 2) o.tilted = !level_scan(v);
   const bool tilted = o.tilted.value_or(false);
   // A level laser's scan is a node; a tilted laser's node closes when its robot's next scan is

@@ -157,9 +157,6 @@ class GraphBackend {
     std::optional<bool> tilted;            // the robot's laser, from its first scan with points
     std::vector<Vec2> odom_returns;        // gathered so far, in the odometry's frame
     std::vector<NodeScan> scans;
-    // The (stamp, scan number) of every scan of this robot taken, ascending: a scan released again
-    // (a rebuilt core's) is found here. Releases come in stamp order, so it grows at its end.
-    std::vector<std::pair<std::int64_t, std::uint32_t>> taken;
   };
   void close(std::uint8_t robot);
   void run();
@@ -171,7 +168,10 @@ class GraphBackend {
   GraphBackendOptions options_;
   GraphBackendCounters counters_;
   std::vector<Open> open_;  // per robot id
-  std::vector<std::uint8_t> taken_;
+  // Per robot id, the (stamp, scan number) of every scan taken, ascending: a scan released again (a
+  // rebuilt core's) is found here. Releases come in stamp order, so each grows at its end.
+  std::vector<std::vector<std::pair<std::int64_t, std::uint32_t>>> scans_taken_;
+  std::vector<std::uint8_t> taken_;  // the returns take_planar_returns took of the scan at hand
   bool finishing_ = false;
   std::chrono::steady_clock::time_point first_scan_, done_at_;
 

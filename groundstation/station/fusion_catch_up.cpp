@@ -27,6 +27,12 @@ namespace {
 // The inputs a core took after it had decided past their stamps: back-filled scans and poses.
 std::uint64_t late_inputs(const fusion::CoreCounters& c) { return c.scans_late + c.poses_late; }
 
+// A rebuild whose session folder changed under it: some scans' records, read when the folder was
+// indexed, no longer read back when they were fed (SessionScanPoints).
+Error unread_scans(std::uint64_t unread, const char* rebuild) {
+  return make_error("fusion: " + std::to_string(unread) + " scans of the session folder no longer read back in the " + rebuild);
+}
+
 }  // namespace
 
 std::uint64_t FusionStage::late_since_catch_up() const {
@@ -112,7 +118,7 @@ void FusionStage::start_catch_up(std::int64_t realtime_ns, bool follow) {
       source->cores->primary().set_release_callback([r](const fusion::FusedScan& f) { add_rebuilt_release(*r, f); });
       fusion::feed_time_line(source.value());
       if (points.failures() > 0)
-        return make_error("fusion: " + std::to_string(points.failures()) + " scans of the session folder no longer read back in the catch-up");
+        return unread_scans(points.failures(), "catch-up");
       return source;
     });
   } catch (const std::system_error&) {
@@ -259,7 +265,7 @@ Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(
   catching_up_ = false;
   if (!fed) return fed.error();
   if (const std::uint64_t unread = session->points->failures(); unread > 0)
-    return make_error("fusion: " + std::to_string(unread) + " scans of the session folder no longer read back in the catch-up");
+    return unread_scans(unread, "catch-up");
   cores_->resume_at(realtime_ns);
   resume_ = false;
   released_before_.clear();
@@ -293,7 +299,7 @@ Status FusionStage::rebuild_on_graph(const std::function<void(double)>& progress
       progress, session->points.get());
   if (!rebuilt) return rebuilt.error();
   if (const std::uint64_t unread = session->points->failures(); unread > 0)
-    return make_error("fusion: " + std::to_string(unread) + " scans of the session folder no longer read back; the model stays as it was");
+    return with_context("fusion: the model stays as it was", unread_scans(unread, "final model's rebuild on the graph"));
   writer_->wait();  // a snapshot in progress reads the cores
   cores_->take_state(*rebuilt.value());
   map_ = std::move(map);
