@@ -17,6 +17,27 @@ namespace teamscan::station::daemon {
 
 namespace {
 
+// The last map the pages (and Foxglove clients) of the view get, logged: the loop's last publication
+// with the state at its release, or (`again`, once the station left DDS: its robots' records are gone,
+// so no new state) the live map as it stands now, the whole of it (the final model on the pose graph's
+// poses: the same release, the same scans, placed by the graph).
+void publish_final_map(Daemon& d, bool again) {
+  if (!d.fusion) return;
+  FusionStage& fusion = *d.fusion;
+  if (again && d.view_feeder) {
+    fusion.map_voxels(d.map_voxels, &d.map_robots);
+    fusion.clear_map_changes();
+    d.view_feeder->offer_map(d.map_voxels, d.map_robots, true, fusion.map_total_voxels(), fusion.map_release());
+  }
+  d.store->log_event(now_realtime(), "live map: last published at release " + std::to_string(fusion.map_release()) + " (" +
+                                         std::to_string(fusion.map_total_voxels()) + " voxels); the core released " +
+                                         std::to_string(fusion.core().counters().scans_released) + " scans" +
+                                         (!again ? "" : fusion.counters().graph_rebuilds > 0 ? " (the final model on the pose graph's poses)"
+                                                                                              : " (the live map at the stop)"));
+  if (d.view_feeder && !again) d.view_feeder->offer_snapshot();  // the state with the final map's release
+  if (d.view_server && !d.view_server->flush(std::chrono::seconds(2))) log(kWarning, "view: the last map did not reach every page in 2 s");
+}
+
 volatile std::sig_atomic_t g_stop = 0;
 void on_stop_signal(int) { g_stop = 1; }
 
@@ -214,17 +235,9 @@ std::optional<int> run_until_stopped(const GroundStationConfig& cfg, Daemon& d) 
   RunLoop loop{cfg, d, ping_period};
   loop.run();
   dds::notify_stopping();
-  if (d.fusion) {
-    const std::string release = std::to_string(d.fusion->map_release());
-    const std::string voxels = std::to_string(d.fusion->map_total_voxels());
-    const std::string released = std::to_string(d.fusion->core().counters().scans_released);
-    d.store->log_event(now_realtime(), "live map: last published at release " + release + " (" + voxels +
-                                           " voxels); the core released " + released + " scans");
-  }
-  if (d.view_feeder) d.view_feeder->offer_snapshot();  // the state with the final map's release
-  if (d.view_server && !d.view_server->flush(std::chrono::seconds(2))) {
-    log(kWarning, "view: the last map did not reach every page in 2 s");
-  }
+  // Without the pose graph the loop's last turn published the final map; with it, the view stays up
+  // until the final model on the graph's poses is published to it (stop_daemon).
+  if (!(d.fusion && d.fusion->graph())) publish_final_map(d, false);
   loop.log_figures();
   return std::nullopt;
 }
@@ -305,10 +318,6 @@ void stop_daemon(Daemon& d) {
     log_ros2_figures(d);
     d.ros2.reset();
   }
-  if (d.view_server) {
-    d.store->log_event(now_realtime(), d.view_server->counters().line());
-    d.view_server.reset();  // its thread stops before the station's state goes
-  }
   log(kInfo, "stopping: " + d.station->status_line());
   (void)d.station->write_validation();
   d.store->log_event(now_realtime(), "station stopping: " + d.station->status_line());
@@ -317,6 +326,13 @@ void stop_daemon(Daemon& d) {
   log_disk_sync_figures(d);
   d.store->sync();  // the session is complete on disk before the final model write
   if (d.fusion) finish_fusion(d);
+  // With the pose graph, what the view shows last is the final model on its poses (or, if that could
+  // not be made, the live map as it stood): one output path to the end.
+  if (d.fusion && d.fusion->graph()) publish_final_map(d, true);
+  if (d.view_server) {
+    d.store->log_event(now_realtime(), d.view_server->counters().line());
+    d.view_server.reset();  // its thread stops before the station's state goes
+  }
 }
 
 }  // namespace teamscan::station::daemon

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <unordered_set>
 
 namespace teamscan::view {
 namespace {
@@ -95,6 +96,14 @@ void ViewHub::apply(const FeedBatch& batch, std::vector<SharedMessage>& out) {
   // the fused model, never from the points as received.
   counters_.tap_scans += batch.scan_count;
   if (batch.voxels_are_full_map) ++counters_.whole_maps;
+  // A whole map that leaves out voxels the pages hold (the station's map decided again: a catch-up, the
+  // final model on the pose graph's poses) replaces theirs: the pages clear and take it whole.
+  const bool replaces = batch.voxels_are_full_map && drops_voxels(batch.voxels);
+  if (replaces) {
+    voxels_.clear();
+    in_map_ = 0;
+    ++counters_.replacing_maps;
+  }
   changed_scratch_.clear();
   for (const VoxelUpdate& u : batch.voxels) {
     WireVoxel& v = voxels_[key_of(u.x_mm, u.y_mm, u.z_mm)];
@@ -130,7 +139,16 @@ void ViewHub::apply(const FeedBatch& batch, std::vector<SharedMessage>& out) {
     }
   }
 
-  if (!changed_scratch_.empty()) {
+  if (replaces) {
+    VoxelMessage m;
+    m.kind = VoxelKind::kWholeMap;
+    m.seq = static_cast<std::uint32_t>(seq_);
+    m.resolution_mm = options_.map_resolution_mm;
+    m.total_voxels = static_cast<std::uint32_t>(in_map_);
+    for (const auto& [key, v] : voxels_)
+      if (v.hits != 0) m.voxels.push_back(v);
+    out.push_back(make_message(true, encode_voxels(m)));
+  } else if (!changed_scratch_.empty()) {
     VoxelMessage m;
     m.kind = VoxelKind::kChanged;
     m.seq = static_cast<std::uint32_t>(seq_);
@@ -150,6 +168,16 @@ void ViewHub::apply(const FeedBatch& batch, std::vector<SharedMessage>& out) {
       t.resend = false;
     }
   }
+}
+
+bool ViewHub::drops_voxels(std::span<const VoxelUpdate> whole) const {
+  std::unordered_set<std::uint64_t> keys;
+  keys.reserve(whole.size());
+  for (const VoxelUpdate& u : whole)
+    if (u.hits != 0) keys.insert(key_of(u.x_mm, u.y_mm, u.z_mm));
+  for (const auto& [key, v] : voxels_)
+    if (v.hits != 0 && !keys.contains(key)) return true;
+  return false;
 }
 
 void ViewHub::whole(std::vector<SharedMessage>& out) const {

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <deque>
 #include <optional>
+#include <span>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -32,6 +33,7 @@ struct HubCounters {
   std::uint64_t states = 0;
   std::uint64_t voxels_changed = 0;
   std::uint64_t whole_maps = 0;  // whole maps taken from the station (after a feed overflow)
+  std::uint64_t replacing_maps = 0;  // ... of which left out voxels held (the map decided again): sent whole
   std::uint64_t tap_scans = 0;
 };
 
@@ -72,6 +74,8 @@ class ViewHub {
     std::int64_t rate_stamp_ns = 0;
   };
   [[nodiscard]] std::uint64_t key_of(std::int32_t x_mm, std::int32_t y_mm, std::int32_t z_mm) const;
+  // True if a voxel in the map is not in `whole` (a whole map from the station).
+  [[nodiscard]] bool drops_voxels(std::span<const VoxelUpdate> whole) const;
   void add_track_point(RobotExtra& r, double x_m, double y_m);
   [[nodiscard]] std::vector<RobotView> robot_views(bool whole_tracks) const;
   [[nodiscard]] StateHeader header(bool whole) const;

@@ -93,6 +93,39 @@ TEST(ViewHub, WholeMapHasEveryVoxelOnceWithItsNewestValues) {
   EXPECT_TRUE(states(whole).empty());  // no snapshot yet: no state
 }
 
+// A whole map from the station that leaves out a voxel the pages hold (the map decided again: the final
+// model on the pose graph's poses) goes out whole, so a page clears and holds exactly it; a whole map
+// that holds every voxel (the periodic one) goes out as its changes.
+TEST(ViewHub, AWholeMapThatDropsVoxelsReplacesThePagesMap) {
+  ViewHub hub({.map_resolution_mm = 100});
+  std::vector<SharedMessage> out;
+  hub.apply(batch_with({}, {{50, 50, 50, 1, 0, 1}, {150, 50, 50, 1, 0, 1}}), out);
+  FeedBatch periodic = batch_with({}, {{50, 50, 50, 2, 0, 1}, {150, 50, 50, 1, 0, 1}});
+  periodic.voxels_are_full_map = true;
+  out.clear();
+  hub.apply(periodic, out);
+  auto msgs = voxel_messages(out);
+  ASSERT_EQ(msgs.size(), 1u);
+  EXPECT_EQ(msgs[0].kind, VoxelKind::kChanged);
+  EXPECT_EQ(hub.counters().replacing_maps, 0u);
+
+  FeedBatch decided_again = batch_with({}, {{150, 50, 50, 3, 1, 2}, {250, 50, 50, 1, 0, 2}});
+  decided_again.voxels_are_full_map = true;
+  out.clear();
+  hub.apply(decided_again, out);
+  msgs = voxel_messages(out);
+  ASSERT_EQ(msgs.size(), 1u);
+  EXPECT_EQ(msgs[0].kind, VoxelKind::kWholeMap);
+  EXPECT_EQ(msgs[0].total_voxels, 2u);
+  ASSERT_EQ(msgs[0].voxels.size(), 2u);
+  for (const WireVoxel& v : msgs[0].voxels) EXPECT_NE(v.x_mm, 50) << "the voxel the map no longer holds";
+  EXPECT_EQ(hub.map_voxels(), 2u);
+  EXPECT_EQ(hub.counters().replacing_maps, 1u);
+  std::vector<SharedMessage> whole;
+  hub.whole(whole);  // a page that connects now gets the same two
+  EXPECT_EQ(voxel_messages(whole).at(0).voxels.size(), 2u);
+}
+
 TEST(ViewHub, StatesCarryTrackTailsAndTheWholeStateCarriesWholeTracks) {
   ViewHub hub({.map_resolution_mm = 100, .track_step_mm = 20});
   std::vector<SharedMessage> out;
