@@ -17,10 +17,9 @@ namespace teamscan::station::daemon {
 
 namespace {
 
-// The last map the pages (and Foxglove clients) of the view get, logged: the loop's last publication
-// with the state at its release, or (`again`, once the station left DDS: its robots' records are gone,
-// so no new state) the live map as it stands now, the whole of it (the final model on the pose graph's
-// poses: the same release, the same scans, placed by the graph).
+// The last map the view's pages get, logged and flushed to them: the loop's last publication, or
+// (`again`, after the station left DDS) the live map as it stands now, the whole of it: the final model
+// on the pose graph's poses (the same release, the same scans, placed by the graph).
 void publish_final_map(Daemon& d, bool again) {
   if (!d.fusion) return;
   FusionStage& fusion = *d.fusion;
@@ -34,7 +33,6 @@ void publish_final_map(Daemon& d, bool again) {
                                          std::to_string(fusion.core().counters().scans_released) + " scans" +
                                          (!again ? "" : fusion.counters().graph_rebuilds > 0 ? " (the final model on the pose graph's poses)"
                                                                                               : " (the live map at the stop)"));
-  if (d.view_feeder && !again) d.view_feeder->offer_snapshot();  // the state with the final map's release
   if (d.view_server && !d.view_server->flush(std::chrono::seconds(2))) log(kWarning, "view: the last map did not reach every page in 2 s");
 }
 
@@ -235,6 +233,7 @@ std::optional<int> run_until_stopped(const GroundStationConfig& cfg, Daemon& d) 
   RunLoop loop{cfg, d, ping_period};
   loop.run();
   dds::notify_stopping();
+  if (d.view_feeder) d.view_feeder->offer_snapshot();  // the state with the final map's release (the robots' records still here)
   // Without the pose graph the loop's last turn published the final map; with it, the view stays up
   // until the final model on the graph's poses is published to it (stop_daemon).
   if (!(d.fusion && d.fusion->graph())) publish_final_map(d, false);
