@@ -1,6 +1,6 @@
 // The pose graph's back end holds, for each scan it took, only what places that scan (NodeScan) and
 // its share of the graph: the returns it handed the graph are freed, so a robot that drives the same
-// circle lap after lap costs about a kilobyte a scan, not its returns' kilobytes besides. Measured on
+// circle lap after lap costs, per scan, that much and not its returns besides. Measured on
 // the process's heap (glibc's mallinfo2: every arena, in use, the graph's thread's included), in its
 // own binary so that nothing else allocates meanwhile.
 #include <gtest/gtest.h>
@@ -95,8 +95,8 @@ TEST(GraphBackendMemory, EachLapMoreCostsTheScansPlacesNotTheirReturns) {
   constexpr double kReturnsBytes = kBeams * sizeof(Vec2);
   std::printf("the second four laps: %.0f bytes a scan more held (a scan's returns: %.0f bytes)\n", per_scan, kReturnsBytes);
   // Its place (NodeScan), its final pose, its entry among the scans taken, its graph node and
-  // constraints (two insertions, the odometry's link, its closures): about a kilobyte with the vectors'
-  // room to grow. Keeping its returns would add their 5.8 kB.
+  // constraints (two insertions, the odometry's link, its closures), with the vectors' room to grow.
+  // Keeping its returns would add kBeams × 16 bytes.
   EXPECT_LT(per_scan, kReturnsBytes / 3);
 }
 
