@@ -111,7 +111,7 @@ void FoxgloveChannels::emit(std::uint32_t channel, std::uint64_t stamp_ns, std::
 }
 
 void FoxgloveChannels::apply(const FeedBatch& batch, const ViewHub& hub, std::int64_t now_ns,
-                             std::vector<ChannelMessage>& out, std::vector<Channel>& added) {
+                             std::vector<ChannelMessage>& out, std::vector<Channel>& added, bool final_map) {
   if (batch.snapshot) robot_messages(*batch.snapshot, out, added);
   ros2::PointCloudMessage cloud;
   std::vector<ros2::CloudPoint> points;
@@ -128,7 +128,7 @@ void FoxgloveChannels::apply(const FeedBatch& batch, const ViewHub& hub, std::in
     emit(robots_[s.robot_id].scan, static_cast<std::uint64_t>(now_ns),
          ros2::cdr_bytes(sensor_msgs_msg_dds__PointCloud2__desc, &cloud.msg()), out);
   }
-  map_message(hub, now_ns, out);
+  map_message(hub, now_ns, out, final_map);
 }
 
 void FoxgloveChannels::robot_messages(const TeamSnapshot& t, std::vector<ChannelMessage>& out,
@@ -166,9 +166,9 @@ void FoxgloveChannels::robot_messages(const TeamSnapshot& t, std::vector<Channel
   emit(kRobotsChannel, stamp, robots_json(t), out);
 }
 
-void FoxgloveChannels::map_message(const ViewHub& hub, std::int64_t now_ns, std::vector<ChannelMessage>& out) {
+void FoxgloveChannels::map_message(const ViewHub& hub, std::int64_t now_ns, std::vector<ChannelMessage>& out, bool final_map) {
   const std::uint64_t changes = hub.counters().voxels_changed + hub.counters().whole_maps;
-  if (now_ns < next_map_ns_ || changes == map_changes_seen_ || hub.map_voxels() == 0) return;
+  if ((now_ns < next_map_ns_ && !final_map) || changes == map_changes_seen_ || hub.map_voxels() == 0) return;
   map_changes_seen_ = changes;
   next_map_ns_ = now_ns + options_.map_interval_ns;
   std::vector<ros2::CloudPoint> points;

@@ -46,8 +46,9 @@ class FoxgloveChannels {
 
   // After the hub applied `batch`: appends this batch's messages to `out` and the channels it added
   // (robots seen for the first time) to `added`. `now_ns`: CLOCK_REALTIME, the scans' and map's stamp.
+  // `final_map`: the map goes out if it changed, whatever its interval (the station's last map).
   void apply(const FeedBatch& batch, const ViewHub& hub, std::int64_t now_ns, std::vector<ChannelMessage>& out,
-             std::vector<Channel>& added);
+             std::vector<Channel>& added, bool final_map = false);
 
   [[nodiscard]] const std::vector<Channel>& channels() const { return channels_; }
   [[nodiscard]] bool has_channel(std::uint32_t id) const { return id >= 1 && id <= channels_.size(); }
@@ -67,7 +68,7 @@ class FoxgloveChannels {
   std::uint32_t add_channel(std::string topic, const char* type_name);
   void emit(std::uint32_t channel, std::uint64_t stamp_ns, std::string payload, std::vector<ChannelMessage>& out);
   void robot_messages(const TeamSnapshot& snapshot, std::vector<ChannelMessage>& out, std::vector<Channel>& added);
-  void map_message(const ViewHub& hub, std::int64_t now_ns, std::vector<ChannelMessage>& out);
+  void map_message(const ViewHub& hub, std::int64_t now_ns, std::vector<ChannelMessage>& out, bool final_map);
 
   ChannelOptions options_;
   std::vector<Channel> channels_;        // id i at [i - 1]

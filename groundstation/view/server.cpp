@@ -71,7 +71,8 @@ struct ViewServer::Impl {
   Impl(const ServerOptions& o, ViewFeed& f) : options{o}, feed{f}, hub{o.hub}, fox{o.foxglove} {}
   void accept();
   void schedule_tick();
-  void tick();
+  // `final_map`: the station's last map, which the Foxglove map channel sends whatever its interval.
+  void tick(bool final_map = false);
   [[nodiscard]] bool clients_sent_all() const;
   void remove_client(const WsSession* s);
   void remove_fox_client(const FoxgloveSession* s);
@@ -525,7 +526,7 @@ void ViewServer::Impl::schedule_tick() {
   });
 }
 
-void ViewServer::Impl::tick() {
+void ViewServer::Impl::tick(bool final_map) {
   feed.drain(batch);
   if (batch.scan_count != 0 || !batch.voxels.empty() || batch.snapshot) {
     outgoing.clear();
@@ -536,7 +537,7 @@ void ViewServer::Impl::tick() {
   }
   fox_out.clear();
   fox_added.clear();
-  fox.apply(batch, hub, now_realtime().ns(), fox_out, fox_added);
+  fox.apply(batch, hub, now_realtime().ns(), fox_out, fox_added, final_map);
   for (const std::shared_ptr<FoxgloveSession>& c : fox_clients) {
     if (!fox_added.empty()) c->advertise(fox_added);
     for (const foxglove::ChannelMessage& m : fox_out) c->deliver(m);
@@ -555,7 +556,8 @@ void ViewServer::Impl::tick() {
 }
 
 bool ViewServer::Impl::clients_sent_all() const {
-  return std::all_of(clients.begin(), clients.end(), [](const std::shared_ptr<WsSession>& c) { return c->sent_all(); });
+  return std::all_of(clients.begin(), clients.end(), [](const std::shared_ptr<WsSession>& c) { return c->sent_all(); }) &&
+         std::all_of(fox_clients.begin(), fox_clients.end(), [](const std::shared_ptr<FoxgloveSession>& c) { return c->sent_all(); });
 }
 
 void ViewServer::Impl::remove_client(const WsSession* s) {
@@ -601,7 +603,7 @@ bool ViewServer::flush(Duration timeout) {
   auto watch = std::make_shared<FlushWatch>(*impl_, std::chrono::steady_clock::now() + timeout);
   std::future<bool> sent = watch->done.get_future();
   net::post(impl_->ioc, [watch] {
-    watch->srv.tick();
+    watch->srv.tick(true);
     watch->check();
   });
   if (sent.wait_for(timeout + std::chrono::seconds(1)) != std::future_status::ready) return false;

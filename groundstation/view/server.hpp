@@ -46,9 +46,10 @@ class ViewServer {
   ViewServer(const ViewServer&) = delete;
   ViewServer& operator=(const ViewServer&) = delete;
 
-  // Drains the feed now and waits, at most `timeout`, until every page client's queue is written to its
-  // socket: the station's last offers (its final map and state at shutdown) reach the open pages before
-  // the server stops. False on the timeout.
+  // Drains the feed now (the Foxglove map channel's map sent whatever its interval) and waits, at most
+  // `timeout`, until every page's and Foxglove client's queue is written to its socket: the station's
+  // last offers (its final map and state at shutdown) reach the open clients before the server stops.
+  // False on the timeout.
   [[nodiscard]] bool flush(Duration timeout);
 
   [[nodiscard]] std::uint16_t port() const;

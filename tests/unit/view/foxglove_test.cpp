@@ -214,5 +214,37 @@ TEST(FoxgloveChannels, MapIsTheKeptVoxelsAtMostEveryInterval) {
   EXPECT_NE(ch.latest(FoxgloveChannels::kMapChannel), nullptr);
 }
 
+// The station's last map (the final model on the pose graph's poses, ViewServer::flush) goes out on the
+// map channel within the interval; unchanged, it still does not.
+TEST(FoxgloveChannels, TheFinalMapGoesOutWhateverTheInterval) {
+  ChannelOptions options;
+  options.map_interval_ns = 1'000'000'000;
+  FoxgloveChannels ch(options);
+  ViewHub hub;
+  std::vector<SharedMessage> view_out;
+  std::vector<ChannelMessage> out;
+  std::vector<Channel> added;
+  FeedBatch b;
+  b.voxels = {{50, 50, 50, 3, 0}};
+  hub.apply(b, view_out);
+  ch.apply(b, hub, 5'000'000'000, out, added);
+  ASSERT_EQ(out.size(), 1u);
+  out.clear();
+  FeedBatch last;  // the map decided again: a whole map that drops the first voxel
+  last.voxels = {{150, 50, 50, 2, 0}, {250, 50, 50, 1, 0}};
+  last.voxels_are_full_map = true;
+  hub.apply(last, view_out);
+  ch.apply(last, hub, 5'100'000'000, out, added);
+  EXPECT_TRUE(out.empty());  // within the interval
+  ch.apply(FeedBatch{}, hub, 5'200'000'000, out, added, true);
+  ASSERT_EQ(out.size(), 1u);
+  std::uint32_t width = 0;
+  std::memcpy(&width, out[0].payload->data() + 24, 4);
+  EXPECT_EQ(width, 2u);
+  out.clear();
+  ch.apply(FeedBatch{}, hub, 5'300'000'000, out, added, true);
+  EXPECT_TRUE(out.empty());  // unchanged since
+}
+
 }  // namespace
 }  // namespace teamscan::view::foxglove
