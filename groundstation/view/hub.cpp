@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_set>
 
 namespace teamscan::view {
 namespace {
@@ -96,25 +95,32 @@ void ViewHub::apply(const FeedBatch& batch, std::vector<SharedMessage>& out) {
   // the fused model, never from the points as received.
   counters_.tap_scans += batch.scan_count;
   if (batch.voxels_are_full_map) ++counters_.whole_maps;
-  // A whole map that leaves out voxels the pages hold (the station's map decided again: a catch-up, the
-  // final model on the pose graph's poses) replaces theirs: the pages clear and take it whole.
-  const bool replaces = batch.voxels_are_full_map && drops_voxels(batch.voxels);
-  if (replaces) {
+  const auto take = [&] {
+    changed_scratch_.clear();
+    for (const VoxelUpdate& u : batch.voxels) {
+      WireVoxel& v = voxels_[key_of(u.x_mm, u.y_mm, u.z_mm)];
+      if (v.hits == 0 && u.hits != 0) ++in_map_;
+      v.x_mm = u.x_mm;
+      v.y_mm = u.y_mm;
+      v.z_mm = u.z_mm;
+      v.hits = u.hits;
+      v.flags = u.removed ? 1 : 0;
+      if (u.robot != 0) v.robot = u.robot;
+      changed_scratch_.push_back(v);
+    }
+  };
+  take();
+  // A whole map holds each of the station's voxels once. If the map now holds more, the station's map
+  // left some out (decided again: a catch-up, the final model on the pose graph's poses): it replaces
+  // the map, and the pages clear and take it whole.
+  bool replaces = false;
+  if (batch.voxels_are_full_map &&
+      in_map_ > static_cast<std::size_t>(std::count_if(batch.voxels.begin(), batch.voxels.end(), [](const VoxelUpdate& u) { return u.hits != 0; }))) {
     voxels_.clear();
     in_map_ = 0;
+    take();
+    replaces = true;
     ++counters_.replacing_maps;
-  }
-  changed_scratch_.clear();
-  for (const VoxelUpdate& u : batch.voxels) {
-    WireVoxel& v = voxels_[key_of(u.x_mm, u.y_mm, u.z_mm)];
-    if (v.hits == 0 && u.hits != 0) ++in_map_;
-    v.x_mm = u.x_mm;
-    v.y_mm = u.y_mm;
-    v.z_mm = u.z_mm;
-    v.hits = u.hits;
-    v.flags = u.removed ? 1 : 0;
-    if (u.robot != 0) v.robot = u.robot;
-    changed_scratch_.push_back(v);
   }
   counters_.voxels_changed += changed_scratch_.size();
 
@@ -140,14 +146,7 @@ void ViewHub::apply(const FeedBatch& batch, std::vector<SharedMessage>& out) {
   }
 
   if (replaces) {
-    VoxelMessage m;
-    m.kind = VoxelKind::kWholeMap;
-    m.seq = static_cast<std::uint32_t>(seq_);
-    m.resolution_mm = options_.map_resolution_mm;
-    m.total_voxels = static_cast<std::uint32_t>(in_map_);
-    for (const auto& [key, v] : voxels_)
-      if (v.hits != 0) m.voxels.push_back(v);
-    out.push_back(make_message(true, encode_voxels(m)));
+    out.push_back(whole_map_message());
   } else if (!changed_scratch_.empty()) {
     VoxelMessage m;
     m.kind = VoxelKind::kChanged;
@@ -170,17 +169,7 @@ void ViewHub::apply(const FeedBatch& batch, std::vector<SharedMessage>& out) {
   }
 }
 
-bool ViewHub::drops_voxels(std::span<const VoxelUpdate> whole) const {
-  std::unordered_set<std::uint64_t> keys;
-  keys.reserve(whole.size());
-  for (const VoxelUpdate& u : whole)
-    if (u.hits != 0) keys.insert(key_of(u.x_mm, u.y_mm, u.z_mm));
-  for (const auto& [key, v] : voxels_)
-    if (v.hits != 0 && !keys.contains(key)) return true;
-  return false;
-}
-
-void ViewHub::whole(std::vector<SharedMessage>& out) const {
+SharedMessage ViewHub::whole_map_message() const {
   VoxelMessage m;
   m.kind = VoxelKind::kWholeMap;
   m.seq = static_cast<std::uint32_t>(seq_);
@@ -190,7 +179,11 @@ void ViewHub::whole(std::vector<SharedMessage>& out) const {
   for (const auto& [key, v] : voxels_) {
     if (v.hits != 0) m.voxels.push_back(v);
   }
-  out.push_back(make_message(true, encode_voxels(m)));
+  return make_message(true, encode_voxels(m));
+}
+
+void ViewHub::whole(std::vector<SharedMessage>& out) const {
+  out.push_back(whole_map_message());
   if (latest_) out.push_back(make_message(false, encode_state(header(true), robot_views(true), true)));
 }
 

@@ -9,7 +9,6 @@
 #include <cstdint>
 #include <deque>
 #include <optional>
-#include <span>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -74,8 +73,8 @@ class ViewHub {
     std::int64_t rate_stamp_ns = 0;
   };
   [[nodiscard]] std::uint64_t key_of(std::int32_t x_mm, std::int32_t y_mm, std::int32_t z_mm) const;
-  // True if a voxel in the map is not in `whole` (a whole map from the station).
-  [[nodiscard]] bool drops_voxels(std::span<const VoxelUpdate> whole) const;
+  // The map's voxels, every one with hits, as one whole-map message.
+  [[nodiscard]] SharedMessage whole_map_message() const;
   void add_track_point(RobotExtra& r, double x_m, double y_m);
   [[nodiscard]] std::vector<RobotView> robot_views(bool whole_tracks) const;
   [[nodiscard]] StateHeader header(bool whole) const;
