@@ -17,23 +17,31 @@ namespace teamscan::station::daemon {
 
 namespace {
 
-// The last map the view's pages get, logged and flushed to them: the loop's last publication, or
-// (`again`, after the station left DDS) the live map as it stands now, the whole of it: the final model
-// on the pose graph's poses (the same release, the same scans, placed by the graph).
+// The last map every output gets: the loop's last publication, or (`again`, once the station stopped
+// hearing the robots) the live map as it stands now, the whole of it: the final model on the pose graph's
+// poses (the same release, the same scans, placed by the graph), on teamscan/map, ROS 2 map_cloud and the
+// view alike. Logged, then flushed to each output's readers before they stop.
 void publish_final_map(Daemon& d, bool again) {
   if (!d.fusion) return;
   FusionStage& fusion = *d.fusion;
-  if (again && d.view_feeder) {
+  if (again) {
     fusion.map_voxels(d.map_voxels, &d.map_robots);
     fusion.clear_map_changes();
-    d.view_feeder->offer_map(d.map_voxels, d.map_robots, true, fusion.map_total_voxels(), fusion.map_release());
+    const std::uint32_t total = fusion.map_total_voxels();
+    if (!d.map_voxels.empty() && !d.station->publish_map(d.map_voxels, fusion.map_resolution_mm(), total).ok())
+      log(kWarning, "fusion: teamscan/map write failed");
+    if (d.ros2 && !d.map_voxels.empty()) d.ros2->offer_map(d.map_voxels, total);
+    if (d.view_feeder) d.view_feeder->offer_map(d.map_voxels, d.map_robots, true, total, fusion.map_release());
   }
   d.store->log_event(now_realtime(), "live map: last published at release " + std::to_string(fusion.map_release()) + " (" +
                                          std::to_string(fusion.map_total_voxels()) + " voxels); the core released " +
                                          std::to_string(fusion.core().counters().scans_released) + " scans" +
                                          (!again ? "" : fusion.counters().graph_rebuilds > 0 ? " (the final model on the pose graph's poses)"
                                                                                               : " (the live map at the stop)"));
-  if (d.view_server && !d.view_server->flush(std::chrono::seconds(2))) log(kWarning, "view: the last map did not reach every page in 2 s");
+  constexpr Duration kFlushTimeout = std::chrono::seconds(2);
+  if (!d.station->map_acknowledged_within(kFlushTimeout)) log(kWarning, "teamscan/map: the last map was not acknowledged by every reader in 2 s");
+  if (d.ros2 && !d.ros2->flush(kFlushTimeout)) log(kWarning, "ros2: the last map cloud was not acknowledged by every reader in 2 s");
+  if (d.view_server && !d.view_server->flush(kFlushTimeout)) log(kWarning, "view: the last map did not reach every page in 2 s");
 }
 
 volatile std::sig_atomic_t g_stop = 0;
@@ -234,8 +242,8 @@ std::optional<int> run_until_stopped(const GroundStationConfig& cfg, Daemon& d) 
   loop.run();
   dds::notify_stopping();
   if (d.view_feeder) d.view_feeder->offer_snapshot();  // the state with the final map's release (the robots' records still here)
-  // Without the pose graph the loop's last turn published the final map; with it, the view stays up
-  // until the final model on the graph's poses is published to it (stop_daemon).
+  // Without the pose graph the loop's last turn published the final map; with it, the outputs stay up
+  // until the final model on the graph's poses is published to them (stop_daemon).
   if (!(d.fusion && d.fusion->graph())) publish_final_map(d, false);
   loop.log_figures();
   return std::nullopt;
@@ -313,21 +321,24 @@ void finish_fusion(Daemon& d) {
 }  // namespace
 
 void stop_daemon(Daemon& d) {
-  if (d.ros2) {
-    log_ros2_figures(d);
-    d.ros2.reset();
-  }
   log(kInfo, "stopping: " + d.station->status_line());
   (void)d.station->write_validation();
   d.store->log_event(now_realtime(), "station stopping: " + d.station->status_line());
-  d.station.reset();  // leave DDS before closing the files
+  // Nothing more is taken from the robots (what they send now stays in their stores); the map's
+  // publishers stay in DDS until the final model is out.
+  d.station->close_inputs();
   d.disk_sync->stop();
   log_disk_sync_figures(d);
   d.store->sync();  // the session is complete on disk before the final model write
   if (d.fusion) finish_fusion(d);
-  // With the pose graph, what the view shows last is the final model on its poses (or, if that could
+  // With the pose graph, what every output shows last is the final model on its poses (or, if that could
   // not be made, the live map as it stood): one output path to the end.
   if (d.fusion && d.fusion->graph()) publish_final_map(d, true);
+  if (d.ros2) {
+    log_ros2_figures(d);
+    d.ros2.reset();
+  }
+  d.station.reset();  // leaves DDS
   if (d.view_server) {
     d.store->log_event(now_realtime(), d.view_server->counters().line());
     d.view_server.reset();  // its thread stops before the station's state goes

@@ -159,6 +159,23 @@ void Ros2Publisher::hand_over() {
     ++deferred_;
     return;
   }
+  move_to_mailbox();
+  lock.unlock();
+  wake_.notify_one();
+}
+
+bool Ros2Publisher::flush(Duration timeout) {
+  std::unique_lock lock(mutex_);
+  move_to_mailbox();
+  const std::uint64_t ticket = ++flushes_asked_;
+  flush_timeout_ = timeout;
+  wake_.notify_one();
+  // The worker's round (a cloud's build and write) comes on top of the acknowledgement's wait.
+  const bool done = flushed_.wait_for(lock, timeout + std::chrono::seconds(5), [&] { return flushes_done_ >= ticket || stop_; });
+  return done && flushes_done_ >= ticket && flush_acknowledged_;
+}
+
+void Ros2Publisher::move_to_mailbox() {
   if (loop_updates_ > 0) {
     if (loop_full_ || pending_map_.empty()) {
       pending_map_.swap(loop_map_);  // O(1): the worker gets the loop's buffer, the loop its old one
@@ -191,8 +208,6 @@ void Ros2Publisher::hand_over() {
     team_pending_ = true;
     loop_team_pending_ = false;
   }
-  lock.unlock();
-  wake_.notify_one();
 }
 
 Ros2Counters Ros2Publisher::counters() const {
@@ -215,13 +230,19 @@ void Ros2Publisher::run() {
   Time next_cloud = now_monotonic();
   for (;;) {
     bool full = false, team = false;
-    std::uint64_t updates = 0;
+    std::uint64_t updates = 0, flush = 0;
+    Duration flush_timeout{0};
     {
       std::unique_lock lock(mutex_);
       const Duration until_cloud = std::max(Duration{0}, next_cloud - now_monotonic());
-      wake_.wait_for(lock, w.voxels.empty() ? Duration(std::chrono::seconds(1)) : until_cloud,
-                     [&] { return stop_ || pending_updates_ > 0 || team_pending_ || !pending_scans_.scans.empty(); });
+      wake_.wait_for(lock, w.voxels.empty() ? Duration(std::chrono::seconds(1)) : until_cloud, [&] {
+        return stop_ || pending_updates_ > 0 || team_pending_ || !pending_scans_.scans.empty() || flushes_asked_ > flushes_done_;
+      });
       if (stop_) return;
+      if (flushes_asked_ > flushes_done_) {
+        flush = flushes_asked_;
+        flush_timeout = flush_timeout_;
+      }
       map_work.swap(pending_map_);
       pending_map_.clear();
       full = pending_full_;
@@ -282,7 +303,8 @@ void Ros2Publisher::run() {
       }
     }
     const Time now = now_monotonic();
-    if (now >= next_cloud && !w.voxels.empty()) {
+    bool cloud_written = false;
+    if ((now >= next_cloud || flush != 0) && !w.voxels.empty()) {
       w.cloud_points.clear();
       for (const teamscan_msg_MapVoxel& v : w.voxels) {
         if (v.flags != 0) continue;  // every point of the voxel removed as a ghost: not in the fused map
@@ -290,14 +312,23 @@ void Ros2Publisher::run() {
                                   static_cast<float>(v.z_mm * 1e-3), static_cast<float>(v.hits)});
       }
       w.cloud.set(now_realtime().ns(), dds::ros2::kFrameMap, w.cloud_points);
-      if (w.writers->write_cloud(w.cloud).ok()) ++done.clouds; else ++done.write_errors;
+      cloud_written = w.writers->write_cloud(w.cloud).ok();
+      if (cloud_written) ++done.clouds; else ++done.write_errors;
       const Duration took = now_monotonic() - now;
       done.cloud_max = took;
       done.cloud_total = took;
       done.last_cloud_points = w.cloud_points.size();
       next_cloud = now + config_.map_interval;
     }
+    // A flush: the cloud is out once every matched reader acknowledged it (none: at once).
+    const bool acknowledged =
+        flush != 0 && (w.voxels.empty() || (cloud_written && dds_wait_for_acks(w.writers->cloud_writer(), flush_timeout.count()) == DDS_RETCODE_OK));
     const std::lock_guard lock(mutex_);
+    if (flush != 0) {
+      flushes_done_ = flush;
+      flush_acknowledged_ = acknowledged;
+      flushed_.notify_all();
+    }
     counters_.map_updates += done.map_updates;
     counters_.clouds += done.clouds;
     counters_.tf_messages += done.tf_messages;

@@ -84,6 +84,11 @@ class Ros2Publisher {
   // over; a deferred map hand-over is retried.
   void tick(Time now_monotonic, const TeamSource& team);
 
+  // The stop: hands over what the loop holds (waiting for the mailbox if need be), has the worker write
+  // the map cloud now whatever its interval, and waits at most `timeout` for the cloud's readers to
+  // acknowledge it. True once they did (or there is no map to send).
+  [[nodiscard]] bool flush(Duration timeout);
+
   [[nodiscard]] Ros2Counters counters() const;
   [[nodiscard]] const Ros2Config& config() const { return config_; }
 
@@ -93,6 +98,8 @@ class Ros2Publisher {
   void run();
   // Loop side: moves the loop's buffers into the mailbox if the worker does not hold it.
   void hand_over();
+  // Moves the loop's buffers into the mailbox (mutex_ held).
+  void move_to_mailbox();
 
   // Scans waiting for the worker: their points in one flat buffer.
   struct PendingScan {
@@ -137,6 +144,11 @@ class Ros2Publisher {
   std::array<Heading, kMaxRobots + 1> pending_headings_{};
   ScanBatch pending_scans_;
   bool team_pending_ = false;
+  // flush(): the requests made and done (the worker's rounds), the last one's acknowledgement.
+  std::condition_variable flushed_;
+  std::uint64_t flushes_asked_ = 0, flushes_done_ = 0;
+  Duration flush_timeout_{0};
+  bool flush_acknowledged_ = false;
   Ros2Counters counters_;
 
   std::unique_ptr<Worker> worker_;

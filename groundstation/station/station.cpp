@@ -266,7 +266,25 @@ void Station::event(const std::string& text) { store_.log_event(now_realtime(), 
 
 std::int32_t Station::participant() const { return dds_->participant.handle(); }
 
+void Station::close_inputs() {
+  Dds& d = *dds_;
+  if (d.readers[kPose] == 0) return;
+  // A reader's read condition goes with it (and off the waitset).
+  for (dds_entity_t& reader : d.readers) {
+    (void)dds_delete(reader);
+    reader = 0;
+  }
+  for (dds_entity_t* writer : {&d.team_writer, &d.stored_writer}) {
+    (void)dds_delete(*writer);
+    *writer = 0;
+  }
+  event("station stopped listening: the robots keep what they send from now on for the next station");
+}
+
+bool Station::inputs_closed() const { return dds_->readers[kPose] == 0; }
+
 std::size_t Station::poll(Duration max_wait) {
+  if (inputs_closed()) return 0;
   dds_attach_t triggered[4];
   (void)dds_waitset_wait(dds_->waitset, triggered, 4, static_cast<dds_duration_t>(std::max<std::int64_t>(0, max_wait.count())));
   (void)dds_set_guardcondition(dds_->guard, false);
@@ -658,7 +676,7 @@ void Station::check_silence(Time now_monotonic) {
 }
 
 bool Station::publish_team_if_due(Time now_mono) {
-  if (now_mono - last_team_ < options_.team_period) return false;
+  if (inputs_closed() || now_mono - last_team_ < options_.team_period) return false;
   last_team_ = now_mono;
   Dds& d = *dds_;
   const Time now_rt = now_realtime();
@@ -727,6 +745,10 @@ Status Station::publish_map(std::span<const teamscan_msg_MapVoxel> voxels, std::
   const dds_return_t rc = dds_write(dds_->map_writer, &m);
   if (rc < 0) return Error{"station: map write failed", 0, rc};
   return ok_status();
+}
+
+bool Station::map_acknowledged_within(Duration timeout) {
+  return dds_wait_for_acks(dds_->map_writer, static_cast<dds_duration_t>(timeout.count())) == DDS_RETCODE_OK;
 }
 
 const StoredSeqs& Station::stored_poses(std::uint32_t robot_id) const {

@@ -160,6 +160,14 @@ class Station {
   void add_backfill_pose_hook(PoseHook hook) { backfill_pose_hooks_.push_back(std::move(hook)); }
   void add_lost_hook(LostHook hook) { lost_hooks_.push_back(std::move(hook)); }
 
+  // Stops hearing the robots at the stop: the readers and the teamscan/team and teamscan/stored writers
+  // are deleted, so a robot sees the station go and keeps what it sends from now on in its store for the
+  // next one (nothing is taken that is not stored). The participant and teamscan/map stay, with the
+  // process's other publishers (ROS 2), until the final model is out. poll() and publish_team_if_due()
+  // do nothing after it.
+  void close_inputs();
+  [[nodiscard]] bool inputs_closed() const;
+
   // The station's DDS participant, for other publishers of the process (the ROS 2 topics): one
   // participant per process, one participant index per host in the site's Cyclone config.
   [[nodiscard]] std::int32_t participant() const;
@@ -167,6 +175,9 @@ class Station {
   // teamscan/map for live viewers.
   [[nodiscard]] Status publish_map(std::span<const teamscan_msg_MapVoxel> voxels, std::uint32_t resolution_mm,
                                    std::uint32_t total_voxels);
+  // Waits at most `timeout` for teamscan/map's readers to acknowledge what was published: true once they
+  // did (the stop's last map).
+  [[nodiscard]] bool map_acknowledged_within(Duration timeout);
 
   [[nodiscard]] const RobotRecord& robot(std::uint32_t robot_id) const;  // 1..32
   // The scans and poses of robot robot_id (1..32) the session holds (store and forward's confirmations).

@@ -24,8 +24,11 @@
 #include <tuple>
 
 #include "common/clock.hpp"
+#include "common/dataset/pcd.hpp"
+#include "common/units.hpp"
 #include "dds/ros2/wire.hpp"
 #include "groundstation/mapping/tracker.hpp"
+#include "groundstation/mapping/voxel_map.hpp"
 #include "onboard/bridge/bridge.hpp"
 #include "dds/qos.hpp"
 #include "dds/topics.hpp"
@@ -43,6 +46,7 @@ constexpr int kPoses = 30;             // per robot, 10 Hz
 constexpr double kSpeedMps = 0.2;
 constexpr int kPointsPerScan = 60;
 constexpr int kGhostPoints = 12;
+constexpr int kLastPoses = 3;          // per robot, sent just before the stop
 
 double robot_yaw(std::uint32_t id) { return 0.4 * id - 0.3; }
 double robot_x0(std::uint32_t id) { return 1.0 * id; }
@@ -74,6 +78,7 @@ class MapViewer {
       if (!infos[i].valid_data) continue;
       const auto* m = static_cast<const teamscan_msg_MapUpdate*>(samples[i]);
       if (m->total_voxels == m->voxels._length) map.clear();
+      resolution_mm = m->resolution_mm;
       for (std::uint32_t k = 0; k < m->voxels._length; ++k) {
         const teamscan_msg_MapVoxel& v = m->voxels._buffer[k];
         map[{v.x_mm, v.y_mm, v.z_mm}] = {v.hits, v.flags};
@@ -93,6 +98,7 @@ class MapViewer {
     return s;
   }
   std::map<std::tuple<std::int32_t, std::int32_t, std::int32_t>, std::pair<std::uint32_t, std::uint32_t>> map;
+  std::uint32_t resolution_mm = 0;
 
  private:
   dds_entity_t reader_ = -1;
@@ -125,6 +131,31 @@ int take_all(dds_entity_t reader, F&& f) {
   }
 }
 
+using VoxelCentre = std::tuple<std::int32_t, std::int32_t, std::int32_t>;  // mm
+
+// The voxel centres of a station model file's points binned as the live map bins them
+// (groundstation/station/live_map.cpp), each with whether a point in it was kept at release
+// (live_keep): the map every output shows of that model.
+std::map<VoxelCentre, bool> model_voxels(const std::string& pcd, std::uint32_t resolution_mm) {
+  std::map<VoxelCentre, bool> out;
+  auto cloud = read_pcd(pcd);
+  EXPECT_TRUE(cloud.ok()) << pcd << ": " << (cloud.ok() ? "" : cloud.error().what);
+  if (!cloud.ok()) return out;
+  const PcdCloud& c = cloud.value();
+  const int fx = c.field("x"), fy = c.field("y"), fz = c.field("z"), fk = c.field("live_keep");
+  EXPECT_TRUE(fx >= 0 && fy >= 0 && fz >= 0 && fk >= 0) << pcd;
+  if (fx < 0 || fy < 0 || fz < 0 || fk < 0) return out;
+  const double resolution_m = resolution_mm * 1e-3;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    auto col = [&](int f) { return c.columns[static_cast<std::size_t>(f)][i]; };
+    const mapping::MapPoint p{static_cast<float>(col(fx)), static_cast<float>(col(fy)), static_cast<float>(col(fz))};
+    const mapping::VoxelKey k = mapping::voxel_key(p, 1.0 / resolution_m);
+    const VoxelCentre centre{to_mm((k.x + 0.5) * resolution_m), to_mm((k.y + 0.5) * resolution_m), to_mm((k.z + 0.5) * resolution_m)};
+    out[centre] = out[centre] || col(fk) != 0.0;
+  }
+  return out;
+}
+
 double yaw_of(const geometry_msgs_msg_dds__Quaternion_& q) { return 2.0 * std::atan2(q.z, q.w); }
 std::int64_t ns_of(const builtin_interfaces_msg_dds__Time_& t) {
   return static_cast<std::int64_t>(t.sec) * 1'000'000'000 + t.nanosec;
@@ -139,7 +170,7 @@ TEST(StationRos2, MapCloudTfAndOdometryReachRmwLikeReaders) {
     std::ofstream c(config);
     c << "[team.kalman]\nlost_after_s = 60.0\n"
       // No cap on the model store: the map is the model's points, here every point sent.
-      << "[fusion]\nmethod = \"direction\"\nwrite_interval_s = 0.0\nmap_interval_s = 0.3\nmax_points_per_voxel = 1000000\n"
+      << "[fusion]\nmethod = \"direction\"\nwrite_interval_s = 0.0\nmap_interval_s = 0.3\nmax_points_per_voxel = 1000000\nwrite_all_points = true\n"
       << "[ros2]\nmap_interval_s = 0.3\npose_rate_hz = 20\n";
   }
   const dds_entity_t ros = dds_create_participant(test::test_domain_id(), nullptr, nullptr);
@@ -357,10 +388,69 @@ TEST(StationRos2, MapCloudTfAndOdometryReachRmwLikeReaders) {
     EXPECT_TRUE(checked) << "no odometry of robot " << id << " after the last pose";
   }
 
+  // A last stretch, then the stop at once: its scans are released by the stop's last turn (or later on
+  // the pose graph's poses), within the cloud's interval, so only the stop's flush brings them to the
+  // readers. What the readers hold last, the cloud and teamscan/map, is the model the station wrote.
+  for (std::int64_t k = kPoses; k < kPoses + kLastPoses; ++k) {
+    for (std::uint32_t id : {1u, 2u}) {
+      const std::int64_t stamp = base_ns + k * 100'000'000 + id * 1'000'000;
+      const double t = static_cast<double>(k) * 0.1, yaw = robot_yaw(id);
+      onboard::OnboardPose p;
+      p.robot_id = id;
+      p.seq = static_cast<std::uint32_t>(k + 1);
+      p.stamp_ns = stamp;
+      p.x_mm = static_cast<std::int32_t>(std::lround((robot_x0(id) + kSpeedMps * t * std::cos(yaw)) * 1000.0));
+      p.y_mm = static_cast<std::int32_t>(std::lround((robot_y0(id) + kSpeedMps * t * std::sin(yaw)) * 1000.0));
+      p.yaw_urad = static_cast<std::int32_t>(std::lround(yaw * 1e6));
+      ASSERT_TRUE(robots[id - 1].publish_pose(p).ok());
+      ++poses_sent;
+      const auto deadline = std::chrono::steady_clock::now() + 10s;
+      while (csv_rows(session + "/poses.csv") < poses_sent && std::chrono::steady_clock::now() < deadline)
+        std::this_thread::sleep_for(1ms);
+      scan.robot_id = id;
+      scan.seq = static_cast<std::uint32_t>(k + 1);
+      scan.stamp = Time::from_ns(stamp + 500'000);
+      scan.origin_x_mm = p.x_mm;
+      scan.origin_y_mm = p.y_mm;
+      scan.origin_z_mm = 400;
+      scan.count = kPointsPerScan;
+      for (int i = 0; i < kPointsPerScan; ++i)  // a wall of its own, above the first one's
+        scan.points[i] = ScanPoint{6500, -3000 + 100 * i, 2000 + 100 * static_cast<std::int32_t>(k - kPoses), static_cast<std::uint16_t>(i), 0};
+      ASSERT_TRUE(robots[id - 1].publish_scan(scan).ok());
+    }
+  }
+  for (auto& b : robots) ASSERT_TRUE(b.wait_for_scan_acks(from_seconds(20.0)).ok());
   gs.signal(SIGTERM);
   const auto st = gs.wait(30s);
   ASSERT_TRUE(st.has_value());
   EXPECT_TRUE(WIFEXITED(*st) && WEXITSTATUS(*st) == 0);
+  viewer.take();
+  std::set<VoxelCentre> last_cloud;
+  clouds = 0;
+  take_all<sensor_msgs_msg_dds__PointCloud2_>(cloud_reader, [&](const sensor_msgs_msg_dds__PointCloud2_& m) {
+    ++clouds;
+    last_cloud.clear();
+    for (std::uint32_t i = 0; i < m.width; ++i) {
+      float p[3];
+      std::memcpy(p, m.data._buffer + i * m.point_step, sizeof p);
+      last_cloud.insert({static_cast<std::int32_t>(std::lround(p[0] * 1000.0f)), static_cast<std::int32_t>(std::lround(p[1] * 1000.0f)),
+                         static_cast<std::int32_t>(std::lround(p[2] * 1000.0f))});
+    }
+  });
+  ASSERT_GT(viewer.resolution_mm, 0u);
+  const std::map<VoxelCentre, bool> model = model_voxels(session + "/fused_all.pcd", viewer.resolution_mm);
+  std::set<VoxelCentre> model_kept, model_all;
+  for (const auto& [centre, kept_at_release] : model) {
+    model_all.insert(centre);
+    if (kept_at_release) model_kept.insert(centre);
+  }
+  std::set<VoxelCentre> map_all;
+  for (const auto& [centre, v] : viewer.map) map_all.insert(centre);
+  EXPECT_GT(clouds, 0u) << "no cloud since the last check: the stop sent none";
+  EXPECT_GT(model_kept.size(), kept.size()) << "the last stretch added no voxel";
+  EXPECT_EQ(last_cloud, model_kept) << last_cloud.size() << " cloud points, " << model_kept.size() << " kept voxels in the model";
+  EXPECT_EQ(map_all, model_all) << map_all.size() << " voxels on teamscan/map, " << model_all.size() << " in the model";
+  EXPECT_EQ(viewer.kept(), model_kept);
   std::ifstream events(session + "/events.log");
   std::stringstream text;
   text << events.rdbuf();
