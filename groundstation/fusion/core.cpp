@@ -1,5 +1,6 @@
 // FusionCore: held scans, release, point part + map, model store (core.hpp).
 #include "groundstation/fusion/core.hpp"
+#include "groundstation/fusion/model_move.hpp"
 
 #include <algorithm>
 #include <limits>
@@ -355,8 +356,37 @@ void FusionCore::store(const ScanInput& s) {
     m.removed_at_release = removed_[i] != 0 ? 1 : 0;
   }
   stored_.resize(s.points.size());
-  counters_.stored_points += model_.add_all(model_points_, stored_);
-  counters_.capped_points = model_.capped_points();
+  ModelStore& into = moving_ ? *moving_->store : model_;  // a move under way: the moved model's
+  counters_.stored_points += into.add_all(model_points_, stored_);
+  counters_.capped_points = into.capped_points();
+}
+
+void FusionCore::begin_model_move(std::shared_ptr<const ScanMoves> moves) {
+  auto m = std::make_unique<ModelMove>();
+  m->moves = std::move(moves);
+  m->store = std::make_unique<ModelStore>(options_.model_resolution_m, options_.max_points_per_voxel);
+  moving_ = std::move(m);
+}
+
+bool FusionCore::continue_model_move(std::size_t voxels, std::unique_ptr<ModelStore>& old,
+                                     const std::function<void(const ModelPoint&)>& on_moved) {
+  if (!moving_) return true;
+  ModelMove& m = *moving_;
+  const std::size_t end = std::min(model_.voxels(), m.next_voxel + voxels);
+  for (std::size_t k = m.next_voxel; k < end; ++k) {
+    model_.for_each_in_voxel(k, [&](ModelPoint p) {
+      m.moves->at(p.robot, p.seq).apply(p.p);
+      if (m.store->add(p) && on_moved) on_moved(p);
+    });
+  }
+  m.next_voxel = end;
+  if (end < model_.voxels()) return false;
+  std::swap(model_, *m.store);
+  old = std::move(m.store);
+  counters_.stored_points = model_.points();
+  counters_.capped_points = old->capped_points() + model_.capped_points();
+  moving_.reset();
+  return true;
 }
 
 // One voxel's points and their decisions now, through the caller's scratch.

@@ -42,6 +42,8 @@
 
 namespace teamscan::fusion {
 
+class ScanMoves;  // model_move.hpp
+
 struct CoreOptions {
   // One of mapping::known_methods() / extended_methods(), with its options.
   std::string method = "best";
@@ -224,6 +226,23 @@ class FusionCore {
   // stored before it started (each voxel's decisions as of the part that took it).
   std::size_t snapshot_model_part(ModelSnapshot& out, std::size_t from, std::size_t count) const;
 
+  // The model moved rigidly with the pose graph (model_move.hpp; the station's live map following the
+  // graph): begin_model_move() starts a new model store (the same cap per voxel) that takes the points of
+  // every scan released from then on (placed where `moves` lead: the caller set the corrections first);
+  // continue_model_move() moves the old store's points into it, each by its scan's move, at most `voxels`
+  // voxels a call (a point the new store caps is dropped and counted in capped_points; `on_moved` is
+  // called with each one it keeps); once every voxel is moved, the new store takes the old one's place
+  // and the old one goes to `old` (for the caller to free where it likes): true. Until then the model's
+  // readers (for_each_model_point, snapshot_model_part, model_voxels) read the old store, which lacks
+  // the scans released since the move began. The filters' map and every point's bits stay as they are.
+  void begin_model_move(std::shared_ptr<const ScanMoves> moves);
+  bool continue_model_move(std::size_t voxels, std::unique_ptr<ModelStore>& old,
+                           const std::function<void(const ModelPoint&)>& on_moved = {});
+  [[nodiscard]] bool moving_model() const { return moving_ != nullptr; }
+  // The newest stamp of a scan released so far (INT64_MIN: none): a correction set after it places only
+  // scans still to be released (held or to come; a late one excepted).
+  [[nodiscard]] std::int64_t newest_released_stamp_ns() const { return newest_released_stamp_ns_; }
+
   [[nodiscard]] PoseHistory& poses() { return poses_; }
   [[nodiscard]] const PoseHistory& poses() const { return poses_; }
   [[nodiscard]] const mapping::Filter& filter() const { return *filter_; }
@@ -239,7 +258,9 @@ class FusionCore {
   // True if (robot, scan) is held (not released yet).
   [[nodiscard]] bool holds(std::uint8_t robot, std::uint32_t scan) const;
   [[nodiscard]] std::size_t model_voxels() const { return model_.voxels(); }
-  [[nodiscard]] std::size_t model_memory_bytes() const { return model_.memory_bytes(); }
+  [[nodiscard]] std::size_t model_memory_bytes() const {
+    return model_.memory_bytes() + (moving_ ? moving_->store->memory_bytes() : 0);
+  }
   // The filter's map state (voxel counts, free-space grid), bytes.
   [[nodiscard]] std::size_t map_memory_bytes() const { return filter_->memory_bytes(); }
 
@@ -296,6 +317,13 @@ class FusionCore {
   };
   std::vector<SeqWindow> seq_windows_;
   ModelStore model_;
+  // A move of the model under way (begin_model_move): the new store and the next old voxel to move.
+  struct ModelMove {
+    std::shared_ptr<const ScanMoves> moves;
+    std::unique_ptr<ModelStore> store;
+    std::size_t next_voxel = 0;
+  };
+  std::unique_ptr<ModelMove> moving_;
   std::unique_ptr<registration::Registration> registration_;
   // Scratch of a release.
   std::vector<std::uint8_t> bits_, removed_, stored_;

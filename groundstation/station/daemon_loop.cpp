@@ -139,7 +139,8 @@ void RunLoop::publish_map_if_due() {
   // loop time in proportion to the mapped space (docs/demo.md "Scale").
   constexpr std::uint64_t kFullMapEvery = 10;
   FusionStage& fusion = *d_.fusion;
-  const bool whole = map_count_ % kFullMapEvery == 0 || (d_.view_feeder && d_.view_feeder->wants_whole_map());
+  const bool replaced = fusion.take_map_replaced();  // built again: voxels may have gone
+  const bool whole = replaced || map_count_ % kFullMapEvery == 0 || (d_.view_feeder && d_.view_feeder->wants_whole_map());
   if (whole) {
     fusion.map_voxels(d_.map_voxels, &d_.map_robots);
     fusion.clear_map_changes();

@@ -250,6 +250,16 @@ std::optional<int> start_daemon(const GroundStationConfig& cfg, const std::strin
     d.fusion->set_catch_up_callback([&d](const FusionCounters& c) {  // after a back-fill (fusion.hpp catch_up)
       char text[400];
       char what[160];
+      if (c.last_follow_rigid) {
+        std::snprintf(text, sizeof text,
+                      "fusion: the map follows the pose graph's estimate (%llu nodes, %llu loop closures): %llu model points "
+                      "moved rigidly (%llu scans' moves) in %.2f s (%llu loop turns, at most %.1f ms of one)",
+                      static_cast<unsigned long long>(c.followed_nodes), static_cast<unsigned long long>(c.followed_closures),
+                      static_cast<unsigned long long>(c.follow_moved_points), static_cast<unsigned long long>(c.follow_scans),
+                      c.last_follow_s, static_cast<unsigned long long>(c.follow_turns), c.follow_slice_max_s * 1e3);
+        d.store->log_event(now_realtime(), text);
+        return;
+      }
       if (c.last_rebuild_followed_graph)
         std::snprintf(what, sizeof what, "the map follows the pose graph's estimate (%llu nodes, %llu loop closures)",
                       static_cast<unsigned long long>(c.followed_nodes), static_cast<unsigned long long>(c.followed_closures));

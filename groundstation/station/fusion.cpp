@@ -3,6 +3,7 @@
 #include "groundstation/station/fusion.hpp"
 
 #include "groundstation/station/catch_up_run.hpp"
+#include "groundstation/station/rigid_follow.hpp"
 
 #include <algorithm>
 #include <map>
@@ -189,6 +190,7 @@ void FusionStage::on_release(const fusion::FusedScan& f) {
   counters_.points += points.size();
   // The live map is the model: the points the core stored, where it placed them, with their class.
   map_.add_all(points, f.removed, f.stored, f.view->robot, f.release);
+  on_released_while_following(f);
   for (std::uint8_t r : f.removed) counters_.live_removed += r != 0 ? 1 : 0;
   if (graph_) graph_->add(f);
   if (replaying_ || catching_up_) return;

@@ -29,7 +29,9 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <system_error>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "common/clock.hpp"
@@ -41,6 +43,7 @@
 #include "groundstation/fusion/core_rebuild.hpp"
 #include "groundstation/fusion/core_set.hpp"
 #include "groundstation/fusion/graph_backend.hpp"
+#include "groundstation/fusion/model_move.hpp"
 #include "groundstation/fusion/model_writer.hpp"
 #include "groundstation/mapping/voxel_map.hpp"
 #include "groundstation/station/latency_histogram.hpp"
@@ -101,6 +104,14 @@ struct FusionOptions {
   // (tick()), and they take over. On by default ([pose_graph] enabled = false: none, odometry alone or
   // the registration's corrections).
   std::optional<fusion::GraphBackendOptions> pose_graph = fusion::GraphBackendOptions{};
+  // How the live map follows the graph's estimates (pose_graph's estimate_every_s > 0). Rigidly (true):
+  // every core's model store is moved scan by scan onto the estimate's poses, write_slice_ms of a loop
+  // turn at a time, and the live map built again from the primary's (fusion/model_move.hpp); the robots
+  // are handed their corrections from the estimate on; the filters' evidence and the decisions at release
+  // stay as they were made; the cost is one pass over the model, bounded by the mapped space. Else (and
+  // while the registration places the scans): the whole session decided again on the estimate's poses,
+  // as a catch-up (exact, the cost growing with the time mapped).
+  bool follow_rigidly = true;
   // The CPUs the model writer thread may run on (empty: the process's affinity). A station whose loop
   // is pinned to one core keeps the writer's file work (page-cache copies, kernel sections that the
   // loop cannot preempt) off that core with this; the snapshot itself stays in the loop.
@@ -141,6 +152,14 @@ struct FusionCounters {
   std::uint64_t followed_nodes = 0;   // ... the last one's graph nodes and loop closures
   std::uint64_t followed_closures = 0;
   bool last_rebuild_followed_graph = false;  // the last rebuild (the catch-up counters) was a follow
+  std::uint64_t rigid_follows = 0;    // of graph_follows: the model moved rigidly onto the estimate
+  bool last_follow_rigid = false;     // the last follow moved the model (not a rebuild)
+  std::uint64_t follow_moved_points = 0;  // ... the last one: the model points it moved
+  std::uint64_t follow_scans = 0;     // ... the scans with a move of their own (those of the estimates)
+  double last_follow_s = 0.0;         // ... from the estimate taken to the moved map in place
+  std::uint64_t follow_turns = 0;     // ... the loop turns it moved the model in
+  double follow_slice_max_s = 0.0;    // ... its longest share of one loop turn
+  std::uint64_t follow_failures = 0;  // a rigid follow's moves could not be made (not retried on that estimate)
   std::uint64_t graph_rebuilds = 0;   // the cores rebuilt on the pose graph's poses (rebuild_on_graph)
   double last_graph_rebuild_s = 0.0;  // ... the last one, the session read to the take-over
   std::uint64_t writes = 0;           // model writes done (every core's files written)
@@ -258,6 +277,11 @@ class FusionStage {
     map_.changed_voxels(out, robots);
   }
   [[nodiscard]] std::uint64_t map_release() const { return map_.release(); }
+  // True once after the live map was built again (a catch-up, a follow of the graph): voxels may have
+  // gone, so the next publication is the whole map.
+  [[nodiscard]] bool take_map_replaced() { return std::exchange(map_replaced_, false); }
+  // A rigid follow of the graph under way (FusionOptions::follow_rigidly).
+  [[nodiscard]] bool following() const { return follow_ != nullptr; }
   void clear_map_changes() { map_.forget_changes(); }
   [[nodiscard]] std::uint32_t map_total_voxels() const { return static_cast<std::uint32_t>(map_.occupied_voxels()); }
   [[nodiscard]] const LiveMap& live_map() const { return map_; }
@@ -290,9 +314,18 @@ class FusionStage {
   void continue_catch_up();
   void finish_catch_up();
   void drop_catch_up();
+  struct RigidFollow;  // fusion_follow.cpp
+  // The rigid follow of an estimate: its moves made off the loop, then the cores' corrections set and
+  // their models moved a slice per turn (all of it with `to_the_end`), then the moved map in place.
+  [[nodiscard]] bool follows_rigidly() const;
+  void start_rigid_follow(std::shared_ptr<const fusion::GraphEstimate> estimate);
+  void continue_rigid_follow(bool to_the_end);
+  void finish_rigid_follow();
+  void on_released_while_following(const fusion::FusedScan& scan);
   // A finished catch-up's leftovers (the live cores' and live map's old states, the session read): freed
   // on a thread of their own on writer_cpus, so no loop turn waits for them to be given back.
-  void free_off_loop(std::unique_ptr<CatchUpRun> run);
+  template <class Leftovers>
+  void free_off_loop(std::unique_ptr<Leftovers> leftovers);
   // The session folder read back for a rebuild (a catch-up in slices under way dropped first), its rows
   // and where to read each scan's points as it is fed; an error if it cannot be read or holds fewer
   // scans than the cores took (not this station's folder).
@@ -327,6 +360,9 @@ class FusionStage {
   std::unique_ptr<fusion::GraphBackend> graph_;
   std::uint64_t followed_version_ = 0;  // graph_'s estimate the cores were rebuilt on (0: none)
   std::shared_ptr<const fusion::GraphEstimate> followed_;
+  fusion::ScanPlacement placement_;        // where the live cores' released scans sit (rigid follows)
+  std::unique_ptr<RigidFollow> follow_;   // the rigid follow under way
+  bool map_replaced_ = false;
   // Scans the live cores released during the last catch-up that the rebuilt ones still held when they
   // took over: released again later, shown but not counted twice (latency, trajectory).
   std::set<std::pair<std::uint8_t, std::uint32_t>> released_before_;
@@ -334,6 +370,21 @@ class FusionStage {
   std::function<void(const FusionCounters&)> on_catch_up_;
   std::unique_ptr<fusion::ModelWriter> writer_;  // after cores_: destroyed (its thread joined) first
 };
+
+// Frees a rebuild's or a follow's leftovers (old cores' states, old live maps, a session read) on a
+// thread of its own on writer_cpus, so no loop turn waits for their memory to be given back.
+template <class Leftovers>
+void FusionStage::free_off_loop(std::unique_ptr<Leftovers> leftovers) {
+  if (freeing_.valid()) freeing_.wait();  // the one before (long done: they take seconds)
+  try {
+    freeing_ = std::async(std::launch::async, [leftovers = std::move(leftovers), cpus = options_.writer_cpus]() mutable {
+      (void)set_current_thread_cpus(cpus);  // with the model writer, off the loop's CPUs (none: unchanged)
+      leftovers.reset();
+    });
+  } catch (const std::system_error&) {
+    // No thread: the leftovers, still in the callable std::async was given, are freed here.
+  }
+}
 
 // Hands each robot's correction, as the fusion core applies it at a time (PoseHistory::correction_at:
 // the newest its registration set at or before that time, an accepted match's or the drift rates'

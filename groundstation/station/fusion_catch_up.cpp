@@ -40,6 +40,7 @@ std::uint64_t FusionStage::late_since_catch_up() const {
 }
 
 void FusionStage::flush(const std::function<void(double)>& progress) {
+  if (follow_) continue_rigid_follow(true);  // the releases since it began are in the moved models only
   // A follow of the graph under way with nothing late: dropped (the live cores are final as they are;
   // the final model follows the graph's last poses: rebuild_on_graph).
   if (run_ && run_->follow && counters_.catch_ups == 0 && late_since_catch_up() == 0) drop_catch_up();
@@ -53,6 +54,10 @@ void FusionStage::flush(const std::function<void(double)>& progress) {
 void FusionStage::tick(std::int64_t realtime_ns) {
   if (resume_) return;
   cores_->advance_to(realtime_ns);
+  if (follow_) {
+    continue_rigid_follow(false);
+    return;
+  }
   if (run_) {
     run_->rebuild.advance_to(realtime_ns);  // the live clock's step, behind the session for the rebuilt cores
     continue_catch_up();
@@ -76,7 +81,10 @@ void FusionStage::tick(std::int64_t realtime_ns) {
   // The graph has a newer estimate than the cores follow: the same rebuild on its poses.
   if (graph_ && options_.catch_up_slice_scans > 0) {
     const std::shared_ptr<const fusion::GraphEstimate> estimate = graph_->latest();
-    if (estimate && estimate->version != followed_version_) start_catch_up(realtime_ns, true);
+    if (estimate && estimate->version != followed_version_) {
+      if (follows_rigidly()) start_rigid_follow(estimate);
+      else start_catch_up(realtime_ns, true);
+    }
   }
 }
 
@@ -177,18 +185,6 @@ void FusionStage::continue_catch_up() {
   if (done && run.behind && !writer_->snapshotting()) finish_catch_up();
 }
 
-void FusionStage::free_off_loop(std::unique_ptr<CatchUpRun> run) {
-  if (freeing_.valid()) freeing_.wait();  // the one before (a catch-up takes seconds: long done)
-  try {
-    freeing_ = std::async(std::launch::async, [leftovers = std::move(run), cpus = options_.writer_cpus]() mutable {
-      (void)set_current_thread_cpus(cpus);  // with the model writer, off the loop's CPUs (none: unchanged)
-      leftovers.reset();
-    });
-  } catch (const std::system_error&) {
-    // No thread: the leftovers, still in the callable std::async was given, are freed here.
-  }
-}
-
 void FusionStage::finish_catch_up() {
   CatchUpRun& run = *run_;
   const Time started = now_monotonic();
@@ -200,6 +196,10 @@ void FusionStage::finish_catch_up() {
   } else if (run.on_graph) {
     followed_version_ = run.on_graph->version;
   }
+  // The rebuilt cores placed each scan of the estimate at its pose, a later one by its robot's last
+  // correction in it (fusion/graph_map.hpp); without one, where the odometry put them.
+  placement_ = fusion::ScanPlacement::on(run.on_graph);
+  map_replaced_ = true;
   if (run.on_graph) {
     followed_ = run.on_graph;
     ++counters_.graph_follows;
@@ -224,6 +224,7 @@ void FusionStage::finish_catch_up() {
   late_base_ = late_seen_ = run.late_base;
   if (!run.follow) ++counters_.catch_ups;
   counters_.last_rebuild_followed_graph = run.follow;
+  counters_.last_follow_rigid = false;
   counters_.caught_up_scans = run.rebuild.progress().time_line_scans;
   counters_.caught_up_live_scans = run.rebuild.progress().queued_fed_scans;
   counters_.catch_up_turns = run.turns;
@@ -251,10 +252,13 @@ Result<SessionIndex> FusionStage::read_own_session() {
 
 Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(double)>& progress) {
   const Time started = now_monotonic();
+  if (follow_) continue_rigid_follow(true);
   Result<SessionIndex> session = read_own_session();
   if (!session) return with_context("fusion: no catch-up", session.error());
   writer_->wait();  // a snapshot in progress reads the cores
   map_ = LiveMap{options_.map_resolution_m};
+  map_replaced_ = true;
+  placement_ = {};  // fed on the odometry (a new graph, no estimate yet)
   counters_.scans = counters_.points = counters_.live_removed = 0;
   if (options_.pose_graph) {
     graph_ = std::make_unique<fusion::GraphBackend>(*options_.pose_graph);  // fed the releases again
@@ -272,6 +276,7 @@ Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(
   late_base_ = late_seen_ = late_inputs(core().counters());
   ++counters_.catch_ups;
   counters_.last_rebuild_followed_graph = false;
+  counters_.last_follow_rigid = false;
   counters_.caught_up_scans = fed.value();
   counters_.caught_up_live_scans = 0;
   counters_.catch_up_turns = 0;
@@ -284,6 +289,7 @@ Status FusionStage::catch_up(std::int64_t realtime_ns, const std::function<void(
 Status FusionStage::rebuild_on_graph(const std::function<void(double)>& progress) {
   if (!graph_) return ok_status();
   const Time started = now_monotonic();
+  if (follow_) continue_rigid_follow(true);
   Result<SessionIndex> session = read_own_session();
   if (!session) return session.error();
   LiveMap map{options_.map_resolution_m};
@@ -303,6 +309,7 @@ Status FusionStage::rebuild_on_graph(const std::function<void(double)>& progress
   writer_->wait();  // a snapshot in progress reads the cores
   cores_->take_state(*rebuilt.value());
   map_ = std::move(map);
+  map_replaced_ = true;
   counters_.scans = scans;
   counters_.points = points;
   counters_.live_removed = removed;

@@ -15,7 +15,7 @@ std::uint64_t LiveMap::key_of(const mapping::MapPoint& p) const {
   return mapping::VoxelMap::in_range(k) ? mapping::VoxelMap::pack(k) : kOutOfRange;
 }
 
-void LiveMap::add(const mapping::MapPoint& p, bool removed) { add_keyed(key_of(p), removed, 0); }
+void LiveMap::add(const mapping::MapPoint& p, bool removed, std::uint8_t robot) { add_keyed(key_of(p), removed, robot); }
 
 void LiveMap::add_all(std::span<const mapping::MapPoint> points, std::span<const std::uint8_t> removed,
                       std::span<const std::uint8_t> stored, std::uint8_t robot, std::uint64_t release) {

@@ -6,6 +6,7 @@
 // core had released when the last of them went in. One table and one hash lookup per point.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -21,7 +22,7 @@ class LiveMap {
   explicit LiveMap(double resolution_m);
 
   // One fused point and its decision at release. Points beyond the index range are counted, not mapped.
-  void add(const mapping::MapPoint& p, bool removed);
+  void add(const mapping::MapPoint& p, bool removed, std::uint8_t robot = 0);
   // add() for every point of a released scan in order (removed[i]: its decision; stored: empty, or one
   // per point, only the points with stored[i] != 0 go in), the voxels' table slots prefetched first so
   // that their cache misses overlap. `robot`: the scan's; `release`: the core's release counter after it.
@@ -39,6 +40,9 @@ class LiveMap {
   [[nodiscard]] std::size_t occupied_voxels() const { return cells_.size(); }
   // The core's release counter when the last scan went in (FusedScan::release; 0: none).
   [[nodiscard]] std::uint64_t release() const { return release_; }
+  // A map built again from the model (a rigid follow of the pose graph) shows the core's instant of the
+  // map it replaces, at least.
+  void advance_release(std::uint64_t release) { release_ = std::max(release_, release); }
   // The packed voxel key (mapping::VoxelMap::pack) of a map-frame point; kOutOfRange beyond the index.
   [[nodiscard]] std::uint64_t key_of(const mapping::MapPoint& p) const;
   static constexpr std::uint64_t kOutOfRange = FlatKeyMap<std::uint32_t>::kEmpty;

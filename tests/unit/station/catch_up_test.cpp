@@ -8,6 +8,7 @@
 // and meanwhile the live scans are fused turn by turn.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -19,6 +20,7 @@
 #include <set>
 #include <sstream>
 #include <thread>
+#include <tuple>
 
 #include "common/dataset/pcd.hpp"
 #include "groundstation/fusion/model_writer.hpp"
@@ -31,6 +33,7 @@
 #include "groundstation/trajectory/tum.hpp"
 #include "teamscan.h"
 #include "tests/bench/mapping/synthetic_survey.hpp"
+#include "tests/support/odometry_drift.hpp"
 
 namespace teamscan::station {
 namespace {
@@ -521,6 +524,138 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraph) {
               static_cast<unsigned long long>(stage.graph()->counters().scans),
               static_cast<unsigned long long>(stage.graph()->counters().repeated_scans),
               static_cast<unsigned long long>(stage.graph()->counters().returns.teammates));
+  std::filesystem::remove_all(dir);
+}
+
+// Rigidly (FusionOptions::follow_rigidly, the default once the registration does not place the scans):
+// robot 2's odometry drifts; once the graph published an estimate, the loop's turns move every core's
+// model onto it a slice at a time, with no session read. After the follow every model point of a scan in
+// the estimate lies where the estimate puts its scan (graph · odom⁻¹ of the point as the robot placed
+// it), every other where its robot's newest scan in the estimate puts it (the tail correction, which the
+// scans released since were placed with and the robots are handed), the live map is that model binned,
+// and at the end the graph is still eval's.
+TEST(CatchUp, TheLiveMapFollowsThePoseGraphRigidly) {
+  Dataset d = survey(8.0, 7);
+  test::add_odometry_drift(d, 2, d.scans.front().stamp_ns);
+  const std::vector<Sample> samples = received(d, Shadow{2, 0, 0});  // no shadow
+  FusionOptions o = options();
+  o.compare_methods = {"visibility"};  // every core's model moves
+  o.catch_up_slice_scans = 8;
+  o.write_slice_ms = 0.0;  // the move in its smallest steps, over many turns
+  fusion::GraphBackendOptions graph_options;
+  graph_options.estimate_every_s = 1e-3;
+  o.pose_graph = graph_options;
+  ASSERT_TRUE(o.follow_rigidly);
+  const std::string dir = temp_dir();
+  auto store = SessionStore::open(dir);
+  auto created = FusionStage::create(o, dir);
+  ASSERT_TRUE(store.ok() && created.ok());
+  FusionStage& stage = **created;
+  const std::size_t half = samples.size() / 2;
+  run_station({samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(half)}, *store, stage);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while ((stage.graph()->queued() > 0 || !stage.graph()->latest()) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  // The loop's turns until the graph's newest estimate is followed (the graph takes no more nodes, so
+  // it publishes no newer one): the follows on the way moved the model from one estimate to the next.
+  std::uint64_t turns_following = 0;
+  auto behind = [&] { return stage.following() || !stage.followed_estimate() || stage.followed_estimate()->version != stage.graph()->latest()->version; };
+  while (behind() && std::chrono::steady_clock::now() < deadline) {
+    if (stage.following()) ++turns_following;
+    else std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    stage.tick(samples[half - 1].recv_ns);
+  }
+  ASSERT_FALSE(behind()) << "the newest estimate not followed within 60 s";
+  EXPECT_GE(stage.counters().rigid_follows, 2u) << "follows one after the other while the robots mapped";
+  EXPECT_EQ(stage.counters().graph_follows, stage.counters().rigid_follows) << "rigid follows, no rebuild";
+  EXPECT_EQ(stage.counters().catch_ups, 0u);
+  EXPECT_EQ(stage.counters().follow_failures, 0u);
+  EXPECT_GT(stage.counters().follow_turns, 2u) << "the move is spread over the loop's turns";
+  EXPECT_GT(stage.counters().follow_moved_points, 1000u);
+  const std::shared_ptr<const fusion::GraphEstimate> estimate = stage.followed_estimate();
+  ASSERT_NE(estimate, nullptr);
+
+  std::map<std::pair<std::uint8_t, std::uint32_t>, Pose2> correction;  // (robot, seq) -> graph · odom⁻¹
+  std::map<std::uint8_t, std::pair<std::int64_t, Pose2>> tail;          // robot -> its newest scan's
+  for (const fusion::GraphScanPose& p : estimate->poses) {
+    correction[{p.robot, p.scan}] = p.graph * p.odom.inverse();
+    auto [it, added] = tail.try_emplace(p.robot, p.stamp_ns, p.graph * p.odom.inverse());
+    if (!added && p.stamp_ns > it->second.first) it->second = {p.stamp_ns, p.graph * p.odom.inverse()};
+  }
+  ASSERT_EQ(tail.size(), 3u);
+  std::map<std::uint64_t, const LabelledPoint*> placed;  // as the robot placed it: the session's point
+  SessionReadStats stats;
+  const Result<Dataset> session = read_session_dataset(dir, stats);
+  ASSERT_TRUE(session.ok()) << session.error().what;
+  for (const LabelledPoint& p : session->points) placed[point_key(p.robot, p.scan, p.beam)] = &p;
+  for (std::size_t c = 0; c < 2; ++c) {
+    const fusion::FusionCore& core = c == 0 ? stage.core() : *stage.compared_core("visibility");
+    double worst_m = 0.0, moved_m = 0.0;
+    std::size_t on_estimate = 0, on_tail = 0, unknown = 0;
+    core.for_each_model_point([&](const fusion::ModelPoint& m, bool) {
+      const auto p = placed.find(point_key(m.robot, m.seq, m.beam));
+      if (p == placed.end()) {
+        ++unknown;
+        return;
+      }
+      const auto k = correction.find({static_cast<std::uint8_t>(m.robot), m.seq});
+      const Pose2 at = k != correction.end() ? k->second : tail.at(static_cast<std::uint8_t>(m.robot)).second;
+      (k != correction.end() ? on_estimate : on_tail) += 1;
+      const Vec2 want = at.apply(Vec2{p->second->x, p->second->y});
+      worst_m = std::max({worst_m, std::abs(m.p.x - want.x), std::abs(m.p.y - want.y), std::abs(double{m.p.z} - p->second->z)});
+      moved_m = std::max(moved_m, std::hypot(m.p.x - double{p->second->x}, m.p.y - double{p->second->y}));
+    });
+    EXPECT_EQ(unknown, 0u);
+    EXPECT_GT(on_estimate, 1000u) << c;
+    EXPECT_GT(on_tail, 0u) << c << ": scans released after the estimate's";
+    EXPECT_LT(worst_m, 1e-4) << c << ": a model point off where the estimate puts its scan";
+    EXPECT_GT(moved_m, 1e-4) << c << ": the estimate moved no point";
+    EXPECT_GT(moved_m, 100.0 * worst_m) << c;
+    std::printf("core %zu: %zu model points on the estimate's poses, %zu on the tail corrections (moved up to %.3f m, off by at most %.1e m)\n",
+                c, on_estimate, on_tail, moved_m, worst_m);
+  }
+  // The live map is the primary's moved model, binned.
+  LiveMap binned(o.map_resolution_m);
+  stage.core().for_each_model_point([&](const fusion::ModelPoint& m, bool) { binned.add(m.p, m.removed_at_release != 0, m.robot); });
+  auto sorted = [](std::vector<teamscan_msg_MapVoxel> v) {
+    std::sort(v.begin(), v.end(), [](const teamscan_msg_MapVoxel& a, const teamscan_msg_MapVoxel& b) {
+      return std::tie(a.x_mm, a.y_mm, a.z_mm) < std::tie(b.x_mm, b.y_mm, b.z_mm);
+    });
+    return v;
+  };
+  std::vector<teamscan_msg_MapVoxel> live, want;
+  stage.map_voxels(live);
+  binned.voxels(want);
+  live = sorted(live);
+  want = sorted(want);
+  ASSERT_EQ(live.size(), want.size());
+  for (std::size_t i = 0; i < live.size(); ++i) {
+    EXPECT_TRUE(live[i].x_mm == want[i].x_mm && live[i].y_mm == want[i].y_mm && live[i].z_mm == want[i].z_mm &&
+                live[i].hits == want[i].hits && live[i].flags == want[i].flags) << "voxel " << i;
+    if (::testing::Test::HasFailure()) break;
+  }
+  EXPECT_TRUE(stage.take_map_replaced()) << "the next publication is the whole map";
+  // The robots are handed their tail corrections: the scans to come are placed with them.
+  for (const auto& [robot, t] : tail) {
+    const fusion::PoseHistory::Correction* now = stage.core().poses().correction_at(robot, samples.back().recv_ns);
+    ASSERT_NE(now, nullptr) << unsigned(robot);
+    EXPECT_EQ(now->map_from_odom, t.second) << unsigned(robot);
+  }
+
+  // The rest of the survey: the live map follows on; the graph is the one eval's time order feeds, and
+  // the final model on its poses is made as ever.
+  run_station({samples.begin() + static_cast<std::ptrdiff_t>(half), samples.end()}, *store, stage);
+  stage.flush();
+  EXPECT_FALSE(stage.following());
+  ASSERT_TRUE(stage.write_graph_trajectories().ok());
+  EXPECT_EQ(stage.counters().catch_ups, 0u);
+  EXPECT_EQ(stage.graph()->counters().scans, d.scans.size()) << "every scan once";
+  EXPECT_EQ(stage.graph()->counters().repeated_scans, 0u) << "a rigid follow releases nothing again";
+  expect_graph_is_evals(dir, o.core, "following rigidly");
+  EXPECT_TRUE(stage.rebuild_on_graph().ok());
+  std::printf("%llu rigid follows (%llu turns watched for the newest estimate's), the last moved %llu points in %.3f s\n",
+              static_cast<unsigned long long>(stage.counters().rigid_follows), static_cast<unsigned long long>(turns_following),
+              static_cast<unsigned long long>(stage.counters().follow_moved_points), stage.counters().last_follow_s);
   std::filesystem::remove_all(dir);
 }
 

@@ -1,0 +1,133 @@
+// FusionStage's rigid follow of the pose graph (fusion.hpp FusionOptions::follow_rigidly): the moves from
+// where the live cores placed their scans to the estimate's poses made off the loop, the corrections set
+// from the newest release on, every core's model moved a slice per loop turn, the live map built again
+// from the primary's moved model, and the old model and map freed off the loop.
+#include <algorithm>
+#include <chrono>
+#include <exception>
+#include <future>
+#include <system_error>
+#include <utility>
+
+#include "common/clock.hpp"
+#include "common/thread_placement.hpp"
+#include "groundstation/station/fusion.hpp"
+#include "groundstation/station/rigid_follow.hpp"
+
+namespace teamscan::station {
+
+namespace {
+
+// Old voxels moved per call between two looks at the clock.
+constexpr std::size_t kVoxelsPerStep = 256;
+
+}  // namespace
+
+bool FusionStage::follows_rigidly() const {
+  // The registration places the scans until a first follow decided the session again on the graph's
+  // poses without it (the rebuilt cores run without the registration).
+  return options_.follow_rigidly && !core().options().registration;
+}
+
+void FusionStage::start_rigid_follow(std::shared_ptr<const fusion::GraphEstimate> estimate) {
+  auto f = std::make_unique<RigidFollow>();
+  f->estimate = estimate;
+  f->started = now_monotonic();
+  try {
+    // The moves read every scan of both estimates: off the loop, below it, with the model writer.
+    f->preparing = std::async(std::launch::async, [from = placement_, estimate, cpus = options_.writer_cpus]() {
+      (void)set_current_thread_cpus(cpus);
+      set_current_thread_below_loop();
+      RigidFollow::Prepared p;
+      p.to = fusion::ScanPlacement::on(estimate);
+      p.moves = std::make_shared<const fusion::ScanMoves>(from, p.to);
+      return p;
+    });
+  } catch (const std::system_error&) {
+    ++counters_.follow_failures;  // no thread: this estimate is not followed
+    followed_version_ = estimate->version;
+    return;
+  }
+  follow_ = std::move(f);
+}
+
+void FusionStage::continue_rigid_follow(bool to_the_end) {
+  RigidFollow& f = *follow_;
+  const Time started = now_monotonic();
+  if (!f.prepared.moves) {
+    if (!to_the_end && f.preparing.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+    try {
+      f.prepared = f.preparing.get();
+    } catch (const std::exception&) {
+      // Out of memory making the moves: the cores stay as they are, this estimate is not followed.
+      ++counters_.follow_failures;
+      followed_version_ = f.estimate->version;
+      follow_.reset();
+      return;
+    }
+    // The scans still to be released are placed by their robot's tail correction in the estimate (the
+    // robots are handed it: CorrectionShare); those released so far are moved there.
+    for (std::size_t i = 0; i < cores_->size(); ++i) {
+      fusion::FusionCore& core = cores_->at(i);
+      const std::int64_t newest = core.newest_released_stamp_ns();
+      const std::int64_t from = newest == INT64_MIN ? INT64_MIN : newest + 1;
+      for (std::uint8_t r = 1; r <= kMaxRobots; ++r)
+        if (f.prepared.to.tail[r] != placement_.tail[r]) core.poses().set_map_from_odom(r, from, f.prepared.to.tail[r], 0.0, 0.0, false);
+      core.begin_model_move(f.prepared.moves);
+    }
+    f.map = std::make_unique<LiveMap>(options_.map_resolution_m);
+  }
+  // A periodic write's snapshot reads the cores' models over several turns: the move waits for it.
+  if (writer_->snapshotting()) {
+    if (!to_the_end) return;
+    writer_->wait();
+  }
+  const auto on_moved = [&](const fusion::ModelPoint& p) {
+    f.map->add(p.p, p.removed_at_release != 0, p.robot);
+    ++f.moved_points;
+  };
+  const Duration budget = from_seconds(std::max(options_.write_slice_ms, 0.0) * 1e-3);
+  bool done = false;
+  while (!done) {
+    done = true;
+    for (std::size_t i = 0; i < cores_->size(); ++i) {
+      std::unique_ptr<fusion::ModelStore> old;
+      if (i == 0) done = cores_->at(i).continue_model_move(kVoxelsPerStep, old, on_moved) && done;
+      else done = cores_->at(i).continue_model_move(kVoxelsPerStep, old) && done;
+      if (old) f.old_stores.push_back(std::move(old));
+    }
+    if (!to_the_end && now_monotonic() - started >= budget) break;
+  }
+  ++f.turns;
+  f.slice_max = std::max(f.slice_max, now_monotonic() - started);
+  if (done) finish_rigid_follow();
+}
+
+void FusionStage::finish_rigid_follow() {
+  RigidFollow& f = *follow_;
+  f.map->advance_release(map_.release());
+  std::swap(map_, *f.map);  // the old live map goes with the leftovers
+  placement_ = f.prepared.to;
+  followed_ = f.estimate;
+  followed_version_ = f.estimate->version;
+  ++counters_.graph_follows;
+  ++counters_.rigid_follows;
+  counters_.followed_nodes = f.estimate->nodes;
+  counters_.followed_closures = f.estimate->closures;
+  counters_.last_rebuild_followed_graph = true;
+  counters_.last_follow_rigid = true;
+  counters_.follow_moved_points = f.moved_points;
+  counters_.follow_scans = f.prepared.moves->scans();
+  counters_.follow_turns = f.turns;
+  counters_.follow_slice_max_s = to_seconds(f.slice_max);
+  counters_.last_follow_s = to_seconds(now_monotonic() - f.started);
+  map_replaced_ = true;
+  free_off_loop(std::move(follow_));
+  if (on_catch_up_) on_catch_up_(counters_);
+}
+
+void FusionStage::on_released_while_following(const fusion::FusedScan& f) {
+  if (follow_ && follow_->map) follow_->map->add_all(f.view->points, f.removed, f.stored, f.view->robot, f.release);
+}
+
+}  // namespace teamscan::station
