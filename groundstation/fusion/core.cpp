@@ -361,10 +361,10 @@ void FusionCore::store(const ScanInput& s) {
   counters_.capped_points = into.capped_points();
 }
 
-void FusionCore::begin_model_move(std::shared_ptr<const ScanMoves> moves) {
+void FusionCore::begin_model_move(std::shared_ptr<const ScanMoves> moves, std::unique_ptr<ModelStore> store) {
   auto m = std::make_unique<ModelMove>();
   m->moves = std::move(moves);
-  m->store = std::make_unique<ModelStore>(options_.model_resolution_m, options_.max_points_per_voxel);
+  m->store = store ? std::move(store) : std::make_unique<ModelStore>(options_.model_resolution_m, options_.max_points_per_voxel);
   moving_ = std::move(m);
 }
 

@@ -235,7 +235,8 @@ class FusionCore {
   // and the old one goes to `old` (for the caller to free where it likes): true. Until then the model's
   // readers (for_each_model_point, snapshot_model_part, model_voxels) read the old store, which lacks
   // the scans released since the move began. The filters' map and every point's bits stay as they are.
-  void begin_model_move(std::shared_ptr<const ScanMoves> moves);
+  // `store`: the new store, made (and reserved: ModelStore::reserve) off the loop by the caller; none: made here.
+  void begin_model_move(std::shared_ptr<const ScanMoves> moves, std::unique_ptr<ModelStore> store = nullptr);
   bool continue_model_move(std::size_t voxels, std::unique_ptr<ModelStore>& old,
                            const std::function<void(const ModelPoint&)>& on_moved = {});
   [[nodiscard]] bool moving_model() const { return moving_ != nullptr; }

@@ -14,6 +14,7 @@ struct Numbered {
   std::uint32_t seq;
   std::int64_t stamp_ns;
   Pose2 correction;
+  Vec2 odom_m;  // the robot's position by its odometry
 };
 using Corrections = std::array<std::vector<Numbered>, kMaxRobots + 1>;
 
@@ -21,7 +22,7 @@ Corrections corrections_of(const GraphEstimate* e) {
   Corrections out;
   if (e == nullptr) return out;
   for (const GraphScanPose& p : e->poses)
-    if (p.robot >= 1 && p.robot <= kMaxRobots) out[p.robot].push_back({p.scan, p.stamp_ns, p.graph * p.odom.inverse()});
+    if (p.robot >= 1 && p.robot <= kMaxRobots) out[p.robot].push_back({p.scan, p.stamp_ns, p.graph * p.odom.inverse(), {p.odom.x_m, p.odom.y_m}});
   for (std::vector<Numbered>& v : out) {
     // A robot's scans come in stamp order, their numbers rising with it: sorted already but after a restart.
     if (!std::is_sorted(v.begin(), v.end(), [](const Numbered& x, const Numbered& y) { return x.seq < y.seq; }))
@@ -74,7 +75,14 @@ ScanMoves::ScanMoves(const ScanPlacement& from, const ScanPlacement& to) {
       const std::uint32_t seq = take_a ? ia->seq : ib->seq;
       const Pose2& was = take_a ? ia->correction : from.tail[r];
       const Pose2& now = take_b ? ib->correction : to.tail[r];
-      robot.by_seq.emplace_back(seq, RigidMove::of(now * was.inverse()));
+      const Pose2 move = now * was.inverse();
+      robot.by_seq.emplace_back(seq, RigidMove::of(move));
+      if (take_b) {
+        const Vec2 at = was.apply(ib->odom_m);
+        const Vec2 to_m = move.apply(at);
+        largest_position_shift_m_ = std::max(largest_position_shift_m_, std::hypot(to_m.x - at.x, to_m.y - at.y));
+        largest_turn_rad_ = std::max(largest_turn_rad_, std::abs(normalize_angle(move.theta_rad)));
+      }
       if (take_a) ++ia;
       if (take_b) ++ib;
     }

@@ -52,6 +52,11 @@ class ScanMoves {
   [[nodiscard]] const RigidMove& at(std::uint8_t robot, std::uint32_t seq) const;
   // Scans with a move of their own (those of either estimate).
   [[nodiscard]] std::size_t scans() const;
+  // How far the moves shift a scan's returns at most: over the scans of `to`'s estimate, its sensor
+  // position's shift (where `from` put it) plus its turn times `reach_m`, the laser's range (so a point
+  // far across the map from the origin does not count the map origin's lever). Whether moving the model
+  // is worth a pass over it.
+  [[nodiscard]] double largest_shift_m(double reach_m) const { return largest_position_shift_m_ + reach_m * largest_turn_rad_; }
 
  private:
   struct Robot {
@@ -59,6 +64,7 @@ class ScanMoves {
     RigidMove tail;  // the other scans': to's tail after from's undone
   };
   std::array<Robot, kMaxRobots + 1> robots_;
+  double largest_turn_rad_ = 0.0, largest_position_shift_m_ = 0.0;
   static const RigidMove kNone;
 };
 

@@ -45,6 +45,12 @@ class ModelStore {
   // one per point) is set to 1 for each point stored, 0 for each capped or not finite.
   std::size_t add_all(std::span<const ModelPoint> points, std::span<std::uint8_t> stored = {});
 
+  // Room for `voxels` voxels without growing the index (a store about to take another's points: a
+  // rigid move of the model, which would otherwise grow it step by step within the receive loop).
+  void reserve(std::size_t voxels) {
+    index_.reserve(voxels);
+    slots_.reserve(voxels);
+  }
   [[nodiscard]] std::size_t voxels() const { return slots_.size(); }
   [[nodiscard]] std::uint64_t points() const { return points_; }
   [[nodiscard]] std::uint64_t capped_points() const { return capped_; }

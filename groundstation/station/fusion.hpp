@@ -112,6 +112,10 @@ struct FusionOptions {
   // while the registration places the scans): the whole session decided again on the estimate's poses,
   // as a catch-up (exact, the cost growing with the time mapped).
   bool follow_rigidly = true;
+  // A rigid follow moves the model only when some scan's returns would shift by more than this (its
+  // position's shift plus its turn times the laser's 8 m reach): an estimate that moves nothing as far
+  // is taken as it is (the model stays, the next one is compared with where the scans are).
+  double follow_min_shift_m = 0.02;
   // The CPUs the model writer thread may run on (empty: the process's affinity). A station whose loop
   // is pinned to one core keeps the writer's file work (page-cache copies, kernel sections that the
   // loop cannot preempt) off that core with this; the snapshot itself stays in the loop.
@@ -160,6 +164,8 @@ struct FusionCounters {
   std::uint64_t follow_turns = 0;     // ... the loop turns it moved the model in
   double follow_slice_max_s = 0.0;    // ... its longest share of one loop turn
   std::uint64_t follow_failures = 0;  // a rigid follow's moves could not be made (not retried on that estimate)
+  std::uint64_t follows_skipped = 0;  // estimates that would have moved no scan by follow_min_shift_m
+  double last_follow_shift_m = 0.0;   // the last follow's (or skipped estimate's) largest shift
   std::uint64_t graph_rebuilds = 0;   // the cores rebuilt on the pose graph's poses (rebuild_on_graph)
   double last_graph_rebuild_s = 0.0;  // ... the last one, the session read to the take-over
   std::uint64_t writes = 0;           // model writes done (every core's files written)
@@ -379,6 +385,7 @@ void FusionStage::free_off_loop(std::unique_ptr<Leftovers> leftovers) {
   try {
     freeing_ = std::async(std::launch::async, [leftovers = std::move(leftovers), cpus = options_.writer_cpus]() mutable {
       (void)set_current_thread_cpus(cpus);  // with the model writer, off the loop's CPUs (none: unchanged)
+      set_current_thread_below_loop();
       leftovers.reset();
     });
   } catch (const std::system_error&) {

@@ -18,8 +18,12 @@ namespace teamscan::station {
 
 namespace {
 
+
 // Old voxels moved per call between two looks at the clock.
 constexpr std::size_t kVoxelsPerStep = 256;
+// The reach a scan's turn is weighed with (FusionOptions::follow_min_shift_m): the LMS-200's range in its
+// millimetre mode (ScanPointsOptions::max_range_mm).
+constexpr double kReachM = 8.0;
 
 }  // namespace
 
@@ -33,14 +37,32 @@ void FusionStage::start_rigid_follow(std::shared_ptr<const fusion::GraphEstimate
   auto f = std::make_unique<RigidFollow>();
   f->estimate = estimate;
   f->started = now_monotonic();
+  // What the thread needs of the cores: each one's store options and voxels, the live map's.
+  struct Store {
+    double resolution_m;
+    std::uint32_t cap;
+    std::size_t voxels;
+  };
+  std::vector<Store> stores;
+  for (std::size_t i = 0; i < cores_->size(); ++i) {
+    const fusion::CoreOptions& c = cores_->at(i).options();
+    stores.push_back({c.model_resolution_m, c.max_points_per_voxel, cores_->at(i).model_voxels()});
+  }
   try {
-    // The moves read every scan of both estimates: off the loop, below it, with the model writer.
-    f->preparing = std::async(std::launch::async, [from = placement_, estimate, cpus = options_.writer_cpus]() {
+    // Off the loop, below it, with the model writer: the moves read every scan of both estimates.
+    f->preparing = std::async(std::launch::async, [from = placement_, estimate, stores, map_voxels = map_.occupied_voxels(),
+                                                   resolution_m = options_.map_resolution_m, cpus = options_.writer_cpus]() {
       (void)set_current_thread_cpus(cpus);
       set_current_thread_below_loop();
       RigidFollow::Prepared p;
       p.to = fusion::ScanPlacement::on(estimate);
       p.moves = std::make_shared<const fusion::ScanMoves>(from, p.to);
+      for (const Store& s : stores) {
+        p.stores.push_back(std::make_unique<fusion::ModelStore>(s.resolution_m, s.cap));
+        p.stores.back()->reserve(s.voxels + s.voxels / 8);  // the moved model's voxels and some new ones
+      }
+      p.map = std::make_unique<LiveMap>(resolution_m);
+      p.map->reserve(map_voxels + map_voxels / 8);
       return p;
     });
   } catch (const std::system_error&) {
@@ -54,7 +76,7 @@ void FusionStage::start_rigid_follow(std::shared_ptr<const fusion::GraphEstimate
 void FusionStage::continue_rigid_follow(bool to_the_end) {
   RigidFollow& f = *follow_;
   const Time started = now_monotonic();
-  if (!f.prepared.moves) {
+  if (!f.begun) {
     if (!to_the_end && f.preparing.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
     try {
       f.prepared = f.preparing.get();
@@ -65,6 +87,14 @@ void FusionStage::continue_rigid_follow(bool to_the_end) {
       follow_.reset();
       return;
     }
+    counters_.last_follow_shift_m = f.prepared.moves->largest_shift_m(kReachM);
+    if (counters_.last_follow_shift_m <= options_.follow_min_shift_m) {
+      // Not worth a pass over the model: the scans stay where they are (placement_ unchanged).
+      ++counters_.follows_skipped;
+      followed_version_ = f.estimate->version;
+      free_off_loop(std::move(follow_));
+      return;
+    }
     // The scans still to be released are placed by their robot's tail correction in the estimate (the
     // robots are handed it: CorrectionShare); those released so far are moved there.
     for (std::size_t i = 0; i < cores_->size(); ++i) {
@@ -73,9 +103,10 @@ void FusionStage::continue_rigid_follow(bool to_the_end) {
       const std::int64_t from = newest == INT64_MIN ? INT64_MIN : newest + 1;
       for (std::uint8_t r = 1; r <= kMaxRobots; ++r)
         if (f.prepared.to.tail[r] != placement_.tail[r]) core.poses().set_map_from_odom(r, from, f.prepared.to.tail[r], 0.0, 0.0, false);
-      core.begin_model_move(f.prepared.moves);
+      core.begin_model_move(f.prepared.moves, i < f.prepared.stores.size() ? std::move(f.prepared.stores[i]) : nullptr);
     }
-    f.map = std::make_unique<LiveMap>(options_.map_resolution_m);
+    f.map = std::move(f.prepared.map);
+    f.begun = true;
   }
   // A periodic write's snapshot reads the cores' models over several turns: the move waits for it.
   if (writer_->snapshotting()) {
@@ -127,7 +158,7 @@ void FusionStage::finish_rigid_follow() {
 }
 
 void FusionStage::on_released_while_following(const fusion::FusedScan& f) {
-  if (follow_ && follow_->map) follow_->map->add_all(f.view->points, f.removed, f.stored, f.view->robot, f.release);
+  if (follow_ && follow_->begun) follow_->map->add_all(f.view->points, f.removed, f.stored, f.view->robot, f.release);
 }
 
 }  // namespace teamscan::station

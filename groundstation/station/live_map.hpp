@@ -38,6 +38,11 @@ class LiveMap {
   void forget_changes();
 
   [[nodiscard]] std::size_t occupied_voxels() const { return cells_.size(); }
+  // Room for `voxels` occupied voxels (and as many changes) without growing (a map built again).
+  void reserve(std::size_t voxels) {
+    cells_.reserve(voxels);
+    changed_.reserve(voxels);
+  }
   // The core's release counter when the last scan went in (FusedScan::release; 0: none).
   [[nodiscard]] std::uint64_t release() const { return release_; }
   // A map built again from the model (a rigid follow of the pose graph) shows the core's instant of the

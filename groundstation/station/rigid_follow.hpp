@@ -20,14 +20,19 @@ namespace teamscan::station {
 // (`preparing`, then `prepared`); the live map built from the primary's moved model and the scans
 // released meanwhile; the old models, freed with it off the loop once the moved ones took their place.
 struct FusionStage::RigidFollow {
+  // Made on a thread: the moves, and the new models and live map with room for the old ones' voxels (a
+  // large table's allocation and zeroing stays out of the loop).
   struct Prepared {
     fusion::ScanPlacement to;
     std::shared_ptr<const fusion::ScanMoves> moves;
+    std::vector<std::unique_ptr<fusion::ModelStore>> stores;  // per core
+    std::unique_ptr<LiveMap> map;
   };
   std::shared_ptr<const fusion::GraphEstimate> estimate;
   std::future<Prepared> preparing;
   Prepared prepared;
   std::unique_ptr<LiveMap> map;  // the primary's moved model and its releases since, as the live map will show it
+  bool begun = false;            // the cores' moves begun
   std::vector<std::unique_ptr<fusion::ModelStore>> old_stores;
   std::uint64_t moved_points = 0;
   Time started;

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <map>
@@ -56,6 +57,15 @@ TEST(ScanMoves, EachScanGoesFromWhereOnePlacementPutItToWhereTheOtherPutsIt) {
   expect_move(moves.at(1, 99), c_b3 * c_a2.inverse(), "in neither: tail to tail");
   EXPECT_TRUE(moves.at(2, 5).identity()) << "a robot neither estimate holds";
   EXPECT_TRUE(moves.at(0, 1).identity()) << "no robot 0";
+  // The largest shift: over `to`'s scans, the robot's position (where `from` put it) moved, plus the turn
+  // times the reach.
+  const Vec2 at2 = c_a2.apply({odom.x_m, odom.y_m}), at3 = c_a2.apply({odom.x_m, odom.y_m});
+  const Vec2 to2 = (c_b2 * c_a2.inverse()).apply(at2), to3 = (c_b3 * c_a2.inverse()).apply(at3);
+  const double shift = std::max(std::hypot(to2.x - at2.x, to2.y - at2.y), std::hypot(to3.x - at3.x, to3.y - at3.y));
+  const double turn = std::max(std::abs((c_b2 * c_a2.inverse()).theta_rad), std::abs((c_b3 * c_a2.inverse()).theta_rad));
+  EXPECT_NEAR(moves.largest_shift_m(0.0), shift, 1e-12);
+  EXPECT_NEAR(moves.largest_shift_m(8.0), shift + 8.0 * turn, 1e-12);
+  EXPECT_DOUBLE_EQ(ScanMoves(to, to).largest_shift_m(8.0), 0.0) << "an estimate against itself moves nothing";
   // From the odometry (no estimate) to `to`.
   const ScanMoves first({}, to);
   expect_move(first.at(1, 2), c_b2, "from the odometry");

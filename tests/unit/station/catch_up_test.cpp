@@ -542,6 +542,7 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraphRigidly) {
   o.compare_methods = {"visibility"};  // every core's model moves
   o.catch_up_slice_scans = 8;
   o.write_slice_ms = 0.0;  // the move in its smallest steps, over many turns
+  o.follow_min_shift_m = 0.0;  // this survey's graph moves scans by a millimetre: every estimate is followed
   fusion::GraphBackendOptions graph_options;
   graph_options.estimate_every_s = 1e-3;
   o.pose_graph = graph_options;
@@ -656,6 +657,50 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraphRigidly) {
   std::printf("%llu rigid follows (%llu turns watched for the newest estimate's), the last moved %llu points in %.3f s\n",
               static_cast<unsigned long long>(stage.counters().rigid_follows), static_cast<unsigned long long>(turns_following),
               static_cast<unsigned long long>(stage.counters().follow_moved_points), stage.counters().last_follow_s);
+  std::filesystem::remove_all(dir);
+}
+
+// An estimate that would shift no scan's returns by FusionOptions::follow_min_shift_m (2 cm by default)
+// is not worth a pass over the model: the model stays where the odometry put it, and nothing is moved.
+TEST(CatchUp, AnEstimateThatMovesNothingFarIsNotFollowed) {
+  Dataset d = survey(8.0, 7);
+  test::add_odometry_drift(d, 2, d.scans.front().stamp_ns);
+  const std::vector<Sample> samples = received(d, Shadow{2, 0, 0});
+  FusionOptions o = options();
+  fusion::GraphBackendOptions graph_options;
+  graph_options.estimate_every_s = 1e-3;
+  o.pose_graph = graph_options;
+  ASSERT_DOUBLE_EQ(o.follow_min_shift_m, 0.02);
+  const std::string dir = temp_dir();
+  std::unique_ptr<FusionStage> stage = station_after(o, dir, samples);
+  ASSERT_TRUE(stage);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while ((stage->graph()->queued() > 0 || !stage->graph()->latest()) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  while ((stage->following() || stage->counters().follows_skipped == 0) && std::chrono::steady_clock::now() < deadline) {
+    if (!stage->following()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    stage->tick(samples.back().recv_ns);
+  }
+  EXPECT_GE(stage->counters().follows_skipped, 1u);
+  EXPECT_EQ(stage->counters().rigid_follows, 0u);
+  EXPECT_EQ(stage->counters().graph_follows, 0u);
+  EXPECT_GT(stage->counters().last_follow_shift_m, 0.0);
+  EXPECT_LT(stage->counters().last_follow_shift_m, 0.02);
+  EXPECT_EQ(stage->followed_estimate(), nullptr);
+  // Every model point where the robot placed it.
+  std::map<std::uint64_t, const LabelledPoint*> placed;
+  SessionReadStats stats;
+  const Result<Dataset> session = read_session_dataset(dir, stats);
+  ASSERT_TRUE(session.ok()) << session.error().what;
+  for (const LabelledPoint& p : session->points) placed[point_key(p.robot, p.scan, p.beam)] = &p;
+  std::size_t off = 0, points = 0;
+  stage->core().for_each_model_point([&](const fusion::ModelPoint& m, bool) {
+    ++points;
+    const auto p = placed.find(point_key(m.robot, m.seq, m.beam));
+    if (p == placed.end() || m.p.x != p->second->x || m.p.y != p->second->y) ++off;
+  });
+  EXPECT_GT(points, 1000u);
+  EXPECT_EQ(off, 0u);
   std::filesystem::remove_all(dir);
 }
 
