@@ -48,6 +48,12 @@ struct GraphBackendOptions {
   double estimate_every_s = 0.0;
 };
 
+// `o` for a graph fed offline (a session's check or replay): no estimates while it runs, only the end's.
+[[nodiscard]] inline GraphBackendOptions without_estimates(GraphBackendOptions o) {
+  o.estimate_every_s = 0.0;
+  return o;
+}
+
 // A released scan's pose: as the core decided it, and as the graph put it.
 struct GraphScanPose {
   std::uint8_t robot = 0;

@@ -288,6 +288,17 @@ void finish_fusion(Daemon& d) {
   fusion::GraphBackend* g = d.fusion->graph();
   if (g == nullptr) return;
   const std::size_t behind = g->queued();  // nodes the graph had not taken when the station stopped
+  {
+    const FusionCounters& c = d.fusion->counters();
+    char follows[240];
+    std::snprintf(follows, sizeof follows,
+                  "fusion: the live map followed the pose graph %llu times (%llu moved rigidly); %llu estimates shifted no scan by "
+                  "%.3f m and were not followed; %llu follows failed",
+                  static_cast<unsigned long long>(c.graph_follows), static_cast<unsigned long long>(c.rigid_follows),
+                  static_cast<unsigned long long>(c.follows_skipped), d.fusion->options().follow_min_shift_m,
+                  static_cast<unsigned long long>(c.follow_failures));
+    d.store->log_event(now_realtime(), follows);
+  }
   stop.step("stopping: the pose graph's last optimisation");
   while (!g->finished_within(std::chrono::seconds(1))) stop.progress()(0.0);
   const Status graph = d.fusion->write_graph_trajectories();  // robot<N>.graph.tum

@@ -99,18 +99,23 @@ struct FusionOptions {
   std::uint32_t catch_up_slice_scans = 16;
   // The pose graph as the primary core's back end (fusion/graph_backend.hpp; [pose_graph]): fed every
   // scan the core releases, on its own thread; its trajectory is written at the end
-  // (write_graph_trajectories). With its estimate_every_s, the live map follows it: each new estimate
-  // rebuilds the cores from the session folder on the graph's poses in slices, as a catch-up does
-  // (tick()), and they take over. On by default ([pose_graph] enabled = false: none, odometry alone or
-  // the registration's corrections).
-  std::optional<fusion::GraphBackendOptions> pose_graph = fusion::GraphBackendOptions{};
+  // (write_graph_trajectories). With its estimate_every_s (5 s; [pose_graph] follow_s, 0: only the final
+  // model follows), the live map follows it: each new estimate moves the model onto the graph's poses, or
+  // rebuilds the cores on them (follow_rigidly below; tick()). On by default ([pose_graph] enabled =
+  // false: none, odometry alone or the registration's corrections).
+  std::optional<fusion::GraphBackendOptions> pose_graph = [] {
+    fusion::GraphBackendOptions o;
+    o.estimate_every_s = 5.0;  // the live map follows it ([pose_graph] follow_s)
+    return o;
+  }();
   // How the live map follows the graph's estimates (pose_graph's estimate_every_s > 0). Rigidly (true):
   // every core's model store is moved scan by scan onto the estimate's poses, write_slice_ms of a loop
   // turn at a time, and the live map built again from the primary's (fusion/model_move.hpp); the robots
   // are handed their corrections from the estimate on; the filters' evidence and the decisions at release
-  // stay as they were made; the cost is one pass over the model, bounded by the mapped space. Else (and
-  // while the registration places the scans): the whole session decided again on the estimate's poses,
-  // as a catch-up (exact, the cost growing with the time mapped).
+  // stay as they were made; the cost is one pass over the model, bounded by the mapped space. With the
+  // registration on, its corrections place the scans live and only the final model follows the graph.
+  // Else (false): the whole session decided again on the estimate's poses, as a catch-up, the
+  // registration off from then on (exact, the cost growing with the time mapped).
   bool follow_rigidly = true;
   // A rigid follow moves the model only when some scan's returns would shift by more than this (its
   // position's shift plus its turn times the laser's 8 m reach): an estimate that moves nothing as far
@@ -323,7 +328,6 @@ class FusionStage {
   struct RigidFollow;  // fusion_follow.cpp
   // The rigid follow of an estimate: its moves made off the loop, then the cores' corrections set and
   // their models moved a slice per turn (all of it with `to_the_end`), then the moved map in place.
-  [[nodiscard]] bool follows_rigidly() const;
   void start_rigid_follow(std::shared_ptr<const fusion::GraphEstimate> estimate);
   void continue_rigid_follow(bool to_the_end);
   void finish_rigid_follow();

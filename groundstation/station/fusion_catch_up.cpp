@@ -82,8 +82,10 @@ void FusionStage::tick(std::int64_t realtime_ns) {
   if (graph_ && options_.catch_up_slice_scans > 0) {
     const std::shared_ptr<const fusion::GraphEstimate> estimate = graph_->latest();
     if (estimate && estimate->version != followed_version_) {
-      if (follows_rigidly()) start_rigid_follow(estimate);
-      else start_catch_up(realtime_ns, true);
+      // Rigidly only while the graph is what places the scans: with the registration on, its corrections
+      // place them live and the graph only the final model.
+      if (!options_.follow_rigidly) start_catch_up(realtime_ns, true);
+      else if (!core().options().registration) start_rigid_follow(estimate);
     }
   }
 }

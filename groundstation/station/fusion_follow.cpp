@@ -27,12 +27,6 @@ constexpr double kReachM = 8.0;
 
 }  // namespace
 
-bool FusionStage::follows_rigidly() const {
-  // The registration places the scans until a first follow decided the session again on the graph's
-  // poses without it (the rebuilt cores run without the registration).
-  return options_.follow_rigidly && !core().options().registration;
-}
-
 void FusionStage::start_rigid_follow(std::shared_ptr<const fusion::GraphEstimate> estimate) {
   auto f = std::make_unique<RigidFollow>();
   f->estimate = estimate;

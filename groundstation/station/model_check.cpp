@@ -34,7 +34,7 @@ Result<ModelCheck> check_model_against_eval(const std::string& session, const Fu
   run.registration_options = options.core.registration_options;
   if (options.pose_graph) {
     // As the station's final model: a graph fed the primary's releases, then the model on its poses.
-    fusion::GraphBackend graph(*options.pose_graph);
+    fusion::GraphBackend graph(fusion::without_estimates(*options.pose_graph));
     run.graph = &graph;
     Result<fusion::CoreRun> first = fusion::run_through_core(ds.value(), options.core.method, options.core.methods, run);
     if (!first) return first.error();

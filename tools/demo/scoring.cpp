@@ -404,7 +404,7 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
   // with the pose graph, its back end fed every release, as the station's is.
   std::unique_ptr<fusion::GraphBackend> graph;
   out.pose_graph = options.pose_graph.has_value();
-  if (options.pose_graph) graph = std::make_unique<fusion::GraphBackend>(*options.pose_graph);
+  if (options.pose_graph) graph = std::make_unique<fusion::GraphBackend>(fusion::without_estimates(*options.pose_graph));
   if (options.core.registration || graph) {
     cores.primary().set_release_callback([&](const fusion::FusedScan& f) {
       if (graph) graph->add(f);
@@ -438,7 +438,7 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
     }
     out.scan_pose.clear();
     out.placed.clear();
-    if (graph) graph = std::make_unique<fusion::GraphBackend>(*options.pose_graph);  // fed the releases again
+    if (graph) graph = std::make_unique<fusion::GraphBackend>(fusion::without_estimates(*options.pose_graph));  // fed the releases again
     if (Result<std::size_t> fed = fusion::refeed_in_time_order(ds.value(), cores); !fed) {
       out.error = std::string("fusion cores: ") + fed.error().what;
       return out;

@@ -13,9 +13,11 @@
 # The pose graph runs as the fusion core's back end, as in a station at its defaults ([pose_graph],
 # docs/slam.md "The back end"), its thread on MATCH_CPUS as the registration's match thread; the station's
 # shutdown line of the graph (scans, nodes, how many it was behind) is printed after each N. POSE_GRAPH=0
-# turns it off ([pose_graph] enabled = false). FOLLOW_S=S (with the graph)
-# lets the live map follow the graph's estimate at most every S s ([pose_graph] follow_s; docs/slam.md
-# "The live map follows the graph"); the station's follow lines from its event log are printed too.
+# turns it off ([pose_graph] enabled = false). The live map follows the graph's estimates as at the
+# station's defaults (every 5 s, rigidly, when one moves a scan 2 cm); FOLLOW_S=S sets [pose_graph]
+# follow_s (0: only the final model), FOLLOW_MIN_SHIFT=M its follow_min_shift_m (0: every estimate moves
+# the model; docs/slam.md "The live map follows the graph"); the station's follow lines from its event
+# log are printed too.
 #
 # REGISTRATION=1 turns the station's scan-to-map registration on (a [registration] section, its defaults;
 # docs/registration.md "Cost"), its match thread on MATCH_CPUS (default: the feeder's CPU, as a station
@@ -23,7 +25,7 @@
 # lap2-drift) instead of the synthetic survey. cpu_ms_per_scan = the station's CPU seconds over the feed
 # and the drain / the scans it stored: on a shared machine a steadier figure than the latency.
 #
-# usage: [METHOD=best] [TEAM_LAG=0.15] [REGISTRATION=0] [POSE_GRAPH=1] [FOLLOW_S=0] [MATCH_CPUS=0] [DATASET=dir] [DOMAIN=id] [STATION_CPU=1] [FEEDER_CPU=0] [DDS_CONFIG=file] \
+# usage: [METHOD=best] [TEAM_LAG=0.15] [REGISTRATION=0] [POSE_GRAPH=1] [FOLLOW_S=5] [FOLLOW_MIN_SHIFT=0.02] [MATCH_CPUS=0] [DATASET=dir] [DOMAIN=id] [STATION_CPU=1] [FEEDER_CPU=0] [DDS_CONFIG=file] \
 #          tests/bench/station/run_capacity.sh [BUILD_DIR] [DURATION_S] [N ...]   default: build/dev, 20 s, N = 8 16 24 32
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -49,14 +51,16 @@ match_cpus="${MATCH_CPUS-$fcpu}"
 [ "$registration" = 1 ] && printf '[registration]\nenabled = true\ncpus = [%s]\n' "$match_cpus" >> "$extra"
 pose_graph="${POSE_GRAPH:-1}"
 if [ "$pose_graph" = 1 ]; then
-  printf '[pose_graph]\ncpus = [%s]\nfollow_s = %s\n' "$match_cpus" "${FOLLOW_S:-0}" >> "$extra"
+  printf '[pose_graph]\ncpus = [%s]\n' "$match_cpus" >> "$extra"
+  [ -n "${FOLLOW_S:-}" ] && printf 'follow_s = %s\n' "$FOLLOW_S" >> "$extra"
+  [ -n "${FOLLOW_MIN_SHIFT:-}" ] && printf 'follow_min_shift_m = %s\n' "$FOLLOW_MIN_SHIFT" >> "$extra"
 else
   printf '[pose_graph]\nenabled = false\n' >> "$extra"
 fi
 dataset_args=()
 [ -n "${DATASET:-}" ] && dataset_args=(--dataset "$DATASET")
 [ -n "${DOMAIN:-}" ] && dataset_args+=(--domain "$DOMAIN")  # a fixed DDS domain (default: from the feeder's pid)
-echo "# $(date -u +%FT%TZ) station capacity: ${duration} s robot time per N, method $method, team_lag_s $lag, registration $registration, pose graph $pose_graph (follow_s ${FOLLOW_S:-0})${match_cpus:+ (matches and graph on CPU $match_cpus)}, template ${DATASET:-synthetic survey}, station on CPU $scpu, feeder on CPU $fcpu, $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "# $(date -u +%FT%TZ) station capacity: ${duration} s robot time per N, method $method, team_lag_s $lag, registration $registration, pose graph $pose_graph (follow_s ${FOLLOW_S:-5}, follow_min_shift_m ${FOLLOW_MIN_SHIFT:-0.02})${match_cpus:+ (matches and graph on CPU $match_cpus)}, template ${DATASET:-synthetic survey}, station on CPU $scpu, feeder on CPU $fcpu, $(nproc) CPUs, load $(cut -d' ' -f1-3 /proc/loadavg)"
 printf '%4s %8s %8s %6s %8s %8s %8s %10s %7s %8s %8s %15s\n' N published stored lost p50_ms p99_ms max_ms all_p99_ms cpu_% rss_MiB cpu_s cpu_ms_per_scan
 best=0
 for n in "${counts[@]}"; do
@@ -77,7 +81,7 @@ for n in "${counts[@]}"; do
   per_scan=$(awk -v c="$cpu_s" -v n="$stored" 'BEGIN { if (n > 0) printf "%.3f", 1000 * c / n; else print "-" }')
   if [ -z "$line" ]; then echo "N=$n: no result:"; echo "$out" | tail -5; continue; fi
   printf '%4d %8s %8s %6s %8s %8s %8s %10s %7s %8s %8s %15s\n' "$n" "$fed" "$stored" "$lost" "$p50" "$p99" "$max" "$all_p99" "$cpu" "$rss" "$cpu_s" "$per_scan"
-  [ "$pose_graph" = 1 ] && echo "$out" | grep -E '^(pose graph: |fusion: the final model|graph follows: )' | sed 's/^/     /'
+  [ "$pose_graph" = 1 ] && echo "$out" | grep -E '^(pose graph: |fusion: the final model|graph follows: |fusion: the live map followed)' | sed 's/^/     /'
   if [ "$lost" = "0" ] && awk -v p="$p99" 'BEGIN { exit !(p <= 50.0) }'; then best=$n; fi
 done
 echo "largest N with steady p99 <= 50 ms and nothing lost: $best (goal 32 on one core; load after: $(cut -d' ' -f1-3 /proc/loadavg))"

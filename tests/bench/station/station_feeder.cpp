@@ -597,7 +597,13 @@ int main(int argc, char** argv) {
       double t_s = 0.0, turn_ms = 0.0;
       unsigned long long scans = 0, turns = 0;
       const auto d = line.find(": ", at);
-      if (d != std::string::npos &&
+      const auto moved = line.find(" model points moved rigidly", at);  // a rigid follow's line
+      const auto from = moved != std::string::npos ? line.find(" in ", moved) : std::string::npos;
+      if (from != std::string::npos &&
+          std::sscanf(line.c_str() + from, " in %lf s (%llu loop turns, at most %lf ms", &t_s, &turns, &turn_ms) == 3) {
+        longest_s = std::max(longest_s, t_s);
+        turn_max_ms = std::max(turn_max_ms, turn_ms);
+      } else if (d != std::string::npos &&
           std::sscanf(line.c_str() + d, ": %llu scans of the session decided again in %lf s (%llu loop turns, at most %lf ms",
                       &scans, &t_s, &turns, &turn_ms) == 4) {
         longest_s = std::max(longest_s, t_s);
@@ -663,11 +669,14 @@ int main(int argc, char** argv) {
   }
   std::printf(" after %.1f s; RSS at most %.1f MiB during the stop\n", stop_s, static_cast<double>(stop_max_kib) / 1024.0);
   {
-    // The station's pose graph ([pose_graph]): its line at the stop (scans, nodes, how far it was behind).
+    // The station's pose graph ([pose_graph]): its line at the stop (scans, nodes, how far it was behind),
+    // and how often the live map followed it.
     std::ifstream in(session + "/events.log");
     std::string line;
-    while (std::getline(in, line))
+    while (std::getline(in, line)) {
       if (const auto at = line.find("pose graph: "); at != std::string::npos) std::printf("%s\n", line.c_str() + at);
+      if (const auto at = line.find("fusion: the live map followed"); at != std::string::npos) std::printf("%s\n", line.c_str() + at);
+    }
   }
   if (!o.keep_session && o.session_dir.empty()) {
     std::error_code ec;

@@ -447,6 +447,7 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraph) {
   const std::vector<Sample> samples = received(d, Shadow{2, 0, 0});  // no shadow
   FusionOptions o = options();
   o.core.registration = true;
+  o.follow_rigidly = false;  // each estimate: the session decided again on its poses
   o.catch_up_slice_scans = 8;
   fusion::GraphBackendOptions graph_options;
   graph_options.estimate_every_s = 1e-3;
@@ -701,6 +702,34 @@ TEST(CatchUp, AnEstimateThatMovesNothingFarIsNotFollowed) {
   });
   EXPECT_GT(points, 1000u);
   EXPECT_EQ(off, 0u);
+  std::filesystem::remove_all(dir);
+}
+
+// With the registration on, its corrections place the scans live: the graph's estimates are not followed
+// rigidly (they would take the registration's place), only the final model follows the graph.
+TEST(CatchUp, WithTheRegistrationOnTheLiveMapStaysTheRegistrations) {
+  Dataset d = survey(8.0, 7);
+  test::add_odometry_drift(d, 2, d.scans.front().stamp_ns);
+  const std::vector<Sample> samples = received(d, Shadow{2, 0, 0});
+  FusionOptions o = options();
+  o.core.registration = true;
+  o.follow_min_shift_m = 0.0;
+  fusion::GraphBackendOptions graph_options;
+  graph_options.estimate_every_s = 1e-3;
+  o.pose_graph = graph_options;
+  ASSERT_TRUE(o.follow_rigidly);
+  const std::string dir = temp_dir();
+  std::unique_ptr<FusionStage> stage = station_after(o, dir, samples);
+  ASSERT_TRUE(stage);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while ((stage->graph()->queued() > 0 || !stage->graph()->latest()) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  for (int turn = 0; turn < 100; ++turn) stage->tick(samples.back().recv_ns);
+  ASSERT_NE(stage->graph()->latest(), nullptr);
+  EXPECT_EQ(stage->counters().graph_follows, 0u);
+  EXPECT_FALSE(stage->following());
+  EXPECT_TRUE(stage->core().options().registration);
+  EXPECT_GT(stage->core().counters().registration_corrections, 0u);
   std::filesystem::remove_all(dir);
 }
 
