@@ -308,7 +308,7 @@ void read_pose_graph(TomlReader& r, FusionOptions& f) {
   bool enabled = true;
   r.boolean(graph, "pose_graph", "enabled", enabled);
   r.boolean(graph, "pose_graph", "follow_rigidly", f.follow_rigidly);
-  r.number_in(graph, "pose_graph", "follow_min_shift_m", f.follow_min_shift_m, 0.0, 100.0);
+  r.number_in(graph, "pose_graph", "follow_min_shift_m", f.follow_min_shift_m, 0.0, 100.0, true);
   fusion::GraphBackendOptions o = f.pose_graph.value_or(fusion::GraphBackendOptions{});
   r.number_in(graph, "pose_graph", "follow_s", o.estimate_every_s, 0.0, 3600.0, true);
   r.number_in(graph, "pose_graph", "min_height_m", o.returns.min_height_m, -10.0, 10.0, true);

@@ -406,6 +406,9 @@ TEST(FusionConfig, ThePoseGraphIsOnByDefaultAndOffByEnabledFalse) {
   EXPECT_DOUBLE_EQ(s.fusion.pose_graph->estimate_every_s, 2.0);
   EXPECT_FALSE(s.fusion.follow_rigidly);
   EXPECT_DOUBLE_EQ(s.fusion.follow_min_shift_m, 0.05);
+  GroundStationConfig every;
+  ASSERT_TRUE(parse_groundstation_config("[pose_graph]\nfollow_min_shift_m = 0\n", "t.toml", every, e)) << e.message;
+  EXPECT_EQ(every.fusion.follow_min_shift_m, 0.0) << "0: every estimate moves the model";
   EXPECT_EQ(s.fusion.pose_graph->cpus, (std::vector<int>{0}));
   GroundStationConfig off;
   ASSERT_TRUE(parse_groundstation_config("[pose_graph]\nenabled = false\nnode_s = 0.5\n", "t.toml", off, e)) << e.message;
