@@ -320,6 +320,7 @@ void FusionCore::release(ScanInput& s, std::int64_t arrival_ns, bool forced) {
     const std::uint64_t before = counters_.stored_points;
     store(s);
     rc.stored_points += counters_.stored_points - before;
+    if (moving_) moving_->robot_points[view.robot <= kMaxRobots ? view.robot : 0] += counters_.stored_points - before;
   }
   if (on_release_) {
     FusedScan f;
@@ -358,7 +359,7 @@ void FusionCore::store(const ScanInput& s) {
   stored_.resize(s.points.size());
   ModelStore& into = moving_ ? *moving_->store : model_;  // a move under way: the moved model's
   counters_.stored_points += into.add_all(model_points_, stored_);
-  counters_.capped_points = into.capped_points();
+  counters_.capped_points = capped_before_ + model_.capped_points() + (moving_ ? moving_->store->capped_points() : 0);
 }
 
 void FusionCore::begin_model_move(std::shared_ptr<const ScanMoves> moves, std::unique_ptr<ModelStore> store) {
@@ -376,15 +377,20 @@ bool FusionCore::continue_model_move(std::size_t voxels, std::unique_ptr<ModelSt
   for (std::size_t k = m.next_voxel; k < end; ++k) {
     model_.for_each_in_voxel(k, [&](ModelPoint p) {
       m.moves->at(p.robot, p.seq).apply(p.p);
-      if (m.store->add(p) && on_moved) on_moved(p);
+      if (!m.store->add(p)) return;
+      ++m.robot_points[p.robot];
+      if (on_moved) on_moved(p);
     });
   }
   m.next_voxel = end;
   if (end < model_.voxels()) return false;
   std::swap(model_, *m.store);
   old = std::move(m.store);
+  // The old store's caps stay counted; the moved model's points are the model's now.
+  capped_before_ += old->capped_points();
   counters_.stored_points = model_.points();
-  counters_.capped_points = old->capped_points() + model_.capped_points();
+  counters_.capped_points = capped_before_ + model_.capped_points();
+  for (std::size_t r = 0; r < robot_counters_.size(); ++r) robot_counters_[r].stored_points = m.robot_points[r];
   moving_.reset();
   return true;
 }

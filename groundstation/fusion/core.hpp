@@ -323,8 +323,10 @@ class FusionCore {
     std::shared_ptr<const ScanMoves> moves;
     std::unique_ptr<ModelStore> store;
     std::size_t next_voxel = 0;
+    std::array<std::uint64_t, kMaxRobots + 1> robot_points{};  // per robot: its points in the new store
   };
   std::unique_ptr<ModelMove> moving_;
+  std::uint64_t capped_before_ = 0;  // points capped by model stores a move replaced
   std::unique_ptr<registration::Registration> registration_;
   // Scratch of a release.
   std::vector<std::uint8_t> bits_, removed_, stored_;

@@ -18,7 +18,6 @@ namespace teamscan::station {
 
 namespace {
 
-
 // Old voxels moved per call between two looks at the clock.
 constexpr std::size_t kVoxelsPerStep = 256;
 // The reach a scan's turn is weighed with (FusionOptions::follow_min_shift_m): the LMS-200's range in its
@@ -45,12 +44,14 @@ void FusionStage::start_rigid_follow(std::shared_ptr<const fusion::GraphEstimate
   try {
     // Off the loop, below it, with the model writer: the moves read every scan of both estimates.
     f->preparing = std::async(std::launch::async, [from = placement_, estimate, stores, map_voxels = map_.occupied_voxels(),
-                                                   resolution_m = options_.map_resolution_m, cpus = options_.writer_cpus]() {
+                                                   resolution_m = options_.map_resolution_m, min_shift_m = options_.follow_min_shift_m,
+                                                   cpus = options_.writer_cpus]() {
       (void)set_current_thread_cpus(cpus);
       set_current_thread_below_loop();
       RigidFollow::Prepared p;
       p.to = fusion::ScanPlacement::on(estimate);
       p.moves = std::make_shared<const fusion::ScanMoves>(from, p.to);
+      if (p.moves->largest_shift_m(kReachM) <= min_shift_m) return p;  // not followed: nothing more to make
       for (const Store& s : stores) {
         p.stores.push_back(std::make_unique<fusion::ModelStore>(s.resolution_m, s.cap));
         p.stores.back()->reserve(s.voxels + s.voxels / 8);  // the moved model's voxels and some new ones

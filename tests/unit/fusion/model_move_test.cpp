@@ -151,6 +151,18 @@ TEST(ModelMove, EveryStoredPointGoesWhereItsScansMoveTakesItAndTheReleasesMeanwh
   EXPECT_EQ(by_scan.count(3), 0u) << "moved points beyond a voxel's cap are dropped";
   EXPECT_EQ(core->counters().stored_points, 120u);
   EXPECT_EQ(core->counters().capped_points, 40u);
+  EXPECT_EQ(core->robot_counters(1).stored_points, 120u);
+  // A second move (scan 2's row 0.5 m up, off scan 4's): the caps of the first stay counted.
+  const ScanPlacement up = ScanPlacement::on(estimate({{1, 1, 0, odom, turn}, {1, 2, 0, odom, Pose2{0.0, 0.5, 0.0}},
+                                                       {1, 3, 0, odom, down}, {1, 4, 0, odom, down}}));
+  core->begin_model_move(std::make_shared<const ScanMoves>(to, up));
+  while (!core->continue_model_move(50, old)) {
+  }
+  std::size_t on_row = 0;
+  core->for_each_model_point([&](const ModelPoint& m, bool) { on_row += m.seq == 2 && std::abs(m.p.y - 2.525f) < 1e-5f ? 1 : 0; });
+  EXPECT_EQ(on_row, 40u);
+  EXPECT_EQ(core->counters().stored_points, 120u);
+  EXPECT_EQ(core->counters().capped_points, 40u) << "the first move's caps, none new";
   // The moved points the live map is told of: scan 1's and 2's (scan 3's were capped; scan 4 was released
   // into the new store directly).
   EXPECT_EQ(moved.size(), 80u);
