@@ -203,35 +203,41 @@ TEST(StationRos2, MapCloudTfAndOdometryReachRmwLikeReaders) {
   static ScanPoints scan;
   std::size_t poses_sent = 0;
   std::int32_t last_x_mm[2] = {0, 0}, last_y_mm[2] = {0, 0};
+  // Robot `id`'s pose number k + 1 (10 Hz along its heading), published and given to the reference
+  // tracker; the scan of that pose gets its header (number, stamp, origin) and kPointsPerScan points to fill.
+  auto send_pose = [&](std::int64_t k, std::uint32_t id) {
+    const std::int64_t stamp = base_ns + k * 100'000'000 + id * 1'000'000;
+    const double t = static_cast<double>(k) * 0.1, yaw = robot_yaw(id);
+    onboard::OnboardPose p;
+    p.robot_id = id;
+    p.seq = static_cast<std::uint32_t>(k + 1);
+    p.stamp_ns = stamp;
+    p.x_mm = static_cast<std::int32_t>(std::lround((robot_x0(id) + kSpeedMps * t * std::cos(yaw)) * 1000.0));
+    p.y_mm = static_cast<std::int32_t>(std::lround((robot_y0(id) + kSpeedMps * t * std::sin(yaw)) * 1000.0));
+    p.yaw_urad = static_cast<std::int32_t>(std::lround(yaw * 1e6));
+    p.vx_mmps = static_cast<std::int32_t>(std::lround(kSpeedMps * std::cos(yaw) * 1000.0));
+    p.vy_mmps = static_cast<std::int32_t>(std::lround(kSpeedMps * std::sin(yaw) * 1000.0));
+    EXPECT_TRUE(robots[id - 1].publish_pose(p).ok());
+    ++poses_sent;
+    const double yaw_wire = p.yaw_urad * 1e-6;
+    reference.add_pose(static_cast<std::uint8_t>(id), stamp, Pose2{p.x_mm * 1e-3, p.y_mm * 1e-3, yaw_wire},
+                       p.vx_mmps * 1e-3 * std::cos(yaw_wire) + p.vy_mmps * 1e-3 * std::sin(yaw_wire));
+    // teamscan/pose is keep-last 1: the next pose waits until the station has stored this one.
+    const auto deadline = std::chrono::steady_clock::now() + 10s;
+    while (csv_rows(session + "/poses.csv") < poses_sent && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(1ms);
+    scan.robot_id = id;
+    scan.seq = p.seq;
+    scan.stamp = Time::from_ns(stamp + 500'000);
+    scan.origin_x_mm = p.x_mm;
+    scan.origin_y_mm = p.y_mm;
+    scan.origin_z_mm = 400;
+    scan.count = kPointsPerScan;
+    return p;
+  };
   for (std::int64_t k = 0; k < kPoses; ++k) {
     for (std::uint32_t id : {1u, 2u}) {
-      const std::int64_t stamp = base_ns + k * 100'000'000 + id * 1'000'000;
-      const double t = static_cast<double>(k) * 0.1, yaw = robot_yaw(id);
-      onboard::OnboardPose p;
-      p.robot_id = id;
-      p.seq = static_cast<std::uint32_t>(k + 1);
-      p.stamp_ns = stamp;
-      p.x_mm = static_cast<std::int32_t>(std::lround((robot_x0(id) + kSpeedMps * t * std::cos(yaw)) * 1000.0));
-      p.y_mm = static_cast<std::int32_t>(std::lround((robot_y0(id) + kSpeedMps * t * std::sin(yaw)) * 1000.0));
-      p.yaw_urad = static_cast<std::int32_t>(std::lround(yaw * 1e6));
-      p.vx_mmps = static_cast<std::int32_t>(std::lround(kSpeedMps * std::cos(yaw) * 1000.0));
-      p.vy_mmps = static_cast<std::int32_t>(std::lround(kSpeedMps * std::sin(yaw) * 1000.0));
-      ASSERT_TRUE(robots[id - 1].publish_pose(p).ok());
-      ++poses_sent;
-      const double yaw_wire = p.yaw_urad * 1e-6;
-      reference.add_pose(static_cast<std::uint8_t>(id), stamp, Pose2{p.x_mm * 1e-3, p.y_mm * 1e-3, yaw_wire},
-                         p.vx_mmps * 1e-3 * std::cos(yaw_wire) + p.vy_mmps * 1e-3 * std::sin(yaw_wire));
-      // teamscan/pose is keep-last 1: the next pose waits until the station has stored this one.
-      const auto deadline = std::chrono::steady_clock::now() + 10s;
-      while (csv_rows(session + "/poses.csv") < poses_sent && std::chrono::steady_clock::now() < deadline)
-        std::this_thread::sleep_for(1ms);
-      scan.robot_id = id;
-      scan.seq = static_cast<std::uint32_t>(k + 1);
-      scan.stamp = Time::from_ns(stamp + 500'000);
-      scan.origin_x_mm = p.x_mm;
-      scan.origin_y_mm = p.y_mm;
-      scan.origin_z_mm = 400;
-      scan.count = kPointsPerScan;
+      const onboard::OnboardPose p = send_pose(k, id);
       for (int i = 0; i < kPointsPerScan; ++i) {
         const auto kk = static_cast<std::int32_t>(k);
         scan.points[i] = ScanPoint{6000, -3000 + 100 * i + 7 * kk, 200 + 20 * kk + static_cast<std::int32_t>(id) * 5,
@@ -393,27 +399,7 @@ TEST(StationRos2, MapCloudTfAndOdometryReachRmwLikeReaders) {
   // readers. What the readers hold last, the cloud and teamscan/map, is the model the station wrote.
   for (std::int64_t k = kPoses; k < kPoses + kLastPoses; ++k) {
     for (std::uint32_t id : {1u, 2u}) {
-      const std::int64_t stamp = base_ns + k * 100'000'000 + id * 1'000'000;
-      const double t = static_cast<double>(k) * 0.1, yaw = robot_yaw(id);
-      onboard::OnboardPose p;
-      p.robot_id = id;
-      p.seq = static_cast<std::uint32_t>(k + 1);
-      p.stamp_ns = stamp;
-      p.x_mm = static_cast<std::int32_t>(std::lround((robot_x0(id) + kSpeedMps * t * std::cos(yaw)) * 1000.0));
-      p.y_mm = static_cast<std::int32_t>(std::lround((robot_y0(id) + kSpeedMps * t * std::sin(yaw)) * 1000.0));
-      p.yaw_urad = static_cast<std::int32_t>(std::lround(yaw * 1e6));
-      ASSERT_TRUE(robots[id - 1].publish_pose(p).ok());
-      ++poses_sent;
-      const auto deadline = std::chrono::steady_clock::now() + 10s;
-      while (csv_rows(session + "/poses.csv") < poses_sent && std::chrono::steady_clock::now() < deadline)
-        std::this_thread::sleep_for(1ms);
-      scan.robot_id = id;
-      scan.seq = static_cast<std::uint32_t>(k + 1);
-      scan.stamp = Time::from_ns(stamp + 500'000);
-      scan.origin_x_mm = p.x_mm;
-      scan.origin_y_mm = p.y_mm;
-      scan.origin_z_mm = 400;
-      scan.count = kPointsPerScan;
+      (void)send_pose(k, id);
       for (int i = 0; i < kPointsPerScan; ++i)  // a wall of its own, above the first one's
         scan.points[i] = ScanPoint{6500, -3000 + 100 * i, 2000 + 100 * static_cast<std::int32_t>(k - kPoses), static_cast<std::uint16_t>(i), 0};
       ASSERT_TRUE(robots[id - 1].publish_scan(scan).ok());
