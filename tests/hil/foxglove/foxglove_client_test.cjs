@@ -8,7 +8,9 @@
 // each robot's laser mount; the frame tree of /tf with /tf_static has one parent per frame and `map` as its
 // root (map -> robotN/odom -> robotN/base_link -> robotN/laser); each
 // robot's base_link, composed through the tree, is within 5 cm of the station's tracked pose of the same
-// snapshot (/api/state); a client publish and a parameter request are refused and counted (/api/stats).
+// snapshot (/api/state); a client publish and a parameter request are refused and counted (/api/stats);
+// and at the stop, the last /map the client holds when the station closes the socket is the model the
+// station wrote (session/fused_all.pcd's voxels with a point kept at release, at the map resolution).
 // usage: node foxglove_client_test.cjs TEAMSCAN_BIN OUT_DIR   (NODE_PATH: this folder's node_modules)
 'use strict';
 const fs = require('node:fs');
@@ -19,11 +21,13 @@ const { MessageReader } = require('@foxglove/rosmsg2-serialization');
 const WebSocket = require('ws');
 const { check, failed, sleep, freePort, getJson, waitFor, spawnDemo, stopDemo, waitForViewUrl } =
   require(path.join(__dirname, '..', '..', 'support', 'node', 'harness.cjs'));
+const { readPcd, binModel } = require(path.join(__dirname, '..', '..', 'support', 'node', 'model_file.cjs'));
 
 const [teamscan, outDir] = process.argv.slice(2);
 const ROBOTS = [1, 2];
 const POSE_TOLERANCE_M = 0.05;
 const POSE_COMPARISONS = 10;  // snapshots compared per robot
+const MAP_RESOLUTION_M = 0.1;  // the station's [fusion] map_resolution_m (its default, as the demo runs it)
 const TEST_BUDGET_MS = 200000;
 
 // Planar transform helpers: a tf transform as (x, y, yaw) (z and roll/pitch are 0 for these frames).
@@ -203,6 +207,30 @@ async function main() {
     check(statuses.slice(statusesBefore).every((s) => s.level === 2 && /read-only/.test(s.message)),
       `refused requests answered with error statuses: "${statuses[statusesBefore].message}"`);
     check(decodeErrors.length === 0, `no decode errors${decodeErrors.length ? ': ' + decodeErrors.slice(0, 3).join('; ') : ''}`);
+
+    // The stop: the last /map the client holds when the station closes the socket is the model it wrote
+    // (with the pose graph, the final model on its poses): one point per voxel with a point kept at release.
+    const modelFile = path.join(outDir, 'session', 'fused_all.pcd');
+    await waitFor('the station to write its final model', 120000, () => {
+      if (fs.existsSync(modelFile)) return true;
+      if (demo.exited) throw new Error('the demo exited without the station writing session/fused_all.pcd');
+      return false;
+    });
+    await waitFor('the station to close the Foxglove socket', 60000, () => ws.readyState === WebSocket.CLOSED);
+    if (!demo.exited) demo.child.kill('SIGKILL');  // its scoring is not this test's
+    const resolutionM = MAP_RESOLUTION_M;
+    const kept = new Set();
+    for (const [key, v] of binModel(readPcd(modelFile), resolutionM)) if (!v.ghost) kept.add(key);
+    const sent = new Set();
+    const view = new DataView(cloud.data.buffer, cloud.data.byteOffset, cloud.data.byteLength);
+    for (let i = 0; i < cloud.width; i++) {
+      const o = i * cloud.point_step;
+      sent.add([0, 4, 8].map((f) => Math.floor(view.getFloat32(o + f, true) / resolutionM)).join(','));
+    }
+    const missing = [...kept].filter((k) => !sent.has(k)), extra = [...sent].filter((k) => !kept.has(k));
+    check(kept.size > 200 && missing.length === 0 && extra.length === 0 && cloud.width === sent.size,
+      `the last /map is the written model: ${cloud.width} points, ${kept.size} kept voxels in fused_all.pcd, ` +
+      `${missing.length} missing, ${extra.length} extra${missing.length + extra.length ? ' (' + missing.concat(extra).slice(0, 5).join(' ') + ')' : ''}`);
   } finally {
     if (client) client.close();
     await stopDemo(demo);

@@ -16,6 +16,7 @@ const fs = require('node:fs');
 const path = require('node:path');
 const { check, failed, freePort, waitFor, spawnDemo, stopDemo, openDemoView } =
   require(path.join(__dirname, '..', '..', 'support', 'node', 'harness.cjs'));
+const { readPcd, binModel } = require(path.join(__dirname, '..', '..', 'support', 'node', 'model_file.cjs'));
 
 const [teamscan, outDir, ...options] = process.argv.slice(2);
 const DOUBLED = options.includes('--expect-doubled-walls');
@@ -27,55 +28,6 @@ const WALL_CORNER_M = 0.6;    // ... unless it is this close to a corner (the ot
 const WALL_Z_M = [0.3, 2.7];  // above the floor, below the ceiling
 const OUTSIDE_M = 0.10;
 const WALL_MIN_SCANS = 2;     // a robot's wall voxel: seen in at least this many of its scans
-
-// A binary PCD (common/dataset/pcd.hpp's layout): { fields: {name: {offset, type, size}}, rows, view, stride }.
-function readPcd(file) {
-  const bytes = fs.readFileSync(file);
-  const end = bytes.indexOf('DATA binary\n');
-  if (end < 0) throw new Error(`${file}: not a binary PCD`);
-  const header = {};
-  for (const line of bytes.subarray(0, end).toString('latin1').split('\n')) {
-    const [k, ...v] = line.split(' ');
-    if (k && k[0] !== '#') header[k] = v;
-  }
-  const fields = {};
-  let offset = 0;
-  header.FIELDS.forEach((name, i) => {
-    fields[name] = { offset, type: header.TYPE[i], size: Number(header.SIZE[i]) };
-    offset += Number(header.SIZE[i]) * Number(header.COUNT[i]);
-  });
-  const rows = Number(header.POINTS[0]);
-  const data = bytes.subarray(end + 'DATA binary\n'.length);
-  if (data.length !== rows * offset) throw new Error(`${file}: ${data.length} data bytes for ${rows} rows of ${offset}`);
-  return { fields, rows, stride: offset, view: new DataView(data.buffer, data.byteOffset, data.length) };
-}
-
-function field(pcd, row, name) {
-  const f = pcd.fields[name];
-  const o = row * pcd.stride + f.offset;
-  if (f.type === 'F') return pcd.view.getFloat32(o, true);
-  return f.size === 1 ? pcd.view.getUint8(o) : f.size === 2 ? pcd.view.getUint16(o, true) : pcd.view.getUint32(o, true);
-}
-
-// The model's points binned as the station's live map bins them (groundstation/station/live_map.cpp,
-// mapping::voxel_key: floor(coordinate × (1 / resolution)) in double): key "i,j,k" -> { ghost: every
-// point in it removed at release (live_keep 0), robot: its first row's, scans: robot -> the set of that
-// robot's scans with a point in it }.
-function binModel(pcd, resolutionM) {
-  const inverse = 1.0 / resolutionM;
-  const out = new Map();
-  for (let r = 0; r < pcd.rows; r++) {
-    const key = [field(pcd, r, 'x'), field(pcd, r, 'y'), field(pcd, r, 'z')].map((c) => Math.floor(c * inverse)).join(',');
-    const kept = field(pcd, r, 'live_keep') === 1;
-    const robot = field(pcd, r, 'robot');
-    let v = out.get(key);
-    if (!v) out.set(key, (v = { ghost: !kept, robot, scans: new Map() }));
-    else if (kept) v.ghost = false;
-    if (!v.scans.has(robot)) v.scans.set(robot, new Set());
-    v.scans.get(robot).add(field(pcd, r, 'scan'));
-  }
-  return out;
-}
 
 // The page's drawn voxels (window.teamscanView.drawnMap) as key -> { ghost, robot }; repeated keys counted.
 function pageVoxels(drawn) {
