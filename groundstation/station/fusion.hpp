@@ -113,7 +113,8 @@ struct FusionOptions {
   // turn at a time, and the live map built again from the primary's (fusion/model_move.hpp); the robots
   // are handed their corrections from the estimate on; the filters' evidence and the decisions at release
   // stay as they were made; the cost is one pass over the model, bounded by the mapped space. With the
-  // registration on, its corrections place the scans live and only the final model follows the graph.
+  // registration on, its corrections place the scans live, and without a model store
+  // (core.max_points_per_voxel 0) there is no model to move: then only the final model follows the graph.
   // Else (false): the whole session decided again on the estimate's poses, as a catch-up, the
   // registration off from then on (exact, the cost growing with the time mapped).
   bool follow_rigidly = true;

@@ -82,10 +82,11 @@ void FusionStage::tick(std::int64_t realtime_ns) {
   if (graph_ && options_.catch_up_slice_scans > 0) {
     const std::shared_ptr<const fusion::GraphEstimate> estimate = graph_->latest();
     if (estimate && estimate->version != followed_version_) {
-      // Rigidly only while the graph is what places the scans: with the registration on, its corrections
-      // place them live and the graph only the final model.
+      // Rigidly only while the graph is what places the scans (with the registration on, its corrections
+      // place them live and the graph only the final model) and there is a model to move (without a
+      // model store the live map is the releases' points, which a move cannot reach).
       if (!options_.follow_rigidly) start_catch_up(realtime_ns, true);
-      else if (!core().options().registration) start_rigid_follow(estimate);
+      else if (!core().options().registration && core().options().max_points_per_voxel > 0) start_rigid_follow(estimate);
     }
   }
 }

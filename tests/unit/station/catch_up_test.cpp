@@ -734,6 +734,26 @@ TEST(CatchUp, WithTheRegistrationOnTheLiveMapStaysTheRegistrations) {
   std::filesystem::remove_all(dir);
 }
 
+// Without a model store (max_points_per_voxel 0) the live map is the released points themselves, which a
+// move cannot reach: the estimates are not followed, and the live map keeps every voxel it had.
+TEST(CatchUp, WithoutAModelStoreTheLiveMapIsNotMoved) {
+  const std::vector<Sample> samples = drifting_survey();
+  FusionOptions o = following_options();
+  o.core.max_points_per_voxel = 0;
+  o.follow_min_shift_m = 0.0;
+  const std::string dir = temp_dir();
+  std::unique_ptr<FusionStage> stage = station_after(o, dir, samples);
+  ASSERT_TRUE(stage);
+  const std::uint32_t voxels = stage->map_total_voxels();
+  ASSERT_GT(voxels, 100u);
+  wait_for_estimate(*stage, std::chrono::steady_clock::now() + std::chrono::seconds(60));
+  for (int turn = 0; turn < 100; ++turn) stage->tick(samples.back().recv_ns);
+  EXPECT_EQ(stage->counters().graph_follows, 0u);
+  EXPECT_FALSE(stage->following());
+  EXPECT_EQ(stage->map_total_voxels(), voxels);
+  std::filesystem::remove_all(dir);
+}
+
 // The loop is not held by a catch-up: the back-fill's whole session is decided again on the loader
 // thread, each turn feeds the rebuilt cores at most catch_up_slice_scans of the live scans queued behind
 // it, and every live scan that comes meanwhile is
