@@ -386,7 +386,7 @@ class FusionStage {
 // thread of its own on writer_cpus, so no loop turn waits for their memory to be given back.
 template <class Leftovers>
 void FusionStage::free_off_loop(std::unique_ptr<Leftovers> leftovers) {
-  if (freeing_.valid()) freeing_.wait();  // the one before (long done: they take seconds)
+  if (freeing_.valid()) freeing_.wait();  // the one before (catch-ups and follows are seconds apart: long done)
   try {
     freeing_ = std::async(std::launch::async, [leftovers = std::move(leftovers), cpus = options_.writer_cpus]() mutable {
       (void)set_current_thread_cpus(cpus);  // with the model writer, off the loop's CPUs (none: unchanged)

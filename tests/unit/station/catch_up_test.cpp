@@ -17,6 +17,7 @@
 #include <iterator>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -142,6 +143,25 @@ std::unique_ptr<FusionStage> station_after(const FusionOptions& o, const std::st
   }
   run_station(samples, *store, **created);
   return std::move(created.value());
+}
+
+// A station of `o` in `dir` that took the first half of `samples`, with its session store, so a test can
+// look at it there and feed it the rest (run_station).
+struct HalfWay {
+  SessionStore store;
+  std::unique_ptr<FusionStage> stage;
+  std::size_t half = 0;  // the samples taken
+};
+std::optional<HalfWay> station_half_way(const FusionOptions& o, const std::string& dir, const std::vector<Sample>& samples) {
+  auto store = SessionStore::open(dir);
+  auto created = FusionStage::create(o, dir);
+  if (!store.ok() || !created.ok()) {
+    ADD_FAILURE() << "session folder or fusion stage: " << (!store.ok() ? store.error().what : created.error().what);
+    return std::nullopt;
+  }
+  HalfWay h{std::move(store.value()), std::move(created.value()), samples.size() / 2};
+  run_station({samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(h.half)}, h.store, *h.stage);
+  return h;
 }
 
 // Three robots surveying a 6 m room for `duration_s`.
@@ -472,12 +492,9 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraph) {
   o.follow_rigidly = false;  // each estimate: the session decided again on its poses
   o.catch_up_slice_scans = 8;
   const std::string dir = temp_dir();
-  auto store = SessionStore::open(dir);
-  auto created = FusionStage::create(o, dir);
-  ASSERT_TRUE(store.ok() && created.ok());
-  FusionStage& stage = **created;
-  const std::size_t half = samples.size() / 2;
-  run_station({samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(half)}, *store, stage);
+  std::optional<HalfWay> run = station_half_way(o, dir, samples);
+  ASSERT_TRUE(run);
+  FusionStage& stage = *run->stage;
   EXPECT_EQ(stage.counters().catch_ups, 0u);
   // The graph's thread publishes its estimates as it takes the nodes: wait until it took those closed so
   // far; the loop's turns then rebuild the cores on the newest estimate.
@@ -486,14 +503,14 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraph) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   while (stage.counters().graph_follows == 0 && std::chrono::steady_clock::now() < deadline) {
     if (!stage.catch_up_has_work()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    stage.tick(samples[half - 1].recv_ns);
+    stage.tick(samples[run->half - 1].recv_ns);
   }
   ASSERT_GE(stage.counters().graph_follows, 1u) << "no estimate followed within 60 s";
   const std::shared_ptr<const fusion::GraphEstimate> estimate = stage.followed_estimate();
   ASSERT_NE(estimate, nullptr);
   EXPECT_FALSE(stage.core().options().registration) << "the graph places the scans now";
   EXPECT_EQ(stage.counters().catch_ups, 0u) << "a follow is not a catch-up";
-  store->sync();
+  run->store.sync();
   ASSERT_TRUE(stage.write_model().ok());
   {
     SessionReadStats stats;
@@ -530,7 +547,7 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraph) {
                 static_cast<unsigned long long>(estimate->version), estimate->nodes, estimate->closures, on_estimate, moved_m);
   }
   // The rest of the survey: the live map follows on; the graph is the one eval's time order feeds.
-  run_station({samples.begin() + static_cast<std::ptrdiff_t>(half), samples.end()}, *store, stage);
+  run_station({samples.begin() + static_cast<std::ptrdiff_t>(run->half), samples.end()}, run->store, stage);
   stage.flush();
   ASSERT_TRUE(stage.write_graph_trajectories().ok());
   EXPECT_EQ(stage.counters().catch_ups, 0u);
@@ -563,12 +580,9 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraphRigidly) {
   o.follow_min_shift_m = 0.0;  // this survey's graph moves scans by a millimetre: every estimate is followed
   ASSERT_TRUE(o.follow_rigidly);
   const std::string dir = temp_dir();
-  auto store = SessionStore::open(dir);
-  auto created = FusionStage::create(o, dir);
-  ASSERT_TRUE(store.ok() && created.ok());
-  FusionStage& stage = **created;
-  const std::size_t half = samples.size() / 2;
-  run_station({samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(half)}, *store, stage);
+  std::optional<HalfWay> run = station_half_way(o, dir, samples);
+  ASSERT_TRUE(run);
+  FusionStage& stage = *run->stage;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   wait_for_estimate(stage, deadline);
   // The loop's turns until the graph's newest estimate is followed (the graph takes no more nodes, so
@@ -578,7 +592,7 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraphRigidly) {
   while (behind() && std::chrono::steady_clock::now() < deadline) {
     if (stage.following()) ++turns_following;
     else std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    stage.tick(samples[half - 1].recv_ns);
+    stage.tick(samples[run->half - 1].recv_ns);
   }
   ASSERT_FALSE(behind()) << "the newest estimate not followed within 60 s";
   EXPECT_GE(stage.counters().rigid_follows, 2u) << "follows one after the other while the robots mapped";
@@ -659,7 +673,7 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraphRigidly) {
 
   // The rest of the survey: the live map follows on; the graph is the one eval's time order feeds, and
   // the final model on its poses is made as ever.
-  run_station({samples.begin() + static_cast<std::ptrdiff_t>(half), samples.end()}, *store, stage);
+  run_station({samples.begin() + static_cast<std::ptrdiff_t>(run->half), samples.end()}, run->store, stage);
   stage.flush();
   EXPECT_FALSE(stage.following());
   ASSERT_TRUE(stage.write_graph_trajectories().ok());

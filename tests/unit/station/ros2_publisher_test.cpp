@@ -132,6 +132,55 @@ TEST_F(Ros2PublisherTest, CloudFollowsTheMapUpdatesAndKeepsOnlyKeptVoxels) {
   EXPECT_EQ(c.write_errors, 0u);
 }
 
+// The stop's flush (Ros2Publisher::flush): with a cloud interval of an hour, a map offered after the first
+// cloud does not go out by itself; flush() sends it at once, whatever the interval, and returns once the
+// reader acknowledged it. Nothing to send is flushed at once too.
+TEST(Ros2PublisherFlush, TheLastMapGoesOutAtOnceWhateverTheInterval) {
+  const dds_entity_t participant = dds_create_participant(test::test_domain_id(), nullptr, nullptr);
+  ASSERT_GT(participant, 0);
+  Ros2Config c;
+  c.map_interval = std::chrono::hours(1);
+  auto created = Ros2Publisher::create(c, participant);
+  ASSERT_TRUE(created.ok()) << created.error().what;
+  Ros2Publisher& publisher = *created.value();
+  EXPECT_TRUE(publisher.flush(std::chrono::seconds(2))) << "no map yet: nothing to acknowledge";
+  const dds_entity_t t = dds_create_topic(participant, &sensor_msgs_msg_dds__PointCloud2__desc, dds::ros2::kTopicMapCloud, nullptr, nullptr);
+  dds_qos_t* q = dds::ros2::make_rmw_like_reader_qos(true, false, 1);
+  const dds_entity_t reader = dds_create_reader(participant, t, q, nullptr);
+  dds_delete_qos(q);
+  auto clouds = [&](std::uint32_t& width) {
+    int got = 0;
+    void* samples[4] = {};
+    dds_sample_info_t infos[4];
+    const int n = dds_take(reader, samples, infos, 4, 4);
+    for (int k = 0; k < n; ++k)
+      if (infos[k].valid_data) {
+        width = static_cast<const sensor_msgs_msg_dds__PointCloud2_*>(samples[k])->width;
+        ++got;
+      }
+    if (n > 0) (void)dds_return_loan(reader, samples, n);
+    return got;
+  };
+  std::uint32_t width = 0;
+  // The first map goes out at once (the first cloud is due at the start), the next waits an hour.
+  const std::vector<teamscan_msg_MapVoxel> first = {voxel(50, 50, 50, 1, 0)};
+  publisher.offer_map(first, 1);
+  int got = 0;
+  for (int i = 0; i < 500 && got == 0; ++i, dds_sleepfor(DDS_MSECS(10))) got = clouds(width);
+  ASSERT_EQ(got, 1);
+  EXPECT_EQ(width, 1u);
+  const std::vector<teamscan_msg_MapVoxel> last = {voxel(50, 50, 50, 1, 0), voxel(150, 50, 50, 2, 0), voxel(250, 50, 50, 1, 0)};
+  publisher.offer_map(last, 3);
+  dds_sleepfor(DDS_MSECS(300));
+  EXPECT_EQ(clouds(width), 0) << "within the interval: no cloud";
+  EXPECT_TRUE(publisher.flush(std::chrono::seconds(2)));
+  EXPECT_EQ(clouds(width), 1) << "flush() returns once the reader has it";
+  EXPECT_EQ(width, 3u);
+  EXPECT_EQ(publisher.counters().clouds, 2u);
+  created.value().reset();
+  (void)dds_delete(participant);
+}
+
 TEST_F(Ros2PublisherTest, TfCarriesLiveRobotsWithAHeading) {
   // The team source knows robots 1, 2 and 3; the publisher has seen poses of 2 and 3 only (its pose
   // hook), and 3 is lost.
