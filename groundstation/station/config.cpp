@@ -300,15 +300,17 @@ void read_registration(TomlReader& r, fusion::CoreOptions& core) {
 // [pose_graph]: the pose graph as the fusion core's back end (on unless `enabled = false`; absent: the
 // defaults), with the returns it takes (fusion::PlanarReturnOptions) and how often the live map follows
 // it (follow_s: GraphBackendOptions::estimate_every_s; 0: only the final model) and how
-// (follow_rigidly: FusionOptions::follow_rigidly).
+// (follow_rigidly, follow_min_shift_m, exact_follow_share, exact_follow_max_s: FusionOptions).
 void read_pose_graph(TomlReader& r, FusionOptions& f) {
   const toml::table* graph = r.section("pose_graph", false);
-  r.only(graph, "pose_graph", {"enabled", "min_height_m", "max_height_m", "node_s", "follow_s", "follow_rigidly", "follow_min_shift_m", "cpus"});
+  r.only(graph, "pose_graph", {"enabled", "min_height_m", "max_height_m", "node_s", "follow_s", "follow_rigidly", "follow_min_shift_m", "exact_follow_share", "exact_follow_max_s", "cpus"});
   if (graph == nullptr) return;
   bool enabled = true;
   r.boolean(graph, "pose_graph", "enabled", enabled);
   r.boolean(graph, "pose_graph", "follow_rigidly", f.follow_rigidly);
   r.number_in(graph, "pose_graph", "follow_min_shift_m", f.follow_min_shift_m, 0.0, 100.0, true);
+  r.number_in(graph, "pose_graph", "exact_follow_share", f.exact_follow_share, 0.0, 1.0, true);
+  r.number_in(graph, "pose_graph", "exact_follow_max_s", f.exact_follow_max_s, 0.0, 3600.0, true);
   fusion::GraphBackendOptions o = f.pose_graph.value_or(fusion::GraphBackendOptions{});
   r.number_in(graph, "pose_graph", "follow_s", o.estimate_every_s, 0.0, 3600.0, true);
   r.number_in(graph, "pose_graph", "min_height_m", o.returns.min_height_m, -10.0, 10.0, true);

@@ -236,6 +236,7 @@ void FusionStage::on_rebuilt_release(const fusion::FusedScan& f) {
 }
 
 Result<std::uint64_t> FusionStage::replay_session(const std::string& dir) {
+  const Time started = now_monotonic();
   replaying_ = true;
   SessionReadStats stats;
   fusion::ScanInput scan;
@@ -246,6 +247,9 @@ Result<std::uint64_t> FusionStage::replay_session(const std::string& dir) {
   replaying_ = false;
   resume_ = true;
   if (!st.ok()) return st.error();
+  // The replay fed the cores the session as an exact follow would: it stands for one made, so an exact
+  // follow of a long session is not tried (exact_follow_due).
+  exact_follow_ = ExactFollow{started, now_monotonic() - started, stats.scans};
   return stats.poses + stats.scans;
 }
 

@@ -118,6 +118,16 @@ struct FusionOptions {
   // Else (false): the whole session decided again on the estimate's poses, as a catch-up, the
   // registration off from then on (exact, the cost growing with the time mapped).
   bool follow_rigidly = true;
+  // Rigid follows keep the filters' evidence and the decisions where the scans were when released. An
+  // estimate worth a rigid follow is followed exactly instead (as with follow_rigidly false: the session
+  // decided again on its poses below the loop; the evidence, every decision and the model on them) when
+  // that is expected to take at most exact_follow_max_s (the last exact follow's time, scaled by the
+  // session's growth since; the first is tried) and the last one took at most exact_follow_share of the
+  // time from its start to now. Its cost grows with the time mapped (the stop's final pass needs the same
+  // memory), so a growing session is followed exactly less and less often, then only rigidly; meanwhile
+  // no estimate is followed rigidly. Either 0: rigid follows only.
+  double exact_follow_share = 0.25;
+  double exact_follow_max_s = 10.0;
   // A rigid follow moves the model only when some scan's returns would shift by more than this (its
   // position's shift plus its turn times the laser's 8 m reach): an estimate that moves nothing as far
   // is taken as it is (the model stays, the next one is compared with where the scans are).
@@ -330,9 +340,12 @@ class FusionStage {
   // The rigid follow of an estimate: its moves made off the loop, then the cores' corrections set and
   // their models moved a slice per turn (all of it with `to_the_end`), then the moved map in place.
   void start_rigid_follow(std::shared_ptr<const fusion::GraphEstimate> estimate);
-  void continue_rigid_follow(bool to_the_end);
+  // `realtime_ns`: the loop's clock, for an exact follow started in its place (exact_follow_due).
+  void continue_rigid_follow(bool to_the_end, std::int64_t realtime_ns = 0);
   void finish_rigid_follow();
   void on_released_while_following(const fusion::FusedScan& scan);
+  // An estimate worth following is followed exactly now (FusionOptions::exact_follow_share).
+  [[nodiscard]] bool exact_follow_due() const;
   // A finished catch-up's leftovers (the live cores' and live map's old states, the session read): freed
   // on a thread of their own on writer_cpus, so no loop turn waits for them to be given back.
   template <class Leftovers>
@@ -373,6 +386,14 @@ class FusionStage {
   std::shared_ptr<const fusion::GraphEstimate> followed_;
   fusion::ScanPlacement placement_;        // where the live cores' released scans sit (rigid follows)
   std::unique_ptr<RigidFollow> follow_;   // the rigid follow under way
+  // The last exact follow of an estimate (a rebuild on its poses): when it began, how long it took, and
+  // the session's scans it decided again.
+  struct ExactFollow {
+    Time started;
+    Duration took{};
+    std::uint64_t scans = 0;
+  };
+  std::optional<ExactFollow> exact_follow_;
   bool map_replaced_ = false;
   // Scans the live cores released during the last catch-up that the rebuilt ones still held when they
   // took over: released again later, shown but not counted twice (latency, trajectory).

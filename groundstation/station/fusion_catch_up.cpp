@@ -55,7 +55,7 @@ void FusionStage::tick(std::int64_t realtime_ns) {
   if (resume_) return;
   cores_->advance_to(realtime_ns);
   if (follow_) {
-    continue_rigid_follow(false);
+    continue_rigid_follow(false, realtime_ns);
     return;
   }
   if (run_) {
@@ -170,6 +170,7 @@ void FusionStage::continue_catch_up() {
       ++counters_.catch_up_failures;
       late_base_ = late_seen_ = late_inputs(core().counters());
       if (run.follow && run.on_graph) followed_version_ = run.on_graph->version;
+      if (run.follow) exact_follow_ = {run.started, now_monotonic() - run.started, run.scans_needed};  // counts as one made
       run_.reset();
       return;
     }
@@ -233,8 +234,11 @@ void FusionStage::finish_catch_up() {
   counters_.catch_up_turns = run.turns;
   const Duration slice_max = run.slice_max;
   const Time catch_up_started = run.started;
+  const bool follow = run.follow;
+  const std::uint64_t session_scans = run.scans_needed;
   free_off_loop(std::move(run_));  // the session read and the cores' and map's old states
   const Time done = now_monotonic();
+  if (follow) exact_follow_ = {catch_up_started, done - catch_up_started, session_scans};
   counters_.catch_up_slice_max_s = to_seconds(std::max(slice_max, done - started));
   counters_.last_catch_up_s = to_seconds(done - catch_up_started);
   if (on_catch_up_) on_catch_up_(counters_);

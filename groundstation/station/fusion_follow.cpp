@@ -1,7 +1,8 @@
 // FusionStage's rigid follow of the pose graph (fusion.hpp FusionOptions::follow_rigidly): the moves from
 // where the live cores placed their scans to the estimate's poses made off the loop, the corrections set
 // from the newest release on, every core's model moved a slice per loop turn, the live map built again
-// from the primary's moved model, and the old model and map freed off the loop.
+// from the primary's moved model, and the old model and map freed off the loop; or, when one is due, an
+// exact follow (the catch-up's rebuild on the estimate) in its place.
 #include <algorithm>
 #include <chrono>
 #include <exception>
@@ -68,7 +69,17 @@ void FusionStage::start_rigid_follow(std::shared_ptr<const fusion::GraphEstimate
   follow_ = std::move(f);
 }
 
-void FusionStage::continue_rigid_follow(bool to_the_end) {
+bool FusionStage::exact_follow_due() const {
+  if (options_.exact_follow_share <= 0.0 || options_.exact_follow_max_s <= 0.0) return false;
+  if (!exact_follow_) return true;
+  const double took_s = to_seconds(exact_follow_->took);
+  const double scans = static_cast<double>(core().counters().scans_released + core().held_scans());
+  const double expected_s = took_s * scans / static_cast<double>(std::max<std::uint64_t>(exact_follow_->scans, 1));
+  return expected_s <= options_.exact_follow_max_s &&
+         took_s <= options_.exact_follow_share * to_seconds(now_monotonic() - exact_follow_->started);
+}
+
+void FusionStage::continue_rigid_follow(bool to_the_end, std::int64_t realtime_ns) {
   RigidFollow& f = *follow_;
   const Time started = now_monotonic();
   if (!f.begun) {
@@ -89,6 +100,15 @@ void FusionStage::continue_rigid_follow(bool to_the_end) {
       followed_version_ = f.estimate->version;
       free_off_loop(std::move(follow_));
       return;
+    }
+    // Worth following, and an exact follow is affordable: the session decided again on the graph's newest
+    // estimate instead (the evidence and the decisions follow too). Not at the stop: the final pass does it.
+    if (!to_the_end && exact_follow_due()) {
+      start_catch_up(realtime_ns, true);
+      if (run_) {
+        free_off_loop(std::move(follow_));
+        return;
+      }
     }
     // The scans still to be released are placed by their robot's tail correction in the estimate (the
     // robots are handed it: CorrectionShare); those released so far are moved there.

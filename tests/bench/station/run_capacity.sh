@@ -15,9 +15,9 @@
 # shutdown line of the graph (scans, nodes, how many it was behind) is printed after each N. POSE_GRAPH=0
 # turns it off ([pose_graph] enabled = false). The live map follows the graph's estimates as at the
 # station's defaults (every 5 s, rigidly, when one moves a scan 2 cm); FOLLOW_S=S sets [pose_graph]
-# follow_s (0: only the final model), FOLLOW_MIN_SHIFT=M its follow_min_shift_m (0: every estimate moves
-# the model; docs/slam.md "The live map follows the graph"); the station's follow lines from its event
-# log are printed too.
+# follow_s (0: only the final model), FOLLOW_MIN_SHIFT=M its follow_min_shift_m (0: every estimate is
+# followed), FOLLOW_RIGIDLY=false its follow_rigidly (every estimate decided again; docs/slam.md "The
+# live map follows the graph"); the station's follow lines from its event log are printed too.
 #
 # REGISTRATION=1 turns the station's scan-to-map registration on (a [registration] section, its defaults;
 # docs/registration.md "Cost"), its match thread on MATCH_CPUS (default: the feeder's CPU, as a station
@@ -25,7 +25,7 @@
 # lap2-drift) instead of the synthetic survey. cpu_ms_per_scan = the station's CPU seconds over the feed
 # and the drain / the scans it stored: on a shared machine a steadier figure than the latency.
 #
-# usage: [METHOD=best] [TEAM_LAG=0.15] [REGISTRATION=0] [POSE_GRAPH=1] [FOLLOW_S=5] [FOLLOW_MIN_SHIFT=0.02] [MATCH_CPUS=0] [DATASET=dir] [DOMAIN=id] [STATION_CPU=1] [FEEDER_CPU=0] [DDS_CONFIG=file] \
+# usage: [METHOD=best] [TEAM_LAG=0.15] [REGISTRATION=0] [POSE_GRAPH=1] [FOLLOW_S=5] [FOLLOW_MIN_SHIFT=0.02] [FOLLOW_RIGIDLY=true] [MATCH_CPUS=0] [DATASET=dir] [DOMAIN=id] [STATION_CPU=1] [FEEDER_CPU=0] [DDS_CONFIG=file] \
 #          tests/bench/station/run_capacity.sh [BUILD_DIR] [DURATION_S] [N ...]   default: build/dev, 20 s, N = 8 16 24 32
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -54,6 +54,7 @@ if [ "$pose_graph" = 1 ]; then
   printf '[pose_graph]\ncpus = [%s]\n' "$match_cpus" >> "$extra"
   [ -n "${FOLLOW_S:-}" ] && printf 'follow_s = %s\n' "$FOLLOW_S" >> "$extra"
   [ -n "${FOLLOW_MIN_SHIFT:-}" ] && printf 'follow_min_shift_m = %s\n' "$FOLLOW_MIN_SHIFT" >> "$extra"
+  [ -n "${FOLLOW_RIGIDLY:-}" ] && printf 'follow_rigidly = %s\n' "$FOLLOW_RIGIDLY" >> "$extra"
 else
   printf '[pose_graph]\nenabled = false\n' >> "$extra"
 fi

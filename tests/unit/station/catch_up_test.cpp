@@ -24,6 +24,7 @@
 #include <tuple>
 
 #include "common/dataset/pcd.hpp"
+#include "groundstation/fusion/graph_map.hpp"
 #include "groundstation/fusion/model_writer.hpp"
 #include "groundstation/fusion/time_line.hpp"
 #include "groundstation/station/fusion.hpp"
@@ -464,12 +465,13 @@ std::vector<Sample> drifting_survey() {
   return received(d, Shadow{2, 0, 0});  // no shadow
 }
 
-// options() with the graph publishing an estimate whenever it took a node.
+// options() with the graph publishing an estimate whenever it took a node, each one followed rigidly.
 FusionOptions following_options() {
   FusionOptions o = options();
   fusion::GraphBackendOptions graph_options;
   graph_options.estimate_every_s = 1e-3;
   o.pose_graph = graph_options;
+  o.exact_follow_share = 0.0;
   return o;
 }
 
@@ -686,6 +688,153 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraphRigidly) {
   std::printf("%llu rigid follows (%llu turns watched for the newest estimate's), the last moved %llu points in %.3f s\n",
               static_cast<unsigned long long>(stage.counters().rigid_follows), static_cast<unsigned long long>(turns_following),
               static_cast<unsigned long long>(stage.counters().follow_moved_points), stage.counters().last_follow_s);
+  std::filesystem::remove_all(dir);
+}
+
+// Until the graph's newest estimate is followed, exactly or rigidly (at most until `deadline`): false if not.
+bool follow_newest(FusionStage& stage, std::int64_t now_ns, std::chrono::steady_clock::time_point deadline) {
+  wait_for_estimate(stage, deadline);
+  auto behind = [&] {
+    return stage.following() || stage.catching_up() || !stage.followed_estimate() ||
+           stage.followed_estimate()->version != stage.graph()->latest()->version;
+  };
+  while (behind() && std::chrono::steady_clock::now() < deadline) {
+    if (!stage.following() && !stage.catch_up_has_work()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    stage.tick(now_ns);
+  }
+  return !behind();
+}
+
+// A rigid follow leaves the filters' evidence and the decisions where the scans were released. An estimate
+// worth following is followed exactly instead (FusionOptions::exact_follow_share) when the last exact
+// follow took at most that share of the time since it began: the session decided again on its poses, the
+// rebuilt cores taking over. With a share of 1 every one is: once the newest estimate is followed, the
+// live primary is a core fed the scans it released on the estimate's poses, every model point where that
+// core puts it, with its decision.
+TEST(CatchUp, AnEstimateFollowedExactlyMovesTheEvidenceAndTheDecisions) {
+  const std::vector<Sample> samples = drifting_survey();
+  FusionOptions o = following_options();
+  o.exact_follow_share = 1.0;
+  o.follow_min_shift_m = 0.0;
+  o.catch_up_slice_scans = 8;
+  const std::string dir = temp_dir();
+  std::optional<HalfWay> run = station_half_way(o, dir, samples);
+  ASSERT_TRUE(run);
+  FusionStage& stage = *run->stage;
+  ASSERT_TRUE(follow_newest(stage, samples[run->half - 1].recv_ns, std::chrono::steady_clock::now() + std::chrono::seconds(60)))
+      << "the newest estimate not followed within 60 s";
+  EXPECT_GE(stage.counters().graph_follows, 1u);
+  EXPECT_EQ(stage.counters().rigid_follows, 0u) << "every follow exact";
+  EXPECT_EQ(stage.counters().catch_ups, 0u) << "a follow is not a catch-up";
+  const auto taken = static_cast<std::uint64_t>(
+      std::count_if(samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(run->half), [](const Sample& x) { return !x.is_pose; }));
+  EXPECT_EQ(stage.counters().caught_up_scans, taken) << "the whole session decided again";
+  const std::shared_ptr<const fusion::GraphEstimate> estimate = stage.followed_estimate();
+  ASSERT_NE(estimate, nullptr);
+
+  // The reference: a core fed the session's scans the live primary released, on the estimate's poses.
+  run->store.sync();
+  SessionReadStats stats;
+  Result<Dataset> session = read_session_dataset(dir, stats);
+  ASSERT_TRUE(session.ok()) << session.error().what;
+  Dataset released = std::move(session.value());
+  const auto held = [&](std::uint8_t robot, std::uint32_t scan) { return stage.core().holds(robot, scan); };
+  std::erase_if(released.scans, [&](const ScanRecord& r) { return held(r.robot, r.scan); });
+  std::erase_if(released.points, [&](const LabelledPoint& p) { return held(p.robot, p.scan); });
+  ASSERT_EQ(released.scans.size(), stage.core().counters().scans_released);
+  const Result<std::unique_ptr<fusion::CoreSet>> reference = fusion::cores_on_graph(released, estimate->poses, o.core, {});
+  ASSERT_TRUE(reference.ok()) << reference.error().what;
+  struct Decided {
+    Vec3 p;
+    bool removed;
+  };
+  const auto model = [](const fusion::FusionCore& core) {
+    std::map<std::uint64_t, Decided> m;
+    core.for_each_model_point([&](const fusion::ModelPoint& p, bool removed) {
+      m[point_key(p.robot, p.seq, p.beam)] = {Vec3{p.p.x, p.p.y, p.p.z}, removed};
+    });
+    return m;
+  };
+  const std::map<std::uint64_t, Decided> live = model(stage.core()), want = model(reference.value()->primary());
+  ASSERT_EQ(live.size(), want.size());
+  double worst_m = 0.0, moved_m = 0.0;
+  std::size_t decisions_differ = 0, removed = 0;
+  for (const auto& [key, l] : live) {
+    const auto w = want.find(key);
+    ASSERT_NE(w, want.end()) << "a live model point the reference does not have";
+    worst_m = std::max({worst_m, std::abs(l.p.x - w->second.p.x), std::abs(l.p.y - w->second.p.y), std::abs(l.p.z - w->second.p.z)});
+    decisions_differ += l.removed != w->second.removed ? 1 : 0;
+    removed += l.removed ? 1 : 0;
+  }
+  for (const LabelledPoint& p : released.points)
+    if (const auto l = live.find(point_key(p.robot, p.scan, p.beam)); l != live.end())
+      moved_m = std::max(moved_m, std::hypot(l->second.p.x - double{p.x}, l->second.p.y - double{p.y}));
+  EXPECT_GT(live.size(), 1000u);
+  EXPECT_LT(worst_m, 1e-6) << "a model point off the estimate's pose of its scan";
+  EXPECT_GT(moved_m, 100.0 * worst_m) << "the estimate moved no point";
+  EXPECT_EQ(decisions_differ, 0u) << "the evidence did not follow the estimate";
+  EXPECT_GT(removed, 0u) << "nothing removed: the decisions compared nothing";
+  std::printf("%llu exact follows, the last decided %llu scans again: %zu model points (moved up to %.4f m), %zu removed, as the reference's\n",
+              static_cast<unsigned long long>(stage.counters().graph_follows), static_cast<unsigned long long>(stage.counters().caught_up_scans),
+              live.size(), moved_m, removed);
+  std::filesystem::remove_all(dir);
+}
+
+// Exact follows keep to their share of the time and to the time they may be expected to take: with either
+// bound this small, only the first estimate worth following is followed exactly, every later one rigidly.
+TEST(CatchUp, ExactFollowsKeepToTheirShareAndTheirLength) {
+  const std::vector<Sample> samples = drifting_survey();
+  struct Bound {
+    const char* what;
+    double share, max_s;
+  };
+  // An exact follow of this survey takes milliseconds: the next one would be due in weeks, or expected to
+  // take a million times too long.
+  for (const Bound& b : {Bound{"share", 1e-9, 1e6}, Bound{"length", 1.0, 1e-9}}) {
+    FusionOptions o = following_options();
+    o.exact_follow_share = b.share;
+    o.exact_follow_max_s = b.max_s;
+    o.follow_min_shift_m = 0.0;
+    const std::string dir = temp_dir();
+    std::unique_ptr<FusionStage> stage = station_after(o, dir, samples);
+    ASSERT_TRUE(stage);
+    ASSERT_TRUE(follow_newest(*stage, samples.back().recv_ns, std::chrono::steady_clock::now() + std::chrono::seconds(60)))
+        << b.what << ": the newest estimate not followed within 60 s";
+    EXPECT_GE(stage->counters().rigid_follows, 1u) << b.what;
+    EXPECT_EQ(stage->counters().graph_follows, stage->counters().rigid_follows + 1) << b.what << ": one exact follow, the first";
+    stage->flush();
+    std::filesystem::remove_all(dir);
+  }
+}
+
+// A station restarted on its session folder replays it into its cores: the same work an exact follow
+// does, so it counts as one made. With exact follows allowed less time than the replay took, a long
+// session's first estimate worth following is followed rigidly, not decided again whole.
+TEST(CatchUp, ARestartedStationsReplayCountsAsAnExactFollow) {
+  const std::vector<Sample> samples = drifting_survey();
+  FusionOptions o = following_options();
+  o.exact_follow_share = 1.0;
+  o.exact_follow_max_s = 1e-6;  // shorter than any replay of the survey's first half
+  o.follow_min_shift_m = 0.0;
+  const std::string dir = temp_dir();
+  auto store = SessionStore::open(dir);
+  ASSERT_TRUE(store.ok()) << store.error().what;
+  const std::size_t half = samples.size() / 2;
+  {
+    auto first = FusionStage::create(o, dir);
+    ASSERT_TRUE(first.ok()) << first.error().what;
+    run_station({samples.begin(), samples.begin() + static_cast<std::ptrdiff_t>(half)}, *store, **first);
+  }
+  auto restarted = FusionStage::create(o, dir);
+  ASSERT_TRUE(restarted.ok()) << restarted.error().what;
+  FusionStage& stage = **restarted;
+  ASSERT_TRUE(stage.replay_session(dir).ok());
+  run_station({samples.begin() + static_cast<std::ptrdiff_t>(half), samples.end()}, *store, stage);
+  ASSERT_TRUE(follow_newest(stage, samples.back().recv_ns, std::chrono::steady_clock::now() + std::chrono::seconds(60)))
+      << "the newest estimate not followed within 60 s";
+  EXPECT_GE(stage.counters().rigid_follows, 1u);
+  EXPECT_EQ(stage.counters().graph_follows, stage.counters().rigid_follows) << "no exact follow after the replay";
+  stage.flush();
   std::filesystem::remove_all(dir);
 }
 

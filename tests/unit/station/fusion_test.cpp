@@ -389,6 +389,8 @@ TEST(FusionConfig, ThePoseGraphIsOnByDefaultAndOffByEnabledFalse) {
   EXPECT_EQ(absent.fusion.pose_graph->estimate_every_s, 5.0) << "the live map follows the graph every 5 s";
   EXPECT_TRUE(absent.fusion.follow_rigidly);
   EXPECT_DOUBLE_EQ(absent.fusion.follow_min_shift_m, 0.02);
+  EXPECT_DOUBLE_EQ(absent.fusion.exact_follow_share, 0.25);
+  EXPECT_DOUBLE_EQ(absent.fusion.exact_follow_max_s, 10.0);
   EXPECT_TRUE(absent.fusion.pose_graph->cpus.empty());
   GroundStationConfig c;
   ASSERT_TRUE(parse_groundstation_config("[pose_graph]\n", "t.toml", c, e)) << e.message;
@@ -397,7 +399,7 @@ TEST(FusionConfig, ThePoseGraphIsOnByDefaultAndOffByEnabledFalse) {
   EXPECT_EQ(c.fusion.pose_graph->estimate_every_s, 5.0);
   GroundStationConfig s;
   ASSERT_TRUE(parse_groundstation_config("[pose_graph]\nmin_height_m = 0.3\nmax_height_m = 1.5\nnode_s = 0.5\nfollow_s = 2\n"
-                                         "follow_rigidly = false\nfollow_min_shift_m = 0.05\ncpus = [0]\n", "t.toml", s, e))
+                                         "follow_rigidly = false\nfollow_min_shift_m = 0.05\nexact_follow_share = 0.5\nexact_follow_max_s = 30\ncpus = [0]\n", "t.toml", s, e))
       << e.message;
   ASSERT_TRUE(s.fusion.pose_graph);
   EXPECT_DOUBLE_EQ(s.fusion.pose_graph->returns.min_height_m, 0.3);
@@ -406,9 +408,14 @@ TEST(FusionConfig, ThePoseGraphIsOnByDefaultAndOffByEnabledFalse) {
   EXPECT_DOUBLE_EQ(s.fusion.pose_graph->estimate_every_s, 2.0);
   EXPECT_FALSE(s.fusion.follow_rigidly);
   EXPECT_DOUBLE_EQ(s.fusion.follow_min_shift_m, 0.05);
+  EXPECT_DOUBLE_EQ(s.fusion.exact_follow_share, 0.5);
+  EXPECT_DOUBLE_EQ(s.fusion.exact_follow_max_s, 30.0);
   GroundStationConfig every;
   ASSERT_TRUE(parse_groundstation_config("[pose_graph]\nfollow_min_shift_m = 0\n", "t.toml", every, e)) << e.message;
   EXPECT_EQ(every.fusion.follow_min_shift_m, 0.0) << "0: every estimate moves the model";
+  GroundStationConfig rigid_only;
+  ASSERT_TRUE(parse_groundstation_config("[pose_graph]\nexact_follow_share = 0\n", "t.toml", rigid_only, e)) << e.message;
+  EXPECT_EQ(rigid_only.fusion.exact_follow_share, 0.0) << "0: rigid follows only";
   EXPECT_EQ(s.fusion.pose_graph->cpus, (std::vector<int>{0}));
   GroundStationConfig off;
   ASSERT_TRUE(parse_groundstation_config("[pose_graph]\nenabled = false\nnode_s = 0.5\n", "t.toml", off, e)) << e.message;
@@ -416,7 +423,8 @@ TEST(FusionConfig, ThePoseGraphIsOnByDefaultAndOffByEnabledFalse) {
   for (const char* bad : {"[pose_graph]\nnode_s = 0\n", "[pose_graph]\nmin_height_m = 1.0\nmax_height_m = 0.5\n",
                           "[pose_graph]\nmagic = 1\n", "[pose_graph]\nenabled = 1\n", "[pose_graph]\ncpus = [-1]\n",
                           "[pose_graph]\nfollow_s = -1\n", "[pose_graph]\nfollow_min_shift_m = -0.1\n",
-                          "[pose_graph]\nfollow_rigidly = 1\n"}) {
+                          "[pose_graph]\nfollow_rigidly = 1\n", "[pose_graph]\nexact_follow_share = 1.5\n",
+                          "[pose_graph]\nexact_follow_share = -0.25\n", "[pose_graph]\nexact_follow_max_s = -1\n"}) {
     GroundStationConfig b;
     EXPECT_FALSE(parse_groundstation_config(bad, "t.toml", b, e)) << bad;
     EXPECT_EQ(e.message.rfind("pose_graph.", 0), 0u) << e.message;
