@@ -87,6 +87,7 @@ bool parse_robotlaser1(const std::vector<std::string_view>& t, CarmenLaser& l, c
   l.robot_from_laser = l.pose.inverse() * map_from_laser;
   l.start_angle_rad = head[1];
   l.angle_step_rad = head[3];
+  l.max_range_m = head[4] > 0 ? head[4] : 0.0;
   return true;
 }
 
@@ -254,6 +255,7 @@ Result<Dataset> carmen_to_dataset(const CarmenLog& log, const CarmenImportOption
     const Pose2 map_from_laser = l.pose * l.robot_from_laser;
     rec.origin = {map_from_laser.x_m, map_from_laser.y_m, o.mount_height_m};
     const std::size_t n = l.ranges_m.size();
+    const double max_range_m = l.max_range_m > 0 ? std::min(o.max_range_m, l.max_range_m) : o.max_range_m;
     // FLASER: beam i at −90° + i · step, right to left, step by the import's convention; ROBOTLASER1:
     // the line's own start angle and resolution.
     double start = l.start_angle_rad, step = l.angle_step_rad;
@@ -263,7 +265,7 @@ Result<Dataset> carmen_to_dataset(const CarmenLog& log, const CarmenImportOption
     }
     for (std::size_t i = 0; i < n; ++i) {
       const double range = l.ranges_m[i];
-      if (range < o.min_range_m || range >= o.max_range_m) continue;
+      if (range < o.min_range_m || range >= max_range_m) continue;
       const double a = map_from_laser.theta_rad + start + step * static_cast<double>(i);
       LabelledPoint p;
       p.x = static_cast<float>(map_from_laser.x_m + range * std::cos(a));

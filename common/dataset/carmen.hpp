@@ -29,6 +29,8 @@ struct CarmenLaser {
   Pose2 robot_from_laser;      // ROBOTLASER1: its laser pose relative to its robot pose; FLASER: identity
   double start_angle_rad = 0;  // beam 0's angle in the laser frame (right = negative)
   double angle_step_rad = 0;   // between beams (left-turning)
+  double max_range_m = 0;      // ROBOTLASER1: the laser's own maximum range, a reading at or beyond it no
+                               // return (0: not given, FLASER)
   double stamp_s = 0;          // the line's timestamp (the ipc_timestamp, third-from-last field)
   std::int64_t stamp_us = 0;   // the same, exactly
   std::size_t file_order = 0;  // index among all laser and ODOM lines, in file order
@@ -53,7 +55,8 @@ struct CarmenLog {
 
 struct CarmenImportOptions {
   double mount_height_m = 0.3;     // the laser's height: every point sits at it (the floor is z = 0)
-  double max_range_m = 50.0;       // beams at or beyond this are "no return" (81.83 m in the Intel log)
+  double max_range_m = 50.0;       // beams at or beyond this are "no return" (81.83 m in the Intel log),
+                                   // or beyond a ROBOTLASER1 line's own maximum if that is shorter
   double min_range_m = 0.05;
   // FLASER beam spacing: false (the default) = the n beams span the 180° field end to end (180°/(n−1)
   // apart); true = 180°/n apart from −90° (the last beam one step short of +90°).

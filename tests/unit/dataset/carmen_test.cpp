@@ -140,6 +140,27 @@ TEST(Carmen, RobotLaser1UsesItsAnglesAndLaserOffset) {
   EXPECT_NEAR(d->points[1].y, 2.2, 1e-6);
 }
 
+// A ROBOTLASER1 line's own maximum range: a reading at it is no return (a laser that reports 8 m when
+// nothing came back), one short of it a point; the import's --max-range still applies when shorter.
+TEST(Carmen, RobotLaser1ReadingsAtTheLasersMaximumAreNoReturn) {
+  const std::string line =
+      "ROBOTLASER1 0 -1.5707963267948966 3.141592653589793 1.5707963267948966 8.0 0.01 0 3 7.9 8.0 9.5 0 "
+      "0 0 0 0 0 0 0 0 0 0 0 100.0 h 100.0\n";
+  const CarmenLog log = parse_carmen(line);
+  ASSERT_EQ(log.lasers.size(), 1u) << log.first_error;
+  EXPECT_DOUBLE_EQ(log.lasers[0].max_range_m, 8.0);
+  const Result<Dataset> d = carmen_to_dataset(log, CarmenImportOptions{});
+  ASSERT_TRUE(d);
+  ASSERT_EQ(d->points.size(), 1u) << "8.0 and 9.5 m are no return";
+  EXPECT_EQ(d->points[0].beam, 0u);
+  EXPECT_EQ(d->scans[0].points, 1u);
+  CarmenImportOptions shorter;
+  shorter.max_range_m = 5.0;
+  const Result<Dataset> none = carmen_to_dataset(log, shorter);
+  ASSERT_TRUE(none);
+  EXPECT_TRUE(none->points.empty());
+}
+
 TEST(Carmen, FlaserStepConvention) {
   const CarmenLog log = parse_carmen("FLASER 4 1 1 1 1 0 0 0 0 0 0 1 h 1\n");
   CarmenImportOptions o;
