@@ -108,24 +108,24 @@ struct FusionOptions {
     o.estimate_every_s = 5.0;  // the live map follows it ([pose_graph] follow_s)
     return o;
   }();
-  // How the live map follows the graph's estimates (pose_graph's estimate_every_s > 0). Rigidly (true):
-  // every core's model store is moved scan by scan onto the estimate's poses, write_slice_ms of a loop
-  // turn at a time, and the live map built again from the primary's (fusion/model_move.hpp); the robots
-  // are handed their corrections from the estimate on; the filters' evidence and the decisions at release
-  // stay as they were made; the cost is one pass over the model, bounded by the mapped space. With the
-  // registration on, its corrections place the scans live, and without a model store
-  // (core.max_points_per_voxel 0) there is no model to move: then only the final model follows the graph.
-  // Else (false): the whole session decided again on the estimate's poses, as a catch-up, the
-  // registration off from then on (exact, the cost growing with the time mapped).
+  // How the live map follows the graph's estimates (pose_graph's estimate_every_s > 0). Rigidly (true,
+  // unless an exact follow is due, below): every core's model store is moved scan by scan onto the
+  // estimate's poses, write_slice_ms of a loop turn at a time, and the live map built again from the
+  // primary's (fusion/model_move.hpp); the robots are handed their corrections from the estimate on; the
+  // filters' evidence and the decisions at release stay as they were made; the cost is one pass over the
+  // model, bounded by the mapped space. With the registration on, its corrections place the scans live,
+  // and without a model store (core.max_points_per_voxel 0) there is no model to move: then only the final
+  // model follows the graph. Exactly (false, every time): the whole session decided again on the
+  // estimate's poses, as a catch-up, the registration off from then on (the cost growing with the time
+  // mapped).
   bool follow_rigidly = true;
-  // Rigid follows keep the filters' evidence and the decisions where the scans were when released. An
-  // estimate worth a rigid follow is followed exactly instead (as with follow_rigidly false: the session
-  // decided again on its poses below the loop; the evidence, every decision and the model on them) when
-  // that is expected to take at most exact_follow_max_s (the last exact follow's time, scaled by the
-  // session's growth since; the first is tried) and the last one took at most exact_follow_share of the
-  // time from its start to now. Its cost grows with the time mapped (the stop's final pass needs the same
-  // memory), so a growing session is followed exactly less and less often, then only rigidly; meanwhile
-  // no estimate is followed rigidly. Either 0: rigid follows only.
+  // An estimate worth a rigid follow is followed exactly instead (the evidence, every decision and the
+  // model on its poses) when that is expected to take at most exact_follow_max_s (the last exact follow's
+  // time, scaled by the session's growth since; the first is tried, a restart's replay counts as one) and
+  // the last one took at most exact_follow_share of the time from its start to now. Its cost grows with
+  // the time mapped (the stop's final pass needs the same memory), so a growing session is followed
+  // exactly less and less often, then only rigidly; while one runs no estimate is followed rigidly.
+  // Either 0: rigid follows only.
   double exact_follow_share = 0.25;
   double exact_follow_max_s = 10.0;
   // A rigid follow moves the model only when some scan's returns would shift by more than this (its
@@ -344,7 +344,7 @@ class FusionStage {
   void continue_rigid_follow(bool to_the_end, std::int64_t realtime_ns = 0);
   void finish_rigid_follow();
   void on_released_while_following(const fusion::FusedScan& scan);
-  // An estimate worth following is followed exactly now (FusionOptions::exact_follow_share).
+  // An estimate worth following is followed exactly now (FusionOptions::exact_follow_max_s, exact_follow_share).
   [[nodiscard]] bool exact_follow_due() const;
   // A finished catch-up's leftovers (the live cores' and live map's old states, the session read): freed
   // on a thread of their own on writer_cpus, so no loop turn waits for them to be given back.
