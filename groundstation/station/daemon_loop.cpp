@@ -12,6 +12,7 @@
 #include "common/clock.hpp"
 #include "dds/notify.hpp"
 #include "groundstation/station/daemon_log.hpp"
+#include "groundstation/station/timeout_progress.hpp"
 
 namespace teamscan::station::daemon {
 
@@ -252,35 +253,10 @@ std::optional<int> run_until_stopped(const GroundStationConfig& cfg, Daemon& d) 
 
 namespace {
 
-// systemd's TimeoutStopSec is sized for a station with little left to do. The fusion's shutdown work on
-// a long session (the catch-up, the graph's last optimisation, the final model on its poses, the model
-// writes) asks for more time as it goes: EXTEND_TIMEOUT_USEC at each step and, within one, at most once a
-// second while it progresses, each time kStopGrace more. A step that stops progressing is still killed.
-class StopProgress {
- public:
-  static constexpr Duration kStopGrace = std::chrono::seconds(30);
-  void step(const char* what) {
-    dds::notify_status(what);
-    extend();
-  }
-  [[nodiscard]] std::function<void(double)> progress() {
-    return [this](double) {
-      if (now_monotonic() - last_ >= std::chrono::seconds(1)) extend();
-    };
-  }
-
- private:
-  void extend() {
-    dds::notify_extend_timeout(kStopGrace);
-    last_ = now_monotonic();
-  }
-  Time last_ = now_monotonic();
-};
-
 // The fusion stage's end: every held scan decided, the model written; with the pose graph, its last
 // optimisation, robot<N>.graph.tum, the final model decided again on its poses and written.
 void finish_fusion(Daemon& d) {
-  StopProgress stop;
+  TimeoutProgress stop;  // TimeoutStopSec is sized for a station with little left to do
   stop.step("stopping: deciding the held scans");
   d.fusion->flush(stop.progress());  // every held scan decided with what arrived
   stop.step("stopping: writing the model");

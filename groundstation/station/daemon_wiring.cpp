@@ -10,6 +10,7 @@
 #include "common/units.hpp"
 #include "groundstation/station/daemon_log.hpp"
 #include "groundstation/station/pose_history_team_source.hpp"
+#include "groundstation/station/timeout_progress.hpp"
 
 namespace teamscan::station::daemon {
 
@@ -94,7 +95,9 @@ void start_live_fusion(const GroundStationConfig& cfg, Daemon& d) {
   // A restart on the same session folder: the core is rebuilt from everything stored so far (the same
   // code, arrival order), so it decides as before; the robots' DDS history then fills the outage.
   store.sync();
-  auto replayed = d.fusion->replay_session(store.dir());
+  TimeoutProgress start;  // TimeoutStartSec is sized for a fresh start, not a long session read back
+  start.step("starting: reading the session folder back into the fusion core");
+  auto replayed = d.fusion->replay_session(store.dir(), [&start] { start.progressing(); });
   if (!replayed) {
     log(kErr, std::string("fusion: cannot replay the session folder: ") + replayed.error().what);
     store.log_event(now_realtime(), std::string("fusion: session replay failed: ") + replayed.error().what);

@@ -235,14 +235,25 @@ void FusionStage::on_rebuilt_release(const fusion::FusedScan& f) {
     run.rebuilt_released.push_back({f.view->robot, f.view->scan, f.view->stamp_ns, f.arrival_ns, f.view->map_from_robot});
 }
 
-Result<std::uint64_t> FusionStage::replay_session(const std::string& dir) {
+Result<std::uint64_t> FusionStage::replay_session(const std::string& dir, const std::function<void()>& progressing) {
   const Time started = now_monotonic();
   replaying_ = true;
   SessionReadStats stats;
   fusion::ScanInput scan;
+  std::uint64_t samples = 0;
+  const auto progress = [&] {
+    if (progressing && ++samples % 256 == 0) progressing();
+  };
   Status st = replay_session_files(
-      dir, [&](const PoseObservation& p) { add_pose(p); },
-      [&](const ScanPoints& s, const Receipt& receipt) { add_scan_to_cores(scan_input(s, receipt, scan)); },
+      dir,
+      [&](const PoseObservation& p) {
+        add_pose(p);
+        progress();
+      },
+      [&](const ScanPoints& s, const Receipt& receipt) {
+        add_scan_to_cores(scan_input(s, receipt, scan));
+        progress();
+      },
       stats);
   replaying_ = false;
   resume_ = true;

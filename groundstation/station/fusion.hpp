@@ -205,7 +205,8 @@ class FusionStage {
   void add_scan(const ScanPoints& scan, const Receipt& receipt);
   // Rebuilds the core from the session folder's scans.bin and poses.csv (a restart): every sample in
   // arrival order through the same code, before the loop takes new ones. Returns the samples replayed.
-  [[nodiscard]] Result<std::uint64_t> replay_session(const std::string& dir);
+  // `progressing` (optional) is called every few hundred samples (a long session takes a while).
+  [[nodiscard]] Result<std::uint64_t> replay_session(const std::string& dir, const std::function<void()>& progressing = {});
   // The catch-up: every core reset and fed the session folder in the time order `teamscan eval SESSION`
   // feeds it (fusion/time_line.hpp), the newest scans left held, the live map rebuilt from the primary's
   // model; the live samples go on from there (the arrival clock resumes at `realtime_ns`). A back-fill

@@ -92,10 +92,11 @@ TEST(NotifyHarness, GroundStationSpeaksTheProtocol) {
   std::filesystem::remove_all(dir);
 }
 
-// With the pose graph, the shutdown's work (the catch-up, the graph's last optimisation, the final model
-// on its poses, the writes) asks systemd for more time at each step (EXTEND_TIMEOUT_USEC), so a long
-// session is not cut short by TimeoutStopSec, and says what it is doing (STATUS).
-TEST(NotifyHarness, GroundStationAsksForTimeAsItFinishesItsModel) {
+// Reading the session folder back at the start (a restart on it) and, with the pose graph, the
+// shutdown's work (the catch-up, the graph's last optimisation, the final model on its poses, the writes)
+// ask systemd for more time at each step (EXTEND_TIMEOUT_USEC), so a long session is not cut short by
+// TimeoutStartSec or TimeoutStopSec, and say what they are doing (STATUS).
+TEST(NotifyHarness, GroundStationAsksForTimeAsItReadsItsSessionAndFinishesItsModel) {
   char tmpl[] = "/tmp/teamscan-gs-notify-XXXXXX";
   const std::string dir = ::mkdtemp(tmpl);
   {
@@ -107,7 +108,16 @@ TEST(NotifyHarness, GroundStationAsksForTimeAsItFinishesItsModel) {
                      test_domain_arg()},
                     1s),
             0);
-  ASSERT_TRUE(h.wait_for("READY", 15s).has_value());
+  const auto ready = h.wait_for("READY", 15s);
+  ASSERT_TRUE(ready.has_value());
+  bool start_extended = false, start_step = false;
+  for (const NotifyMessage& x : h.messages()) {
+    if (x.since_spawn > ready->since_spawn) break;
+    if (x.key == "EXTEND_TIMEOUT_USEC" && x.value == "30000000") start_extended = true;
+    if (x.key == "STATUS" && x.value == "starting: reading the session folder back into the fusion core") start_step = true;
+  }
+  EXPECT_TRUE(start_extended) << "no EXTEND_TIMEOUT_USEC before READY";
+  EXPECT_TRUE(start_step);
   h.signal(SIGTERM);
   const auto st = h.wait_exit(20s);
   ASSERT_TRUE(st.has_value());

@@ -132,6 +132,34 @@ Dataset survey() {
   return bench::synthetic_survey(o);
 }
 
+// Reading a long session back says it is progressing every 256 samples: the daemon asks systemd for
+// more start-up time on each (at most once a second), so a restart is not killed for taking long.
+TEST(SessionReplay, ReadingASessionBackSaysItIsProgressing) {
+  bench::SurveyOptions so;
+  so.duration_s = 20.0;
+  so.room_m = 6.0;
+  so.seed = 5;
+  const Feed f = make_feed(bench::synthetic_survey(so));
+  const std::string dir = temp_dir();
+  {
+    auto s = SessionStore::open(dir);
+    ASSERT_TRUE(s.ok());
+    auto stage = FusionStage::create(options(), dir);
+    ASSERT_TRUE(stage.ok());
+    run(f, 0, f.samples.size(), &*s, **stage);
+    s->sync();
+  }
+  auto restarted = FusionStage::create(options(), dir);
+  ASSERT_TRUE(restarted.ok());
+  std::uint64_t progressing = 0;
+  const auto replayed = (*restarted)->replay_session(dir, [&] { ++progressing; });
+  ASSERT_TRUE(replayed.ok()) << replayed.error().what;
+  EXPECT_EQ(replayed.value(), f.samples.size());
+  EXPECT_GE(progressing, 2u);
+  EXPECT_EQ(progressing, replayed.value() / 256);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(SessionReplay, ARestartedStationDecidesAsTheUninterruptedRunAndAsEvalOfTheSession) {
   const Dataset d = survey();
   const Feed f = make_feed(d);
