@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <utility>
+#include <vector>
 
 #include <pthread.h>
 #include <sched.h>
@@ -80,7 +82,7 @@ void GraphBackend::close(std::uint8_t robot) {
   const Pose2 node_from_odom = n.odom.inverse();
   n.returns.reserve(o.odom_returns.size());
   for (const Vec2& p : o.odom_returns) n.returns.push_back(node_from_odom.apply(p));
-  n.scans.assign(o.scans.begin(), o.scans.end());  // exact: kept for the whole run
+  n.scans = std::make_shared<const std::vector<NodeScan>>(o.scans.begin(), o.scans.end());  // exact: kept for the whole run
   o.scans.clear();
   o.odom_returns.clear();
   ++counters_.nodes;
@@ -170,8 +172,51 @@ std::vector<GraphScanPose> GraphBackend::scan_poses(const std::vector<Pose2>& no
   std::vector<NodeScans> placed;
   placed.reserve(std::min(in_graph_.size(), nodes.size()));
   for (std::size_t k = 0; k < in_graph_.size() && k < nodes.size(); ++k)
-    placed.push_back({in_graph_[k].robot, in_graph_[k].odom, nodes[k], in_graph_[k].scans});
+    placed.push_back({in_graph_[k].robot, in_graph_[k].odom, nodes[k], *in_graph_[k].scans});
   return scan_poses_on_nodes(placed);
+}
+
+std::vector<GraphScanPose> GraphEstimate::poses() const {
+  std::vector<NodeScans> placed;
+  placed.reserve(graph_nodes.size());
+  for (const EstimateNode& n : graph_nodes) placed.push_back({n.robot, n.odom, n.graph, *n.scans});
+  return scan_poses_on_nodes(placed);
+}
+
+std::array<std::optional<GraphScanPose>, kMaxRobots + 1> GraphEstimate::newest_scans() const {
+  // A robot's newest scan is the last of its node whose last scan is stamped latest; its pose is worked out
+  // as poses() does, from that node and the robot's node before it, to the bit.
+  constexpr std::size_t kNone = SIZE_MAX;
+  std::array<std::size_t, kMaxRobots + 1> newest, before_newest, last;
+  newest.fill(kNone);
+  before_newest.fill(kNone);
+  last.fill(kNone);
+  for (std::size_t k = 0; k < graph_nodes.size(); ++k) {
+    const EstimateNode& n = graph_nodes[k];
+    if (n.robot == 0 || n.robot > kMaxRobots || n.scans->empty()) continue;
+    const std::size_t b = std::exchange(last[n.robot], k);
+    if (newest[n.robot] == kNone || n.scans->back().stamp_ns >= graph_nodes[newest[n.robot]].scans->back().stamp_ns) {
+      newest[n.robot] = k;
+      before_newest[n.robot] = b;
+    }
+  }
+  std::array<std::optional<GraphScanPose>, kMaxRobots + 1> out;
+  for (std::size_t r = 1; r <= kMaxRobots; ++r) {
+    if (newest[r] == kNone) continue;
+    std::vector<NodeScans> two;
+    for (const std::size_t k : {before_newest[r], newest[r]})
+      if (k != kNone) two.push_back({graph_nodes[k].robot, graph_nodes[k].odom, graph_nodes[k].graph, *graph_nodes[k].scans});
+    out[r] = scan_poses_on_nodes(two).back();
+  }
+  return out;
+}
+
+std::shared_ptr<GraphEstimate> GraphEstimate::of_scans(const std::vector<GraphScanPose>& poses) {
+  auto e = std::make_shared<GraphEstimate>();
+  e->graph_nodes.reserve(poses.size());
+  for (const GraphScanPose& p : poses)
+    e->graph_nodes.push_back({p.robot, p.odom, p.graph, std::make_shared<const std::vector<NodeScan>>(1, NodeScan{p.scan, p.stamp_ns, p.odom})});
+  return e;
 }
 
 void GraphBackend::publish_estimate() {
@@ -184,7 +229,8 @@ void GraphBackend::publish_estimate() {
   std::vector<Pose2> nodes;
   nodes.reserve(in_graph_.size());
   for (std::size_t k = 0; k < in_graph_.size(); ++k) nodes.push_back(all[graph_node_[k]]);
-  e->poses = scan_poses(nodes);
+  e->graph_nodes.reserve(in_graph_.size());
+  for (std::size_t k = 0; k < in_graph_.size(); ++k) e->graph_nodes.push_back({in_graph_[k].robot, in_graph_[k].odom, nodes[k], in_graph_[k].scans});
   const posegraph::SlamStats stats = slam_->stats();
   e->nodes = stats.nodes;
   e->closures = stats.closures;

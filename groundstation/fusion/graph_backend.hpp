@@ -13,6 +13,7 @@
 // scan's pose as the graph would put it now (latest()): what a live map follows.
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -90,14 +91,29 @@ struct NodeScans {
 // the node's pose either way.
 [[nodiscard]] std::vector<GraphScanPose> scan_poses_on_nodes(std::span<const NodeScans> nodes);
 
-// The graph's poses while it runs: every scan in the graph when it was solved (the scans of nodes still
-// open or queued are not), as GraphBackend::poses() gives them at the end.
+// A node of an estimate: as NodeScans, its scans shared with the back end (they never change once the
+// node is in the graph), so an estimate holds a node's worth per node, not a pose per scan.
+struct EstimateNode {
+  std::uint8_t robot = 0;
+  Pose2 odom;
+  Pose2 graph;
+  std::shared_ptr<const std::vector<NodeScan>> scans;
+};
+
+// The graph's poses while it runs: every node in the graph when it was solved (the scans of nodes still
+// open or queued are not), and through them every scan's pose as GraphBackend::poses() gives it at the end.
 struct GraphEstimate {
   std::uint64_t version = 0;  // 1, 2, ... in the order they were made
   std::size_t nodes = 0;      // the graph's nodes and loop closures then
   std::size_t closures = 0;
   double solve_s = 0.0;       // the copy's optimisation, wall time
-  std::vector<GraphScanPose> poses;
+  std::vector<EstimateNode> graph_nodes;  // the graph's node order
+  // Every scan of the nodes with its pose (scan_poses_on_nodes), worked out on each call.
+  [[nodiscard]] std::vector<GraphScanPose> poses() const;
+  // Each robot's newest scan's pose (none: robot absent), by robot id, from the nodes alone.
+  [[nodiscard]] std::array<std::optional<GraphScanPose>, kMaxRobots + 1> newest_scans() const;
+  // An estimate that places exactly these scans (each its own node): tests and tools that have poses.
+  [[nodiscard]] static std::shared_ptr<GraphEstimate> of_scans(const std::vector<GraphScanPose>& poses);
 };
 
 struct GraphBackendCounters {
@@ -156,7 +172,7 @@ class GraphBackend {
     bool tilted = false;
     Pose2 odom;                            // the node's last scan's
     std::vector<Vec2> returns;             // in that scan's robot frame; freed once in the graph
-    std::vector<NodeScan> scans;           // the scans it gathers, in order, at their exact count
+    std::shared_ptr<const std::vector<NodeScan>> scans;  // the scans it gathers, in order (shared with the estimates)
   };
   struct Open {
     std::int64_t first_stamp_ns = 0;

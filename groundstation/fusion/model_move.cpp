@@ -21,7 +21,7 @@ using Corrections = std::array<std::vector<Numbered>, kMaxRobots + 1>;
 Corrections corrections_of(const GraphEstimate* e) {
   Corrections out;
   if (e == nullptr) return out;
-  for (const GraphScanPose& p : e->poses)
+  for (const GraphScanPose& p : e->poses())
     if (p.robot >= 1 && p.robot <= kMaxRobots) out[p.robot].push_back({p.scan, p.stamp_ns, p.graph * p.odom.inverse(), {p.odom.x_m, p.odom.y_m}});
   for (std::vector<Numbered>& v : out) {
     // A robot's scans come in stamp order, their numbers rising with it: sorted already but after a restart.
@@ -49,14 +49,11 @@ RigidMove RigidMove::of(const Pose2& p) { return {std::cos(p.theta_rad), std::si
 
 ScanPlacement ScanPlacement::on(std::shared_ptr<const GraphEstimate> estimate) {
   ScanPlacement out;
-  std::array<std::int64_t, kMaxRobots + 1> newest;
-  newest.fill(INT64_MIN);
-  if (estimate)
-    for (const GraphScanPose& p : estimate->poses) {
-      if (p.robot == 0 || p.robot > kMaxRobots || p.stamp_ns < newest[p.robot]) continue;
-      newest[p.robot] = p.stamp_ns;
-      out.tail[p.robot] = p.graph * p.odom.inverse();
-    }
+  if (estimate) {
+    const auto newest = estimate->newest_scans();
+    for (std::size_t r = 1; r <= kMaxRobots; ++r)
+      if (newest[r]) out.tail[r] = newest[r]->graph * newest[r]->odom.inverse();
+  }
   out.estimate = std::move(estimate);
   return out;
 }

@@ -122,7 +122,7 @@ void FusionStage::start_catch_up(std::int64_t realtime_ns, bool follow) {
       if (!session) return session.error();
       const SessionScanPoints& points = *session->points;
       Result<fusion::RebuildSource> source =
-          on_graph ? fusion::rebuild_source_on_graph(std::move(session->dataset), core, compared, on_graph->poses, std::move(session->points))
+          on_graph ? fusion::rebuild_source_on_graph(std::move(session->dataset), core, compared, on_graph->poses(), std::move(session->points))
                    : fusion::make_rebuild_source(std::move(session->dataset), core, compared, std::move(session->points));
       if (!source) return source;
       if (source->dataset->scans.size() < r->scans_needed) return source;  // not fed: refused on the loop

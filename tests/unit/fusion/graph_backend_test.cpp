@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <map>
+#include <set>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -136,6 +137,61 @@ TEST(GraphBackend, BeatsOdometryAloneAndIsDeterministic) {
   const std::vector<Pose2> again = graph_over_odometry(prepared(), d);
   ASSERT_EQ(again.size(), poses.size());
   EXPECT_EQ(std::memcmp(again.data(), poses.data(), poses.size() * sizeof(Pose2)), 0);
+}
+
+// An estimate holds the graph's nodes, their scans shared with the back end and with the estimates
+// before it (a node's worth per node, not a pose per scan, however long the robots mapped), and gives
+// each scan of those nodes its pose when asked: every scan once, in node order, each robot's newest where
+// newest_scans() says. Once the robots stop and the graph took every node, the last estimate's scans are
+// every scan the back end took.
+TEST(GraphBackend, AnEstimateSharesItsNodesScansAndGivesEveryScansPose) {
+  const fusion::PreparedDataset& p = prepared();
+  fusion::GraphBackendOptions o;
+  o.estimate_every_s = 1e-9;  // an estimate at every node
+  fusion::GraphBackend backend(o);
+  for (std::size_t s = 0; s < p.scans.size(); ++s) {
+    const mapping::ScanView v = p.view(s);
+    fusion::FusedScan f;
+    f.view = &v;
+    f.odom_from_robot = v.map_from_robot;
+    backend.add(f);
+  }
+  std::shared_ptr<const fusion::GraphEstimate> first;
+  for (int i = 0; i < 6000 && !first; ++i) {
+    first = backend.latest();
+    if (!first) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_NE(first, nullptr) << "no estimate within a minute";
+  const std::vector<fusion::GraphScanPose> all = backend.poses();  // finish(): the last node closed and taken
+  const std::shared_ptr<const fusion::GraphEstimate> last = backend.latest();
+  ASSERT_NE(last, nullptr);
+  ASSERT_GE(last->graph_nodes.size(), first->graph_nodes.size());
+  for (std::size_t k = 0; k < first->graph_nodes.size(); ++k)
+    ASSERT_EQ(first->graph_nodes[k].scans, last->graph_nodes[k].scans) << "node " << k << "'s scans copied, not shared";
+  const std::vector<fusion::GraphScanPose> poses = last->poses();
+  std::size_t scans = 0;
+  for (const fusion::EstimateNode& n : last->graph_nodes) scans += n.scans->size();
+  EXPECT_EQ(poses.size(), scans);
+  EXPECT_GT(poses.size(), p.scans.size() / 2);
+  EXPECT_LE(poses.size(), all.size());
+  std::set<std::pair<std::uint8_t, std::uint32_t>> keys;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    EXPECT_TRUE(keys.emplace(poses[i].robot, poses[i].scan).second) << "a scan twice";
+    EXPECT_EQ(poses[i].robot, all[i].robot);  // the back end's order: its nodes' in the order they closed
+    EXPECT_EQ(poses[i].scan, all[i].scan);
+  }
+  const auto newest = last->newest_scans();
+  for (std::uint8_t r : {std::uint8_t{1}, std::uint8_t{2}}) {
+    const fusion::GraphScanPose* want = nullptr;
+    for (const fusion::GraphScanPose& g : poses)
+      if (g.robot == r && (want == nullptr || g.stamp_ns >= want->stamp_ns)) want = &g;
+    ASSERT_NE(want, nullptr) << unsigned(r);
+    ASSERT_TRUE(newest[r].has_value()) << unsigned(r);
+    EXPECT_EQ(newest[r]->scan, want->scan) << unsigned(r);
+    EXPECT_EQ(newest[r]->graph, want->graph) << unsigned(r) << ": to the bit, as poses() works it out";
+    EXPECT_EQ(newest[r]->odom, want->odom) << unsigned(r);
+  }
+  EXPECT_FALSE(newest[3].has_value());
 }
 
 // `teamscan eval --pose-graph --registration`: the back end rides on the registered run's releases,

@@ -23,10 +23,9 @@ namespace {
 
 constexpr std::int64_t kMs = 1'000'000;
 
-std::shared_ptr<const GraphEstimate> estimate(std::vector<GraphScanPose> poses) {
-  auto e = std::make_shared<GraphEstimate>();
+std::shared_ptr<const GraphEstimate> estimate(const std::vector<GraphScanPose>& poses) {
+  std::shared_ptr<GraphEstimate> e = GraphEstimate::of_scans(poses);
   e->version = 1;
-  e->poses = std::move(poses);
   return e;
 }
 

@@ -519,10 +519,11 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraph) {
     const Result<Dataset> session = read_session_dataset(dir, stats);
     ASSERT_TRUE(session.ok()) << session.error().what;
     std::map<std::pair<std::uint8_t, std::uint32_t>, Pose2> correction;  // (robot, seq) -> graph from robot's map
-    for (const fusion::GraphScanPose& p : estimate->poses)
+    const std::vector<fusion::GraphScanPose> poses = estimate->poses();
+    for (const fusion::GraphScanPose& p : poses)
       for (const ScanRecord& r : session->scans)
         if (r.robot == p.robot && r.scan == p.scan) correction[{p.robot, p.scan}] = p.graph * r.pose.inverse();
-    EXPECT_EQ(correction.size(), estimate->poses.size());
+    EXPECT_EQ(correction.size(), poses.size());
     EXPECT_GE(correction.size(), 10u) << "the estimate holds the scans of its nodes";
     const Result<PcdCloud> model = read_pcd(dir + "/" + o.all_points_pcd);
     ASSERT_TRUE(model.ok()) << model.error().what;
@@ -608,7 +609,7 @@ TEST(CatchUp, TheLiveMapFollowsThePoseGraphRigidly) {
 
   std::map<std::pair<std::uint8_t, std::uint32_t>, Pose2> correction;  // (robot, seq) -> graph · odom⁻¹
   std::map<std::uint8_t, std::pair<std::int64_t, Pose2>> tail;          // robot -> its newest scan's
-  for (const fusion::GraphScanPose& p : estimate->poses) {
+  for (const fusion::GraphScanPose& p : estimate->poses()) {
     correction[{p.robot, p.scan}] = p.graph * p.odom.inverse();
     auto [it, added] = tail.try_emplace(p.robot, p.stamp_ns, p.graph * p.odom.inverse());
     if (!added && p.stamp_ns > it->second.first) it->second = {p.stamp_ns, p.graph * p.odom.inverse()};
@@ -742,7 +743,7 @@ TEST(CatchUp, AnEstimateFollowedExactlyMovesTheEvidenceAndTheDecisions) {
   std::erase_if(released.scans, [&](const ScanRecord& r) { return held(r.robot, r.scan); });
   std::erase_if(released.points, [&](const LabelledPoint& p) { return held(p.robot, p.scan); });
   ASSERT_EQ(released.scans.size(), stage.core().counters().scans_released);
-  const Result<std::unique_ptr<fusion::CoreSet>> reference = fusion::cores_on_graph(released, estimate->poses, o.core, {});
+  const Result<std::unique_ptr<fusion::CoreSet>> reference = fusion::cores_on_graph(released, estimate->poses(), o.core, {});
   ASSERT_TRUE(reference.ok()) << reference.error().what;
   struct Decided {
     Vec3 p;
