@@ -44,6 +44,8 @@ void GraphBackend::add(const FusedScan& released, const Pose2* odom_from_robot) 
     }
     taken.insert(at, key);
   }
+  if (v.stamp_ns < newest_taken_ns_) ++counters_.out_of_stamp_order;
+  newest_taken_ns_ = std::max(newest_taken_ns_, v.stamp_ns);
   Open& o = open_[v.robot];
   if (!o.tilted && v.points.size() >= 2) o.tilted = !level_scan(v);
   const bool tilted = o.tilted.value_or(false);

@@ -121,6 +121,9 @@ struct GraphBackendCounters {
   std::uint64_t nodes = 0;       // closed nodes handed to the graph
   std::uint64_t tilted_scans = 0;
   std::uint64_t repeated_scans = 0;  // a (robot, scan, stamp) taken before: ignored (a rebuilt core's release of it)
+  // Scans taken stamped before one taken earlier (of any robot): the releases were not in time order,
+  // so the graph is not the one `teamscan eval`'s time order feeds (the station catches up at its stop).
+  std::uint64_t out_of_stamp_order = 0;
   PlanarReturnCounts returns;
   std::size_t queue_max = 0;     // the most closed nodes waiting for the graph at once
 };
@@ -194,6 +197,7 @@ class GraphBackend {
   // rebuilt core's) is found here. Releases come in stamp order, so each grows at its end.
   std::vector<std::vector<std::pair<std::int64_t, std::uint32_t>>> scans_taken_;
   std::vector<std::uint8_t> taken_;  // the returns take_planar_returns took of the scan at hand
+  std::int64_t newest_taken_ns_ = INT64_MIN;  // the newest stamp of a scan taken
   bool finishing_ = false;
   std::chrono::steady_clock::time_point first_scan_, done_at_;
 

@@ -45,8 +45,11 @@ void FusionStage::flush(const std::function<void(double)>& progress) {
   // the final model follows the graph's last poses: rebuild_on_graph).
   if (run_ && run_->follow && counters_.catch_ups == 0 && late_since_catch_up() == 0) drop_catch_up();
   // Once a scan was released late in this run, the final model is the time order's, whatever came
-  // after the last catch-up (a catch-up in slices under way is replaced by the whole one now).
-  if ((counters_.catch_ups > 0 || late_since_catch_up() > 0 || run_) && !catch_up(now_realtime().ns(), progress).ok())
+  // after the last catch-up (a catch-up in slices under way is replaced by the whole one now). So it is
+  // when the graph took scans out of stamp order (a robot's scans delayed less than hold_s, released
+  // after a teammate's later ones): the graph follows its input order, and the final model its poses.
+  const bool graph_out_of_order = graph_ && graph_->counters().out_of_stamp_order > 0;
+  if ((counters_.catch_ups > 0 || late_since_catch_up() > 0 || run_ || graph_out_of_order) && !catch_up(now_realtime().ns(), progress).ok())
     ++counters_.catch_up_failures;
   cores_->flush();
 }

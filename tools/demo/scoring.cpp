@@ -427,9 +427,10 @@ SessionReplay replay_station_session(const std::string& session, const std::stri
     out.error = std::string("session: ") + st.error().what;
     return out;
   }
-  // A scan released late (a robot's back-fill): the station caught up, its final model is
-  // the time order's (station/fusion.hpp FusionStage::flush), and so is the replay's.
-  if (cores.primary().counters().scans_late > 0) {
+  // A scan released late (a robot's back-fill), or the graph fed scans out of stamp order: the station
+  // caught up, its final model is the time order's (station/fusion.hpp FusionStage::flush), and so is
+  // the replay's.
+  if (cores.primary().counters().scans_late > 0 || (graph && graph->counters().out_of_stamp_order > 0)) {
     station::SessionReadStats again;
     Result<Dataset> ds = station::read_session_dataset(session, again);
     if (!ds) {

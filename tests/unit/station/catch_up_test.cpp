@@ -341,6 +341,36 @@ void expect_graph_is_evals(const std::string& dir, const fusion::CoreOptions& co
   }
 }
 
+// A robot's scans arriving out of their order by less than hold_s (its live writer's dropped scans
+// back-filled a moment later, after the next one): released after teammates' later scans, not late, so
+// no catch-up while the station runs, but the graph took them out of stamp order and is not the one
+// eval's time order feeds. At the stop the station catches up in time order: its graph is eval's again.
+TEST(CatchUp, ScansTheGraphTookOutOfStampOrderAreCaughtUpAtTheStop) {
+  const Dataset d = survey(8.0, 7);
+  std::vector<Sample> samples = received(d, Shadow{2, 0, 0});  // no shadow
+  for (Sample& x : samples)
+    if (!x.is_pose && x.scan.robot_id == 1 && x.scan.seq >= 40 && x.scan.seq <= 43) {
+      x.recv_ns += 450'000'000;  // after scans 44–47, before hold_s
+      x.receipt.recv_realtime_ns = x.recv_ns;
+    }
+  std::stable_sort(samples.begin(), samples.end(), [](const Sample& a, const Sample& b) { return a.recv_ns < b.recv_ns; });
+  FusionOptions o = options();
+  o.pose_graph = fusion::GraphBackendOptions{};  // no estimates: nothing followed
+  const std::string dir = temp_dir();
+  const std::unique_ptr<FusionStage> stage = station_after(o, dir, samples);
+  ASSERT_NE(stage, nullptr);
+  EXPECT_GT(stage->graph()->counters().out_of_stamp_order, 0u);
+  EXPECT_GT(stage->core().counters().scans_out_of_stamp_order, 0u);
+  EXPECT_EQ(stage->core().counters().scans_late, 0u) << "none late by hold_s";
+  EXPECT_EQ(stage->counters().catch_ups, 0u);
+  stage->flush();
+  EXPECT_EQ(stage->counters().catch_ups, 1u) << "caught up at the stop";
+  EXPECT_EQ(stage->graph()->counters().out_of_stamp_order, 0u) << "a new graph fed in time order";
+  ASSERT_TRUE(stage->write_graph_trajectories().ok());
+  expect_graph_is_evals(dir, o.core, "scans out of stamp order");
+  std::filesystem::remove_all(dir);
+}
+
 // The pose graph follows the catch-up ([pose_graph]): after a back-fill, caught up in one turn or in
 // slices, the station's robot<N>.graph.tum at the end are those of the back end fed `teamscan eval`'s
 // time order of the session, byte for byte.
