@@ -112,7 +112,7 @@ struct GraphEstimate {
   [[nodiscard]] std::vector<GraphScanPose> poses() const;
   // Each robot's newest scan's pose (none: robot absent), by robot id, from the nodes alone.
   [[nodiscard]] std::array<std::optional<GraphScanPose>, kMaxRobots + 1> newest_scans() const;
-  // An estimate that places exactly these scans (each its own node): tests and tools that have poses.
+  // An estimate that places exactly these scans, each its own node (tests).
   [[nodiscard]] static std::shared_ptr<GraphEstimate> of_scans(const std::vector<GraphScanPose>& poses);
 };
 
