@@ -155,7 +155,11 @@ std::vector<GraphScanPose> scan_poses_on_nodes(std::span<const NodeScans> nodes)
     const NodeScans* before = std::exchange(previous[n.robot], &n);
     const Pose2 node_from_odom = n.odom.inverse();
     for (const NodeScan& scan : n.scans) {
-      GraphScanPose s{n.robot, scan.scan, scan.stamp_ns, scan.odom, scan.odom};
+      GraphScanPose s{n.robot, scan.scan, scan.stamp_ns, scan.odom, n.graph};
+      if (&scan == &n.scans.back()) {
+        out.push_back(s);  // the node's last scan: at the node's pose, exactly
+        continue;
+      }
       s.graph = n.graph * (node_from_odom * s.odom);
       if (before != nullptr) {
         const std::int64_t t0 = before->scans.back().stamp_ns, t1 = n.scans.back().stamp_ns;
