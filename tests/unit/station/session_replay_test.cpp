@@ -99,6 +99,20 @@ void run(const Feed& f, std::size_t from, std::size_t to, SessionStore* store, F
   }
 }
 
+// A station of `o` that stored and fused every sample of `f` into `dir`, its folder synced; nullptr, with
+// the test's failure added, if the folder or the stage could not be made.
+std::unique_ptr<FusionStage> station_over_all(const Feed& f, const FusionOptions& o, const std::string& dir) {
+  auto store = SessionStore::open(dir);
+  auto stage = FusionStage::create(o, dir);
+  if (!store.ok() || !stage.ok()) {
+    ADD_FAILURE() << "session folder or fusion stage: " << (!store.ok() ? store.error().what : stage.error().what);
+    return nullptr;
+  }
+  run(f, 0, f.samples.size(), &*store, **stage);
+  store->sync();
+  return std::move(stage.value());
+}
+
 using Decisions = std::map<std::tuple<int, std::uint32_t, int>, std::uint8_t>;
 Decisions model_decisions(const std::string& path) {
   Decisions out;
@@ -141,14 +155,7 @@ TEST(SessionReplay, ReadingASessionBackSaysItIsProgressing) {
   so.seed = 5;
   const Feed f = make_feed(bench::synthetic_survey(so));
   const std::string dir = temp_dir();
-  {
-    auto s = SessionStore::open(dir);
-    ASSERT_TRUE(s.ok());
-    auto stage = FusionStage::create(options(), dir);
-    ASSERT_TRUE(stage.ok());
-    run(f, 0, f.samples.size(), &*s, **stage);
-    s->sync();
-  }
+  ASSERT_NE(station_over_all(f, options(), dir), nullptr);
   auto restarted = FusionStage::create(options(), dir);
   ASSERT_TRUE(restarted.ok());
   std::uint64_t progressing = 0;
@@ -168,13 +175,10 @@ TEST(SessionReplay, ARestartedStationDecidesAsTheUninterruptedRunAndAsEvalOfTheS
   // Uninterrupted.
   const std::string whole = temp_dir();
   {
-    auto s = SessionStore::open(whole);
-    ASSERT_TRUE(s.ok());
-    auto stage = FusionStage::create(options(), whole);
-    ASSERT_TRUE(stage.ok());
-    run(f, 0, f.samples.size(), &*s, **stage);
-    (*stage)->flush();
-    ASSERT_TRUE((*stage)->write_model().ok());
+    const std::unique_ptr<FusionStage> stage = station_over_all(f, options(), whole);
+    ASSERT_NE(stage, nullptr);
+    stage->flush();
+    ASSERT_TRUE(stage->write_model().ok());
   }
   // Killed halfway (its held scans and in-memory state lost), restarted on the same folder.
   const std::string restarted = temp_dir();
@@ -235,13 +239,10 @@ TEST(SessionReplay, EveryComparedMethodsModelEqualsEvalOfTheSessionAfterARestart
     o.compare_methods.push_back(m);
   const std::string whole = temp_dir(), restarted = temp_dir();
   {
-    auto s = SessionStore::open(whole);
-    ASSERT_TRUE(s.ok());
-    auto stage = FusionStage::create(o, whole);
-    ASSERT_TRUE(stage.ok());
-    run(f, 0, f.samples.size(), &*s, **stage);
-    (*stage)->flush();
-    ASSERT_TRUE((*stage)->write_model().ok());
+    const std::unique_ptr<FusionStage> stage = station_over_all(f, o, whole);
+    ASSERT_NE(stage, nullptr);
+    stage->flush();
+    ASSERT_TRUE(stage->write_model().ok());
   }
   {
     auto s = SessionStore::open(restarted);
