@@ -31,6 +31,8 @@ void FusionStage::start_rigid_follow(std::shared_ptr<const fusion::GraphEstimate
   auto f = std::make_unique<RigidFollow>();
   f->estimate = estimate;
   f->started = now_monotonic();
+  // Decided now, so the thread makes the new models only for a rigid follow.
+  f->exact = exact_follow_due();
   // What the thread needs of the cores: each one's store options and voxels, the live map's.
   struct Store {
     double resolution_m;
@@ -46,13 +48,14 @@ void FusionStage::start_rigid_follow(std::shared_ptr<const fusion::GraphEstimate
     // Off the loop, below it, with the model writer: the moves read every scan of both estimates.
     f->preparing = std::async(std::launch::async, [from = placement_, estimate, stores, map_voxels = map_.occupied_voxels(),
                                                    resolution_m = options_.map_resolution_m, min_shift_m = options_.follow_min_shift_m,
-                                                   cpus = options_.writer_cpus]() {
+                                                   cpus = options_.writer_cpus, exact = f->exact]() {
       (void)set_current_thread_cpus(cpus);
       set_current_thread_below_loop();
       RigidFollow::Prepared p;
       p.to = fusion::ScanPlacement::on(estimate);
       p.moves = std::make_shared<const fusion::ScanMoves>(from, p.to);
       if (p.moves->largest_shift_m(kReachM) <= min_shift_m) return p;  // not followed: nothing more to make
+      if (exact) return p;  // decided again, not moved: no new models
       for (const Store& s : stores) {
         p.stores.push_back(std::make_unique<fusion::ModelStore>(s.resolution_m, s.cap));
         p.stores.back()->reserve(s.voxels + s.voxels / 8);  // the moved model's voxels and some new ones
@@ -103,7 +106,7 @@ void FusionStage::continue_rigid_follow(bool to_the_end, std::int64_t realtime_n
     }
     // Worth following, and an exact follow is affordable: the session decided again on the graph's newest
     // estimate instead (the evidence and the decisions follow too). Not at the stop: the final pass does it.
-    if (!to_the_end && exact_follow_due()) {
+    if (!to_the_end && f.exact) {
       start_catch_up(realtime_ns, true);
       if (run_) {
         free_off_loop(std::move(follow_));
@@ -121,6 +124,7 @@ void FusionStage::continue_rigid_follow(bool to_the_end, std::int64_t realtime_n
       core.begin_model_move(f.prepared.moves, i < f.prepared.stores.size() ? std::move(f.prepared.stores[i]) : nullptr);
     }
     f.map = std::move(f.prepared.map);
+    if (!f.map) f.map = std::make_unique<LiveMap>(options_.map_resolution_m);  // an exact follow's, not started
     f.begun = true;
   }
   // A periodic write's snapshot reads the cores' models over several turns: the move waits for it.

@@ -33,6 +33,7 @@ struct FusionStage::RigidFollow {
   Prepared prepared;
   std::unique_ptr<LiveMap> map;  // the primary's moved model and its releases since, as the live map will show it
   bool begun = false;            // the cores' moves begun
+  bool exact = false;            // an exact follow is due: worth following, the session is decided again instead
   std::vector<std::unique_ptr<fusion::ModelStore>> old_stores;
   std::uint64_t moved_points = 0;
   Time started;

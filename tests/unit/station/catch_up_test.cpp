@@ -838,6 +838,29 @@ TEST(CatchUp, ExactFollowsKeepToTheirShareAndTheirLength) {
   }
 }
 
+// An exact follow that cannot start (no session folder to decide again) gives way to a rigid one, its new
+// models made in the loop since the thread made none for an estimate it was to decide again.
+TEST(CatchUp, AnExactFollowThatCannotStartIsARigidOne) {
+  const std::vector<Sample> samples = drifting_survey();
+  FusionOptions o = following_options();
+  o.exact_follow_share = 1.0;
+  o.follow_min_shift_m = 0.0;
+  const std::string dir = temp_dir();
+  auto store = SessionStore::open(dir);
+  ASSERT_TRUE(store.ok()) << store.error().what;
+  auto created = FusionStage::create(o, "");  // no session folder
+  ASSERT_TRUE(created.ok()) << created.error().what;
+  FusionStage& stage = **created;
+  run_station(samples, *store, stage);
+  ASSERT_TRUE(follow_newest(stage, samples.back().recv_ns, std::chrono::steady_clock::now() + std::chrono::seconds(60)))
+      << "the newest estimate not followed within 60 s";
+  EXPECT_GE(stage.counters().rigid_follows, 1u);
+  EXPECT_EQ(stage.counters().graph_follows, stage.counters().rigid_follows) << "no exact follow without a folder";
+  EXPECT_GE(stage.counters().catch_up_failures, 1u);
+  EXPECT_GT(stage.counters().follow_moved_points, 1000u);
+  std::filesystem::remove_all(dir);
+}
+
 // A station restarted on its session folder replays it into its cores: the same work an exact follow
 // does, so it counts as one made. With exact follows allowed less time than the replay took, a long
 // session's first estimate worth following is followed rigidly, not decided again whole.
