@@ -147,7 +147,7 @@ class Reader {
 constexpr double kRoomMax = 10.0;  // the paper's 10 × 10 × 10 m space (PAPER_NOTES.md)
 
 void read_track(const Reader& r, TrackSpec& t) {
-  r.only({"kind", "center_m", "yaw_deg", "direction", "semi_axes_m", "half_length_m", "width_m", "points_m", "closed"});
+  r.only({"kind", "center_m", "yaw_deg", "direction", "semi_axes_m", "half_length_m", "width_m", "points_m", "closed", "spline"});
   const std::string kind = r.string("kind", "oval", {"oval", "figure8", "waypoints"});
   t.kind = kind == "figure8" ? Track::Kind::figure8 : kind == "waypoints" ? Track::Kind::waypoints : Track::Kind::oval;
   const auto c = r.numbers("center_m", {0, 0}, 2);
@@ -162,6 +162,7 @@ void read_track(const Reader& r, TrackSpec& t) {
   t.half_length_m = r.number("half_length_m", 3.0, 0.2, kRoomMax);
   t.width_m = r.number("width_m", 3.0, 0.2, kRoomMax);
   t.closed = r.boolean("closed", true);
+  t.spline = r.string("spline", "uniform", {"uniform", "centripetal"}) == "centripetal" ? Track::Spline::centripetal : Track::Spline::uniform;
   if (const toml::node* n = r.table().get("points_m")) {
     const toml::array* a = n->as_array();
     bool ok = a != nullptr && a->size() >= 2;
@@ -182,7 +183,7 @@ void read_track(const Reader& r, TrackSpec& t) {
 }
 
 void read_robot(const Reader& r, RobotSpec& robot, std::size_t index) {
-  r.only({"id", "name", "role", "subclass", "speed_mps", "accel_mps2", "laps", "start_offset_m", "start_phase", "start_s", "pauses",
+  r.only({"id", "name", "role", "subclass", "speed_mps", "accel_mps2", "max_turn_rate_deg_s", "laps", "start_offset_m", "start_phase", "start_s", "pauses",
           "arcos_baud", "sip_cycle_ms", "scan_phase_ms", "track", "laser", "odometry"});
   robot.id = static_cast<std::uint8_t>(r.integer("id", static_cast<std::int64_t>(index + 1), 1, 32));
   robot.name = r.string("name", "robot" + std::to_string(robot.id));
@@ -191,6 +192,8 @@ void read_robot(const Reader& r, RobotSpec& robot, std::size_t index) {
   robot.speed_mps = r.number("speed_mps", 0.3, 0.0, 1.2);  // MaxVelocity 1200 mm/s (§1.11)
   // ARIA's p3at TransAccel is 300 mm/s²; 0 gives instant starts and stops.
   robot.accel_mps2 = r.number("accel_mps2", 0.3, 0.0, 10.0);
+  // The P3-AT turns at most 140°/s (its operations manual); 0 lets a track turn it at any rate.
+  robot.max_turn_rate_deg_s = r.number("max_turn_rate_deg_s", 140.0, 0.0, 1000.0);
   robot.laps = r.number("laps", 2.0, 0.0, 1000.0);
   robot.start_offset_m = r.number("start_offset_m", 0.0, -1e4, 1e4);
   if (r.has("start_phase")) {

@@ -33,6 +33,7 @@ struct TrackSpec {
   double half_length_m = 3.0, width_m = 3.0;  // figure8
   std::vector<Vec2> waypoints_m;              // waypoints
   bool closed = true;                         // waypoints
+  Track::Spline spline = Track::Spline::uniform;  // waypoints
   bool ccw = true;
 };
 
@@ -44,6 +45,7 @@ struct RobotSpec {
   TrackSpec track;
   double speed_mps = 0.3;
   double accel_mps2 = 0.3;               // speed ramps at starts and stops; 0 = instant
+  double max_turn_rate_deg_s = 140.0;    // slows where the track would turn it faster; 0 = no limit
   double laps = 2.0;
   double start_offset_m = 0;             // from `start_offset_m` or `start_phase` × track length
   std::optional<double> start_phase;     // fraction of the track length, resolved after the track is built

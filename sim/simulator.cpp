@@ -21,7 +21,7 @@ Track build_track(const TrackSpec& t) {
   switch (t.kind) {
     case Track::Kind::oval: return Track::oval(t.center_m, t.semi_x_m, t.semi_y_m, t.yaw_rad, t.ccw);
     case Track::Kind::figure8: return Track::figure8(t.center_m, t.half_length_m, t.width_m, t.yaw_rad, t.ccw);
-    case Track::Kind::waypoints: return Track::waypoints(t.waypoints_m, t.closed);
+    case Track::Kind::waypoints: return Track::waypoints(t.waypoints_m, t.closed, t.spline);
   }
   return Track::oval(t.center_m, t.semi_x_m, t.semi_y_m, t.yaw_rad, t.ccw);
 }
@@ -54,7 +54,8 @@ TeamWorld::TeamWorld(const Scenario& scenario) : world_{Room{scenario.room_m}}, 
     const double length = track.length_m();
     const double offset = r.start_phase ? *r.start_phase * length : r.start_offset_m;
     const double distance = track.closed() ? r.laps * length : length;
-    motions_.emplace_back(std::move(track), r.speed_mps, offset, distance, r.start_s, r.pauses, r.accel_mps2);
+    motions_.emplace_back(std::move(track), r.speed_mps, offset, distance, r.start_s, r.pauses, r.accel_mps2,
+                          deg_to_rad(r.max_turn_rate_deg_s));
   }
 }
 

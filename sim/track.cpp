@@ -19,6 +19,19 @@ Vec2 catmull_rom_d(Vec2 p0, Vec2 p1, Vec2 p2, Vec2 p3, double t) {
   return 0.5 * ((p2 - p0) + 2.0 * t * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) + 3.0 * t2 * (-1.0 * p0 + 3.0 * p1 - 3.0 * p2 + p3));
 }
 
+// Centripetal Catmull–Rom on one segment as a cubic Hermite from p1 to p2: the tangents of the
+// knot sequence spaced by the chords' square roots (Barry and Goldman's form), scaled to f in [0, 1].
+void centripetal(Vec2 p0, Vec2 p1, Vec2 p2, Vec2 p3, double f, Vec2& point, Vec2& tangent) {
+  constexpr double kMinSpan = 1e-9;
+  const double d01 = std::max(std::sqrt((p1 - p0).norm()), kMinSpan), d12 = std::max(std::sqrt((p2 - p1).norm()), kMinSpan),
+               d23 = std::max(std::sqrt((p3 - p2).norm()), kMinSpan);
+  const Vec2 m1 = d12 * ((1.0 / d01) * (p1 - p0) - (1.0 / (d01 + d12)) * (p2 - p0) + (1.0 / d12) * (p2 - p1));
+  const Vec2 m2 = d12 * ((1.0 / d12) * (p2 - p1) - (1.0 / (d12 + d23)) * (p3 - p1) + (1.0 / d23) * (p3 - p2));
+  const double f2 = f * f, f3 = f2 * f;
+  point = (2 * f3 - 3 * f2 + 1) * p1 + (f3 - 2 * f2 + f) * m1 + (-2 * f3 + 3 * f2) * p2 + (f3 - f2) * m2;
+  tangent = (6 * f2 - 6 * f) * p1 + (3 * f2 - 4 * f + 1) * m1 + (-6 * f2 + 6 * f) * p2 + (3 * f2 - 2 * f) * m2;
+}
+
 }  // namespace
 
 Track Track::oval(Vec2 center_m, double semi_x_m, double semi_y_m, double yaw_rad, bool ccw) {
@@ -43,10 +56,11 @@ Track Track::figure8(Vec2 center_m, double half_length_m, double width_m, double
   return t;
 }
 
-Track Track::waypoints(std::vector<Vec2> points_m, bool closed) {
+Track Track::waypoints(std::vector<Vec2> points_m, bool closed, Spline spline) {
   Track t;
   t.kind_ = Kind::waypoints;
   t.closed_ = closed;
+  t.spline_ = spline;
   t.points_ = std::move(points_m);
   t.build_table();
   return t;
@@ -83,8 +97,12 @@ void Track::evaluate(double u, Vec2& point_m, Vec2& tangent_m) const {
         return points_[static_cast<std::size_t>(i)];
       };
       const Vec2 p0 = at(seg - 1), p1 = at(seg), p2 = at(seg + 1), p3 = at(seg + 2);
-      p = catmull_rom(p0, p1, p2, p3, f);
-      d = catmull_rom_d(p0, p1, p2, p3, f);
+      if (spline_ == Spline::centripetal) {
+        centripetal(p0, p1, p2, p3, f, p, d);
+      } else {
+        p = catmull_rom(p0, p1, p2, p3, f);
+        d = catmull_rom_d(p0, p1, p2, p3, f);
+      }
       break;
     }
   }
@@ -126,7 +144,7 @@ Pose2 Track::pose_at(double s_m) const {
 }
 
 Motion::Motion(Track track, double speed_mps, double start_offset_m, double distance_m, double start_s,
-               std::vector<Pause> pauses, double accel_mps2)
+               std::vector<Pause> pauses, double accel_mps2, double max_yaw_rate_radps)
     : track_{std::move(track)},
       speed_mps_{speed_mps},
       start_offset_m_{start_offset_m},
@@ -157,6 +175,7 @@ Motion::Motion(Track track, double speed_mps, double start_offset_m, double dist
       const Drive d = make_drive(from, p.at_s);
       if (d.distance_m >= remaining) {
         last_drive(from);
+        stretch_for_turns(max_yaw_rate_radps);
         return;
       }
       drives_.push_back(d);
@@ -165,6 +184,7 @@ Motion::Motion(Track track, double speed_mps, double start_offset_m, double dist
     from = std::max(from, pause_end);
   }
   last_drive(from);
+  stretch_for_turns(max_yaw_rate_radps);
 }
 
 Motion::Drive Motion::make_drive(double from_s, double to_s) const {
@@ -203,7 +223,7 @@ double Motion::speed_in(const Drive& d, double t_s) const {
   return accel_mps2_ * r;
 }
 
-double Motion::distance_at(double t_s) const {
+double Motion::planned_distance_at(double t_s) const {
   double s = 0;
   for (const Drive& d : drives_) {
     if (t_s <= d.from_s) break;
@@ -212,18 +232,82 @@ double Motion::distance_at(double t_s) const {
   return std::min(s, distance_m_);
 }
 
-bool Motion::moving_at(double t_s) const { return speed_at(t_s) > 0.0; }
+bool Motion::moving_at(double t_s) const { return planned_speed_at(planned_time(t_s)) > 0.0; }
 
-double Motion::speed_at(double t_s) const {
+double Motion::planned_speed_at(double t_s) const {
   for (const Drive& d : drives_) {
     if (t_s >= d.from_s && t_s < d.to_s) return speed_in(d, t_s);
   }
   return 0.0;
 }
 
+double Motion::speed_at(double t_s) const { return planned_speed_at(planned_time(t_s)) * planned_clock_rate(t_s); }
+
 double Motion::yaw_rate_at(double t_s) const {
   constexpr double kH = 1e-3;
   return normalize_angle(pose_at(t_s + kH).theta_rad - pose_at(t_s - kH).theta_rad) / (2.0 * kH);
+}
+
+double Motion::planned_yaw_rate_at(double planned_s) const {
+  constexpr double kH = 1e-3;
+  const double ahead = track_.pose_at(start_offset_m_ + planned_distance_at(planned_s + kH)).theta_rad;
+  const double behind = track_.pose_at(start_offset_m_ + planned_distance_at(planned_s - kH)).theta_rad;
+  return normalize_angle(ahead - behind) / (2.0 * kH);
+}
+
+void Motion::stretch_for_turns(double max_yaw_rate_radps) {
+  if (max_yaw_rate_radps <= 0 || drives_.empty()) return;
+  // The planned clock's rate: 1, or less where the planned motion turns faster than the limit.
+  auto rate = [&](double planned_s) {
+    const double w = std::abs(planned_yaw_rate_at(planned_s));
+    return w > max_yaw_rate_radps ? max_yaw_rate_radps / w : 1.0;
+  };
+  // Real time in steps of a millisecond (midpoint rule), from the first drive to the planned finish;
+  // 10 ms at a time while the rate is under the limit at both ends of the step.
+  constexpr double kStep = 1e-3, kCoarseStep = 1e-2;
+  const double planned_finish = finish_s_;
+  double t = drives_.front().from_s, planned = t;
+  bool inside = false;
+  while (planned < planned_finish) {
+    if (!inside && rate(planned) == 1.0 && rate(planned + kCoarseStep) == 1.0) {
+      t += kCoarseStep;
+      planned += kCoarseStep;
+      continue;
+    }
+    const double r = rate(planned + 0.5 * kStep * rate(planned));
+    if (r < 1.0) {
+      stretch_.push_back({t, planned, true});
+      inside = true;
+    } else if (inside) {
+      stretch_.push_back({t, planned, false});
+      inside = false;
+    }
+    t += kStep;
+    planned += kStep * r;
+  }
+  if (inside) stretch_.push_back({t, planned, false});
+  if (!stretch_.empty()) finish_s_ = t - (planned - planned_finish);
+}
+
+double Motion::planned_time(double t_s) const {
+  if (stretch_.empty() || t_s < stretch_.front().t_s) return t_s;
+  const auto after = std::upper_bound(stretch_.begin(), stretch_.end(), t_s,
+                                      [](double t, const StretchKnot& k) { return t < k.t_s; });
+  const StretchKnot& k = *(after - 1);
+  if (k.stretched && after != stretch_.end()) {
+    const double f = (t_s - k.t_s) / (after->t_s - k.t_s);
+    return k.planned_s + f * (after->planned_s - k.planned_s);
+  }
+  return k.planned_s + (t_s - k.t_s);
+}
+
+double Motion::planned_clock_rate(double t_s) const {
+  if (stretch_.empty() || t_s < stretch_.front().t_s) return 1.0;
+  const auto after = std::upper_bound(stretch_.begin(), stretch_.end(), t_s,
+                                      [](double t, const StretchKnot& k) { return t < k.t_s; });
+  const StretchKnot& k = *(after - 1);
+  if (k.stretched && after != stretch_.end()) return (after->planned_s - k.planned_s) / (after->t_s - k.t_s);
+  return 1.0;
 }
 
 }  // namespace teamscan::sim

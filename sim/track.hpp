@@ -19,8 +19,13 @@ class Track {
   static Track oval(Vec2 center_m, double semi_x_m, double semi_y_m, double yaw_rad, bool ccw);
   // Lemniscate of Gerono: x = a·sin u, y = b·sin u·cos u; lobes reach ±a along x, ±b/2 along y.
   static Track figure8(Vec2 center_m, double half_length_m, double width_m, double yaw_rad, bool ccw);
+  // How a waypoints spline's segments are parametrised. Uniform (every segment one unit) overshoots
+  // where short and long segments meet and can loop at a tight corner; centripetal (each segment the
+  // square root of its chord) never forms a cusp or a loop inside a segment (Yuksel, Schaefer and
+  // Keyser 2011, "Parameterization and applications of Catmull–Rom curves").
+  enum class Spline : std::uint8_t { uniform, centripetal };
   // Catmull–Rom spline through the points (at least 2); closed joins the last point to the first.
-  static Track waypoints(std::vector<Vec2> points_m, bool closed);
+  static Track waypoints(std::vector<Vec2> points_m, bool closed, Spline spline = Spline::uniform);
 
   [[nodiscard]] Kind kind() const { return kind_; }
   [[nodiscard]] bool closed() const { return closed_; }
@@ -42,6 +47,7 @@ class Track {
   Kind kind_ = Kind::oval;
   bool closed_ = true;
   bool reverse_ = false;
+  Spline spline_ = Spline::uniform;
   Pose2 map_from_track_;
   double cos_yaw_ = 1, sin_yaw_ = 0;  // of map_from_track_, cached: pose_at runs for every beam
   double a_ = 0, b_ = 0;
@@ -58,15 +64,19 @@ struct Pause {
 // Motion along a track: starts `start_offset_m` along it at `start_s`, drives `distance_m` (e.g.
 // laps × length) at `speed_mps`, stops during pauses and at the end. With `accel_mps2` > 0 every start
 // and stop is a linear speed ramp (trapezoidal profile, triangular if a drive is too short), so the
-// speed is continuous; 0 = instant starts and stops.
+// speed is continuous; 0 = instant starts and stops. With `max_yaw_rate_radps` > 0 the robot slows
+// wherever that speed would turn it faster (a skid-steer base turns at most so fast however tight the
+// curve): it then goes through the same poses on a stretched clock, turning at exactly that rate, and
+// everything after (pauses, the finish) comes later by the time lost. A motion that never turns that
+// fast is the same to the bit as one without the limit.
 class Motion {
  public:
   Motion(Track track, double speed_mps, double start_offset_m, double distance_m, double start_s,
-         std::vector<Pause> pauses, double accel_mps2 = 0.0);
+         std::vector<Pause> pauses, double accel_mps2 = 0.0, double max_yaw_rate_radps = 0.0);
 
   [[nodiscard]] const Track& track() const { return track_; }
   // Distance driven by time t (seconds from the start of the run).
-  [[nodiscard]] double distance_at(double t_s) const;
+  [[nodiscard]] double distance_at(double t_s) const { return planned_distance_at(planned_time(t_s)); }
   [[nodiscard]] Pose2 pose_at(double t_s) const { return track_.pose_at(start_offset_m_ + distance_at(t_s)); }
   [[nodiscard]] bool moving_at(double t_s) const;
   // Forward speed and yaw rate at t (the yaw rate by a central difference of the heading).
@@ -76,6 +86,20 @@ class Motion {
   [[nodiscard]] double finish_s() const { return finish_s_; }
 
  private:
+  // The clock stretch of the turn-rate limit: the planned time (the schedule of drives and pauses) at
+  // real time t. Between a knot marked `stretched` and the next the planned time runs slower and is
+  // interpolated; elsewhere it runs with real time from the knot before.
+  struct StretchKnot {
+    double t_s = 0, planned_s = 0;
+    bool stretched = false;
+  };
+  void stretch_for_turns(double max_yaw_rate_radps);
+  [[nodiscard]] double planned_time(double t_s) const;
+  [[nodiscard]] double planned_clock_rate(double t_s) const;  // d planned time / dt
+  [[nodiscard]] double planned_distance_at(double planned_s) const;
+  [[nodiscard]] double planned_speed_at(double planned_s) const;
+  [[nodiscard]] double planned_yaw_rate_at(double planned_s) const;
+
   // One drive between stops: [from_s, to_s), ramps of `ramp_s` at both ends, `distance_m` driven.
   struct Drive {
     double from_s = 0, to_s = 0, ramp_s = 0, distance_m = 0;
@@ -89,6 +113,7 @@ class Motion {
   std::vector<Pause> pauses_;
   std::vector<Drive> drives_;   // in time order; the last one ends when distance_m is driven
   double finish_s_ = 0;
+  std::vector<StretchKnot> stretch_;  // empty: real time is planned time
 };
 
 }  // namespace teamscan::sim

@@ -13,10 +13,11 @@
 namespace teamscan::fusion {
 namespace {
 
-// corridor2 with another seed than the mission's (21): a different drive of the same two bases (1 % and
-// 1.5 % wheel slip, ±0.1°/m). The calibration sees only the odometry and the scans, like a real drive.
+// corridor2's calibration drive (a figure-of-eight in a hall) with another seed than its own: the same
+// two bases as corridor2's (1 % and 1.5 % wheel slip, ±0.1°/m). The calibration sees only the odometry
+// and the scans, like a real drive.
 TEST(Calibration, ASimulatedDriveRecoversEachRobotsSlip) {
-  const sim::ScenarioLoad load = sim::resolve_scenario("corridor2");
+  const sim::ScenarioLoad load = sim::resolve_scenario("corridor2-calibration");
   ASSERT_TRUE(load.scenario) << load.error;
   sim::SimOptions so;
   so.seed = 1001;
@@ -46,7 +47,7 @@ TEST(Calibration, ASimulatedDriveRecoversEachRobotsSlip) {
   EXPECT_LT(cal.robots[1].rates.scale, cal.robots[0].rates.scale - 0.002);
 
   // The TOML fragment is what the station reads: each robot's prior, to the digits written.
-  const std::string text = calibration_toml(cal, "corridor2, seed 1001");
+  const std::string text = calibration_toml(cal, "corridor2-calibration, seed 1001");
   station::GroundStationConfig c;
   station::ConfigError e;
   ASSERT_TRUE(station::parse_groundstation_config(text, "calib.toml", c, e)) << e.message << "\n" << text;

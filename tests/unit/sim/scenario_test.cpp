@@ -75,7 +75,15 @@ TEST(Scenario, MinimalFileGetsDefaults) {
   EXPECT_EQ(r.variant.beams(), 181);
   EXPECT_EQ(r.lms_baud, 500000u);
   EXPECT_DOUBLE_EQ(r.range_noise_mm, 5.0);
+  EXPECT_DOUBLE_EQ(r.max_turn_rate_deg_s, 140.0);
+  EXPECT_EQ(r.track.spline, Track::Spline::uniform);
   EXPECT_EQ(load.scenario->name, "min");
+  const ScenarioLoad set = parse_scenario(
+      "[[robot]]\nmax_turn_rate_deg_s = 0\n[robot.track]\nkind = \"waypoints\"\npoints_m = [[0, 0], [1, 0]]\nspline = \"centripetal\"\n",
+      "set.toml");
+  ASSERT_TRUE(set.scenario) << set.error;
+  EXPECT_DOUBLE_EQ(set.scenario->robots[0].max_turn_rate_deg_s, 0.0);
+  EXPECT_EQ(set.scenario->robots[0].track.spline, Track::Spline::centripetal);
 }
 
 struct BadCase {
@@ -96,6 +104,8 @@ TEST(Scenario, MalformedInputNamesTheKey) {
       {"[[robot]]\n[robot.track]\nkind = \"waypoints\"\npoints_m = [[0, 0]]\n", "robot[0].track.points_m"},
       {"[[robot]]\npauses = [{ at_s = 1 }]\n[robot.track]\n", "robot[0].pauses[0].for_s"},
       {"[[robot]]\nid = 40\n[robot.track]\n", "robot[0].id"},
+      {"[[robot]]\nmax_turn_rate_deg_s = -5\n[robot.track]\n", "robot[0].max_turn_rate_deg_s"},
+      {"[[robot]]\n[robot.track]\nkind = \"waypoints\"\npoints_m = [[0, 0], [1, 0]]\nspline = \"bezier\"\n", "robot[0].track.spline"},
       {"[[robot]]\n", "robot[0].track"},
       {"[[robot]]\n[robot.track]\n[[robot]]\nid = 1\n[robot.track]\n", "robot[1].id"},
       {"[[furniture]]\nkind = \"box\"\nsize_m = [1, 1, 1]\n[[robot]]\n[robot.track]\n", "furniture[0].center_m"},

@@ -1,8 +1,11 @@
 // Tracks: arc length, closure, heading along the tangent, start offset, pauses and the finish time.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
+#include "common/units.hpp"
 #include "sim/track.hpp"
 
 namespace teamscan::sim {
@@ -117,6 +120,97 @@ TEST(Motion, ShortDriveBetweenPausesIsATriangle) {
   EXPECT_NEAR(m.speed_at(0.5), 0.15, 1e-12);
   EXPECT_NEAR(m.distance_at(1.0), 0.075, 1e-12);
   EXPECT_NEAR(m.distance_at(2.5), 0.075, 1e-12);
+}
+
+// corridor2's closed loop: 3.8 m straights joined by end turns through three points 0.3–0.5 m apart.
+std::vector<Vec2> corridor_loop() {
+  return {{-3.8, -0.4}, {0.0, -0.4}, {3.8, -0.4}, {4.1, 0.0}, {3.8, 0.4}, {0.0, 0.4}, {-3.8, 0.4}, {-4.1, 0.0}};
+}
+
+// The largest heading change per metre along the track, and how far the heading turns clockwise in
+// all (the loop itself turns counter-clockwise: clockwise turns are the spline swinging back).
+struct Bends {
+  double max_curvature_per_m = 0;
+  double clockwise_rad = 0;
+};
+Bends bends(const Track& t) {
+  Bends b;
+  constexpr double kDs = 0.005;
+  for (double s = 0; s + kDs < t.length_m(); s += kDs) {
+    const double turn = normalize_angle(t.pose_at(s + kDs).theta_rad - t.pose_at(s).theta_rad);
+    b.max_curvature_per_m = std::max(b.max_curvature_per_m, std::abs(turn) / kDs);
+    if (turn < 0) b.clockwise_rad -= turn;
+  }
+  return b;
+}
+
+TEST(Track, ACentripetalSplineTurnsATightEndWithoutLooping) {
+  const Track uniform = Track::waypoints(corridor_loop(), true);
+  const Track centripetal = Track::waypoints(corridor_loop(), true, Track::Spline::centripetal);
+  // The uniform spline overshoots into the end turns and loops there: its heading swings back by
+  // more than 2 rad in all, at over 10 rad/m.
+  const Bends u = bends(uniform), c = bends(centripetal);
+  EXPECT_GT(u.clockwise_rad, 2.0);
+  EXPECT_GT(u.max_curvature_per_m, 10.0);
+  // The centripetal one only bows its straights a little, turns no tighter than a 0.25 m radius, and
+  // passes through every waypoint.
+  EXPECT_LT(c.clockwise_rad, 0.3);
+  EXPECT_LT(c.max_curvature_per_m, 4.0);
+  for (const Vec2 w : corridor_loop()) {
+    double nearest = 1e9;
+    for (double s = 0; s < centripetal.length_m(); s += 0.001) {
+      const Pose2 p = centripetal.pose_at(s);
+      nearest = std::min(nearest, std::hypot(p.x_m - w.x, p.y_m - w.y));
+    }
+    EXPECT_LT(nearest, 2e-3) << w.x << ", " << w.y;
+  }
+  // Evenly spaced points give the same curve either way.
+  const std::vector<Vec2> square{{0, 0}, {2, 0}, {2, 2}, {0, 2}};
+  const Track a = Track::waypoints(square, true), b = Track::waypoints(square, true, Track::Spline::centripetal);
+  for (double s = 0; s < a.length_m(); s += 0.1) {
+    EXPECT_NEAR(a.pose_at(s).x_m, b.pose_at(s).x_m, 1e-9);
+    EXPECT_NEAR(a.pose_at(s).y_m, b.pose_at(s).y_m, 1e-9);
+  }
+}
+
+TEST(Motion, AMotionWithinTheTurnRateLimitIsUntouched) {
+  const Track t = Track::oval({0, 0}, 2.0, 1.2, 0, true);
+  const Motion free{t, 0.4, 0.0, 2 * t.length_m(), 1.0, {{10.0, 3.0}}, 0.3};
+  const Motion limited{t, 0.4, 0.0, 2 * t.length_m(), 1.0, {{10.0, 3.0}}, 0.3, deg_to_rad(140.0)};
+  EXPECT_EQ(limited.finish_s(), free.finish_s());
+  for (double time = 0; time < free.finish_s() + 1.0; time += 0.0137) {
+    EXPECT_EQ(limited.distance_at(time), free.distance_at(time)) << time;
+    EXPECT_EQ(limited.speed_at(time), free.speed_at(time)) << time;
+  }
+}
+
+TEST(Motion, ATurnTooTightForTheLimitIsDrivenMoreSlowlyThroughTheSamePoses) {
+  const Track t = Track::waypoints(corridor_loop(), true);
+  const double limit = deg_to_rad(140.0);
+  const Motion free{t, 0.35, 0.0, 2 * t.length_m(), 0.0, {{30.0, 2.0}}, 0.3};
+  const Motion limited{t, 0.35, 0.0, 2 * t.length_m(), 0.0, {{30.0, 2.0}}, 0.3, limit};
+  double free_max = 0, limited_max = 0, previous = 0;
+  for (double time = 0; time < limited.finish_s() + 1.0; time += 0.002) {
+    free_max = std::max(free_max, std::abs(free.yaw_rate_at(time)));
+    limited_max = std::max(limited_max, std::abs(limited.yaw_rate_at(time)));
+    // Never ahead of the unlimited robot and never backwards: the same poses, reached later.
+    const double d = limited.distance_at(time);
+    EXPECT_LE(d, free.distance_at(time) + 1e-12) << time;
+    EXPECT_GE(d, previous) << time;
+    previous = d;
+  }
+  EXPECT_GT(free_max, 2.0 * limit);
+  EXPECT_LT(limited_max, limit * 1.01);
+  EXPECT_GT(limited.finish_s(), free.finish_s() + 0.5);
+  EXPECT_NEAR(limited.distance_at(limited.finish_s()), 2 * t.length_m(), 1e-9);
+  // On the straights it drives at its speed; the pause comes later by the time lost before it.
+  EXPECT_NEAR(limited.speed_at(5.0), 0.35, 1e-9);
+  double pause_starts = 0;
+  for (double time = 25.0; time < 40.0 && pause_starts == 0; time += 0.001) {
+    if (!limited.moving_at(time)) pause_starts = time;
+  }
+  EXPECT_GT(pause_starts, 30.0);
+  EXPECT_LT(pause_starts, 30.0 + (limited.finish_s() - free.finish_s()));
 }
 
 }  // namespace
