@@ -10,6 +10,9 @@
 namespace teamscan::posegraph {
 namespace {
 
+// Branch and bound levels of local SLAM's search: blocks of up to 2^3 cells cover its small window.
+constexpr int kLocalSearchDepth = 3;
+
 // f(0) … f(n − 1) on `threads` threads (the caller's one of them), each index once, in no fixed order:
 // f must write only its own index's result.
 template <typename F>
@@ -93,6 +96,8 @@ SlamOptions tilted_laser_options(SlamOptions base) {
   base.graph.calibrate_local_links = true;
   base.graph.closure_huber_scale = 5.0;
   base.calibration_loop_m = 10.0;
+  // A node's few wall returns score low on any submap; its odometry is what places it between nodes.
+  base.local_search_score = 0.0;
   return base;
 }
 
@@ -128,8 +133,7 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
   Pose2 local = r.started ? r.last_local * (r.last_odometry.inverse() * odometry) : odometry;
   if (!r.active.empty()) {
     const Submap& m = *submaps_[r.active.front()];
-    const Pose2 guess = m.local.inverse() * local;
-    local = m.local * refine_pose(m.grid, points, guess, options_.local);
+    local = m.local * match_locally(m, points, m.local.inverse() * local);
   }
   // The first node is held; with anchor_robot_starts every robot's first one (the robots start in
   // the common map frame).
@@ -165,6 +169,21 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
     after_optimization();
   }
   return node;
+}
+
+Pose2 PlanarSlam::match_locally(const Submap& m, const std::vector<Vec2>& points, const Pose2& guess) {
+  const Pose2 refined = refine_pose(m.grid, points, guess, options_.local);
+  if (options_.local_search_score <= 0.0 || m.scans < options_.local_search_min_scans) return refined;
+  const double score = pose_score(m.grid, points, refined);
+  if (score >= options_.local_search_score) return refined;
+  ++local_searches_;
+  const CorrelativeMatcher matcher(m.grid, kLocalSearchDepth);
+  const SearchResult found = matcher.search(points, guess, options_.local_search_window, score);
+  if (!found.found) return refined;
+  const Pose2 searched = refine_pose(m.grid, points, found.pose, options_.local);
+  if (pose_score(m.grid, points, searched) <= score) return refined;
+  ++local_found_;
+  return searched;
 }
 
 void PlanarSlam::insert(Robot& r, std::size_t node, const Pose2& local, const std::vector<Vec2>& points) {
@@ -386,7 +405,7 @@ SlamStats PlanarSlam::stats() const {
   for (const auto& m : submaps_) bytes += m->grid.values().capacity() * sizeof(float) + (m->matcher ? m->matcher->memory_bytes() : 0);
   for (const auto& p : node_points_) bytes += p.capacity() * sizeof(p[0]);
   SlamStats out{graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_, rematches_,
-                  retired_, kept_returns_, still_, bytes, {}};
+                  retired_, kept_returns_, still_, bytes, {}, local_searches_, local_found_};
   if (options_.graph.calibrate_odometry || options_.graph.calibrate_local_links) {
     for (const auto& r : robots_) out.calibrations.push_back({r->id, graph_.calibration(r->id)});
     std::sort(out.calibrations.begin(), out.calibrations.end(),

@@ -30,6 +30,14 @@ struct SlamOptions {
   double max_range_m = 12.0;        // returns beyond are not inserted (and not matched): bounds a submap's grid
   int scans_per_submap = 35;        // a submap is finished after 2× this many scans
   RefineOptions local{1.0, 1.0, 1.0, 20};  // scan to submap, a weak pull to the odometry's prediction
+  // When the refinement leaves a scan scoring below `local_search_score` on its submap (the odometry's
+  // prediction was further off than the refinement reaches: wheels slipping in a turn), local SLAM
+  // searches the window around the prediction (the correlative search, as Cartographer's online
+  // correlative scan matcher) and keeps what it found, refined, if that scores better. Needs a submap
+  // of at least `local_search_min_scans` scans. 0: never searched.
+  double local_search_score = 0.7;
+  int local_search_min_scans = 10;
+  SearchWindow local_search_window{0.3, 0.35, 0.0, 0.0};
   // Loop closure: every `closure_every_n_nodes`-th node of each robot is searched against the `closure_submaps`
   // nearest finished submaps within `closure_max_distance_m` (submap origin to node).
   int closure_every_n_nodes = 6;
@@ -119,6 +127,7 @@ struct SlamStats {
   // Each robot's odometry as the graph calibrated it (GraphOptions::calibrate_odometry), by robot id;
   // empty when not calibrated.
   std::vector<Calibration> calibrations;
+  std::size_t local_searches = 0, local_found = 0;  // local SLAM's searches, and those that placed the scan (local_search_score)
 };
 
 // The options for tilted lasers' returns (fusion/planar_returns.hpp: a node is a robot's wall returns
@@ -170,6 +179,8 @@ class PlanarSlam {
   struct Robot;
   Robot& robot(std::uint8_t id);
   void insert(Robot& r, std::size_t node, const Pose2& local, const std::vector<Vec2>& points);
+  // Local SLAM's match of a scan on a submap from the odometry's prediction (submap frame).
+  [[nodiscard]] Pose2 match_locally(const Submap& m, const std::vector<Vec2>& points, const Pose2& guess);
   void close_loops(Robot& r, std::size_t node, const std::vector<Vec2>& points);
   void retire_covered(std::size_t finished);
   [[nodiscard]] bool keep_returns(std::size_t node);
@@ -194,6 +205,7 @@ class PlanarSlam {
   std::map<std::pair<std::int64_t, std::int64_t>, int> kept_per_cell_;  // rematch_cell_m squares -> nodes kept there
   std::size_t retired_ = 0, kept_returns_ = 0;
   std::size_t searches_ = 0, tracked_ = 0, rematches_ = 0, still_ = 0;
+  std::size_t local_searches_ = 0, local_found_ = 0;
 };
 
 }  // namespace teamscan::posegraph
