@@ -63,6 +63,9 @@ SlamOptions options_from_env() {
       {"rematch_window.plateau_score", &o.rematch_window.plateau_score},
       {"retire_distance_m", &o.retire_distance_m},
       {"rematch_cell_m", &o.rematch_cell_m},
+      {"local_search_score", &o.local_search_score},
+      {"local_search_window.linear_m", &o.local_search_window.linear_m},
+      {"local_search_window.angular_rad", &o.local_search_window.angular_rad},
   };
   std::map<std::string, int*> i = {
       {"scans_per_submap", &o.scans_per_submap},

@@ -1,0 +1,119 @@
+#!/usr/bin/env python3
+"""A ROS 1 bag of a 2-D SLAM benchmark log back to CARMEN text, for `teamscan import carmen`.
+
+The Freiburg SLAM-evaluation logs (Kümmerle et al. 2009: ACES, MIT CSAIL, FR079, …) are published
+with their relations in INESCTEC/ricoslam (`inesctec_mrdt_slam_2d_datasets/bag/NAME.orig.bag`,
+`data/NAME.relations`), as bags their CARMEN-to-ROS converter wrote: `sensor_msgs/LaserScan` on /scan
+stamped with the scan's CARMEN ipc_timestamp, `nav_msgs/Odometry` on /odom from its ODOM lines. This
+writes one `FLASER` line per scan (its odometry pose: the last /odom before it) and one `ODOM` line
+per /odom message, in the bag's order, each stamp to the microsecond (or, with --stamp-step-us, to
+that step: the MIT CSAIL relations name their scans to 10 µs). Out-of-range readings (NaN, inf) are
+written as 0 (no return). The laser's mounting offset (/tf_static) is not carried: FLASER has none.
+
+Standard library only (bz2 chunks; an lz4-compressed bag is refused).
+
+usage: rosbag_to_carmen.py BAG [--stamp-step-us N] > LOG.clf
+"""
+import argparse
+import bz2
+import math
+import struct
+import sys
+
+
+def header_fields(buf):
+    out, i = {}, 0
+    while i < len(buf):
+        (n,) = struct.unpack_from('<I', buf, i)
+        i += 4
+        key, _, value = buf[i:i + n].partition(b'=')
+        out[key.decode()] = value
+        i += n
+    return out
+
+
+def records(buf, i=0):
+    while i + 4 <= len(buf):
+        (n,) = struct.unpack_from('<I', buf, i)
+        head = header_fields(buf[i + 4:i + 4 + n])
+        i += 4 + n
+        (m,) = struct.unpack_from('<I', buf, i)
+        yield head, buf[i + 4:i + 4 + m]
+        i += 4 + m
+
+
+def ros_string(data, i):
+    (n,) = struct.unpack_from('<I', data, i)
+    return data[i + 4:i + 4 + n].decode(errors='replace'), i + 4 + n
+
+
+def ros_header(data):
+    _seq, sec, nsec = struct.unpack_from('<III', data, 0)
+    _frame, i = ros_string(data, 12)
+    return sec, nsec, i
+
+
+def stamp(sec, nsec, step_us):
+    us = (nsec + 500) // 1000
+    us = (us + step_us // 2) // step_us * step_us
+    return '%d.%06d' % (sec + us // 1_000_000, us % 1_000_000)
+
+
+def messages(path):
+    data = open(path, 'rb').read()
+    if not data.startswith(b'#ROSBAG V2.0\n'):
+        sys.exit('%s: not a ROS bag (version 2.0)' % path)
+    types = {}
+
+    def take(head, body):
+        op = head.get('op', b'\0')[0]
+        if op == 7:  # connection
+            types[struct.unpack('<I', head['conn'])[0]] = header_fields(body).get('type', b'').decode()
+        elif op == 2:  # message data
+            yield types.get(struct.unpack('<I', head['conn'])[0], ''), body
+
+    for head, body in records(data, len(b'#ROSBAG V2.0\n')):
+        if head.get('op', b'\0')[0] == 5:  # chunk
+            kind = head['compression'].decode()
+            if kind == 'bz2':
+                body = bz2.decompress(body)
+            elif kind != 'none':
+                sys.exit('%s: %s-compressed chunks are not supported' % (path, kind))
+            for inner_head, inner_body in records(body):
+                yield from take(inner_head, inner_body)
+        else:
+            yield from take(head, body)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('bag')
+    parser.add_argument('--stamp-step-us', type=int, default=1)
+    args = parser.parse_args()
+    out = sys.stdout
+    odometry = (0.0, 0.0, 0.0)
+    scans = odoms = 0
+    for kind, body in messages(args.bag):
+        if kind == 'nav_msgs/Odometry':
+            sec, nsec, i = ros_header(body)
+            _child, i = ros_string(body, i)
+            x, y, _z, qx, qy, qz, qw = struct.unpack_from('<7d', body, i)
+            odometry = (x, y, math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)))
+            t = stamp(sec, nsec, args.stamp_step_us)
+            out.write('ODOM %.6f %.6f %.6f 0 0 0 %s bag %s\n' % (*odometry, t, t))
+            odoms += 1
+        elif kind == 'sensor_msgs/LaserScan':
+            sec, nsec, i = ros_header(body)
+            i += 7 * 4  # angle_min, angle_max, angle_increment, time_increment, scan_time, range_min, range_max
+            (n,) = struct.unpack_from('<I', body, i)
+            ranges = struct.unpack_from('<%df' % n, body, i + 4)
+            readings = ' '.join('%.3f' % r if math.isfinite(r) else '0.000' for r in ranges)
+            t = stamp(sec, nsec, args.stamp_step_us)
+            pose = '%.6f %.6f %.6f' % odometry
+            out.write('FLASER %d %s %s %s %s bag %s\n' % (n, readings, pose, pose, t, t))
+            scans += 1
+    sys.stderr.write('%s: %d scans, %d odometry messages\n' % (args.bag, scans, odoms))
+
+
+if __name__ == '__main__':
+    main()
