@@ -29,7 +29,10 @@ struct SlamOptions {
   double min_range_m = 0.1;
   double max_range_m = 12.0;        // returns beyond are not inserted (and not matched): bounds a submap's grid
   int scans_per_submap = 35;        // a submap is finished after 2× this many scans
-  RefineOptions local{1.0, 1.0, 1.0, 20};  // scan to submap, a weak pull to the odometry's prediction
+  // Scan to submap, pulled towards the odometry's prediction at 3 per metre and 1 per radian: along a
+  // corridor the returns cannot tell where the robot is and the odometry's distance holds it; a turn
+  // the returns tell better than wheels that slip in it.
+  RefineOptions local{1.0, 3.0, 1.0, 20};
   // When the refinement leaves a scan scoring below `local_search_score` on its submap (the odometry's
   // prediction was further off than the refinement reaches: wheels slipping in a turn), local SLAM
   // searches the window around the prediction (the correlative search, as Cartographer's online
@@ -134,7 +137,7 @@ struct SlamStats {
 // over a quarter of a second, each scan one stripe across the walls near it). Such a node sees a short new
 // piece of wall past the end of what its submap holds: matched on its own, local SLAM pulls those
 // returns back onto the known piece and falls behind the robot, in translation and in yaw. Local SLAM's pull towards the odometry's prediction is
-// 100 per metre and 400 per radian here (1 and 1 by default): it follows the odometry over a node and corrects what the walls
+// 100 per metre and 400 per radian here (3 and 1 by default): it follows the odometry over a node and corrects what the walls
 // show clearly; the loop closures take out the drift (docs/slam.md "Tilted lasers"). Between such
 // nodes (a few centimetres, a few degrees) local SLAM's motion, the odometry's with what the walls
 // showed clearly corrected, is held at 10⁵ per metre and per radian (10⁴ by default), and the
