@@ -116,4 +116,7 @@ def main():
 
 
 if __name__ == '__main__':
-    main()
+    try:
+        main()
+    except (struct.error, KeyError, ValueError, OSError, EOFError) as e:
+        sys.exit('rosbag_to_carmen: %s: not a readable ROS bag (%s: %s)' % (sys.argv[1] if len(sys.argv) > 1 else '?', type(e).__name__, e))
