@@ -289,25 +289,27 @@ void Motion::stretch_for_turns(double max_yaw_rate_radps) {
   if (!stretch_.empty()) finish_s_ = t - (planned - planned_finish);
 }
 
-double Motion::planned_time(double t_s) const {
-  if (stretch_.empty() || t_s < stretch_.front().t_s) return t_s;
+Motion::StretchSpan Motion::stretch_at(double t_s) const {
+  StretchSpan span;
+  if (stretch_.empty() || t_s < stretch_.front().t_s) return span;
   const auto after = std::upper_bound(stretch_.begin(), stretch_.end(), t_s,
                                       [](double t, const StretchKnot& k) { return t < k.t_s; });
-  const StretchKnot& k = *(after - 1);
-  if (k.stretched && after != stretch_.end()) {
-    const double f = (t_s - k.t_s) / (after->t_s - k.t_s);
-    return k.planned_s + f * (after->planned_s - k.planned_s);
-  }
-  return k.planned_s + (t_s - k.t_s);
+  span.from = &*(after - 1);
+  if (span.from->stretched && after != stretch_.end()) span.to = &*after;
+  return span;
+}
+
+double Motion::planned_time(double t_s) const {
+  const StretchSpan s = stretch_at(t_s);
+  if (s.from == nullptr) return t_s;
+  if (s.to == nullptr) return s.from->planned_s + (t_s - s.from->t_s);
+  const double f = (t_s - s.from->t_s) / (s.to->t_s - s.from->t_s);
+  return s.from->planned_s + f * (s.to->planned_s - s.from->planned_s);
 }
 
 double Motion::planned_clock_rate(double t_s) const {
-  if (stretch_.empty() || t_s < stretch_.front().t_s) return 1.0;
-  const auto after = std::upper_bound(stretch_.begin(), stretch_.end(), t_s,
-                                      [](double t, const StretchKnot& k) { return t < k.t_s; });
-  const StretchKnot& k = *(after - 1);
-  if (k.stretched && after != stretch_.end()) return (after->planned_s - k.planned_s) / (after->t_s - k.t_s);
-  return 1.0;
+  const StretchSpan s = stretch_at(t_s);
+  return s.to == nullptr ? 1.0 : (s.to->planned_s - s.from->planned_s) / (s.to->t_s - s.from->t_s);
 }
 
 }  // namespace teamscan::sim

@@ -94,6 +94,12 @@ class Motion {
     bool stretched = false;
   };
   void stretch_for_turns(double max_yaw_rate_radps);
+  // The knot at or before t (none before the first) and, inside a stretch, the knot after it.
+  struct StretchSpan {
+    const StretchKnot* from = nullptr;
+    const StretchKnot* to = nullptr;
+  };
+  [[nodiscard]] StretchSpan stretch_at(double t_s) const;
   [[nodiscard]] double planned_time(double t_s) const;
   [[nodiscard]] double planned_clock_rate(double t_s) const;  // d planned time / dt
   [[nodiscard]] double planned_distance_at(double planned_s) const;
