@@ -182,17 +182,7 @@ CarmenLog parse_carmen(std::string_view text) {
   return log;
 }
 
-namespace {
-
-// The processing clock: every laser and ODOM line in file order, its source stamp unless that steps
-// back, then 1 µs after the line before (file order is the true order). Returned per laser line and
-// per ODOM line, in µs.
-struct ProcessingClock {
-  std::vector<std::int64_t> laser_us, odom_us;
-  std::int64_t first_us = 0, last_us = 0;
-};
-
-ProcessingClock processing_clock(const CarmenLog& log) {
+CarmenProcessingClock carmen_processing_clock(const CarmenLog& log) {
   struct Line {
     std::size_t order;
     bool laser;
@@ -204,7 +194,7 @@ ProcessingClock processing_clock(const CarmenLog& log) {
   for (std::size_t i = 0; i < log.lasers.size(); ++i) lines.push_back({log.lasers[i].file_order, true, i, log.lasers[i].stamp_us});
   for (std::size_t i = 0; i < log.odom.size(); ++i) lines.push_back({log.odom[i].file_order, false, i, log.odom[i].stamp_us});
   std::stable_sort(lines.begin(), lines.end(), [](const Line& a, const Line& b) { return a.order < b.order; });
-  ProcessingClock c;
+  CarmenProcessingClock c;
   c.laser_us.resize(log.lasers.size());
   c.odom_us.resize(log.odom.size());
   std::int64_t t = 0;
@@ -217,11 +207,9 @@ ProcessingClock processing_clock(const CarmenLog& log) {
   return c;
 }
 
-}  // namespace
-
 Result<Dataset> carmen_to_dataset(const CarmenLog& log, const CarmenImportOptions& o) {
   if (log.lasers.empty()) return Error{"no FLASER or ROBOTLASER1 line"};
-  const ProcessingClock clock = processing_clock(log);
+  const CarmenProcessingClock clock = carmen_processing_clock(log);
   // Every processing time lies in [first_us, last_us]; in nanoseconds from the first it must fit int64.
   if (clock.last_us - clock.first_us > std::numeric_limits<std::int64_t>::max() / 1000)
     return Error{"the log's stamps span more than 292 years: not one robot's log"};

@@ -64,6 +64,15 @@ struct CarmenImportOptions {
   std::string name = "carmen";
 };
 
+// The processing clock: every laser and ODOM line in file order at its source stamp unless that steps
+// back, then 1 µs after the line before (file order is the true order). Per laser line and per ODOM
+// line (their indices in the log), in µs.
+struct CarmenProcessingClock {
+  std::vector<std::int64_t> laser_us, odom_us;
+  std::int64_t first_us = 0, last_us = 0;
+};
+[[nodiscard]] CarmenProcessingClock carmen_processing_clock(const CarmenLog& log);
+
 // A data set without truth: one robot, its scans and points (map frame = the odometry frame), its
 // odometry samples (ODOM lines if any, else the scans' poses). Scans and odometry keep file order:
 // their processing stamps (`stamp_ns`, from the first line) never step back (a line stamped before an

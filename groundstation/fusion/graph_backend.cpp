@@ -129,7 +129,7 @@ void GraphBackend::run() {
                     options_.slam ? *options_.slam : n.tilted ? posegraph::tilted_laser_options() : posegraph::SlamOptions{});
     {
       const std::vector<Vec2> returns = std::move(n.returns);  // the graph keeps its own copy: freed here
-      graph_node_.push_back(slam_->add_scan(n.robot, n.odom, returns));
+      graph_node_.push_back(slam_->add_scan(n.robot, n.scans->back().stamp_ns, n.odom, returns));
     }
     in_graph_.push_back(std::move(n));
     publish_estimate();

@@ -140,7 +140,9 @@ void PoseGraph::optimize(bool final) {
   for (const NodeLink& l : links_) {
     const double turned_rad = std::abs(l.from_to_odometry.theta_rad);
     const bool rest = std::hypot(l.from_to_odometry.x_m, l.from_to_odometry.y_m) < options_.rest_translation_m &&
-                      turned_rad < options_.rest_rotation_rad;
+                      turned_rad < options_.rest_rotation_rad &&
+                      std::hypot(l.from_to_local.x_m, l.from_to_local.y_m) < options_.rest_local_translation_m &&
+                      std::abs(l.from_to_local.theta_rad) < options_.rest_local_rotation_rad;
     const double factor = rest ? options_.rest_weight_factor : 1.0;
     const double odometry_rotation_weight =
         factor / (1.0 / options_.odometry_rotation_weight + options_.odometry_turn_sigma_rad_per_rad * turned_rad);

@@ -31,7 +31,11 @@ struct GraphOptions {
   // weights are multiplied by `rest_weight_factor`, so a parked robot's nodes move together as one,
   // rather than each giving a little to the pull of its closures and inserted scans until the robot
   // has turned while it stood. 1: as any link.
+  // Only where local SLAM saw the robot stand as well (its motion less than `rest_local_translation_m`
+  // and `rest_local_rotation_rad`): odometry that stalls (the same pose for several scans while the robot
+  // drives on, then one jump) is not a robot at rest, and held stiffly it would bend local SLAM's turn.
   double rest_translation_m = 0.001, rest_rotation_rad = 0.001;
+  double rest_local_translation_m = 0.01, rest_local_rotation_rad = 0.0087;
   double rest_weight_factor = 10;
   double closure_huber_scale = 1e1;
   // Each robot's odometry calibrated in the graph (Kümmerle et al. 2011, "Simultaneous calibration,

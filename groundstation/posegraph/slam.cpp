@@ -71,6 +71,8 @@ struct PlanarSlam::Robot {
   std::uint8_t id = 0;
   bool started = false;
   Pose2 last_odometry, last_local;
+  Pose2 last_motion;                // local SLAM's, from its previous node to its last one
+  std::int64_t last_stamp_ns = 0, last_interval_ns = 0;  // its last node's time, and the time since the one before
   std::size_t last_node = 0;
   std::size_t nodes = 0;            // its nodes so far
   double driven_m = 0;              // the distance its odometry moved, node to node
@@ -98,6 +100,7 @@ SlamOptions tilted_laser_options(SlamOptions base) {
   base.calibration_loop_m = 10.0;
   // A node's few wall returns score low on any submap; its odometry is what places it between nodes.
   base.local_search_score = 0.0;
+  base.coast_guess = false;
   return base;
 }
 
@@ -120,7 +123,7 @@ PlanarSlam::Robot& PlanarSlam::robot(std::uint8_t id) {
   return *robots_.back();
 }
 
-std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, const std::vector<Vec2>& all_points) {
+std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, std::int64_t stamp_ns, const Pose2& odometry, const std::vector<Vec2>& all_points) {
   std::vector<Vec2> points;
   points.reserve(all_points.size());
   for (const Vec2& p : all_points) {
@@ -133,7 +136,13 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
   Pose2 local = r.started ? r.last_local * (r.last_odometry.inverse() * odometry) : odometry;
   if (!r.active.empty()) {
     const Submap& m = *submaps_[r.active.front()];
-    local = m.local * match_locally(m, points, m.local.inverse() * local);
+    std::optional<Pose2> coast;
+    if (options_.coast_guess && r.nodes >= 2 && r.last_interval_ns > 0) {
+      const double k = static_cast<double>(stamp_ns - r.last_stamp_ns) / static_cast<double>(r.last_interval_ns);
+      if (k * options_.coast_max_ratio >= 1.0 && k <= options_.coast_max_ratio)
+        coast = m.local.inverse() * (r.last_local * Pose2{k * r.last_motion.x_m, k * r.last_motion.y_m, k * r.last_motion.theta_rad});
+    }
+    local = m.local * match_locally(m, points, m.local.inverse() * local, coast);
   }
   // The first node is held; with anchor_robot_starts every robot's first one (the robots start in
   // the common map frame).
@@ -155,6 +164,9 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
   // graph's index a teammate's nodes would never fall on the searched ones.
   const std::size_t robot_node = r.nodes++;
   r.last_odometry = odometry;
+  r.last_motion = r.last_local.inverse() * local;
+  r.last_interval_ns = robot_node > 0 ? stamp_ns - r.last_stamp_ns : 0;
+  r.last_stamp_ns = stamp_ns;
   r.last_local = local;
   r.last_node = node;
   if (!still && options_.closure_every_n_nodes > 0 && robot_node % static_cast<std::size_t>(options_.closure_every_n_nodes) == 0)
@@ -171,10 +183,24 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, const Pose2& odometry, c
   return node;
 }
 
-Pose2 PlanarSlam::match_locally(const Submap& m, const std::vector<Vec2>& points, const Pose2& guess) {
-  const Pose2 refined = refine_pose(m.grid, points, guess, options_.local);
+Pose2 PlanarSlam::match_locally(const Submap& m, const std::vector<Vec2>& points, const Pose2& odometry_guess,
+                                const std::optional<Pose2>& coast) {
+  Pose2 guess = odometry_guess;
+  Pose2 refined = refine_pose(m.grid, points, guess, options_.local);
+  std::optional<double> refined_score;
+  if (coast && std::abs(normalize_angle(coast->theta_rad - odometry_guess.theta_rad)) > options_.coast_differs_rad) {
+    const Pose2 coasted = refine_pose(m.grid, points, *coast, options_.local);
+    const double odometry_score = pose_score(m.grid, points, refined), coast_score = pose_score(m.grid, points, coasted);
+    refined_score = odometry_score;
+    if (coast_score > odometry_score) {
+      ++coasted_;
+      guess = *coast;
+      refined = coasted;
+      refined_score = coast_score;
+    }
+  }
   if (options_.local_search_score <= 0.0 || m.scans < options_.local_search_min_scans) return refined;
-  const double score = pose_score(m.grid, points, refined);
+  const double score = refined_score ? *refined_score : pose_score(m.grid, points, refined);
   if (score >= options_.local_search_score) return refined;
   ++local_searches_;
   const CorrelativeMatcher matcher(m.grid, kLocalSearchDepth);
@@ -405,7 +431,7 @@ SlamStats PlanarSlam::stats() const {
   for (const auto& m : submaps_) bytes += m->grid.values().capacity() * sizeof(float) + (m->matcher ? m->matcher->memory_bytes() : 0);
   for (const auto& p : node_points_) bytes += p.capacity() * sizeof(p[0]);
   SlamStats out{graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_, rematches_,
-                  retired_, kept_returns_, still_, bytes, {}, local_searches_, local_found_};
+                  retired_, kept_returns_, still_, bytes, {}, local_searches_, local_found_, coasted_};
   if (options_.graph.calibrate_odometry || options_.graph.calibrate_local_links) {
     for (const auto& r : robots_) out.calibrations.push_back({r->id, graph_.calibration(r->id)});
     std::sort(out.calibrations.begin(), out.calibrations.end(),

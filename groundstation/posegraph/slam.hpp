@@ -41,6 +41,18 @@ struct SlamOptions {
   double local_search_score = 0.7;
   int local_search_min_scans = 10;
   SearchWindow local_search_window{0.3, 0.35, 0.0, 0.0};
+  // A second guess for local SLAM: the robot coasting, its velocity from local SLAM's own motion
+  // between its last two scans. Where its heading and the odometry's prediction's differ by more than
+  // `coast_differs_rad`, the scan is refined from both and placed by the one scoring better on the
+  // submap (only the heading: along a corridor the two differ in distance, score alike, and the
+  // odometry's distance is the better one). Odometry that stalls (the same pose for several scans while the
+  // robot turns) and then catches up in one jump of tens of degrees would otherwise put the scan's
+  // guess far outside the refinement's reach and the search's window. Not tried across a gap: when
+  // the time since the last scan is more than `coast_max_ratio` times, or less than 1 / it, the time
+  // between the two before (a log's pause, a burst). false: the odometry's prediction only.
+  bool coast_guess = true;
+  double coast_differs_rad = 0.035;
+  double coast_max_ratio = 2.0;
   // Loop closure: every `closure_every_n_nodes`-th node of each robot is searched against the `closure_submaps`
   // nearest finished submaps within `closure_max_distance_m` (submap origin to node).
   int closure_every_n_nodes = 6;
@@ -131,6 +143,7 @@ struct SlamStats {
   // empty when not calibrated.
   std::vector<Calibration> calibrations;
   std::size_t local_searches = 0, local_found = 0;  // local SLAM's searches, and those that placed the scan (local_search_score)
+  std::size_t coasted = 0;  // scans local SLAM placed from the robot's last motion rather than the odometry's (coast_guess)
 };
 
 // The options for tilted lasers' returns (fusion/planar_returns.hpp: a node is a robot's wall returns
@@ -160,9 +173,9 @@ class PlanarSlam {
   PlanarSlam(const PlanarSlam&) = delete;
   PlanarSlam& operator=(const PlanarSlam&) = delete;
 
-  // One scan of `robot`: its odometry (map_from_robot) and its returns in the robot frame (metres).
-  // Returns the scan's node.
-  std::size_t add_scan(std::uint8_t robot, const Pose2& odometry, const std::vector<Vec2>& points);
+  // One scan of `robot`: its time (ns, any epoch; a robot's scans in time order), its odometry
+  // (map_from_robot) and its returns in the robot frame (metres). Returns the scan's node.
+  std::size_t add_scan(std::uint8_t robot, std::int64_t stamp_ns, const Pose2& odometry, const std::vector<Vec2>& points);
   // The last optimisation, over every node.
   void finish();
   // Every node's pose as an optimisation now would put it, solved on a copy of the graph: the graph, its
@@ -183,7 +196,9 @@ class PlanarSlam {
   Robot& robot(std::uint8_t id);
   void insert(Robot& r, std::size_t node, const Pose2& local, const std::vector<Vec2>& points);
   // Local SLAM's match of a scan on a submap from the odometry's prediction (submap frame).
-  [[nodiscard]] Pose2 match_locally(const Submap& m, const std::vector<Vec2>& points, const Pose2& guess);
+  // `coast`: the robot's last motion again, a second guess (SlamOptions::coast_guess).
+  [[nodiscard]] Pose2 match_locally(const Submap& m, const std::vector<Vec2>& points, const Pose2& guess,
+                                    const std::optional<Pose2>& coast);
   void close_loops(Robot& r, std::size_t node, const std::vector<Vec2>& points);
   void retire_covered(std::size_t finished);
   [[nodiscard]] bool keep_returns(std::size_t node);
@@ -208,7 +223,7 @@ class PlanarSlam {
   std::map<std::pair<std::int64_t, std::int64_t>, int> kept_per_cell_;  // rematch_cell_m squares -> nodes kept there
   std::size_t retired_ = 0, kept_returns_ = 0;
   std::size_t searches_ = 0, tracked_ = 0, rematches_ = 0, still_ = 0;
-  std::size_t local_searches_ = 0, local_found_ = 0;
+  std::size_t local_searches_ = 0, local_found_ = 0, coasted_ = 0;
 };
 
 }  // namespace teamscan::posegraph

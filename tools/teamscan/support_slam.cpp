@@ -70,12 +70,12 @@ void print_pose_graph_summary(const fusion::EvalReport& report) {
   const posegraph::SlamStats& st = report.graph_stats;
   std::fprintf(stderr,
                "teamscan eval: pose graph: %llu scans (%llu of tilted lasers), %llu returns taken (%llu flagged by the robots, %llu on "
-               "teammates, %llu out of the height band), %zu nodes (%zu standing still, not searched; %zu placed by local SLAM's search of %zu), %zu submaps (%zu retired), %zu loop-closure searches, %zu closures, %zu optimisations, %.0f MB of "
+               "teammates, %llu out of the height band), %zu nodes (%zu standing still, not searched; %zu placed by local SLAM's search of %zu, %zu from the robot's last motion rather than the odometry's), %zu submaps (%zu retired), %zu loop-closure searches, %zu closures, %zu optimisations, %.0f MB of "
                "submaps and kept returns at the end, %.1f s from the first release to the last optimisation\n",
                static_cast<unsigned long long>(c.scans), static_cast<unsigned long long>(c.tilted_scans),
                static_cast<unsigned long long>(c.returns.kept), static_cast<unsigned long long>(c.returns.flagged),
                static_cast<unsigned long long>(c.returns.teammates),
-               static_cast<unsigned long long>(c.returns.out_of_band), st.nodes, st.still, st.local_found, st.local_searches, st.submaps, st.retired, st.searches, st.closures,
+               static_cast<unsigned long long>(c.returns.out_of_band), st.nodes, st.still, st.local_found, st.local_searches, st.coasted, st.submaps, st.retired, st.searches, st.closures,
                st.optimizations, static_cast<double>(st.memory_bytes) / 1e6, report.graph_seconds);
   for (const posegraph::SlamStats::Calibration& k : st.calibrations)
     std::fprintf(stderr, "teamscan eval: pose graph: robot %u's odometry calibrated: distance × %.4f, turn × %.4f, heading drift %+.3f°/m\n",

@@ -146,7 +146,7 @@ void BM_IntelPoseGraph(benchmark::State& state) {
     const auto wall0 = std::chrono::steady_clock::now();
     PlanarSlam slam(options_from_env());
     std::vector<std::size_t> nodes;
-    for (std::size_t k = 0; k < log.points.size(); ++k) nodes.push_back(slam.add_scan(1, log.odometry[k], log.points[k]));
+    for (std::size_t k = 0; k < log.points.size(); ++k) nodes.push_back(slam.add_scan(1, log.processing_ns[k], log.odometry[k], log.points[k]));
     slam.finish();
     const double cpu = cpu_s() - cpu0;
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();

@@ -1,4 +1,4 @@
-// The Intel Research Lab log (tests/data/real/intel.clf.xz) as PlanarSlam takes it: each scan's stamp,
+// The Intel Research Lab log (tests/data/real/intel.clf.xz) as PlanarSlam takes it: each scan's stamps,
 // odometry and returns in the robot frame, the beams placed as `teamscan import carmen` places them.
 // Shared by posegraph_test and posegraph_intel_bench.
 #pragma once
@@ -16,7 +16,8 @@
 namespace teamscan::posegraph::test {
 
 struct IntelLog {
-  std::vector<std::int64_t> stamps_us;
+  std::vector<std::int64_t> stamps_us;      // the source's (they step back)
+  std::vector<std::int64_t> processing_ns;  // as `import carmen` processes them (carmen_processing_clock)
   std::vector<Pose2> odometry;
   std::vector<std::vector<Vec2>> points;
 };
@@ -30,6 +31,7 @@ inline IntelLog intel_log(std::size_t max_scans, FlaserBeams beams = FlaserBeams
   const Result<std::string> text = read_log_text(teamscan::test::real_data_path("intel.clf.xz"));
   if (!text) return log;
   const CarmenLog carmen = parse_carmen(text.value());
+  const CarmenProcessingClock clock = carmen_processing_clock(carmen);
   for (std::size_t s = 0; s < carmen.lasers.size() && s < max_scans; ++s) {
     const CarmenLaser& l = carmen.lasers[s];
     // As `teamscan import carmen` places them: FLASER beams span 180° end to end; ROBOTLASER1 its own.
@@ -47,6 +49,7 @@ inline IntelLog intel_log(std::size_t max_scans, FlaserBeams beams = FlaserBeams
       if (r >= 0.05 && r < 50.0) pts.push_back(l.robot_from_laser.apply({r * std::cos(a), r * std::sin(a)}));
     }
     log.stamps_us.push_back(l.stamp_us);
+    log.processing_ns.push_back((clock.laser_us[s] - clock.first_us) * 1000);
     log.odometry.push_back(l.pose);
     log.points.push_back(std::move(pts));
   }

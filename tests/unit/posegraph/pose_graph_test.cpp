@@ -166,6 +166,21 @@ TEST(PoseGraph, WheelsAtRestHoldTheRobotWhereItStood) {
   EXPECT_NEAR(yaw_moved(drove, 10.0), 0.025, 1e-3);           // it moved: as any link
 }
 
+// Odometry that stalls reports no motion while local SLAM sees the robot turn: not a robot at rest. Its
+// link is held as any other (local SLAM's turn, ten times as stiff, wins), not as stiffly as local SLAM.
+TEST(PoseGraph, OdometryThatStallsIsNotARobotAtRest) {
+  auto turned = [](double local_turn_rad) {
+    PoseGraph g{GraphOptions{}};  // odometry 10³, local SLAM 10⁴ per radian, at rest ten times the odometry's
+    g.add_node({0, 0, 0}, true);
+    const std::size_t n = g.add_node({0, 0, 0}, false);
+    g.add_link({0, n, 1, Pose2{}, Pose2{0, 0, local_turn_rad}});
+    g.optimize();
+    return g.nodes()[n].theta_rad;
+  };
+  EXPECT_NEAR(turned(0.14), 0.14 * 100.0 / 101.0, 1e-4);  // information 1 : 100, as any link
+  EXPECT_NEAR(turned(0.002), 0.001, 1e-5);                // local SLAM saw it stand too: at rest, 100 : 100
+}
+
 // A tilted laser's robot drives 2 m along a wall, a node every 2 cm, its odometry and local SLAM
 // right; over the second metre every node has a closure that puts it 2 cm further along the wall,
 // where the match cannot tell (the weak axis, at the floor's weight). With tilted_laser_options,

@@ -56,7 +56,7 @@ Drive drive(int laps, const SlamOptions& options, int beams_per_degree = 1) {
     const double drift = 0.2 * kPi / 180.0 * travelled;
     const Pose2 odometry = Pose2{0.0, 0.0, drift} * t;  // the odometry's frame turns slowly away
     truth.push_back(t);
-    nodes.push_back(slam.add_scan(1, odometry, scan_of_room(t, beams_per_degree)));
+    nodes.push_back(slam.add_scan(1, k * 100'000'000LL, odometry, scan_of_room(t, beams_per_degree)));
   }
   slam.finish();
   Drive r;

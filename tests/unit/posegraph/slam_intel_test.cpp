@@ -21,7 +21,7 @@ using Part = test::IntelLog;
 std::vector<Pose2> run(const Part& part, const SlamOptions& options = {}, SlamStats* stats = nullptr) {
   PlanarSlam slam(options);
   std::vector<std::size_t> nodes;
-  for (std::size_t i = 0; i < part.points.size(); ++i) nodes.push_back(slam.add_scan(1, part.odometry[i], part.points[i]));
+  for (std::size_t i = 0; i < part.points.size(); ++i) nodes.push_back(slam.add_scan(1, part.processing_ns[i], part.odometry[i], part.points[i]));
   slam.finish();
   std::vector<Pose2> poses;
   for (std::size_t n : nodes) poses.push_back(slam.pose(n));

@@ -1,7 +1,8 @@
-// Local SLAM's search (SlamOptions::local_search_score): a robot turning in place while its wheels slip,
-// its odometry reporting less than half of each turn. The refinement alone, started from the odometry's
-// prediction, cannot reach a scan turned degrees away and follows the odometry; with the search each
-// scan is placed where the room's walls put it.
+// Local SLAM's guesses beyond the odometry's prediction. The search (SlamOptions::local_search_score): a
+// robot turning in place while its wheels slip, its odometry reporting less than half of each turn. The
+// refinement alone, started from the odometry's prediction, cannot reach a scan turned degrees away and
+// follows the odometry; with the search each scan is placed where the room's walls put it. The coasting
+// guess (SlamOptions::coast_guess): odometry that stalls in a turn and catches up in one jump.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -26,10 +27,11 @@ Turn turn_in_place(const SlamOptions& options) {
   Turn out;
   double before = 0;
   Pose2 truth{2.0, 1.5, 0.0}, odometry = truth;
+  std::int64_t stamp_ns = 0;  // 10 scans a second
   auto add = [&](const Pose2& true_motion, const Pose2& reported_motion, bool turning) {
     truth = truth * true_motion;
     odometry = odometry * reported_motion;
-    const std::size_t node = slam.add_scan(1, odometry, test::scan(truth));
+    const std::size_t node = slam.add_scan(1, stamp_ns += 100'000'000, odometry, test::scan(truth));
     const double error = normalize_angle(slam.local_pose(node).theta_rad - truth.theta_rad);
     if (turning) out.worst_heading_deg = std::max(out.worst_heading_deg, std::abs(error - before) * 180.0 / kPi);
     else before = error;
@@ -42,16 +44,59 @@ Turn turn_in_place(const SlamOptions& options) {
 }
 
 TEST(SlamLocalSearch, ATurnTheOdometryMissesIsFoundByTheSearch) {
-  SlamOptions without;
+  SlamOptions with;
+  with.coast_guess = false;  // the search alone
+  SlamOptions without = with;
   without.local_search_score = 0.0;
   const Turn followed = turn_in_place(without);
-  const Turn searched = turn_in_place(SlamOptions{});
+  const Turn searched = turn_in_place(with);
   std::printf("local SLAM's worst heading error in the turn: %.2f° refined alone, %.2f° with the search (%zu searches, %zu placed)\n",
               followed.worst_heading_deg, searched.worst_heading_deg, searched.stats.local_searches, searched.stats.local_found);
   EXPECT_EQ(followed.stats.local_searches, 0u);
   EXPECT_GT(followed.worst_heading_deg, 10.0);  // the refinement stays near the odometry's prediction
   EXPECT_GT(searched.stats.local_found, 0u);
   EXPECT_LT(searched.worst_heading_deg, 1.0);
+}
+
+// A robot driving a left-hand arc, 4 cm and 8° a scan at 10 scans a second. Its odometry stalls in the
+// arc: it reports the same pose for four scans while the robot turns 32°, then catches up in one jump of
+// 40° (the pose it should have reported). Local SLAM's worst heading error against the truth over the
+// drive, less its error before the stall.
+double worst_heading_in_a_stall_deg(const SlamOptions& options, SlamStats* stats) {
+  PlanarSlam slam(options);
+  Pose2 truth{2.0, 1.2, 0.0}, reported = truth;
+  double before = 0, worst = 0;
+  const Pose2 step{0.04, 0.0, deg_to_rad(8.0)};
+  for (int k = 0; k < 30; ++k) {
+    truth = truth * (k < 12 ? Pose2{0.02, 0.0, 0.0} : step);  // the first submap fills on a straight line
+    const bool stalled = k >= 18 && k < 22;
+    if (!stalled) reported = truth;
+    const std::size_t node = slam.add_scan(1, (k + 1) * 100'000'000LL, reported, test::scan(truth));
+    const double error = normalize_angle(slam.local_pose(node).theta_rad - truth.theta_rad);
+    if (k < 18) before = error;
+    else worst = std::max(worst, std::abs(error - before) * 180.0 / kPi);
+  }
+  if (stats) *stats = slam.stats();
+  return worst;
+}
+
+TEST(SlamCoast, OdometryThatStallsInATurnAndJumpsDoesNotTurnLocalSlam) {
+  SlamOptions without;
+  without.coast_guess = false;
+  SlamStats stats;
+  const double followed = worst_heading_in_a_stall_deg(without, nullptr);
+  const double coasted = worst_heading_in_a_stall_deg(SlamOptions{}, &stats);
+  std::printf("local SLAM's worst heading error through the stall: %.2f° from the odometry alone, %.2f° with the coasting guess (%zu scans placed by it)\n",
+              followed, coasted, stats.coasted);
+  EXPECT_GT(followed, 10.0);
+  EXPECT_GT(stats.coasted, 0u);
+  EXPECT_LT(coasted, 1.0);
+}
+
+TEST(SlamCoast, TiltedLasersNodesDoNotCoast) {
+  // A tilted laser's node scores low on any submap, wherever it is placed: its odometry places it.
+  EXPECT_FALSE(tilted_laser_options().coast_guess);
+  EXPECT_TRUE(SlamOptions{}.coast_guess);
 }
 
 TEST(SlamLocalSearch, TiltedLasersNodesAreNotSearched) {

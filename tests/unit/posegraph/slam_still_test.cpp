@@ -29,11 +29,12 @@ StopDrive drive(const SlamOptions& options, int stop_nodes) {
   std::vector<std::size_t> standing;
   Pose2 stop_truth;
   double travelled = 0.0;
+  std::int64_t stamp_ns = 0;  // 10 scans a second, standing or not
   for (int k = 0, stopped = 0; k < 3 * per_lap;) {
     const double phase = 2.0 * kPi * k / per_lap;
     const Pose2 truth{centre.x + kRadius * std::cos(phase), centre.y + kRadius * std::sin(phase), phase + kPi / 2.0};
     const Pose2 odometry = Pose2{0.0, 0.0, 0.3 * kPi / 180.0 * travelled} * truth;
-    const std::size_t node = slam.add_scan(1, odometry, test::scan(truth));
+    const std::size_t node = slam.add_scan(1, stamp_ns += 100'000'000, odometry, test::scan(truth));
     if (k == per_lap + per_lap / 2 && stopped < stop_nodes) {
       ++stopped;
       standing.push_back(node);

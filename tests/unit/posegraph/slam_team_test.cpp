@@ -40,7 +40,7 @@ TEST(SlamTeam, EveryRobotsNodesAreSearched) {
       const Pose2 start{c.centre.x + c.radius_m, c.centre.y, kPi / 2.0};
       const Pose2 odometry = start * Pose2{0.0, 0.0, c.drift_rad_per_m * travelled} * (start.inverse() * truth);
       worst_odometry_m[i] = std::max(worst_odometry_m[i], std::hypot(odometry.x_m - truth.x_m, odometry.y_m - truth.y_m));
-      nodes[i].push_back(slam.add_scan(static_cast<std::uint8_t>(i + 1), odometry, test::scan(truth)));
+      nodes[i].push_back(slam.add_scan(static_cast<std::uint8_t>(i + 1), k * 100'000'000LL, odometry, test::scan(truth)));
       truths[i].push_back(truth);
     }
   slam.finish();
