@@ -1,8 +1,10 @@
 // The relations metric (relations.hpp).
 #include "groundstation/trajectory/relations.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
 #include <unordered_map>
 
 #include "common/dataset/carmen.hpp"
@@ -18,10 +20,13 @@ bool number(std::string_view tok, double& out) {
 }
 
 // A stamp `seconds.micro` as exact µs: at most six decimals (relation files write six), so a stamp
-// is never rounded onto another scan's.
-bool stamp_us(std::string_view tok, std::int64_t& out) {
+// is never rounded onto another scan's. `unit_us`: the unit of its last decimal.
+bool stamp_us(std::string_view tok, std::int64_t& out, std::int64_t& unit_us) {
   const std::size_t dot = tok.find('.');
-  if (dot != std::string_view::npos && tok.size() - dot - 1 > 6) return false;
+  const std::size_t decimals = dot == std::string_view::npos ? 0 : tok.size() - dot - 1;
+  if (decimals > 6) return false;
+  unit_us = 1;
+  for (std::size_t k = decimals; k < 6; ++k) unit_us *= 10;
   return !tok.empty() && tok.front() != '-' && tok.front() != '+' && parse_carmen_stamp_us(tok, out);
 }
 
@@ -43,7 +48,7 @@ RelationsFile parse_relations(std::string_view text) {
     }
     Relation r;
     double v[6] = {};
-    bool ok = t.size() == 8 && stamp_us(t[0], r.t1_us) && stamp_us(t[1], r.t2_us);
+    bool ok = t.size() == 8 && stamp_us(t[0], r.t1_us, r.t1_unit_us) && stamp_us(t[1], r.t2_us, r.t2_unit_us);
     for (int k = 0; k < 6 && ok; ++k) ok = number(t[2 + static_cast<std::size_t>(k)], v[k]);
     if (!ok) {
       ++f.malformed;
@@ -60,13 +65,36 @@ RelationErrors relation_errors(const std::vector<Relation>& relations, const std
   std::unordered_map<std::int64_t, Pose2> at;
   at.reserve(trajectory.size());
   for (const StampedPose& p : trajectory) at.emplace(p.stamp_us, p.pose);
+  std::vector<std::int64_t> stamps;  // sorted, for the rounded stamps
+  stamps.reserve(at.size());
+  for (const auto& [stamp, pose] : at) stamps.push_back(stamp);
+  std::sort(stamps.begin(), stamps.end());
+  // The pose a stamp names: its own, else (a rounded stamp) the nearest within half its unit.
+  const auto find = [&](std::int64_t t, std::int64_t unit_us, bool& rounded) -> const Pose2* {
+    if (const auto it = at.find(t); it != at.end()) return &it->second;
+    if (unit_us <= 1) return nullptr;
+    const std::int64_t half = unit_us / 2;
+    auto it = std::lower_bound(stamps.begin(), stamps.end(), t - half);
+    const Pose2* best = nullptr;
+    std::int64_t best_off = half + 1;
+    for (; it != stamps.end() && *it <= t + half; ++it)
+      if (std::llabs(*it - t) < best_off) {
+        best_off = std::llabs(*it - t);
+        best = &at.at(*it);
+      }
+    rounded = rounded || best;
+    return best;
+  };
   RelationErrors e;
   e.relations = relations.size();
   double t_sum = 0, t_sq = 0, r_sum = 0, r_sq = 0;
   for (const Relation& r : relations) {
-    const auto a = at.find(r.t1_us), b = at.find(r.t2_us);
-    if (a == at.end() || b == at.end()) continue;
-    const Pose2 error = r.t1_from_t2.inverse() * (a->second.inverse() * b->second);
+    bool rounded = false;
+    const Pose2* a = find(r.t1_us, r.t1_unit_us, rounded);
+    const Pose2* b = find(r.t2_us, r.t2_unit_us, rounded);
+    if (!a || !b) continue;
+    if (rounded) ++e.rounded;
+    const Pose2 error = r.t1_from_t2.inverse() * (a->inverse() * *b);
     const double t = std::hypot(error.x_m, error.y_m);
     const double rot = std::abs(normalize_angle(error.theta_rad)) * 180.0 / kPi;
     ++e.used;

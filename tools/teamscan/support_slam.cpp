@@ -38,6 +38,7 @@ std::string row(const std::string& name, const RelationErrors& e) {
 nlohmann::ordered_json to_json(const RelationErrors& e) {
   return {{"relations", e.relations},
           {"used", e.used},
+          {"rounded", e.rounded},
           {"translation_mean_m", e.translation_mean_m},
           {"translation_std_m", e.translation_std_m},
           {"translation_squared_mean_m2", e.translation_squared_mean_m2},
@@ -172,6 +173,9 @@ SlamEvalOutput slam_eval_outputs(const SlamEvalArgs& args, const Dataset& datase
   }
   if (odo.used < odo.relations)
     std::fprintf(stderr, "teamscan eval: --relations: %zu of %zu relations name a stamp no scan has\n", odo.relations - odo.used, odo.relations);
+  if (odo.rounded > 0)
+    std::fprintf(stderr, "teamscan eval: --relations: %zu relations name a scan by its stamp rounded (fewer decimals than the log's)\n",
+                 odo.rounded);
   out.relations = std::move(j);
   return out;
 }

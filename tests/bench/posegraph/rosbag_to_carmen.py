@@ -6,8 +6,8 @@ with their relations in INESCTEC/ricoslam (`inesctec_mrdt_slam_2d_datasets/bag/N
 `data/NAME.relations`), as bags their CARMEN-to-ROS converter wrote: `sensor_msgs/LaserScan` on /scan
 stamped with the scan's CARMEN ipc_timestamp, `nav_msgs/Odometry` on /odom from its ODOM lines. This
 writes one laser line per scan (its odometry pose: the last /odom before it) and one `ODOM` line per
-/odom message, in the bag's order, each stamp to the microsecond (or, with --stamp-step-us, to that
-step: the MIT CSAIL relations name their scans to 10 µs). Out-of-range readings (NaN, inf) are
+/odom message, in the bag's order, each stamp to the microsecond (or, with --stamp-step-us, rounded half
+up to that step; MIT CSAIL's own CARMEN log is published beside its relations and needs no bag). Out-of-range readings (NaN, inf) are
 written as 0 (no return). The laser line is `FLASER` (the laser at the robot's origin), or, with
 --mount-from-tf and /tf_static mounting the laser elsewhere (FR079's 4 cm ahead), `ROBOTLASER1` with
 that offset and its beams 180°/n apart from −90°, as `teamscan import carmen --flaser-step-fov-over-n`

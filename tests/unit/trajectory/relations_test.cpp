@@ -50,6 +50,29 @@ TEST(Relations, HandComputedErrors) {
   EXPECT_NEAR(e.rotation_max_deg, 1.0, 1e-9);
 }
 
+// MIT CSAIL's relations write five decimals, its log six: a stamp with fewer decimals than the
+// log's names the scan it was rounded from (within half its last decimal's unit, either way);
+// six decimals name a scan exactly.
+TEST(Relations, AStampWithFewerDecimalsNamesTheScanItIsRoundedFrom) {
+  const std::vector<StampedPose> trajectory = {{1'000'000, {0, 0, 0}}, {1'212'215, {1, 0, 0}}, {1'500'004, {2, 0, 0}}};
+  const RelationsFile f = parse_relations(
+      "1.00000 1.21221 1 0 0 0 0 0\n"    // 1.212215 rounded down (as printf rounds the double)
+      "1.0 1.50000 2 0 0 0 0 0\n"        // 1.500004 rounded; t1 with one decimal
+      "1.00000 1.21223 1 0 0 0 0 0\n"    // 1.212215 is 15 µs away: no scan
+      "1.000000 1.212210 1 0 0 0 0 0\n"); // six decimals: exact only
+  ASSERT_EQ(f.relations.size(), 4u);
+  EXPECT_EQ(f.relations[0].t1_unit_us, 10);
+  EXPECT_EQ(f.relations[1].t1_unit_us, 100'000);
+  EXPECT_EQ(f.relations[3].t2_unit_us, 1);
+  const RelationErrors e = relation_errors(f.relations, trajectory);
+  EXPECT_EQ(e.used, 2u);
+  EXPECT_EQ(e.rounded, 2u);
+  EXPECT_NEAR(e.translation_max_m, 0.0, 1e-12);  // both named the right scans
+  const RelationErrors exact = relation_errors({{1'000'000, 1'212'215, {1, 0, 0}}}, trajectory);
+  EXPECT_EQ(exact.used, 1u);
+  EXPECT_EQ(exact.rounded, 0u);
+}
+
 // The error does not depend on where the trajectory sits: a rigid motion of every pose leaves it.
 TEST(Relations, InvariantToTheTrajectorysFrame) {
   std::vector<StampedPose> trajectory = {{1, {0, 0, 0}}, {2, {1, 0.2, 0.3}}, {3, {1.5, 1, 1.2}}};
