@@ -56,7 +56,7 @@ struct SlamOptions {
   // Loop closure: every `closure_every_n_nodes`-th node of each robot is searched against the `closure_submaps`
   // nearest finished submaps within `closure_max_distance_m` (submap origin to node).
   int closure_every_n_nodes = 6;
-  int closure_submaps = 3;
+  int closure_submaps = 6;
   double closure_max_distance_m = 7.0;
   SearchWindow closure_window{3.0, 0.35, 0.01, 0.01};
   double closure_min_score = 0.55;  // of the search (mean grid value at the points)
