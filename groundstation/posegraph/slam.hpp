@@ -197,7 +197,7 @@ class PlanarSlam {
   void insert(Robot& r, std::size_t node, const Pose2& local, const std::vector<Vec2>& points);
   // Local SLAM's match of a scan on a submap from the odometry's prediction (submap frame).
   // `coast`: the robot's last motion again, a second guess (SlamOptions::coast_guess).
-  [[nodiscard]] Pose2 match_locally(const Submap& m, const std::vector<Vec2>& points, const Pose2& guess,
+  [[nodiscard]] Pose2 match_locally(const Submap& m, const std::vector<Vec2>& points, const Pose2& odometry_guess,
                                     const std::optional<Pose2>& coast);
   void close_loops(Robot& r, std::size_t node, const std::vector<Vec2>& points);
   void retire_covered(std::size_t finished);

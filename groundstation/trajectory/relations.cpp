@@ -19,8 +19,8 @@ bool number(std::string_view tok, double& out) {
   return ec == std::errc{} && p == end && std::isfinite(out);
 }
 
-// A stamp `seconds.micro` as exact µs: at most six decimals (relation files write six), so a stamp
-// is never rounded onto another scan's. `unit_us`: the unit of its last decimal.
+// A stamp `seconds.micro` as exact µs: at most six decimals (relation files write six, MIT CSAIL's
+// five), so a stamp is never rounded onto another scan's. `unit_us`: the unit of its last decimal.
 bool stamp_us(std::string_view tok, std::int64_t& out, std::int64_t& unit_us) {
   const std::size_t dot = tok.find('.');
   const std::size_t decimals = dot == std::string_view::npos ? 0 : tok.size() - dot - 1;
