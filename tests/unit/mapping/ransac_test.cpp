@@ -107,7 +107,9 @@ struct PclPlane {
 };
 
 PclPlane run_pcl(const std::string& pcd, double threshold_m, int iterations) {
-  const std::string out = pcd + ".out.pcd";
+  // The tool writes the plane's inliers: into the temporary folder, never beside the repository's data.
+  const std::string out =
+      (std::filesystem::temp_directory_path() / ("teamscan_pcl_plane_" + std::to_string(getpid()) + ".pcd")).string();
   std::ostringstream cmd;
   cmd << "timeout 60 pcl_sac_segmentation_plane " << pcd << " " << out << " -thresh " << threshold_m << " -max_it "
       << iterations << " 2>&1";
@@ -118,6 +120,8 @@ PclPlane run_pcl(const std::string& pcd, double threshold_m, int iterations) {
   char buf[512];
   while (std::fgets(buf, sizeof buf, p)) text += buf;
   pclose(p);
+  std::error_code ignored;
+  std::filesystem::remove(out, ignored);
   const auto at = text.find("Model coefficients: [");
   if (at == std::string::npos) return plane;
   std::istringstream in(text.substr(at + 21));
