@@ -18,7 +18,7 @@
 #include "groundstation/posegraph/slam.hpp"
 #include "groundstation/trajectory/relations.hpp"
 #include "tests/support/real_data.hpp"
-#include "tests/unit/posegraph/intel_log.hpp"
+#include "tests/unit/posegraph/carmen_log.hpp"
 
 namespace teamscan::posegraph {
 namespace {
@@ -131,7 +131,7 @@ void BM_IntelPoseGraph(benchmark::State& state) {
   // FLASER beams 180°/n apart from −90° (`import carmen --flaser-step-fov-over-n`), which fits this log best;
   // TEAMSCAN_BENCH_SLAM_BEAMS: 0 end to end, 1 180°/n from −90°, 2 180°/n centred.
   const char* beams = std::getenv("TEAMSCAN_BENCH_SLAM_BEAMS");
-  const test::IntelLog log = test::intel_log(n ? static_cast<std::size_t>(std::atol(n)) : SIZE_MAX,
+  const test::CarmenLogScans log = test::intel_log(n ? static_cast<std::size_t>(std::atol(n)) : SIZE_MAX,
                                              static_cast<test::FlaserBeams>(beams ? std::atoi(beams) : 1));
   const Result<std::string> rel = read_log_text(teamscan::test::real_data_path("intel.relations"));
   if (log.points.empty() || !rel) {

@@ -11,21 +11,16 @@
 #include "groundstation/posegraph/slam.hpp"
 #include "groundstation/trajectory/relations.hpp"
 #include "tests/support/real_data.hpp"
-#include "tests/unit/posegraph/intel_log.hpp"
+#include "tests/unit/posegraph/carmen_log.hpp"
 
 namespace teamscan::posegraph {
 namespace {
 
-using Part = test::IntelLog;
+using Part = test::CarmenLogScans;
 
 std::vector<Pose2> run(const Part& part, const SlamOptions& options = {}, SlamStats* stats = nullptr) {
-  PlanarSlam slam(options);
-  std::vector<std::size_t> nodes;
-  for (std::size_t i = 0; i < part.points.size(); ++i) nodes.push_back(slam.add_scan(1, part.processing_ns[i], part.odometry[i], part.points[i]));
-  slam.finish();
-  std::vector<Pose2> poses;
-  for (std::size_t n : nodes) poses.push_back(slam.pose(n));
-  const SlamStats st = slam.stats();
+  SlamStats st;
+  std::vector<Pose2> poses = test::slam_poses(part, options, &st);
   std::printf("PlanarSlam: %zu nodes, %zu submaps, %zu searches, %zu closures (%zu from the second search)\n", st.nodes, st.submaps,
               st.searches, st.closures, st.rematches);
   if (stats) *stats = st;
@@ -33,17 +28,11 @@ std::vector<Pose2> run(const Part& part, const SlamOptions& options = {}, SlamSt
 }
 
 trajectory::RelationErrors errors(const Part& part, const std::vector<Pose2>& poses, const std::vector<trajectory::Relation>& relations) {
-  std::vector<trajectory::StampedPose> t;
-  for (std::size_t i = 0; i < poses.size(); ++i) t.push_back({part.stamps_us[i], poses[i]});
-  return trajectory::relation_errors(relations, t);
+  return test::relation_errors_of(part, poses, relations);
 }
 
 // Intel's published relations (tests/data/real/intel.relations); empty if the file cannot be read.
-std::vector<trajectory::Relation> intel_relations() {
-  const Result<std::string> rel = read_log_text(teamscan::test::real_data_path("intel.relations"));
-  if (!rel) return {};
-  return trajectory::parse_relations(rel.value()).relations;
-}
+std::vector<trajectory::Relation> intel_relations() { return test::real_relations("intel.relations"); }
 
 TEST(SlamIntel, BetterThanOdometryAndDeterministic) {
   const Part part = test::intel_log(2000);
