@@ -126,7 +126,7 @@ void GraphBackend::run() {
       queue_.pop_front();
     }
     if (!slam_) slam_ = std::make_unique<posegraph::PlanarSlam>(
-                    options_.slam ? *options_.slam : n.tilted ? posegraph::tilted_laser_options() : posegraph::SlamOptions{});
+                    options_.slam ? *options_.slam : n.tilted ? posegraph::tilted_laser_options() : options_.level);
     {
       const std::vector<Vec2> returns = std::move(n.returns);  // the graph keeps its own copy: freed here
       graph_node_.push_back(slam_->add_scan(n.robot, n.scans->back().stamp_ns, n.odom, returns));

@@ -37,9 +37,12 @@ namespace teamscan::fusion {
 
 struct GraphBackendOptions {
   PlanarReturnOptions returns;
-  // The graph's options; unset: posegraph's defaults for level lasers and tilted_laser_options() for
-  // tilted ones, chosen by the first node's laser.
+  // The graph's options; unset: `level` for level lasers and tilted_laser_options() for tilted ones,
+  // chosen by the first node's laser.
   std::optional<posegraph::SlamOptions> slam;
+  // A level laser's graph (a planar log's): posegraph's defaults unless the user tuned them (`teamscan
+  // eval --pose-graph-local-search-score` and the like, docs/slam.md "Open spaces").
+  posegraph::SlamOptions level;
   // The CPUs of the graph's thread (empty: the caller's). It runs SCHED_BATCH at nice 10, so a station's
   // receive loop on the same CPU is not preempted by it; a station pinned to one core names another.
   std::vector<int> cpus;

@@ -176,6 +176,10 @@ std::string reproduce_command(const EvalArgs& a, const std::string& dir) {
   if (a.slam.min_height_m) o << " --pose-graph-min-height " << number(*a.slam.min_height_m);
   if (a.slam.max_height_m) o << " --pose-graph-max-height " << number(*a.slam.max_height_m);
   if (a.slam.node_span_s) o << " --pose-graph-node-span " << number(*a.slam.node_span_s);
+  if (a.slam.local_search_score) o << " --pose-graph-local-search-score " << number(*a.slam.local_search_score);
+  if (a.slam.local_rotation_weight) o << " --pose-graph-local-rotation-weight " << number(*a.slam.local_rotation_weight);
+  if (a.slam.closure_window_m) o << " --pose-graph-closure-window " << number(*a.slam.closure_window_m);
+  if (a.slam.closure_max_distance_m) o << " --pose-graph-closure-max-distance " << number(*a.slam.closure_max_distance_m);
   if (!a.slam.relations_path.empty()) o << " --relations " << a.slam.relations_path;
   return o.str();
 }

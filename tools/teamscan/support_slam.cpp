@@ -49,6 +49,13 @@ nlohmann::ordered_json to_json(const RelationErrors& e) {
           {"rotation_max_deg", e.rotation_max_deg}};
 }
 
+// A default in a flag's help, as printf's %g writes it.
+std::string shown(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
 std::string stats_cell(const mapping::ErrorStats& e, double scale) {
   char buf[128];
   std::snprintf(buf, sizeof buf, scale > 1 ? "%.1f / %.1f / %.1f" : "%.2f / %.2f / %.2f", e.p50 * scale, e.p99 * scale, e.max * scale);
@@ -63,6 +70,11 @@ std::optional<fusion::GraphBackendOptions> pose_graph_options(const SlamEvalArgs
   if (args.min_height_m) options.returns.min_height_m = *args.min_height_m;
   if (args.max_height_m) options.returns.max_height_m = *args.max_height_m;
   if (args.node_span_s) options.returns.tilted_node_s = *args.node_span_s;
+  posegraph::SlamOptions& level = options.level;
+  if (args.local_search_score) level.local_search_score = *args.local_search_score;
+  if (args.local_rotation_weight) level.local.rotation_weight = *args.local_rotation_weight;
+  if (args.closure_window_m) level.closure_window.linear_m = *args.closure_window_m;
+  if (args.closure_max_distance_m) level.closure_max_distance_m = *args.closure_max_distance_m;
   return options;
 }
 
@@ -105,6 +117,23 @@ void add_slam_eval_options(CLI::App& app, SlamEvalArgs& args) {
   app.add_option("--pose-graph-node-span", args.node_span_s,
                  "--pose-graph: a tilted laser's scans gathered into one node of the graph over this span, s (default " +
                      std::to_string(d.tilted_node_s).substr(0, 4) + ")");
+  const posegraph::SlamOptions level;
+  app.add_option("--pose-graph-local-search-score", args.local_search_score,
+                 "--pose-graph, a level laser: a scan scoring below this on its submap after the refinement is searched for "
+                 "around the odometry's prediction (default " + shown(level.local_search_score) + "; 0: never searched)")
+      ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--pose-graph-local-rotation-weight", args.local_rotation_weight,
+                 "--pose-graph, a level laser: local SLAM's pull towards the odometry's heading, per radian (default " +
+                     shown(level.local.rotation_weight) + ")")
+      ->check(CLI::Range(0.0, 1e6));
+  app.add_option("--pose-graph-closure-window", args.closure_window_m,
+                 "--pose-graph, a level laser: a loop closure is searched for within ± this of the estimate, m (default " +
+                     shown(level.closure_window.linear_m) + ")")
+      ->check(CLI::Range(0.1, 50.0));
+  app.add_option("--pose-graph-closure-max-distance", args.closure_max_distance_m,
+                 "--pose-graph, a level laser: a node is searched against finished submaps whose origin is within this, m (default " +
+                     shown(level.closure_max_distance_m) + ")")
+      ->check(CLI::Range(0.1, 200.0));
   app.add_option("--trajectory-out", args.trajectory_dir,
                  "Write robot<N>.tum per robot into DIR (TUM 't x y z qx qy qz qw', one line per scan in processing order, "
                  "t = the scan's own stamp): the corrected poses, or odometry with --no-registration (docs/slam.md)");

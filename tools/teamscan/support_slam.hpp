@@ -28,6 +28,10 @@ struct SlamEvalArgs {
   // A tilted laser's returns in the graph: the height band and the span of scans one node gathers
   // (fusion::PlanarReturnOptions; unset: its defaults).
   std::optional<double> min_height_m, max_height_m, node_span_s;
+  // A level laser's local SLAM and loop closures (posegraph::SlamOptions; unset: its defaults): the
+  // local search's score (0: never searched), the pull towards the odometry's heading (per radian),
+  // the closure search's window (± m) and how far from a submap a node is searched against it (m).
+  std::optional<double> local_search_score, local_rotation_weight, closure_window_m, closure_max_distance_m;
 };
 
 void add_slam_eval_options(CLI::App& app, SlamEvalArgs& args);

@@ -376,6 +376,51 @@ TEST(GraphBackend, ALevelLasersScanIsANode) {
   }
 }
 
+// A level laser's graph takes GraphBackendOptions::level (`teamscan eval --pose-graph-local-search-score`
+// and the like): the same room, its wheels slipping 25 cm at the thirteenth scan, searched for by local
+// SLAM with the defaults and not with the search off.
+TEST(GraphBackend, ALevelLasersGraphTakesTheLevelOptions) {
+  const auto run = [](const fusion::GraphBackendOptions& o) {
+    fusion::GraphBackend backend(o);
+    std::vector<mapping::MapPoint> points;
+    for (int k = 0; k < 24; ++k) {
+      points.clear();
+      const Pose2 pose{0.05 * k, 0.0, 0.0};
+      for (int b = 0; b < 360; ++b) {  // the 4 m × 3 m room of ALevelLasersScanIsANode
+        const double a = b * M_PI / 180.0, c = std::cos(a), sn = std::sin(a);
+        const double tx = std::abs(c) < 1e-9 ? 1e9 : ((c > 0 ? 3.0 : -1.0) - pose.x_m) / c;
+        const double ty = std::abs(sn) < 1e-9 ? 1e9 : ((sn > 0 ? 2.0 : -1.0) - pose.y_m) / sn;
+        const double r = std::min(tx, ty);
+        points.push_back({static_cast<float>(pose.x_m + r * c), static_cast<float>(pose.y_m + r * sn), 0.3f});
+      }
+      const Pose2 odometry{pose.x_m + (k >= 12 ? 0.25 : 0.0), 0.0, 0.0};  // the slip
+      mapping::ScanView v;
+      v.robot = 1;
+      v.scan = static_cast<std::uint32_t>(k);
+      v.stamp_ns = 1'000'000'000LL + k * 100'000'000LL;
+      v.origin_m = {pose.x_m, 0.0, 0.3};
+      v.map_from_robot = odometry;
+      // The returns in the odometry's frame, as the core releases them: the robot frame's are the same.
+      for (mapping::MapPoint& p : points) p.x += static_cast<float>(odometry.x_m - pose.x_m);
+      v.points = points;
+      fusion::FusedScan f;
+      f.view = &v;
+      f.odom_from_robot = odometry;
+      backend.add(f);
+    }
+    (void)backend.poses();
+    return backend.graph_stats();
+  };
+  const posegraph::SlamStats searched = run({});
+  EXPECT_GT(searched.local_searches, 0u) << "the slip leaves the scan below the search's score";
+  EXPECT_GT(searched.local_found, 0u);
+  fusion::GraphBackendOptions off;
+  off.level.local_search_score = 0.0;
+  const posegraph::SlamStats not_searched = run(off);
+  EXPECT_EQ(not_searched.nodes, searched.nodes);
+  EXPECT_EQ(not_searched.local_searches, 0u);
+}
+
 // The odometry turns 10 % too much and drives 2 % too far; the graph puts each node where the robot
 // was at the node's last scan. Every scan of a robot's later node is then where the robot was to
 // first order, its first scans included; carried back by the odometry from the node's last scan alone,
