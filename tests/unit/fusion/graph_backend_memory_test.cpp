@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "groundstation/fusion/graph_backend.hpp"
+#include "tests/unit/fusion/level_scan.hpp"
 
 namespace teamscan {
 namespace {
@@ -64,17 +65,7 @@ Held drive(int laps) {
       const double phase = 2.0 * kPi * k / per_lap;
       const Pose2 pose{4.0 + kRadius * std::cos(phase), 3.0 + kRadius * std::sin(phase), phase + kPi / 2.0};
       scan_of_room(pose, points);
-      mapping::ScanView v;
-      v.robot = 1;
-      v.scan = static_cast<std::uint32_t>(k);
-      v.stamp_ns = 1'000'000'000LL + k * 100'000'000LL;
-      v.origin_m = {pose.x_m, pose.y_m, 0.3};
-      v.map_from_robot = pose;
-      v.points = points;
-      fusion::FusedScan f;
-      f.view = &v;
-      f.odom_from_robot = pose;
-      backend.add(f);
+      fusion::testing::add_level_scan(backend, k, pose, points);
     }
     h.scans = backend.poses().size();
     EXPECT_EQ(h.scans, static_cast<std::size_t>(laps * per_lap));

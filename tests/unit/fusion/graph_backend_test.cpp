@@ -21,6 +21,7 @@
 #include "groundstation/fusion/core.hpp"
 #include "groundstation/fusion/evaluation.hpp"
 #include "groundstation/fusion/graph_backend.hpp"
+#include "tests/unit/fusion/level_scan.hpp"
 #include "groundstation/fusion/planar_returns.hpp"
 #include "groundstation/fusion/time_line.hpp"
 #include "groundstation/mapping/dataset_registration.hpp"
@@ -338,32 +339,24 @@ TEST(GraphBackend, ItsThreadRunsBatchAtNiceTenOnItsCpus) {
   EXPECT_EQ(p.scheduling.cpus, (std::vector<int>{0}));
 }
 
+// Robot 1's level laser, its k-th scan of a 4 m × 3 m room (its corner at (-1, -1)) from `truth`
+// (heading 0) released where `odometry` (heading 0) puts it.
+void add_room_scan(fusion::GraphBackend& backend, int k, const Pose2& truth, const Pose2& odometry) {
+  std::vector<mapping::MapPoint> points;
+  for (int b = 0; b < 360; ++b) {
+    const double a = b * M_PI / 180.0, c = std::cos(a), sn = std::sin(a);
+    const double tx = std::abs(c) < 1e-9 ? 1e9 : ((c > 0 ? 3.0 : -1.0) - truth.x_m) / c;
+    const double ty = std::abs(sn) < 1e-9 ? 1e9 : ((sn > 0 ? 2.0 : -1.0) - truth.y_m) / sn;
+    const double r = std::min(tx, ty);
+    points.push_back({static_cast<float>(odometry.x_m + r * c), static_cast<float>(odometry.y_m + r * sn), 0.3f});
+  }
+  fusion::testing::add_level_scan(backend, k, odometry, points);
+}
+
 // A level laser (an imported 2-D log): every scan its own node, none tilted.
 TEST(GraphBackend, ALevelLasersScanIsANode) {
   fusion::GraphBackend backend;
-  std::vector<mapping::MapPoint> points;
-  for (int k = 0; k < 20; ++k) {
-    points.clear();
-    const Pose2 pose{0.05 * k, 0.0, 0.0};
-    for (int b = 0; b < 360; ++b) {  // a 4 m × 3 m room, its corner at the origin's (-1, -1), seen from `pose`
-      const double a = b * M_PI / 180.0, c = std::cos(a), sn = std::sin(a);
-      const double tx = std::abs(c) < 1e-9 ? 1e9 : ((c > 0 ? 3.0 : -1.0) - pose.x_m) / c;
-      const double ty = std::abs(sn) < 1e-9 ? 1e9 : ((sn > 0 ? 2.0 : -1.0) - pose.y_m) / sn;
-      const double r = std::min(tx, ty);
-      points.push_back({static_cast<float>(pose.x_m + r * c), static_cast<float>(pose.y_m + r * sn), 0.3f});
-    }
-    mapping::ScanView v;
-    v.robot = 1;
-    v.scan = static_cast<std::uint32_t>(k);
-    v.stamp_ns = 1'000'000'000LL + k * 100'000'000LL;
-    v.origin_m = {pose.x_m, 0.0, 0.3};
-    v.map_from_robot = pose;
-    v.points = points;
-    fusion::FusedScan f;
-    f.view = &v;
-    f.odom_from_robot = v.map_from_robot;  // no correction: the released pose is the odometry's
-    backend.add(f);
-  }
+  for (int k = 0; k < 20; ++k) add_room_scan(backend, k, {0.05 * k, 0.0, 0.0}, {0.05 * k, 0.0, 0.0});
   const std::vector<fusion::GraphScanPose>& poses = backend.poses();
   EXPECT_EQ(backend.counters().nodes, 20u);
   EXPECT_EQ(backend.counters().tilted_scans, 0u);
@@ -378,36 +371,11 @@ TEST(GraphBackend, ALevelLasersScanIsANode) {
 
 // A level laser's graph takes GraphBackendOptions::level (`teamscan eval --pose-graph-local-search-score`
 // and the like): the same room, its wheels slipping 25 cm at the thirteenth scan, searched for by local
-// SLAM with the defaults and not with the search off.
+// SLAM with the defaults and not with the search off (add_room_scan).
 TEST(GraphBackend, ALevelLasersGraphTakesTheLevelOptions) {
   const auto run = [](const fusion::GraphBackendOptions& o) {
     fusion::GraphBackend backend(o);
-    std::vector<mapping::MapPoint> points;
-    for (int k = 0; k < 24; ++k) {
-      points.clear();
-      const Pose2 pose{0.05 * k, 0.0, 0.0};
-      for (int b = 0; b < 360; ++b) {  // the 4 m × 3 m room of ALevelLasersScanIsANode
-        const double a = b * M_PI / 180.0, c = std::cos(a), sn = std::sin(a);
-        const double tx = std::abs(c) < 1e-9 ? 1e9 : ((c > 0 ? 3.0 : -1.0) - pose.x_m) / c;
-        const double ty = std::abs(sn) < 1e-9 ? 1e9 : ((sn > 0 ? 2.0 : -1.0) - pose.y_m) / sn;
-        const double r = std::min(tx, ty);
-        points.push_back({static_cast<float>(pose.x_m + r * c), static_cast<float>(pose.y_m + r * sn), 0.3f});
-      }
-      const Pose2 odometry{pose.x_m + (k >= 12 ? 0.25 : 0.0), 0.0, 0.0};  // the slip
-      mapping::ScanView v;
-      v.robot = 1;
-      v.scan = static_cast<std::uint32_t>(k);
-      v.stamp_ns = 1'000'000'000LL + k * 100'000'000LL;
-      v.origin_m = {pose.x_m, 0.0, 0.3};
-      v.map_from_robot = odometry;
-      // The returns in the odometry's frame, as the core releases them: the robot frame's are the same.
-      for (mapping::MapPoint& p : points) p.x += static_cast<float>(odometry.x_m - pose.x_m);
-      v.points = points;
-      fusion::FusedScan f;
-      f.view = &v;
-      f.odom_from_robot = odometry;
-      backend.add(f);
-    }
+    for (int k = 0; k < 24; ++k) add_room_scan(backend, k, {0.05 * k, 0.0, 0.0}, {0.05 * k + (k >= 12 ? 0.25 : 0.0), 0.0, 0.0});
     (void)backend.poses();
     return backend.graph_stats();
   };
