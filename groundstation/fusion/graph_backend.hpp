@@ -41,7 +41,7 @@ struct GraphBackendOptions {
   // chosen by the first node's laser.
   std::optional<posegraph::SlamOptions> slam;
   // A level laser's graph (a planar log's): posegraph's defaults unless the user tuned them (`teamscan
-  // eval --pose-graph-local-search-score` and the like, docs/slam.md "Open spaces").
+  // eval --pose-graph-local-search-score` and the like, docs/slam.md "A held-out log in open spaces").
   posegraph::SlamOptions level;
   // The CPUs of the graph's thread (empty: the caller's). It runs SCHED_BATCH at nice 10, so a station's
   // receive loop on the same CPU is not preempted by it; a station pinned to one core names another.
