@@ -49,6 +49,9 @@ nlohmann::ordered_json to_json(const RelationErrors& e) {
           {"rotation_max_deg", e.rotation_max_deg}};
 }
 
+// The share of a level laser's scans searched by local SLAM above which eval warns of open spaces.
+constexpr double kSearchedShareWarning = 0.1;
+
 // A default in a flag's help, as printf's %g writes it.
 std::string shown(double v) {
   char buf[32];
@@ -90,6 +93,15 @@ void print_pose_graph_summary(const fusion::EvalReport& report) {
                static_cast<unsigned long long>(c.returns.teammates),
                static_cast<unsigned long long>(c.returns.out_of_band), st.nodes, st.still, st.local_found, st.local_searches, st.coasted, st.submaps, st.retired, st.searches, st.closures,
                st.optimizations, static_cast<double>(st.memory_bytes) / 1e6, report.graph_seconds);
+  // Local SLAM's search is a rescue from the odometry's rare misses (a wheel slip, a stall): when it runs
+  // on more than a tenth of the scans they match their submaps poorly everywhere (open spaces, few
+  // returns), and its placements there are noise that adds up in heading.
+  if (st.nodes > 0 && static_cast<double>(st.local_searches) > kSearchedShareWarning * static_cast<double>(st.nodes))
+    std::fprintf(stderr,
+                 "teamscan eval: pose graph: warning: local SLAM searched %zu of its %zu scans: they match their submaps poorly "
+                 "(open spaces, few returns?), and the graph may be worse than the odometry here; --pose-graph-local-search-score 0 "
+                 "turns the search off (docs/slam.md \"A held-out log in open spaces\")\n",
+                 st.local_searches, st.nodes);
   for (const posegraph::SlamStats::Calibration& k : st.calibrations)
     std::fprintf(stderr, "teamscan eval: pose graph: robot %u's odometry calibrated: distance × %.4f, turn × %.4f, heading drift %+.3f°/m\n",
                  static_cast<unsigned>(k.robot), k.odometry.distance_scale, k.odometry.turn_scale, k.odometry.heading_drift_rad_per_m * 180.0 / kPi);
