@@ -75,6 +75,7 @@ struct PlanarSlam::Robot {
   std::int64_t last_stamp_ns = 0, last_interval_ns = 0;  // its last node's time, and the time since the one before
   std::size_t last_node = 0;
   std::size_t nodes = 0;            // its nodes so far
+  std::size_t below_search_score = 0;  // its scans that scored below local_search_score on their submap
   double driven_m = 0;              // the distance its odometry moved, node to node
   Pose2 global_from_local;          // from the last optimisation
   std::vector<std::size_t> active;  // its submaps being built, oldest first (at most two)
@@ -145,7 +146,7 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, std::int64_t stamp_ns, c
       if (k * options_.coast_max_ratio >= 1.0 && k <= options_.coast_max_ratio)
         coast = m.local.inverse() * (r.last_local * Pose2{k * r.last_motion.x_m, k * r.last_motion.y_m, k * r.last_motion.theta_rad});
     }
-    local = m.local * match_locally(m, points, m.local.inverse() * local, coast);
+    local = m.local * match_locally(r, m, points, m.local.inverse() * local, coast);
   }
   // The first node is held; with anchor_robot_starts every robot's first one (the robots start in
   // the common map frame).
@@ -186,7 +187,7 @@ std::size_t PlanarSlam::add_scan(std::uint8_t robot_id, std::int64_t stamp_ns, c
   return node;
 }
 
-Pose2 PlanarSlam::match_locally(const Submap& m, const std::vector<Vec2>& points, const Pose2& odometry_guess,
+Pose2 PlanarSlam::match_locally(Robot& r, const Submap& m, const std::vector<Vec2>& points, const Pose2& odometry_guess,
                                 const std::optional<Pose2>& coast) {
   Pose2 guess = odometry_guess;
   Pose2 refined = refine_pose(m.grid, points, guess, options_.local);
@@ -205,6 +206,12 @@ Pose2 PlanarSlam::match_locally(const Submap& m, const std::vector<Vec2>& points
   if (options_.local_search_score <= 0.0 || m.scans < options_.local_search_min_scans) return refined;
   const double score = refined_score ? *refined_score : pose_score(m.grid, points, refined);
   if (score >= options_.local_search_score) return refined;
+  ++r.below_search_score;
+  if (r.nodes >= static_cast<std::size_t>(std::max(options_.local_search_share_after_scans, 0)) &&
+      static_cast<double>(r.below_search_score) > options_.local_search_max_share * static_cast<double>(r.nodes)) {
+    ++local_declined_;
+    return refined;
+  }
   ++local_searches_;
   const CorrelativeMatcher matcher(m.grid, kLocalSearchDepth);
   const SearchResult found = matcher.search(points, guess, options_.local_search_window, score);
@@ -434,7 +441,7 @@ SlamStats PlanarSlam::stats() const {
   for (const auto& m : submaps_) bytes += m->grid.values().capacity() * sizeof(float) + (m->matcher ? m->matcher->memory_bytes() : 0);
   for (const auto& p : node_points_) bytes += p.capacity() * sizeof(p[0]);
   SlamStats out{graph_.nodes().size(), submaps_.size(), searches_, graph_.closures(), graph_.optimizations(), tracked_, rematches_,
-                  retired_, kept_returns_, still_, bytes, {}, local_searches_, local_found_, coasted_};
+                  retired_, kept_returns_, still_, bytes, {}, local_searches_, local_found_, local_declined_, coasted_};
   if (options_.graph.calibrate_odometry || options_.graph.calibrate_local_links) {
     for (const auto& r : robots_) out.calibrations.push_back({r->id, graph_.calibration(r->id)});
     std::sort(out.calibrations.begin(), out.calibrations.end(),

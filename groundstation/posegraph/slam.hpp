@@ -40,6 +40,13 @@ struct SlamOptions {
   // of at least `local_search_min_scans` scans. 0: never searched.
   double local_search_score = 0.7;
   int local_search_min_scans = 10;
+  // The search is a rescue from the odometry's rare misses. A robot more than `local_search_max_share`
+  // of whose scans (once it has `local_search_share_after_scans`) scored below local_search_score is
+  // searched no more: its scans match their submaps poorly everywhere (open spaces, few returns) and
+  // the search's placements there are noise that adds up in heading (docs/slam.md "A held-out log in
+  // open spaces"). 1: no limit.
+  double local_search_max_share = 0.2;
+  int local_search_share_after_scans = 200;
   SearchWindow local_search_window{0.3, 0.35, 0.0, 0.0};
   // A second guess for local SLAM: the robot coasting, its velocity from local SLAM's own motion
   // between its last two scans. Where its heading and the odometry's prediction's differ by more than
@@ -143,6 +150,7 @@ struct SlamStats {
   // empty when not calibrated.
   std::vector<Calibration> calibrations;
   std::size_t local_searches = 0, local_found = 0;  // local SLAM's searches, and those that placed the scan (local_search_score)
+  std::size_t local_declined = 0;  // scans below local_search_score not searched: their robot's share was too high (local_search_max_share)
   std::size_t coasted = 0;  // scans local SLAM placed from the robot's last motion rather than the odometry's (coast_guess)
 };
 
@@ -197,7 +205,7 @@ class PlanarSlam {
   void insert(Robot& r, std::size_t node, const Pose2& local, const std::vector<Vec2>& points);
   // Local SLAM's match of a scan on a submap from the odometry's prediction (submap frame).
   // `coast`: the robot's last motion again, a second guess (SlamOptions::coast_guess).
-  [[nodiscard]] Pose2 match_locally(const Submap& m, const std::vector<Vec2>& points, const Pose2& odometry_guess,
+  [[nodiscard]] Pose2 match_locally(Robot& r, const Submap& m, const std::vector<Vec2>& points, const Pose2& odometry_guess,
                                     const std::optional<Pose2>& coast);
   void close_loops(Robot& r, std::size_t node, const std::vector<Vec2>& points);
   void retire_covered(std::size_t finished);
@@ -223,7 +231,7 @@ class PlanarSlam {
   std::map<std::pair<std::int64_t, std::int64_t>, int> kept_per_cell_;  // rematch_cell_m squares -> nodes kept there
   std::size_t retired_ = 0, kept_returns_ = 0;
   std::size_t searches_ = 0, tracked_ = 0, rematches_ = 0, still_ = 0;
-  std::size_t local_searches_ = 0, local_found_ = 0, coasted_ = 0;
+  std::size_t local_searches_ = 0, local_found_ = 0, local_declined_ = 0, coasted_ = 0;
 };
 
 }  // namespace teamscan::posegraph

@@ -49,8 +49,9 @@ nlohmann::ordered_json to_json(const RelationErrors& e) {
           {"rotation_max_deg", e.rotation_max_deg}};
 }
 
-// The share of a level laser's scans searched by local SLAM above which eval warns of open spaces.
-constexpr double kSearchedShareWarning = 0.1;
+// The share of a level laser's scans below local SLAM's search score above which eval warns of open
+// spaces.
+constexpr double kBelowShareWarning = 0.1;
 
 // A default in a flag's help, as printf's %g writes it.
 std::string shown(double v) {
@@ -86,22 +87,24 @@ void print_pose_graph_summary(const fusion::EvalReport& report) {
   const posegraph::SlamStats& st = report.graph_stats;
   std::fprintf(stderr,
                "teamscan eval: pose graph: %llu scans (%llu of tilted lasers), %llu returns taken (%llu flagged by the robots, %llu on "
-               "teammates, %llu out of the height band), %zu nodes (%zu standing still, not searched; %zu placed by local SLAM's search of %zu, %zu from the robot's last motion rather than the odometry's), %zu submaps (%zu retired), %zu loop-closure searches, %zu closures, %zu optimisations, %.0f MB of "
+               "teammates, %llu out of the height band), %zu nodes (%zu standing still, not searched; %zu placed by local SLAM's search of %zu, %zu below its score not searched, %zu from the robot's last motion rather than the odometry's), %zu submaps (%zu retired), %zu loop-closure searches, %zu closures, %zu optimisations, %.0f MB of "
                "submaps and kept returns at the end, %.1f s from the first release to the last optimisation\n",
                static_cast<unsigned long long>(c.scans), static_cast<unsigned long long>(c.tilted_scans),
                static_cast<unsigned long long>(c.returns.kept), static_cast<unsigned long long>(c.returns.flagged),
                static_cast<unsigned long long>(c.returns.teammates),
-               static_cast<unsigned long long>(c.returns.out_of_band), st.nodes, st.still, st.local_found, st.local_searches, st.coasted, st.submaps, st.retired, st.searches, st.closures,
+               static_cast<unsigned long long>(c.returns.out_of_band), st.nodes, st.still, st.local_found, st.local_searches, st.local_declined, st.coasted, st.submaps, st.retired, st.searches, st.closures,
                st.optimizations, static_cast<double>(st.memory_bytes) / 1e6, report.graph_seconds);
-  // Local SLAM's search is a rescue from the odometry's rare misses (a wheel slip, a stall): when it runs
-  // on more than a tenth of the scans they match their submaps poorly everywhere (open spaces, few
-  // returns), and its placements there are noise that adds up in heading.
-  if (st.nodes > 0 && static_cast<double>(st.local_searches) > kSearchedShareWarning * static_cast<double>(st.nodes))
+  // Local SLAM's search is a rescue from the odometry's rare misses (a wheel slip, a stall): when more
+  // than a tenth of the scans score below its score they match their submaps poorly everywhere (open
+  // spaces, few returns), where the graph may be worse than the odometry (the search stops at a fifth:
+  // SlamOptions::local_search_max_share).
+  const std::size_t below = st.local_searches + st.local_declined;
+  if (st.nodes > 0 && static_cast<double>(below) > kBelowShareWarning * static_cast<double>(st.nodes))
     std::fprintf(stderr,
-                 "teamscan eval: pose graph: warning: local SLAM searched %zu of its %zu scans: they match their submaps poorly "
-                 "(open spaces, few returns?), and the graph may be worse than the odometry here; --pose-graph-local-search-score 0 "
-                 "turns the search off (docs/slam.md \"A held-out log in open spaces\")\n",
-                 st.local_searches, st.nodes);
+                 "teamscan eval: pose graph: warning: %zu of its %zu scans scored below local SLAM's search score (%zu searched, %zu "
+                 "not): they match their submaps poorly (open spaces, few returns?), and the graph may be worse than the odometry "
+                 "here (docs/slam.md \"A held-out log in open spaces\")\n",
+                 below, st.nodes, st.local_searches, st.local_declined);
   for (const posegraph::SlamStats::Calibration& k : st.calibrations)
     std::fprintf(stderr, "teamscan eval: pose graph: robot %u's odometry calibrated: distance × %.4f, turn × %.4f, heading drift %+.3f°/m\n",
                  static_cast<unsigned>(k.robot), k.odometry.distance_scale, k.odometry.turn_scale, k.odometry.heading_drift_rad_per_m * 180.0 / kPi);

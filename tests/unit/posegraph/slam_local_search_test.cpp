@@ -2,7 +2,8 @@
 // robot turning in place while its wheels slip, its odometry reporting less than half of each turn. The
 // refinement alone, started from the odometry's prediction, cannot reach a scan turned degrees away and
 // follows the odometry; with the search each scan is placed where the room's walls put it. The coasting
-// guess (SlamOptions::coast_guess): odometry that stalls in a turn and catches up in one jump.
+// guess (SlamOptions::coast_guess): odometry that stalls in a turn and catches up in one jump. A robot
+// most of whose scans score low is searched no more (SlamOptions::local_search_max_share).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -91,6 +92,62 @@ TEST(SlamCoast, OdometryThatStallsInATurnAndJumpsDoesNotTurnLocalSlam) {
   EXPECT_GT(followed, 10.0);
   EXPECT_GT(stats.coasted, 0u);
   EXPECT_LT(coasted, 1.0);
+}
+
+// The search is a rescue from rare misses (SlamOptions::local_search_max_share). A robot all of whose
+// scans score below the search's score (set at 0.999 here, as open spaces with few returns do at 0.7)
+// is searched until it has local_search_share_after_scans scans, then no more; one whose scans score
+// well for as long is still searched, and rescued, when its wheels slip in a turn.
+TEST(SlamLocalSearch, ARobotMostOfWhoseScansScoreLowIsSearchedNoMore) {
+  constexpr int kScans = 300;
+  const auto drive = [](const SlamOptions& options) {
+    PlanarSlam slam(options);
+    for (int k = 0; k < kScans; ++k) {
+      const Pose2 truth{1.0 + 0.01 * (k % 100), 1.5, 0.0};  // along the room and back, the odometry exact
+      (void)slam.add_scan(1, (k + 1) * 100'000'000LL, truth, test::scan(truth));
+    }
+    return slam.stats();
+  };
+  SlamOptions low;
+  low.coast_guess = false;
+  low.local_search_score = 0.999;
+  SlamOptions unlimited = low;
+  unlimited.local_search_max_share = 1.0;
+  const SlamStats limited_stats = drive(low), unlimited_stats = drive(unlimited);
+  std::printf("every scan below the search's score: %zu searched and %zu not with the limit, %zu searched without it\n",
+              limited_stats.local_searches, limited_stats.local_declined, unlimited_stats.local_searches);
+  EXPECT_EQ(unlimited_stats.local_declined, 0u);
+  EXPECT_GT(unlimited_stats.local_searches, static_cast<std::size_t>(kScans) * 9 / 10);
+  EXPECT_LE(limited_stats.local_searches, static_cast<std::size_t>(low.local_search_share_after_scans));
+  EXPECT_GT(limited_stats.local_declined, static_cast<std::size_t>(kScans - low.local_search_share_after_scans) * 9 / 10);
+  EXPECT_EQ(limited_stats.local_searches + limited_stats.local_declined, unlimited_stats.local_searches);
+}
+
+TEST(SlamLocalSearch, ATurnTheOdometryMissesAfterManyGoodScansIsStillFound) {
+  SlamOptions options;
+  options.coast_guess = false;
+  PlanarSlam slam(options);
+  Pose2 truth{1.0, 1.5, 0.0}, odometry = truth;
+  std::int64_t stamp_ns = 0;
+  for (int k = 0; k < 250; ++k) {  // well above local_search_share_after_scans, along the room and back
+    const Pose2 move{k % 100 < 50 ? 0.02 : -0.02, 0.0, 0.0};
+    truth = truth * move;
+    odometry = odometry * move;
+    (void)slam.add_scan(1, stamp_ns += 100'000'000, odometry, test::scan(truth));
+  }
+  const double before = normalize_angle(slam.local_pose(slam.stats().nodes - 1).theta_rad - truth.theta_rad);
+  double worst_deg = 0;
+  const double step = deg_to_rad(18.0);
+  for (int k = 0; k < 5; ++k) {  // the slipping quarter turn of ATurnTheOdometryMissesIsFoundByTheSearch
+    truth = truth * Pose2{0.0, 0.0, step};
+    odometry = odometry * Pose2{0.0, 0.0, 0.3 * step};
+    const std::size_t node = slam.add_scan(1, stamp_ns += 100'000'000, odometry, test::scan(truth));
+    worst_deg = std::max(worst_deg, std::abs(normalize_angle(slam.local_pose(node).theta_rad - truth.theta_rad) - before) * 180.0 / kPi);
+  }
+  const SlamStats stats = slam.stats();
+  EXPECT_EQ(stats.local_declined, 0u);
+  EXPECT_GT(stats.local_found, 0u);
+  EXPECT_LT(worst_deg, 1.0);
 }
 
 TEST(SlamCoast, TiltedLasersNodesDoNotCoast) {
