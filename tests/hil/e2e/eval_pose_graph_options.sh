@@ -24,6 +24,8 @@ grep "^| pose graph" "$work/eval.out"
 # spaces.
 "$teamscan" eval "$work/mit" --method frequency --resolution 0.1 --pose-graph-local-search-score 1 > "$work/searched.out" 2> "$work/searched.err" ||
   { tail -20 "$work/searched.err"; exit 1; }
+grep -q "placed by local SLAM's search of [1-9][0-9]*, [1-9][0-9]* below its score not searched," "$work/searched.err" ||
+  { echo "every scan below the search's score: not searched at first and then declined"; cat "$work/searched.err"; exit 1; }
 grep "warning: .* scored below local SLAM" "$work/searched.err" ||
   { echo "no open-space warning with every scan below the search's score"; cat "$work/searched.err"; exit 1; }
 # Out of range: refused before anything runs, with the option named.
